@@ -1,0 +1,1 @@
+//! Channel representation (placeholder while being written).

@@ -1,0 +1,60 @@
+//! `cargo xtask bench NAME`: one module per measured crate; each returns rows of
+//! [`BenchRow`](crate::report::BenchRow) measured against its peer in the same run.
+//!
+//! Adding a bench: a module here with `run(&BenchArgs) -> Result<Vec<BenchRow>>` and one entry
+//! in [`BENCHES`].
+
+mod chan_repr;
+
+use clap::Args;
+
+use crate::report::{self, BenchRow};
+use crate::{Result, workspace_root};
+
+/// Arguments of `cargo xtask bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Which bench to run; omit to list them.
+    pub name: Option<String>,
+    /// Folder holding benchmark data (e.g. `oxford-affine/`); default: `$VISGUIDE_DATA`.
+    #[arg(long, env = "VISGUIDE_DATA")]
+    pub data: Option<std::path::PathBuf>,
+}
+
+/// A bench: its name, the peer it is measured against, and the function that measures.
+pub struct Bench {
+    /// Name on the command line and of `target/bench/NAME.json`.
+    pub name: &'static str,
+    /// The peer measured in the same run.
+    pub peer: &'static str,
+    /// Runs the measurement.
+    pub run: fn(&BenchArgs) -> Result<Vec<BenchRow>>,
+}
+
+/// Every bench.
+pub const BENCHES: &[Bench] = &[Bench {
+    name: "chan-repr",
+    peer: "dense O(N) encoding (eq. 2.1 evaluated for every channel)",
+    run: chan_repr::run,
+}];
+
+/// Runs `cargo xtask bench`.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let Some(name) = &args.name else {
+        for b in BENCHES {
+            println!("{:<12} against {}", b.name, b.peer);
+        }
+        return Ok(());
+    };
+    let bench = BENCHES
+        .iter()
+        .find(|b| b.name == name)
+        .ok_or_else(|| format!("unknown bench `{name}`; run `cargo xtask bench` for the list"))?;
+    let rows = (bench.run)(args)?;
+    report::publish(
+        &workspace_root().join("target/bench"),
+        bench.name,
+        bench.peer,
+        &rows,
+    )
+}

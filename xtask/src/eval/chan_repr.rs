@@ -1,0 +1,6 @@
+//! Placeholder.
+use super::EvalContext;
+use crate::Result;
+pub fn run(_ctx: &EvalContext) -> Result<()> {
+    Ok(())
+}

@@ -1,0 +1,139 @@
+//! `cargo xtask eval`: every evaluation target writes its fixtures into its own folder below the
+//! output root (`fixtures/<target>/`). With `--check`, the targets write into a temporary folder
+//! that is then compared with the committed `fixtures/` (tolerances: [`crate::fixture_check`]).
+//!
+//! `cargo xtask eval` runs every target with its default options; `cargo xtask eval TARGET
+//! [OPTIONS]` runs one, where `--out DIR` names that target's own output folder.
+//!
+//! Adding a target: a module here with `run(&EvalContext, &Args)`, a variant of [`EvalTarget`],
+//! and one line in each of [`EvalTarget::all`], [`EvalTarget::name`] and [`EvalTarget::run`].
+
+mod chan_repr;
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Subcommand};
+
+use crate::{Result, fixture_check, workspace_root};
+
+/// Arguments of `cargo xtask eval`.
+#[derive(Args)]
+pub struct EvalArgs {
+    /// Regenerate into a temporary folder and fail if the result differs from `fixtures/`.
+    #[arg(long, global = true)]
+    pub check: bool,
+    /// Folder holding benchmark data (e.g. `oxford-affine/`); default: `$VISGUIDE_DATA`.
+    #[arg(long, env = "VISGUIDE_DATA", global = true)]
+    pub data: Option<PathBuf>,
+    /// Output folder: the root for all targets, or the folder of the one target named.
+    #[arg(long, global = true)]
+    pub out: Option<PathBuf>,
+    /// One target to run (default: all of them, with default options).
+    #[command(subcommand)]
+    pub target: Option<EvalTarget>,
+}
+
+/// The evaluation targets.
+#[derive(Subcommand, Clone)]
+pub enum EvalTarget {
+    /// The thesis's channel-coding worked example (eq. 2.3-2.9) and Figure 2.1.
+    ChanRepr,
+}
+
+impl EvalTarget {
+    /// Every target with default options, in the order a plain `cargo xtask eval` runs them.
+    pub fn all() -> Vec<EvalTarget> {
+        vec![EvalTarget::ChanRepr]
+    }
+
+    /// The target's name, also its fixture sub-folder.
+    pub fn name(&self) -> &'static str {
+        match self {
+            EvalTarget::ChanRepr => "chan-repr",
+        }
+    }
+
+    fn run(&self, ctx: &EvalContext) -> Result<()> {
+        match self {
+            EvalTarget::ChanRepr => chan_repr::run(ctx),
+        }
+    }
+}
+
+/// What an evaluation target is given.
+pub struct EvalContext {
+    /// The folder this target writes into, already created and empty.
+    pub out_dir: PathBuf,
+    /// The benchmark data folder, if the user has one (`--data` or `$VISGUIDE_DATA`).
+    pub data_dir: Option<PathBuf>,
+}
+
+/// Runs `cargo xtask eval`.
+pub fn run(args: &EvalArgs) -> Result<()> {
+    let fixtures = workspace_root().join("fixtures");
+    let targets = match &args.target {
+        Some(t) => vec![t.clone()],
+        None => EvalTarget::all(),
+    };
+    let single = args.target.is_some();
+    let check_root = std::env::temp_dir().join(format!("visguide-eval-{}", std::process::id()));
+    let out_dir_of = |t: &EvalTarget| -> PathBuf {
+        if args.check {
+            check_root.join(t.name())
+        } else {
+            match (&args.out, single) {
+                (Some(dir), true) => dir.clone(),
+                (Some(root), false) => root.join(t.name()),
+                (None, _) => fixtures.join(t.name()),
+            }
+        }
+    };
+    let data_dir = args.data.clone().filter(|d| {
+        let ok = d.is_dir();
+        if !ok {
+            eprintln!(
+                "note: data folder {} not found; synthetic data only",
+                d.display()
+            );
+        }
+        ok
+    });
+    for t in &targets {
+        let out_dir = out_dir_of(t);
+        if out_dir.exists() {
+            std::fs::remove_dir_all(&out_dir)?;
+        }
+        std::fs::create_dir_all(&out_dir)?;
+        eprintln!("eval {} -> {}", t.name(), out_dir.display());
+        t.run(&EvalContext {
+            out_dir,
+            data_dir: data_dir.clone(),
+        })?;
+    }
+    if args.check {
+        let names: Vec<&str> = targets.iter().map(|t| t.name()).collect();
+        let result = fixture_check::compare_trees(&fixtures, &check_root, &names);
+        std::fs::remove_dir_all(&check_root).ok();
+        let diffs = result?;
+        if !diffs.is_empty() {
+            for d in &diffs {
+                eprintln!("fixture mismatch: {d}");
+            }
+            return Err(format!(
+                "{} fixture file(s) differ; rerun `cargo xtask eval` and commit",
+                diffs.len()
+            )
+            .into());
+        }
+        eprintln!("fixtures reproduce ({} target(s))", names.len());
+    }
+    Ok(())
+}
+
+/// Writes `value` as pretty JSON (with a trailing newline) to `dir/name`.
+pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<()> {
+    let mut text = serde_json::to_string_pretty(value)?;
+    text.push('\n');
+    std::fs::write(dir.join(name), text)?;
+    Ok(())
+}

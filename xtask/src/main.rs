@@ -1,0 +1,53 @@
+//! `cargo xtask`: the project's automation.
+//!
+//! - `cargo xtask eval [TARGET…] [--check] [--data DIR] [--out DIR]` regenerates the committed
+//!   fixtures under `fixtures/` (or checks that a fresh run reproduces them).
+//! - `cargo xtask bench NAME` measures one of our crates against its peer, prints a table and
+//!   writes `target/bench/NAME.json`.
+
+mod bench;
+mod eval;
+mod fixture_check;
+mod report;
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+/// Error type of the xtask: any error, with its message shown to the user.
+pub type Error = Box<dyn std::error::Error + Send + Sync>;
+/// Result type of the xtask.
+pub type Result<T> = std::result::Result<T, Error>;
+
+#[derive(Parser)]
+#[command(name = "xtask", about = "visguide project automation")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Regenerate the evaluation fixtures under `fixtures/`.
+    Eval(eval::EvalArgs),
+    /// Measure a crate against its peer: prints a table, writes `target/bench/NAME.json`.
+    Bench(bench::BenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval(args) => eval::run(&args),
+        Command::Bench(args) => bench::run(&args),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// The workspace root (the parent of the xtask crate's manifest directory).
+pub fn workspace_root() -> PathBuf {
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest.parent().map(PathBuf::from).unwrap_or(manifest)
+}

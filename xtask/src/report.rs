@@ -1,0 +1,93 @@
+//! Benchmark reports: the table printed by `cargo xtask bench NAME` and `target/bench/NAME.json`.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::Result;
+
+/// One measured case: our figure, the peer's, and their ratio (> 1 means we are faster or better).
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchRow {
+    /// What was measured, e.g. `graf img1, both polarities`.
+    pub case: String,
+    /// Our figure.
+    pub ours: f64,
+    /// The peer's figure in the same run.
+    pub peer: f64,
+    /// Unit of `ours` and `peer`, e.g. `ms` or `updates/s`.
+    pub unit: String,
+    /// > 1 means ours is faster or better.
+    pub ratio: f64,
+}
+
+impl BenchRow {
+    /// A row where smaller is better (times): ratio = peer / ours.
+    pub fn lower_is_better(case: impl Into<String>, ours: f64, peer: f64, unit: &str) -> Self {
+        BenchRow {
+            case: case.into(),
+            ours,
+            peer,
+            unit: unit.to_string(),
+            ratio: peer / ours,
+        }
+    }
+
+    /// A row where larger is better (rates, accuracy): ratio = ours / peer.
+    pub fn higher_is_better(case: impl Into<String>, ours: f64, peer: f64, unit: &str) -> Self {
+        BenchRow {
+            case: case.into(),
+            ours,
+            peer,
+            unit: unit.to_string(),
+            ratio: ours / peer,
+        }
+    }
+}
+
+/// Prints the rows as a table and writes them to `dir/NAME.json`.
+pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<()> {
+    println!("{name}: ours against {peer} (ratio > 1: ours faster or better)");
+    let w = rows.iter().map(|r| r.case.len()).max().unwrap_or(4).max(4);
+    println!(
+        "{:<w$}  {:>14}  {:>14}  {:<10}  {:>8}",
+        "case", "ours", "peer", "unit", "ratio"
+    );
+    for r in rows {
+        println!(
+            "{:<w$}  {:>14.4}  {:>14.4}  {:<10}  {:>8.2}",
+            r.case, r.ours, r.peer, r.unit, r.ratio
+        );
+    }
+    std::fs::create_dir_all(dir)?;
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, serde_json::to_string_pretty(rows)? + "\n")?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Median of a non-empty sample (sorts in place).
+pub fn median(xs: &mut [f64]) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    if n % 2 == 1 {
+        xs[n / 2]
+    } else {
+        0.5 * (xs[n / 2 - 1] + xs[n / 2])
+    }
+}
+
+/// Median wall time in seconds of `runs` calls of `f`, after `warmup` calls.
+pub fn time_median<F: FnMut()>(warmup: usize, runs: usize, mut f: F) -> f64 {
+    for _ in 0..warmup {
+        f();
+    }
+    let mut ts: Vec<f64> = (0..runs.max(1))
+        .map(|_| {
+            let t0 = std::time::Instant::now();
+            f();
+            t0.elapsed().as_secs_f64()
+        })
+        .collect();
+    median(&mut ts)
+}
