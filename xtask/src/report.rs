@@ -34,6 +34,7 @@ impl BenchRow {
     }
 
     /// A row where larger is better (rates, accuracy): ratio = ours / peer.
+    #[allow(dead_code)] // for the benches measuring rates (lwpr, fd)
     pub fn higher_is_better(case: impl Into<String>, ours: f64, peer: f64, unit: &str) -> Self {
         BenchRow {
             case: case.into(),
@@ -90,4 +91,21 @@ pub fn time_median<F: FnMut()>(warmup: usize, runs: usize, mut f: F) -> f64 {
         })
         .collect();
     median(&mut ts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ratios_point_the_right_way() {
+        assert_eq!(BenchRow::lower_is_better("t", 2.0, 6.0, "ms").ratio, 3.0);
+        assert_eq!(BenchRow::higher_is_better("r", 6.0, 2.0, "1/s").ratio, 3.0);
+    }
+
+    #[test]
+    fn median_of_odd_and_even_samples() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
 }

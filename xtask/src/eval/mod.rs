@@ -104,11 +104,22 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             std::fs::remove_dir_all(&out_dir)?;
         }
         std::fs::create_dir_all(&out_dir)?;
-        eprintln!("eval {} -> {}", t.name(), out_dir.display());
-        t.run(&EvalContext {
+        let ctx = EvalContext {
             out_dir,
             data_dir: data_dir.clone(),
-        })?;
+        };
+        let data = ctx
+            .data_dir
+            .as_ref()
+            .map_or("none (synthetic data only)".into(), |d| {
+                d.display().to_string()
+            });
+        eprintln!(
+            "eval {} -> {} (data: {data})",
+            t.name(),
+            ctx.out_dir.display()
+        );
+        t.run(&ctx)?;
     }
     if args.check {
         let names: Vec<&str> = targets.iter().map(|t| t.name()).collect();

@@ -1,0 +1,323 @@
+//! One-dimensional channel bases: `N` channel centres `x̃_k = first + k·spacing` and a kernel.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{ChanError, Kernel};
+
+/// `N` uniformly spaced channels with one kernel: maps values to channel-index space
+/// (`t = (x − first)/spacing`, channel `k` centred at `t = k`, 0-based) and back.
+///
+/// The representable range is where every decoding window is complete:
+/// `t ∈ [W/2 − 1, N − W/2]` for a window of `W` channels; for the thesis's ten cos² channels on
+/// centres 1..10 with `a = π/3` that is `[1.5, 9.5]` in value space.
+///
+/// ```
+/// use chan_repr::{ChannelBasis, Kernel};
+/// let basis = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+/// assert_eq!(basis.representable_range(), (1.5, 9.5));
+/// let c = basis.encode(3.3).unwrap();
+/// assert!((c[2] - 0.9045).abs() < 1e-4);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "BasisSpec", into = "BasisSpec")]
+pub struct ChannelBasis {
+    kernel: Kernel,
+    n: usize,
+    first: f64,
+    spacing: f64,
+}
+
+/// The serialised form of a [`ChannelBasis`], validated on deserialisation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BasisSpec {
+    kernel: Kernel,
+    channels: usize,
+    first_centre: f64,
+    spacing: f64,
+}
+
+impl TryFrom<BasisSpec> for ChannelBasis {
+    type Error = ChanError;
+    fn try_from(s: BasisSpec) -> Result<Self, ChanError> {
+        ChannelBasis::new(s.first_centre, s.spacing, s.channels, s.kernel)
+    }
+}
+
+impl From<ChannelBasis> for BasisSpec {
+    fn from(b: ChannelBasis) -> Self {
+        BasisSpec {
+            kernel: b.kernel,
+            channels: b.n,
+            first_centre: b.first,
+            spacing: b.spacing,
+        }
+    }
+}
+
+impl ChannelBasis {
+    /// `n` channels centred at `first, first + spacing, …`.
+    pub fn new(first: f64, spacing: f64, n: usize, kernel: Kernel) -> Result<Self, ChanError> {
+        kernel.validate()?;
+        if !first.is_finite() {
+            return Err(ChanError::InvalidParameter {
+                name: "first_centre",
+                value: first,
+                reason: "must be finite",
+            });
+        }
+        if !(spacing.is_finite() && spacing > 0.0) {
+            return Err(ChanError::InvalidParameter {
+                name: "spacing",
+                value: spacing,
+                reason: "must be finite and positive",
+            });
+        }
+        if n < kernel.window() {
+            return Err(ChanError::TooFewChannels {
+                got: n,
+                needed: kernel.window(),
+            });
+        }
+        Ok(ChannelBasis {
+            kernel,
+            n,
+            first,
+            spacing,
+        })
+    }
+
+    /// The thesis's layout: `n` channels centred on the integers `1, 2, …, n` (Figure 2.1).
+    pub fn integer(n: usize, kernel: Kernel) -> Result<Self, ChanError> {
+        ChannelBasis::new(1.0, 1.0, n, kernel)
+    }
+
+    /// `n` channels spaced so that the representable range is exactly `[lo, hi]`.
+    ///
+    /// ```
+    /// use chan_repr::{ChannelBasis, Kernel};
+    /// let b = ChannelBasis::covering(0.0, 640.0, 34, Kernel::BSpline2).unwrap();
+    /// let (lo, hi) = b.representable_range();
+    /// assert!((lo - 0.0).abs() < 1e-9 && (hi - 640.0).abs() < 1e-9);
+    /// ```
+    pub fn covering(lo: f64, hi: f64, n: usize, kernel: Kernel) -> Result<Self, ChanError> {
+        kernel.validate()?;
+        if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+            return Err(ChanError::InvalidParameter {
+                name: "hi",
+                value: hi,
+                reason: "the range must be finite with hi > lo",
+            });
+        }
+        let w = kernel.window();
+        if n < w {
+            return Err(ChanError::TooFewChannels { got: n, needed: w });
+        }
+        let spacing = (hi - lo) / (n - w + 1) as f64;
+        let first = lo - spacing * (w as f64 / 2.0 - 1.0);
+        ChannelBasis::new(first, spacing, n, kernel)
+    }
+
+    /// The kernel.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// Number of channels `N`.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Always false: a basis has at least one decoding window of channels.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Distance between neighbouring channel centres, in value units.
+    pub fn spacing(&self) -> f64 {
+        self.spacing
+    }
+
+    /// Centre `x̃_k` of channel `k` (0-based).
+    pub fn centre(&self, k: usize) -> f64 {
+        self.first + k as f64 * self.spacing
+    }
+
+    /// Value → channel-index coordinate `t` (channel `k` is centred at `t = k`).
+    #[inline]
+    pub fn to_index(&self, x: f64) -> f64 {
+        (x - self.first) / self.spacing
+    }
+
+    /// Channel-index coordinate → value.
+    #[inline]
+    pub fn from_index(&self, t: f64) -> f64 {
+        self.first + t * self.spacing
+    }
+
+    /// Representable range in index space: `[W/2 − 1, N − W/2]`.
+    pub fn representable_index_range(&self) -> (f64, f64) {
+        let half = self.kernel.window() as f64 / 2.0;
+        (half - 1.0, self.n as f64 - half)
+    }
+
+    /// Representable range in value space: values that encode and decode exactly.
+    pub fn representable_range(&self) -> (f64, f64) {
+        let (lo, hi) = self.representable_index_range();
+        (self.from_index(lo), self.from_index(hi))
+    }
+
+    /// Checks `x` is finite and representable; returns its index coordinate.
+    pub fn checked_index(&self, x: f64) -> Result<f64, ChanError> {
+        if !x.is_finite() {
+            return Err(ChanError::NonFinite {
+                what: "value",
+                value: x,
+            });
+        }
+        let (lo, hi) = self.representable_range();
+        if x < lo || x > hi {
+            return Err(ChanError::OutOfRange { value: x, lo, hi });
+        }
+        Ok(self.to_index(x))
+    }
+
+    /// Calls `f(k, B(t − k))` for every channel `k` with a non-zero value at index coordinate
+    /// `t`, in increasing `k`: O(active channels), no allocation. `t` is not validated.
+    #[inline]
+    pub fn for_each_active(&self, t: f64, mut f: impl FnMut(usize, f64)) {
+        let r = self.kernel.support_radius();
+        let lo = (t - r).ceil().max(0.0) as usize;
+        let hi = ((t + r).floor() as i64).min(self.n as i64 - 1);
+        if hi < 0 {
+            return;
+        }
+        for k in lo..=hi as usize {
+            let v = self.kernel.value(t - k as f64);
+            if v > 0.0 {
+                f(k, v);
+            }
+        }
+    }
+
+    /// Encodes `x` into a dense channel vector (eq. 2.1).
+    ///
+    /// ```
+    /// use chan_repr::{ChannelBasis, Kernel};
+    /// let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+    /// let c: Vec<f64> = b.encode(3.3).unwrap().iter().map(|v| (v * 100.0).round() / 100.0).collect();
+    /// assert_eq!(c, [0.0, 0.04, 0.9, 0.55, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]); // eq. 2.3
+    /// ```
+    pub fn encode(&self, x: f64) -> Result<Vec<f64>, ChanError> {
+        self.encode_weighted(x, 1.0)
+    }
+
+    /// Encodes `x` with certainty `weight ≥ 0`: the channel vector scaled by the weight.
+    pub fn encode_weighted(&self, x: f64, weight: f64) -> Result<Vec<f64>, ChanError> {
+        let mut c = vec![0.0; self.n];
+        self.accumulate(x, weight, &mut c)?;
+        Ok(c)
+    }
+
+    /// Adds `weight ·` the channel vector of `x` into `out` (length `N`): one value of a soft
+    /// histogram, touching only the active channels.
+    pub fn accumulate(&self, x: f64, weight: f64, out: &mut [f64]) -> Result<(), ChanError> {
+        check_weight(weight)?;
+        if out.len() != self.n {
+            return Err(ChanError::LengthMismatch {
+                what: "channels",
+                expected: self.n,
+                got: out.len(),
+            });
+        }
+        let t = self.checked_index(x)?;
+        self.for_each_active(t, |k, v| out[k] += weight * v);
+        Ok(())
+    }
+}
+
+/// Checks a certainty weight is finite and non-negative.
+pub(crate) fn check_weight(weight: f64) -> Result<(), ChanError> {
+    if !weight.is_finite() {
+        return Err(ChanError::NonFinite {
+            what: "weight",
+            value: weight,
+        });
+    }
+    if weight < 0.0 {
+        return Err(ChanError::Negative {
+            what: "weight",
+            value: weight,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_bases_are_errors() {
+        let k = Kernel::Cos2 { m: 3 };
+        assert_eq!(
+            ChannelBasis::integer(0, k),
+            Err(ChanError::TooFewChannels { got: 0, needed: 3 })
+        );
+        assert!(ChannelBasis::new(0.0, 0.0, 10, k).is_err());
+        assert!(ChannelBasis::new(f64::NAN, 1.0, 10, k).is_err());
+        assert!(ChannelBasis::covering(1.0, 1.0, 10, k).is_err());
+        assert!(ChannelBasis::integer(10, Kernel::Cos2 { m: 2 }).is_err());
+    }
+
+    #[test]
+    fn encode_rejects_bad_values() {
+        let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+        assert!(matches!(
+            b.encode(f64::NAN),
+            Err(ChanError::NonFinite { .. })
+        ));
+        assert!(matches!(b.encode(1.2), Err(ChanError::OutOfRange { .. })));
+        assert!(matches!(b.encode(9.6), Err(ChanError::OutOfRange { .. })));
+        assert!(matches!(
+            b.encode_weighted(3.0, -1.0),
+            Err(ChanError::Negative { .. })
+        ));
+        assert!(matches!(
+            b.encode_weighted(3.0, f64::INFINITY),
+            Err(ChanError::NonFinite { .. })
+        ));
+        let mut short = [0.0; 3];
+        assert!(matches!(
+            b.accumulate(3.0, 1.0, &mut short),
+            Err(ChanError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn sparse_and_dense_encoding_agree() {
+        for kernel in [
+            Kernel::Cos2 { m: 4 },
+            Kernel::BSpline2,
+            Kernel::Gaussian { sigma: 1.3 },
+        ] {
+            let b = ChannelBasis::covering(-2.0, 5.0, 20, kernel).unwrap();
+            for i in 0..50 {
+                let x = -2.0 + 7.0 * i as f64 / 49.0;
+                let sparse = b.encode(x).unwrap();
+                let t = b.to_index(x);
+                let dense: Vec<f64> = (0..b.len()).map(|k| kernel.value(t - k as f64)).collect();
+                assert_eq!(sparse, dense, "{kernel:?} at {x}");
+            }
+        }
+    }
+
+    #[test]
+    fn serde_round_trip_validates() {
+        let b = ChannelBasis::covering(0.0, 1.0, 12, Kernel::Gaussian { sigma: 0.7 }).unwrap();
+        let json = serde_json::to_string(&b).unwrap();
+        assert_eq!(serde_json::from_str::<ChannelBasis>(&json).unwrap(), b);
+        let bad = r#"{"kernel":{"cos2":{"m":3}},"channels":1,"first_centre":0.0,"spacing":1.0}"#;
+        assert!(serde_json::from_str::<ChannelBasis>(bad).is_err());
+    }
+}

@@ -1,0 +1,209 @@
+//! Local decoding of 1-D channel vectors (eq. 2.4, 2.5): every window of `W` consecutive
+//! channels gives an estimate and a certainty; estimates outside their window's valid range are
+//! rejected, the rest are the modes of the represented distribution.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{ChanError, ChannelBasis};
+
+/// Slack (in channel spacings) on the valid-range test, so that a value exactly on the border
+/// between two windows is not lost to rounding; the duplicate it creates is merged.
+pub(crate) const VALID_SLACK: f64 = 1e-9;
+
+/// One decoded mode of a 1-D channel vector.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Mode {
+    /// The decoded value (value space).
+    pub value: f64,
+    /// Certainty `r_l`: the sum of the window's channel coefficients (eq. 2.5).
+    pub certainty: f64,
+    /// The encoded weight this certainty corresponds to: `r_l` divided by the window sum of a
+    /// single value of weight 1 at the decoded position (1 for a plain encoded value).
+    pub weight: f64,
+}
+
+/// The raw output of one decoding window, before rejection (eq. 2.6, 2.7).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WindowEstimate {
+    /// First channel of the window (0-based).
+    pub start: usize,
+    /// The estimate `x̂_l` in value space (`None` for a window without an estimate, e.g. all zero).
+    pub value: Option<f64>,
+    /// The certainty `r_l = Σ c_k` over the window.
+    pub certainty: f64,
+    /// Whether the estimate lies inside the window's valid range.
+    pub valid: bool,
+}
+
+impl ChannelBasis {
+    /// Every window's estimate and certainty, valid or not: `N − W + 1` entries (eq. 2.4–2.7).
+    ///
+    /// ```
+    /// use chan_repr::{ChannelBasis, Kernel};
+    /// let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+    /// let w = b.decode_windows(&b.encode(3.3).unwrap()).unwrap();
+    /// assert_eq!(w.len(), 8);
+    /// assert!((w[1].value.unwrap() - 3.3).abs() < 1e-12 && w[1].valid);
+    /// assert!(!w[2].valid);
+    /// ```
+    pub fn decode_windows(&self, c: &[f64]) -> Result<Vec<WindowEstimate>, ChanError> {
+        check_channels(c, self.len())?;
+        let kernel = self.kernel();
+        let w = kernel.window();
+        let (lo, hi) = kernel.valid_offsets();
+        Ok((0..=self.len() - w)
+            .map(|l| {
+                let win = &c[l..l + w];
+                let certainty: f64 = win.iter().sum();
+                let offset = kernel.decode_window(win);
+                WindowEstimate {
+                    start: l,
+                    value: offset.map(|o| self.from_index(l as f64 + o)),
+                    certainty,
+                    valid: certainty > 0.0
+                        && offset.is_some_and(|o| o >= lo - VALID_SLACK && o <= hi + VALID_SLACK),
+                }
+            })
+            .collect())
+    }
+
+    /// All modes of the channel vector `c`, sorted by decreasing certainty (ties: by value).
+    ///
+    /// ```
+    /// use chan_repr::{ChannelBasis, Kernel};
+    /// let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+    /// let mut c = b.encode(3.3).unwrap();
+    /// b.accumulate(6.8, 1.0, &mut c).unwrap(); // the soft histogram of eq. 2.9
+    /// let modes = b.decode(&c).unwrap();
+    /// assert_eq!(modes.len(), 2);
+    /// let mut values: Vec<f64> = modes.iter().map(|m| m.value).collect();
+    /// values.sort_by(f64::total_cmp);
+    /// assert!((values[0] - 3.3).abs() < 1e-9 && (values[1] - 6.8).abs() < 1e-9);
+    /// ```
+    pub fn decode(&self, c: &[f64]) -> Result<Vec<Mode>, ChanError> {
+        let kernel = self.kernel();
+        let mut modes: Vec<(f64, Mode)> = Vec::new();
+        for e in self.decode_windows(c)?.into_iter().filter(|e| e.valid) {
+            let Some(value) = e.value else { continue };
+            let offset = self.to_index(value) - e.start as f64;
+            let mode = Mode {
+                value,
+                certainty: e.certainty,
+                weight: e.certainty / kernel.unit_window_sum(offset),
+            };
+            let t = self.to_index(value);
+            // Neighbouring windows meet at their valid ranges' borders: merge twins.
+            match modes.last_mut() {
+                Some((prev_t, prev)) if (t - *prev_t).abs() <= 2.0 * VALID_SLACK => {
+                    if mode.certainty > prev.certainty {
+                        *prev = mode;
+                        *prev_t = t;
+                    }
+                }
+                _ => modes.push((t, mode)),
+            }
+        }
+        let mut modes: Vec<Mode> = modes.into_iter().map(|(_, m)| m).collect();
+        sort_modes(&mut modes, |m| m.certainty, |m| m.value);
+        Ok(modes)
+    }
+
+    /// The mode with the highest certainty, if any.
+    pub fn decode_best(&self, c: &[f64]) -> Result<Option<Mode>, ChanError> {
+        Ok(self.decode(c)?.into_iter().next())
+    }
+}
+
+/// Checks a channel vector's length, finiteness and sign.
+pub(crate) fn check_channels(c: &[f64], expected: usize) -> Result<(), ChanError> {
+    if c.len() != expected {
+        return Err(ChanError::LengthMismatch {
+            what: "channel coefficients",
+            expected,
+            got: c.len(),
+        });
+    }
+    for &v in c {
+        check_coefficient(v)?;
+    }
+    Ok(())
+}
+
+/// Checks one channel coefficient is finite and non-negative.
+pub(crate) fn check_coefficient(v: f64) -> Result<(), ChanError> {
+    if !v.is_finite() {
+        return Err(ChanError::NonFinite {
+            what: "channel coefficient",
+            value: v,
+        });
+    }
+    if v < 0.0 {
+        return Err(ChanError::Negative {
+            what: "channel coefficient",
+            value: v,
+        });
+    }
+    Ok(())
+}
+
+/// Sorts by decreasing certainty, ties broken by increasing key (deterministic order).
+pub(crate) fn sort_modes<M, K: PartialOrd>(
+    modes: &mut [M],
+    certainty: impl Fn(&M) -> f64,
+    key: impl Fn(&M) -> K,
+) {
+    modes.sort_by(|a, b| {
+        certainty(b).total_cmp(&certainty(a)).then_with(|| {
+            key(a)
+                .partial_cmp(&key(b))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Kernel;
+
+    #[test]
+    fn bad_channel_vectors_are_errors() {
+        let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+        assert!(matches!(
+            b.decode(&[0.0; 9]),
+            Err(ChanError::LengthMismatch { .. })
+        ));
+        let mut c = vec![0.0; 10];
+        c[3] = f64::NAN;
+        assert!(matches!(b.decode(&c), Err(ChanError::NonFinite { .. })));
+        c[3] = -0.5;
+        assert!(matches!(b.decode(&c), Err(ChanError::Negative { .. })));
+    }
+
+    #[test]
+    fn zero_vector_has_no_modes() {
+        let b = ChannelBasis::integer(10, Kernel::BSpline2).unwrap();
+        assert!(b.decode(&[0.0; 10]).unwrap().is_empty());
+        assert_eq!(b.decode_best(&[0.0; 10]).unwrap(), None);
+    }
+
+    #[test]
+    fn border_values_give_one_mode() {
+        // 4.5 lies exactly on the border between two windows' valid ranges.
+        for kernel in [
+            Kernel::Cos2 { m: 3 },
+            Kernel::Cos2 { m: 4 },
+            Kernel::BSpline2,
+            Kernel::Gaussian { sigma: 1.0 },
+        ] {
+            let b = ChannelBasis::integer(10, kernel).unwrap();
+            let (lo, hi) = b.representable_range();
+            for x in [lo, 4.5, 5.0, hi] {
+                let modes = b.decode(&b.encode(x).unwrap()).unwrap();
+                assert_eq!(modes.len(), 1, "{kernel:?} at {x}: {modes:?}");
+                assert!((modes[0].value - x).abs() < 1e-9);
+                assert!((modes[0].weight - 1.0).abs() < 1e-9);
+            }
+        }
+    }
+}

@@ -1,0 +1,68 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// Everything that can go wrong when building a basis, encoding or decoding.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ChanError {
+    /// A basis with no channels, or fewer than one decoding window needs.
+    #[error("{got} channels are too few: the kernel's decoding window needs at least {needed}")]
+    TooFewChannels {
+        /// Channels asked for.
+        got: usize,
+        /// The decoding window's size.
+        needed: usize,
+    },
+    /// A kernel width that leaves too few overlapping channels for local decoding.
+    #[error("kernel too narrow: {reason}")]
+    TooNarrow {
+        /// Which limit was violated.
+        reason: String,
+    },
+    /// A parameter (spacing, range, width) that is non-finite, zero or negative where it must not be.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Value given.
+        value: f64,
+        /// Why it is invalid.
+        reason: &'static str,
+    },
+    /// A value or a channel coefficient that is NaN or infinite.
+    #[error("non-finite {what}: {value}")]
+    NonFinite {
+        /// What was non-finite (value, weight, channel coefficient).
+        what: &'static str,
+        /// The offending number.
+        value: f64,
+    },
+    /// A value outside the representable (decodable) range of the basis.
+    #[error("value {value} is outside the representable range [{lo}, {hi}]")]
+    OutOfRange {
+        /// The value.
+        value: f64,
+        /// Lower end of the representable range.
+        lo: f64,
+        /// Upper end of the representable range.
+        hi: f64,
+    },
+    /// A negative channel coefficient or weight (channel vectors are monopolar).
+    #[error("negative {what}: {value} (channel vectors are non-negative)")]
+    Negative {
+        /// What was negative.
+        what: &'static str,
+        /// The offending number.
+        value: f64,
+    },
+    /// A slice of the wrong length (channel vector or n-D value).
+    #[error("expected {expected} {what}, got {got}")]
+    LengthMismatch {
+        /// What was counted.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Actual length.
+        got: usize,
+    },
+}

@@ -1,0 +1,413 @@
+//! n-dimensional channel grids: separable (outer-product) encoding of vectors and n-D local
+//! decoding. Channel `(k_0, …, k_{D−1})` of a grid is stored at the row-major flat index
+//! `Σ_d k_d · stride_d` (last dimension fastest).
+
+use serde::{Deserialize, Serialize};
+
+use crate::basis::check_weight;
+use crate::decode::{VALID_SLACK, check_channels, sort_modes};
+use crate::{ChanError, ChannelBasis};
+
+/// A product of 1-D channel bases: the channel vector of `x = (x_0, …, x_{D−1})` is the outer
+/// product of the per-dimension channel vectors.
+///
+/// ```
+/// use chan_repr::{ChannelBasis, ChannelGrid, Kernel};
+/// let b = ChannelBasis::integer(8, Kernel::Cos2 { m: 3 }).unwrap();
+/// let grid = ChannelGrid::new(vec![b.clone(), b]).unwrap();
+/// let c = grid.encode(&[2.25, 6.5]).unwrap();
+/// let modes = grid.decode(&c).unwrap();
+/// assert_eq!(modes.len(), 1);
+/// assert!((modes[0].value[0] - 2.25).abs() < 1e-9 && (modes[0].value[1] - 6.5).abs() < 1e-9);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "Vec<ChannelBasis>", into = "Vec<ChannelBasis>")]
+pub struct ChannelGrid {
+    bases: Vec<ChannelBasis>,
+    strides: Vec<usize>,
+    len: usize,
+}
+
+/// One decoded mode of an n-D channel grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModeNd {
+    /// The decoded vector (value space), one entry per dimension.
+    pub value: Vec<f64>,
+    /// Sum of the channel coefficients in the decoding window (eq. 2.5 in n-D).
+    pub certainty: f64,
+    /// The encoded weight this certainty corresponds to (1 for a plain encoded value).
+    pub weight: f64,
+}
+
+impl TryFrom<Vec<ChannelBasis>> for ChannelGrid {
+    type Error = ChanError;
+    fn try_from(bases: Vec<ChannelBasis>) -> Result<Self, ChanError> {
+        ChannelGrid::new(bases)
+    }
+}
+
+impl From<ChannelGrid> for Vec<ChannelBasis> {
+    fn from(g: ChannelGrid) -> Self {
+        g.bases
+    }
+}
+
+impl ChannelGrid {
+    /// A grid with one basis per dimension (at least one).
+    pub fn new(bases: Vec<ChannelBasis>) -> Result<Self, ChanError> {
+        if bases.is_empty() {
+            return Err(ChanError::LengthMismatch {
+                what: "dimensions (at least)",
+                expected: 1,
+                got: 0,
+            });
+        }
+        let mut strides = vec![0; bases.len()];
+        let mut len: usize = 1;
+        for (d, b) in bases.iter().enumerate().rev() {
+            strides[d] = len;
+            len = len
+                .checked_mul(b.len())
+                .ok_or(ChanError::InvalidParameter {
+                    name: "channels",
+                    value: f64::INFINITY,
+                    reason: "the grid has more channels than memory can address",
+                })?;
+        }
+        Ok(ChannelGrid {
+            bases,
+            strides,
+            len,
+        })
+    }
+
+    /// Number of dimensions `D`.
+    pub fn dims(&self) -> usize {
+        self.bases.len()
+    }
+
+    /// Total number of channels `Π N_d`.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Always false: every dimension has channels.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The basis of dimension `d`.
+    pub fn basis(&self, d: usize) -> &ChannelBasis {
+        &self.bases[d]
+    }
+
+    /// All bases, one per dimension.
+    pub fn bases(&self) -> &[ChannelBasis] {
+        &self.bases
+    }
+
+    /// Row-major strides (last dimension 1).
+    pub fn strides(&self) -> &[usize] {
+        &self.strides
+    }
+
+    /// Flat index of the channel with per-dimension indices `k`.
+    pub fn flat_index(&self, k: &[usize]) -> usize {
+        k.iter().zip(&self.strides).map(|(k, s)| k * s).sum()
+    }
+
+    /// Checks `x` has `D` finite, representable coordinates; writes their index coordinates.
+    pub(crate) fn checked_indices(&self, x: &[f64], t: &mut Vec<f64>) -> Result<(), ChanError> {
+        if x.len() != self.dims() {
+            return Err(ChanError::LengthMismatch {
+                what: "coordinates",
+                expected: self.dims(),
+                got: x.len(),
+            });
+        }
+        t.clear();
+        for (b, &xi) in self.bases.iter().zip(x) {
+            t.push(b.checked_index(xi)?);
+        }
+        Ok(())
+    }
+
+    /// Calls `f(flat, value)` for every active channel of the index coordinates `t`, using
+    /// `scratch` (one list per dimension) to avoid allocation. `t` is not validated.
+    pub(crate) fn for_each_active(
+        &self,
+        t: &[f64],
+        scratch: &mut [Vec<(usize, f64)>],
+        mut f: impl FnMut(usize, f64),
+    ) {
+        for ((b, &td), list) in self.bases.iter().zip(t).zip(scratch.iter_mut()) {
+            list.clear();
+            b.for_each_active(td, |k, v| list.push((k, v)));
+            if list.is_empty() {
+                return;
+            }
+        }
+        let dims = self.dims();
+        let mut pos = vec![0usize; dims];
+        loop {
+            let (mut flat, mut v) = (0, 1.0);
+            for d in 0..dims {
+                let (k, vd) = scratch[d][pos[d]];
+                flat += k * self.strides[d];
+                v *= vd;
+            }
+            f(flat, v);
+            // Odometer over the per-dimension active lists.
+            let mut d = dims;
+            loop {
+                if d == 0 {
+                    return;
+                }
+                d -= 1;
+                pos[d] += 1;
+                if pos[d] < scratch[d].len() {
+                    break;
+                }
+                pos[d] = 0;
+            }
+        }
+    }
+
+    /// Encodes the vector `x` into a dense grid channel vector (outer product of eq. 2.1).
+    pub fn encode(&self, x: &[f64]) -> Result<Vec<f64>, ChanError> {
+        self.encode_weighted(x, 1.0)
+    }
+
+    /// Encodes `x` with certainty `weight ≥ 0`.
+    pub fn encode_weighted(&self, x: &[f64], weight: f64) -> Result<Vec<f64>, ChanError> {
+        let mut c = vec![0.0; self.len];
+        self.accumulate(x, weight, &mut c)?;
+        Ok(c)
+    }
+
+    /// Adds `weight ·` the channel vector of `x` into `out` (length [`len`](Self::len)).
+    pub fn accumulate(&self, x: &[f64], weight: f64, out: &mut [f64]) -> Result<(), ChanError> {
+        check_weight(weight)?;
+        if out.len() != self.len {
+            return Err(ChanError::LengthMismatch {
+                what: "channels",
+                expected: self.len,
+                got: out.len(),
+            });
+        }
+        let mut t = Vec::with_capacity(self.dims());
+        self.checked_indices(x, &mut t)?;
+        let mut scratch = vec![Vec::new(); self.dims()];
+        self.for_each_active(&t, &mut scratch, |k, v| out[k] += weight * v);
+        Ok(())
+    }
+
+    /// All modes of the dense grid channel vector `c`, by decreasing certainty.
+    pub fn decode(&self, c: &[f64]) -> Result<Vec<ModeNd>, ChanError> {
+        check_channels(c, self.len)?;
+        let counts: Vec<usize> = self
+            .bases
+            .iter()
+            .map(|b| b.len() - b.kernel().window() + 1)
+            .collect();
+        let mut modes = Vec::new();
+        let mut scratch = WindowScratch::new(self);
+        let mut start = vec![0usize; self.dims()];
+        loop {
+            if let Some(m) = self.decode_window(&start, |i| c[i], &mut scratch) {
+                modes.push(m);
+            }
+            if !advance(&mut start, &counts) {
+                break;
+            }
+        }
+        Ok(finish_modes(self, modes))
+    }
+
+    /// Decodes the window whose first channel has per-dimension indices `start`, reading
+    /// coefficients through `get(flat)`; `None` when the window has no valid estimate.
+    pub(crate) fn decode_window(
+        &self,
+        start: &[usize],
+        get: impl Fn(usize) -> f64,
+        s: &mut WindowScratch,
+    ) -> Option<ModeNd> {
+        let dims = self.dims();
+        for (m, b) in s.marginals.iter_mut().zip(&self.bases) {
+            m.clear();
+            m.resize(b.kernel().window(), 0.0);
+        }
+        let base = self.flat_index(start);
+        let mut total = 0.0;
+        s.pos.iter_mut().for_each(|p| *p = 0);
+        loop {
+            let flat = base
+                + s.pos
+                    .iter()
+                    .zip(&self.strides)
+                    .map(|(p, st)| p * st)
+                    .sum::<usize>();
+            let v = get(flat);
+            if v != 0.0 {
+                total += v;
+                for d in 0..dims {
+                    s.marginals[d][s.pos[d]] += v;
+                }
+            }
+            let mut d = dims;
+            let more = loop {
+                if d == 0 {
+                    break false;
+                }
+                d -= 1;
+                s.pos[d] += 1;
+                if s.pos[d] < s.marginals[d].len() {
+                    break true;
+                }
+                s.pos[d] = 0;
+            };
+            if !more {
+                break;
+            }
+        }
+        if total <= 0.0 {
+            return None;
+        }
+        let mut value = Vec::with_capacity(dims);
+        let mut unit = 1.0;
+        for (d, b) in self.bases.iter().enumerate() {
+            let k = b.kernel();
+            let offset = k.decode_window(&s.marginals[d])?;
+            let (lo, hi) = k.valid_offsets();
+            if offset < lo - VALID_SLACK || offset > hi + VALID_SLACK {
+                return None;
+            }
+            unit *= k.unit_window_sum(offset);
+            value.push(b.from_index(start[d] as f64 + offset));
+        }
+        Some(ModeNd {
+            value,
+            certainty: total,
+            weight: total / unit,
+        })
+    }
+}
+
+/// Reusable buffers for n-D window decoding.
+pub(crate) struct WindowScratch {
+    marginals: Vec<Vec<f64>>,
+    pos: Vec<usize>,
+}
+
+impl WindowScratch {
+    pub(crate) fn new(grid: &ChannelGrid) -> Self {
+        WindowScratch {
+            marginals: vec![Vec::new(); grid.dims()],
+            pos: vec![0; grid.dims()],
+        }
+    }
+}
+
+/// Odometer step over `0..counts[d]` per dimension; false after the last index.
+pub(crate) fn advance(idx: &mut [usize], counts: &[usize]) -> bool {
+    for d in (0..idx.len()).rev() {
+        idx[d] += 1;
+        if idx[d] < counts[d] {
+            return true;
+        }
+        idx[d] = 0;
+    }
+    false
+}
+
+/// Merges twins (the same mode found by windows that meet at their valid ranges' borders) and
+/// sorts by decreasing certainty.
+pub(crate) fn finish_modes(grid: &ChannelGrid, mut modes: Vec<ModeNd>) -> Vec<ModeNd> {
+    sort_modes(&mut modes, |m| m.certainty, |m| m.value.clone());
+    let mut kept: Vec<ModeNd> = Vec::with_capacity(modes.len());
+    for m in modes {
+        let twin = kept.iter().any(|k| {
+            k.value
+                .iter()
+                .zip(&m.value)
+                .zip(grid.bases())
+                .all(|((a, b), basis)| {
+                    (basis.to_index(*a) - basis.to_index(*b)).abs() <= 2.0 * VALID_SLACK
+                })
+        });
+        if !twin {
+            kept.push(m);
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Kernel;
+
+    fn grid2(kernel: Kernel) -> ChannelGrid {
+        let b = ChannelBasis::covering(0.0, 10.0, 12, kernel).unwrap();
+        ChannelGrid::new(vec![b.clone(), b]).unwrap()
+    }
+
+    #[test]
+    fn encoding_is_the_outer_product() {
+        let g = grid2(Kernel::Cos2 { m: 3 });
+        let x = [3.1, 7.7];
+        let c = g.encode(&x).unwrap();
+        let (c0, c1) = (
+            g.basis(0).encode(x[0]).unwrap(),
+            g.basis(1).encode(x[1]).unwrap(),
+        );
+        for i in 0..12 {
+            for j in 0..12 {
+                assert_eq!(c[g.flat_index(&[i, j])], c0[i] * c1[j]);
+            }
+        }
+    }
+
+    #[test]
+    fn two_dimensional_round_trip_for_every_kernel() {
+        for kernel in [
+            Kernel::Cos2 { m: 3 },
+            Kernel::Cos2 { m: 5 },
+            Kernel::BSpline2,
+            Kernel::Gaussian { sigma: 0.9 },
+        ] {
+            let g = grid2(kernel);
+            for x in [[0.0, 10.0], [4.5, 5.25], [9.99, 0.01]] {
+                let modes = g.decode(&g.encode_weighted(&x, 2.0).unwrap()).unwrap();
+                assert_eq!(modes.len(), 1, "{kernel:?} {x:?}: {modes:?}");
+                assert!(
+                    (modes[0].value[0] - x[0]).abs() < 1e-9
+                        && (modes[0].value[1] - x[1]).abs() < 1e-9
+                );
+                assert!((modes[0].weight - 2.0).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn bad_vectors_are_errors() {
+        let g = grid2(Kernel::BSpline2);
+        assert!(matches!(
+            g.encode(&[1.0]),
+            Err(ChanError::LengthMismatch { .. })
+        ));
+        assert!(matches!(
+            g.encode(&[1.0, f64::NAN]),
+            Err(ChanError::NonFinite { .. })
+        ));
+        assert!(matches!(
+            g.encode(&[1.0, 11.0]),
+            Err(ChanError::OutOfRange { .. })
+        ));
+        assert!(ChannelGrid::new(vec![]).is_err());
+        assert!(matches!(
+            g.decode(&[0.0; 5]),
+            Err(ChanError::LengthMismatch { .. })
+        ));
+    }
+}

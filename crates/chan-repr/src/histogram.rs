@@ -1,0 +1,374 @@
+//! Soft histograms: sums of (weighted) channel vectors, the channel representation of a
+//! distribution (thesis ch. 2, eq. 2.9). Each added value touches only its active channels.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::{Deserialize, Serialize};
+
+use crate::basis::check_weight;
+use crate::decode::check_coefficient;
+use crate::grid::{WindowScratch, finish_modes};
+use crate::{ChanError, ChannelBasis, ChannelGrid, ModeNd};
+
+/// A dense soft histogram over an n-D channel grid.
+///
+/// ```
+/// use chan_repr::{ChannelBasis, ChannelGrid, Kernel, SoftHistogram};
+/// let b = ChannelBasis::covering(0.0, 1.0, 16, Kernel::BSpline2).unwrap();
+/// let mut h = SoftHistogram::new(ChannelGrid::new(vec![b]).unwrap());
+/// for x in [0.20, 0.21, 0.19, 0.80] {
+///     h.add(&[x], 1.0).unwrap();
+/// }
+/// let modes = h.decode().unwrap();
+/// assert!((modes[0].value[0] - 0.20).abs() < 0.01); // three samples near 0.2 win
+/// assert!((modes[1].value[0] - 0.80).abs() < 1e-9);
+/// ```
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "DenseSpec", into = "DenseSpec")]
+pub struct SoftHistogram {
+    grid: ChannelGrid,
+    counts: Vec<f64>,
+    total_weight: f64,
+    #[serde(skip)]
+    t: Vec<f64>,
+    #[serde(skip)]
+    scratch: Vec<Vec<(usize, f64)>>,
+}
+
+/// Equality of the represented distribution (grid, coefficients, total weight), not of scratch.
+impl PartialEq for SoftHistogram {
+    fn eq(&self, o: &Self) -> bool {
+        self.grid == o.grid && self.counts == o.counts && self.total_weight == o.total_weight
+    }
+}
+
+/// Equality of the represented distribution (grid, coefficients, total weight), not of scratch.
+impl PartialEq for SparseHistogram {
+    fn eq(&self, o: &Self) -> bool {
+        self.grid == o.grid && self.counts == o.counts && self.total_weight == o.total_weight
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DenseSpec {
+    grid: ChannelGrid,
+    counts: Vec<f64>,
+    total_weight: f64,
+}
+
+impl TryFrom<DenseSpec> for SoftHistogram {
+    type Error = ChanError;
+    fn try_from(s: DenseSpec) -> Result<Self, ChanError> {
+        SoftHistogram::from_counts(s.grid, s.counts, s.total_weight)
+    }
+}
+
+impl From<SoftHistogram> for DenseSpec {
+    fn from(h: SoftHistogram) -> Self {
+        DenseSpec {
+            grid: h.grid,
+            counts: h.counts,
+            total_weight: h.total_weight,
+        }
+    }
+}
+
+impl SoftHistogram {
+    /// An empty histogram over `grid`.
+    pub fn new(grid: ChannelGrid) -> Self {
+        let counts = vec![0.0; grid.len()];
+        SoftHistogram::with(grid, counts, 0.0)
+    }
+
+    /// An empty 1-D histogram over `basis`.
+    pub fn one_d(basis: ChannelBasis) -> Self {
+        SoftHistogram::new(ChannelGrid::new(vec![basis]).expect("one dimension is a valid grid"))
+    }
+
+    /// A histogram with given channel coefficients (checked: length, finite, non-negative).
+    pub fn from_counts(
+        grid: ChannelGrid,
+        counts: Vec<f64>,
+        total_weight: f64,
+    ) -> Result<Self, ChanError> {
+        crate::decode::check_channels(&counts, grid.len())?;
+        check_weight(total_weight)?;
+        Ok(SoftHistogram::with(grid, counts, total_weight))
+    }
+
+    fn with(grid: ChannelGrid, counts: Vec<f64>, total_weight: f64) -> Self {
+        let dims = grid.dims();
+        SoftHistogram {
+            grid,
+            counts,
+            total_weight,
+            t: Vec::with_capacity(dims),
+            scratch: vec![Vec::new(); dims],
+        }
+    }
+
+    /// Adds the value `x` (one coordinate per dimension) with certainty `weight`. Costs
+    /// O(active channels) and allocates nothing after the first call.
+    pub fn add(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
+        check_weight(weight)?;
+        self.grid.checked_indices(x, &mut self.t)?;
+        let counts = &mut self.counts;
+        self.grid
+            .for_each_active(&self.t, &mut self.scratch, |k, v| counts[k] += weight * v);
+        self.total_weight += weight;
+        Ok(())
+    }
+
+    /// Adds many 1-D values of weight 1 (the histogram must be 1-D). Stops at the first bad
+    /// value, leaving the values before it added.
+    pub fn extend_1d(&mut self, xs: &[f64]) -> Result<(), ChanError> {
+        if self.grid.dims() != 1 {
+            return Err(ChanError::LengthMismatch {
+                what: "dimensions",
+                expected: self.grid.dims(),
+                got: 1,
+            });
+        }
+        let basis = self.grid.basis(0).clone();
+        let (lo, hi) = basis.representable_range();
+        for &x in xs {
+            if !x.is_finite() {
+                return Err(ChanError::NonFinite {
+                    what: "value",
+                    value: x,
+                });
+            }
+            if x < lo || x > hi {
+                return Err(ChanError::OutOfRange { value: x, lo, hi });
+            }
+            let counts = &mut self.counts;
+            basis.for_each_active(basis.to_index(x), |k, v| counts[k] += v);
+            self.total_weight += 1.0;
+        }
+        Ok(())
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &ChannelGrid {
+        &self.grid
+    }
+
+    /// The channel coefficients (row-major).
+    pub fn counts(&self) -> &[f64] {
+        &self.counts
+    }
+
+    /// Sum of the weights added so far.
+    pub fn total_weight(&self) -> f64 {
+        self.total_weight
+    }
+
+    /// Resets every channel to zero.
+    pub fn clear(&mut self) {
+        self.counts.iter_mut().for_each(|c| *c = 0.0);
+        self.total_weight = 0.0;
+    }
+
+    /// All modes, by decreasing certainty.
+    pub fn decode(&self) -> Result<Vec<ModeNd>, ChanError> {
+        self.grid.decode(&self.counts)
+    }
+}
+
+/// A sparse soft histogram: only channels that received mass are stored (ordered map, so
+/// iteration and decoding are deterministic). For large n-D grids with few samples.
+///
+/// ```
+/// use chan_repr::{ChannelBasis, ChannelGrid, Kernel, SparseHistogram};
+/// let b = ChannelBasis::covering(0.0, 1000.0, 1000, Kernel::Cos2 { m: 3 }).unwrap();
+/// let mut h = SparseHistogram::new(ChannelGrid::new(vec![b.clone(), b.clone(), b]).unwrap());
+/// h.add(&[10.0, 500.0, 990.0], 1.0).unwrap();
+/// assert_eq!(h.nonzero(), 27); // 3 × 3 × 3 active channels of 10⁹
+/// assert!((h.decode().unwrap()[0].value[1] - 500.0).abs() < 1e-9);
+/// ```
+#[derive(Debug, Clone)]
+pub struct SparseHistogram {
+    grid: ChannelGrid,
+    counts: BTreeMap<usize, f64>,
+    total_weight: f64,
+    t: Vec<f64>,
+    scratch: Vec<Vec<(usize, f64)>>,
+}
+
+impl SparseHistogram {
+    /// An empty sparse histogram over `grid`.
+    pub fn new(grid: ChannelGrid) -> Self {
+        let dims = grid.dims();
+        SparseHistogram {
+            grid,
+            counts: BTreeMap::new(),
+            total_weight: 0.0,
+            t: Vec::with_capacity(dims),
+            scratch: vec![Vec::new(); dims],
+        }
+    }
+
+    /// Adds the value `x` with certainty `weight` (O(active channels · log stored)).
+    pub fn add(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
+        check_weight(weight)?;
+        self.grid.checked_indices(x, &mut self.t)?;
+        let counts = &mut self.counts;
+        self.grid
+            .for_each_active(&self.t, &mut self.scratch, |k, v| {
+                *counts.entry(k).or_insert(0.0) += weight * v
+            });
+        self.total_weight += weight;
+        Ok(())
+    }
+
+    /// Number of stored (non-zero) channels.
+    pub fn nonzero(&self) -> usize {
+        self.counts.len()
+    }
+
+    /// The coefficient of the channel at flat index `k` (0 when not stored).
+    pub fn get(&self, k: usize) -> f64 {
+        self.counts.get(&k).copied().unwrap_or(0.0)
+    }
+
+    /// Stored channels as `(flat index, coefficient)` in increasing index order.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.counts.iter().map(|(&k, &v)| (k, v))
+    }
+
+    /// Sum of the weights added so far.
+    pub fn total_weight(&self) -> f64 {
+        self.total_weight
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &ChannelGrid {
+        &self.grid
+    }
+
+    /// The dense equivalent.
+    pub fn to_dense(&self) -> SoftHistogram {
+        let mut counts = vec![0.0; self.grid.len()];
+        for (k, v) in self.iter() {
+            counts[k] = v;
+        }
+        SoftHistogram::with(self.grid.clone(), counts, self.total_weight)
+    }
+
+    /// All modes, by decreasing certainty: only windows containing a stored channel are
+    /// visited, so the cost follows the number of stored channels, not the grid size.
+    /// Gives the same modes as decoding [`to_dense`](Self::to_dense).
+    pub fn decode(&self) -> Result<Vec<ModeNd>, ChanError> {
+        for (_, v) in self.iter() {
+            check_coefficient(v)?;
+        }
+        let g = &self.grid;
+        let dims = g.dims();
+        let mut starts: BTreeSet<Vec<usize>> = BTreeSet::new();
+        let mut k = vec![0usize; dims];
+        for (flat, _) in self.iter() {
+            let mut rest = flat;
+            for (kd, &stride) in k.iter_mut().zip(g.strides()) {
+                *kd = rest / stride;
+                rest %= stride;
+            }
+            // Every window start within W−1 below k in each dimension, clipped to the grid.
+            let lo: Vec<usize> = (0..dims)
+                .map(|d| k[d].saturating_sub(g.basis(d).kernel().window() - 1))
+                .collect();
+            let hi: Vec<usize> = (0..dims)
+                .map(|d| k[d].min(g.basis(d).len() - g.basis(d).kernel().window()))
+                .collect();
+            if (0..dims).any(|d| lo[d] > hi[d]) {
+                continue;
+            }
+            let mut s = lo.clone();
+            loop {
+                starts.insert(s.clone());
+                let mut d = dims;
+                let more = loop {
+                    if d == 0 {
+                        break false;
+                    }
+                    d -= 1;
+                    s[d] += 1;
+                    if s[d] <= hi[d] {
+                        break true;
+                    }
+                    s[d] = lo[d];
+                };
+                if !more {
+                    break;
+                }
+            }
+        }
+        let mut scratch = WindowScratch::new(g);
+        let modes = starts
+            .iter()
+            .filter_map(|s| g.decode_window(s, |i| self.get(i), &mut scratch))
+            .collect();
+        Ok(finish_modes(g, modes))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Kernel;
+
+    #[test]
+    fn histogram_equals_sum_of_encodings() {
+        let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+        let mut h = SoftHistogram::one_d(b.clone());
+        h.add(&[3.3], 1.0).unwrap();
+        h.add(&[6.8], 0.5).unwrap();
+        let (c1, c2) = (b.encode(3.3).unwrap(), b.encode_weighted(6.8, 0.5).unwrap());
+        for k in 0..10 {
+            assert!((h.counts()[k] - (c1[k] + c2[k])).abs() < 1e-15);
+        }
+        assert_eq!(h.total_weight(), 1.5);
+        let mut g = SoftHistogram::one_d(b);
+        g.extend_1d(&[3.3, 6.8]).unwrap();
+        assert_eq!(g.decode().unwrap().len(), 2);
+    }
+
+    #[test]
+    fn bad_values_leave_the_histogram_unchanged() {
+        let b = ChannelBasis::integer(10, Kernel::BSpline2).unwrap();
+        let mut h = SoftHistogram::one_d(b);
+        h.add(&[4.0], 1.0).unwrap();
+        let before = h.clone();
+        assert!(h.add(&[f64::NAN], 1.0).is_err());
+        assert!(h.add(&[4.0], -1.0).is_err());
+        assert!(h.add(&[40.0], 1.0).is_err());
+        assert!(h.add(&[4.0, 4.0], 1.0).is_err());
+        assert_eq!(h, before);
+    }
+
+    #[test]
+    fn sparse_matches_dense() {
+        let b = ChannelBasis::covering(0.0, 20.0, 24, Kernel::Gaussian { sigma: 0.8 }).unwrap();
+        let grid = ChannelGrid::new(vec![b.clone(), b]).unwrap();
+        let mut dense = SoftHistogram::new(grid.clone());
+        let mut sparse = SparseHistogram::new(grid);
+        for (x, w) in [([2.0, 3.0], 1.0), ([15.5, 9.25], 0.7), ([2.2, 3.1], 0.4)] {
+            dense.add(&x, w).unwrap();
+            sparse.add(&x, w).unwrap();
+        }
+        assert_eq!(sparse.to_dense().counts(), dense.counts());
+        assert_eq!(sparse.decode().unwrap(), dense.decode().unwrap());
+    }
+
+    #[test]
+    fn serde_round_trip_checks_counts() {
+        let b = ChannelBasis::integer(5, Kernel::BSpline2).unwrap();
+        let mut h = SoftHistogram::one_d(b);
+        h.add(&[2.5], 1.0).unwrap();
+        let json = serde_json::to_string(&h).unwrap();
+        let back: SoftHistogram = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.counts(), h.counts());
+        let broken = json.replace("\"counts\":[", "\"counts\":[1.0,");
+        assert!(serde_json::from_str::<SoftHistogram>(&broken).is_err());
+    }
+}

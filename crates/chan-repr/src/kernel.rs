@@ -1,0 +1,283 @@
+//! Channel kernels `B(·)` and their local decoders, in channel-index units (spacing 1).
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use crate::ChanError;
+
+/// Support radius of the truncated Gaussian, in standard deviations.
+pub const GAUSSIAN_SUPPORT_SIGMAS: f64 = 4.0;
+/// Smallest Gaussian width (in channel spacings) whose 3-channel decoding window is always active.
+pub const GAUSSIAN_MIN_SIGMA: f64 = 0.5;
+
+/// A channel kernel (basis function), measured in units of the channel spacing.
+///
+/// - [`Kernel::Cos2`]: the windowed cos² of eq. 2.2, `B(d) = cos²(a·d)` for `|d| ≤ π/(2a)`,
+///   with `a = π/m`: `m` channels overlap any point and the local decoder (eq. 2.4) looks at
+///   windows of `m` channels. The thesis's example uses `m = 3` (`a = π/3`).
+/// - [`Kernel::BSpline2`]: the quadratic B-spline, support `|d| < 3/2`, three active channels.
+/// - [`Kernel::Gaussian`]: `exp(−d²/(2σ²))`, truncated to exactly 0 beyond `4σ`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kernel {
+    /// Windowed cos² with `a = π/m`; `m ≥ 3` channels per decoding window.
+    Cos2 {
+        /// Channels per decoding window, `M = π/a` in eq. 2.4.
+        m: u32,
+    },
+    /// Quadratic B-spline (support 3 channels).
+    BSpline2,
+    /// Truncated Gaussian with standard deviation `sigma` channel spacings (`sigma ≥ 0.5`).
+    Gaussian {
+        /// Standard deviation in channel spacings.
+        sigma: f64,
+    },
+}
+
+impl Kernel {
+    /// The cos² kernel of eq. 2.2 given its frequency `a`; `π/a` must be an integer `≥ 3`
+    /// (within 1e-9) for the local decoder of eq. 2.4 to be exact.
+    ///
+    /// ```
+    /// use chan_repr::Kernel;
+    /// assert_eq!(Kernel::cos2_from_a(std::f64::consts::PI / 3.0).unwrap(), Kernel::Cos2 { m: 3 });
+    /// assert!(Kernel::cos2_from_a(1.0).is_err());
+    /// ```
+    pub fn cos2_from_a(a: f64) -> Result<Kernel, ChanError> {
+        if !a.is_finite() || a <= 0.0 {
+            return Err(ChanError::InvalidParameter {
+                name: "a",
+                value: a,
+                reason: "must be finite and positive",
+            });
+        }
+        let m = PI / a;
+        let rounded = m.round();
+        if (m - rounded).abs() > 1e-9 {
+            return Err(ChanError::InvalidParameter {
+                name: "a",
+                value: a,
+                reason: "π/a must be an integer for exact local decoding",
+            });
+        }
+        let kernel = Kernel::Cos2 { m: rounded as u32 };
+        kernel.validate()?;
+        Ok(kernel)
+    }
+
+    /// Checks the kernel's width leaves enough overlapping channels to decode locally.
+    pub fn validate(&self) -> Result<(), ChanError> {
+        match *self {
+            Kernel::Cos2 { m } if m < 3 => Err(ChanError::TooNarrow {
+                reason: format!(
+                    "cos² with m = {m} (a = π/{m}) overlaps fewer than 3 channels; eq. 2.4 needs m ≥ 3"
+                ),
+            }),
+            Kernel::Gaussian { sigma } if !sigma.is_finite() => Err(ChanError::InvalidParameter {
+                name: "sigma",
+                value: sigma,
+                reason: "must be finite",
+            }),
+            Kernel::Gaussian { sigma } if sigma < GAUSSIAN_MIN_SIGMA => Err(ChanError::TooNarrow {
+                reason: format!(
+                    "Gaussian sigma = {sigma} < {GAUSSIAN_MIN_SIGMA} leaves fewer than 3 active channels"
+                ),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// `B(d)` at offset `d` (channel spacings) from a channel centre.
+    #[inline]
+    pub fn value(&self, d: f64) -> f64 {
+        let ad = d.abs();
+        if ad >= self.support_radius() {
+            return 0.0;
+        }
+        match *self {
+            Kernel::Cos2 { m } => {
+                let c = (PI / f64::from(m) * d).cos();
+                c * c
+            }
+            Kernel::BSpline2 => {
+                if ad <= 0.5 {
+                    0.75 - ad * ad
+                } else {
+                    let t = ad - 1.5;
+                    0.5 * t * t
+                }
+            }
+            Kernel::Gaussian { sigma } => (-d * d / (2.0 * sigma * sigma)).exp(),
+        }
+    }
+
+    /// Radius (channel spacings) beyond which the kernel is exactly zero.
+    #[inline]
+    pub fn support_radius(&self) -> f64 {
+        match *self {
+            Kernel::Cos2 { m } => 0.5 * f64::from(m),
+            Kernel::BSpline2 => 1.5,
+            Kernel::Gaussian { sigma } => GAUSSIAN_SUPPORT_SIGMAS * sigma,
+        }
+    }
+
+    /// Number of consecutive channels the local decoder looks at (`M` of eq. 2.4).
+    #[inline]
+    pub fn window(&self) -> usize {
+        match *self {
+            Kernel::Cos2 { m } => m as usize,
+            Kernel::BSpline2 | Kernel::Gaussian { .. } => 3,
+        }
+    }
+
+    /// Sum of the window's channels when a single value of weight 1 lies at `offset` from the
+    /// window's first channel (inside the valid range): the normaliser that turns a decoded
+    /// certainty into the encoded weight. Constant `m/2` for cos², 1 for the B-spline.
+    pub fn unit_window_sum(&self, offset: f64) -> f64 {
+        match *self {
+            Kernel::Cos2 { m } => 0.5 * f64::from(m),
+            Kernel::BSpline2 => 1.0,
+            Kernel::Gaussian { .. } => (0..3).map(|j| self.value(offset - j as f64)).sum(),
+        }
+    }
+
+    /// The half-open valid range of a decoded offset, relative to the window's first channel:
+    /// `[(W−1)/2 − 1/2, (W−1)/2 + 1/2]`, the interval where every channel of the window is
+    /// inside the kernel's support of the encoded value (for the thesis's `m = 3`:
+    /// `[l + 0.5, l + 1.5]` with 0-based `l`).
+    #[inline]
+    pub fn valid_offsets(&self) -> (f64, f64) {
+        let mid = (self.window() as f64 - 1.0) / 2.0;
+        (mid - 0.5, mid + 0.5)
+    }
+
+    /// Local decoding of one window of `W = self.window()` channel coefficients: the estimated
+    /// position relative to the window's first channel, or `None` when the window carries no
+    /// estimate (zero mass, or a Gaussian window without a peak).
+    ///
+    /// - cos² (eq. 2.4): `arg(Σ_j c_j e^{i2aj}) / (2a)`, arg in (−π, π].
+    /// - B-spline: `1 + (c₂ − c₀)/(c₀ + c₁ + c₂)`.
+    /// - Gaussian: the vertex of the parabola through `ln c₀, ln c₁, ln c₂`.
+    ///
+    /// All three are exact for a single encoded value inside the valid range.
+    #[inline]
+    pub fn decode_window(&self, c: &[f64]) -> Option<f64> {
+        debug_assert_eq!(c.len(), self.window());
+        match *self {
+            Kernel::Cos2 { m } => {
+                let step = 2.0 * PI / f64::from(m);
+                let (mut re, mut im) = (0.0, 0.0);
+                for (j, &cj) in c.iter().enumerate() {
+                    let (s, co) = (step * j as f64).sin_cos();
+                    re += cj * co;
+                    im += cj * s;
+                }
+                if re == 0.0 && im == 0.0 {
+                    return None;
+                }
+                let offset = im.atan2(re) / step;
+                // arg wraps at ±π, i.e. offset ±m/2, which is exactly the top of the valid
+                // range: a value there may come out as −m/2 through rounding of `im`.
+                let half = 0.5 * f64::from(m);
+                Some(if offset <= -half + 1e-9 {
+                    offset + 2.0 * half
+                } else {
+                    offset
+                })
+            }
+            Kernel::BSpline2 => {
+                let sum = c[0] + c[1] + c[2];
+                (sum > 0.0).then(|| 1.0 + (c[2] - c[0]) / sum)
+            }
+            Kernel::Gaussian { .. } => {
+                if c.iter().any(|&v| v <= 0.0) {
+                    return None;
+                }
+                let (l0, l1, l2) = (c[0].ln(), c[1].ln(), c[2].ln());
+                let curvature = 2.0 * l1 - l0 - l2;
+                (curvature > 0.0).then(|| 1.0 + (l2 - l0) / (2.0 * curvature))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cos2_matches_eq_2_2() {
+        let k = Kernel::Cos2 { m: 3 };
+        let a = PI / 3.0;
+        for d in [-1.4, -0.3, 0.0, 0.7, 1.49] {
+            assert!((k.value(d) - (a * d).cos().powi(2)).abs() < 1e-15);
+        }
+        assert_eq!(k.value(1.5), 0.0);
+        assert_eq!(k.value(-2.0), 0.0);
+    }
+
+    #[test]
+    fn bspline_partitions_unity() {
+        for t in [0.0, 0.1, 0.37, 0.5, 0.99] {
+            let s: f64 = (-3..=3).map(|k| Kernel::BSpline2.value(t - k as f64)).sum();
+            assert!((s - 1.0).abs() < 1e-15, "t = {t}: {s}");
+        }
+    }
+
+    #[test]
+    fn cos2_window_sum_is_half_m() {
+        for m in 3..8 {
+            let k = Kernel::Cos2 { m };
+            let (lo, hi) = k.valid_offsets();
+            for i in 0..=10 {
+                let x = lo + (hi - lo) * i as f64 / 10.0;
+                let s: f64 = (0..m).map(|j| k.value(x - j as f64)).sum();
+                assert!((s - k.unit_window_sum(x)).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn narrow_kernels_are_rejected() {
+        assert!(matches!(
+            Kernel::Cos2 { m: 2 }.validate(),
+            Err(ChanError::TooNarrow { .. })
+        ));
+        assert!(matches!(
+            Kernel::Gaussian { sigma: 0.2 }.validate(),
+            Err(ChanError::TooNarrow { .. })
+        ));
+        assert!(Kernel::Gaussian { sigma: f64::NAN }.validate().is_err());
+        assert!(Kernel::cos2_from_a(PI / 2.5).is_err());
+        assert!(Kernel::cos2_from_a(-1.0).is_err());
+    }
+
+    #[test]
+    fn window_decoders_are_exact() {
+        for k in [
+            Kernel::Cos2 { m: 3 },
+            Kernel::Cos2 { m: 5 },
+            Kernel::BSpline2,
+            Kernel::Gaussian { sigma: 0.8 },
+        ] {
+            let (lo, hi) = k.valid_offsets();
+            for i in 0..=20 {
+                let x = lo + (hi - lo) * i as f64 / 20.0;
+                let c: Vec<f64> = (0..k.window()).map(|j| k.value(x - j as f64)).collect();
+                let got = k.decode_window(&c).unwrap();
+                assert!((got - x).abs() < 1e-12, "{k:?}: {x} decoded as {got}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_windows_carry_no_estimate() {
+        assert_eq!(Kernel::Cos2 { m: 3 }.decode_window(&[0.0; 3]), None);
+        assert_eq!(Kernel::BSpline2.decode_window(&[0.0; 3]), None);
+        assert_eq!(
+            Kernel::Gaussian { sigma: 1.0 }.decode_window(&[0.0, 1.0, 0.5]),
+            None
+        );
+    }
+}

@@ -1,0 +1,99 @@
+//! Property tests: round trips for every kernel and dimension, separation of two values,
+//! linearity of certainty in the weight, sparse = dense.
+
+use chan_repr::{ChannelBasis, ChannelGrid, Kernel, SoftHistogram, SparseHistogram};
+use proptest::prelude::*;
+
+fn kernel() -> impl Strategy<Value = Kernel> {
+    prop_oneof![
+        (3u32..8).prop_map(|m| Kernel::Cos2 { m }),
+        Just(Kernel::BSpline2),
+        (0.5f64..1.5).prop_map(|sigma| Kernel::Gaussian { sigma }),
+    ]
+}
+
+/// A basis with `n` channels over a random range.
+fn basis() -> impl Strategy<Value = ChannelBasis> {
+    (kernel(), 10usize..40, -100.0f64..100.0, 0.1f64..50.0)
+        .prop_map(|(k, n, lo, width)| ChannelBasis::covering(lo, lo + width, n, k).unwrap())
+}
+
+fn close(a: f64, b: f64, scale: f64) -> bool {
+    (a - b).abs() <= 1e-9 * scale.max(1.0)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn one_d_round_trip(b in basis(), u in 0.0f64..=1.0, w in 0.01f64..100.0) {
+        let (lo, hi) = b.representable_range();
+        let x = lo + u * (hi - lo);
+        let modes = b.decode(&b.encode_weighted(x, w).unwrap()).unwrap();
+        prop_assert_eq!(modes.len(), 1, "{:?}", modes);
+        prop_assert!(close(modes[0].value, x, b.spacing()), "{} != {}", modes[0].value, x);
+        prop_assert!((modes[0].weight - w).abs() <= 1e-9 * w);
+    }
+
+    #[test]
+    fn n_d_round_trip(bases in prop::collection::vec(basis(), 2..=3), us in prop::collection::vec(0.0f64..=1.0, 3)) {
+        let grid = ChannelGrid::new(bases.clone()).unwrap();
+        let x: Vec<f64> = bases.iter().zip(&us).map(|(b, u)| {
+            let (lo, hi) = b.representable_range();
+            lo + u * (hi - lo)
+        }).collect();
+        let modes = grid.decode(&grid.encode(&x).unwrap()).unwrap();
+        prop_assert_eq!(modes.len(), 1, "{:?}", modes);
+        for (d, b) in bases.iter().enumerate() {
+            prop_assert!(close(modes[0].value[d], x[d], b.spacing()));
+        }
+    }
+
+    #[test]
+    fn two_separated_values_are_both_recovered(b in basis(), u in 0.0f64..=1.0, v in 0.0f64..=1.0) {
+        // Two values at least 3 channel spacings apart (and beyond the other's support) are
+        // the two most certain modes, both decoded exactly. Windows that straddle the two
+        // values' tails may add weak spurious modes (the local decoder's known behaviour).
+        let (lo, hi) = b.representable_index_range();
+        let gap = 3.0f64.max(2.0 * b.kernel().support_radius());
+        prop_assume!(hi - lo > gap);
+        let t1 = lo + u * (hi - lo - gap);
+        let t2 = t1 + gap + v * (hi - lo - gap - (t1 - lo));
+        let (x1, x2) = (b.from_index(t1), b.from_index(t2));
+        let mut c = b.encode(x1).unwrap();
+        b.accumulate(x2, 1.0, &mut c).unwrap();
+        let modes = b.decode(&c).unwrap();
+        prop_assert!(modes.len() >= 2, "{:?}", modes);
+        let mut values: Vec<f64> = modes[..2].iter().map(|m| m.value).collect();
+        values.sort_by(f64::total_cmp);
+        prop_assert!(close(values[0], x1, b.spacing()) && close(values[1], x2, b.spacing()));
+    }
+
+    #[test]
+    fn certainty_is_linear_in_weight(b in basis(), u in 0.0f64..=1.0, w in 0.01f64..100.0) {
+        let (lo, hi) = b.representable_range();
+        let x = lo + u * (hi - lo);
+        let one = b.decode(&b.encode(x).unwrap()).unwrap()[0];
+        let weighted = b.decode(&b.encode_weighted(x, w).unwrap()).unwrap()[0];
+        prop_assert!((weighted.certainty - w * one.certainty).abs() <= 1e-9 * w * one.certainty);
+    }
+
+    #[test]
+    fn sparse_histogram_equals_dense(bases in prop::collection::vec(basis(), 1..=2),
+                                     pts in prop::collection::vec((0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..5.0), 1..20)) {
+        let grid = ChannelGrid::new(bases.clone()).unwrap();
+        let mut dense = SoftHistogram::new(grid.clone());
+        let mut sparse = SparseHistogram::new(grid);
+        for (u, v, w) in pts {
+            let x: Vec<f64> = bases.iter().zip([u, v]).map(|(b, s)| {
+                let (lo, hi) = b.representable_range();
+                lo + s * (hi - lo)
+            }).collect();
+            dense.add(&x, w).unwrap();
+            sparse.add(&x, w).unwrap();
+        }
+        let as_dense = sparse.to_dense();
+        prop_assert_eq!(as_dense.counts(), dense.counts());
+        prop_assert_eq!(sparse.decode().unwrap(), dense.decode().unwrap());
+    }
+}
