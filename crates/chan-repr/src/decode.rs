@@ -147,17 +147,23 @@ pub(crate) fn check_coefficient(v: f64) -> Result<(), ChanError> {
 }
 
 /// Sorts by decreasing certainty, ties broken by increasing key (deterministic order).
+/// Certainties equal to single precision count as ties, so that modes of equal mass come out
+/// in value order whatever the last bits of their sums; the order stays total.
 pub(crate) fn sort_modes<M, K: PartialOrd>(
     modes: &mut [M],
     certainty: impl Fn(&M) -> f64,
     key: impl Fn(&M) -> K,
 ) {
     modes.sort_by(|a, b| {
-        certainty(b).total_cmp(&certainty(a)).then_with(|| {
-            key(a)
-                .partial_cmp(&key(b))
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
+        let (ca, cb) = (certainty(a), certainty(b));
+        (cb as f32)
+            .total_cmp(&(ca as f32))
+            .then_with(|| {
+                key(a)
+                    .partial_cmp(&key(b))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .then_with(|| cb.total_cmp(&ca))
     });
 }
 

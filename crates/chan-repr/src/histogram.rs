@@ -181,10 +181,10 @@ impl SoftHistogram {
 ///
 /// ```
 /// use chan_repr::{ChannelBasis, ChannelGrid, Kernel, SparseHistogram};
-/// let b = ChannelBasis::covering(0.0, 1000.0, 1000, Kernel::Cos2 { m: 3 }).unwrap();
+/// let b = ChannelBasis::integer(1000, Kernel::Cos2 { m: 3 }).unwrap(); // centres 1..=1000
 /// let mut h = SparseHistogram::new(ChannelGrid::new(vec![b.clone(), b.clone(), b]).unwrap());
-/// h.add(&[10.0, 500.0, 990.0], 1.0).unwrap();
-/// assert_eq!(h.nonzero(), 27); // 3 × 3 × 3 active channels of 10⁹
+/// h.add(&[10.0, 500.0, 990.0], 1.0).unwrap(); // on centres: 3 active channels per axis
+/// assert_eq!(h.nonzero(), 27); // 3 × 3 × 3 stored of 10⁹
 /// assert!((h.decode().unwrap()[0].value[1] - 500.0).abs() < 1e-9);
 /// ```
 #[derive(Debug, Clone)]

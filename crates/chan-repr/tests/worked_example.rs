@@ -46,23 +46,31 @@ fn decoding_3_3_gives_eq_2_6_and_2_7() {
     assert!((modes[0].value - 3.3).abs() < 1e-12);
 }
 
+/// Eq. 2.8 of the thesis prints `c2 = [0 0 0 0 0 0 0.48 0.96 0.96 0]` for 6.8, which no cos²
+/// encoding can produce: two neighbouring channels at 0.96 would both need `|x − k| < 0.2`, and
+/// the channels of one value sum to `M/2 = 1.5`, not 2.4. The true encoding of 6.8 is
+/// `B(0.8), B(−0.2), B(−1.2)` on centres 6, 7, 8 = `[.. 0.45 0.96 0.10 ..]`, asserted here;
+/// the thesis's point — both values decode from the sum (eq. 2.9) — holds.
 #[test]
 fn soft_histogram_of_3_3_and_6_8_gives_eq_2_8_and_2_9() {
     let b = basis();
     let c1 = b.encode(3.3).unwrap();
     let c2 = b.encode(6.8).unwrap();
     let r2: Vec<f64> = c2.iter().copied().map(round2).collect();
-    assert_eq!(r2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.48, 0.96, 0.96, 0.0]);
+    assert_eq!(r2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.45, 0.96, 0.10, 0.0, 0.0]);
+    let a = std::f64::consts::PI / 3.0;
+    for (k, centre) in [(5, 6.0), (6, 7.0), (7, 8.0)] {
+        assert!((c2[k] - (a * (6.8 - centre)).cos().powi(2)).abs() < 1e-14);
+    }
     let c: Vec<f64> = c1.iter().zip(&c2).map(|(a, b)| a + b).collect();
     let rc: Vec<f64> = c.iter().copied().map(round2).collect();
-    assert_eq!(rc, [0.0, 0.04, 0.90, 0.55, 0.0, 0.0, 0.48, 0.96, 0.96, 0.0]);
+    assert_eq!(rc, [0.0, 0.04, 0.90, 0.55, 0.0, 0.45, 0.96, 0.10, 0.0, 0.0]);
     let modes = b.decode(&c).unwrap();
     assert_eq!(modes.len(), 2);
-    let mut values: Vec<f64> = modes.iter().map(|m| m.value).collect();
-    values.sort_by(f64::total_cmp);
+    // Equal certainties: ties are ordered by value.
     assert!(
-        (values[0] - 3.3).abs() < 1e-12 && (values[1] - 6.8).abs() < 1e-12,
-        "{values:?}"
+        (modes[0].value - 3.3).abs() < 1e-12 && (modes[1].value - 6.8).abs() < 1e-12,
+        "{modes:?}"
     );
     for m in &modes {
         assert!((m.certainty - 1.5).abs() < 1e-12 && (m.weight - 1.0).abs() < 1e-12);
