@@ -4,6 +4,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::{ChanError, Kernel};
 
+/// Slack (channel spacings) on the representable-range test.
+const RANGE_SLACK: f64 = 1e-9;
+
 /// `N` uniformly spaced channels with one kernel: maps values to channel-index space
 /// (`t = (x − first)/spacing`, channel `k` centred at `t = k`, 0-based) and back.
 ///
@@ -186,11 +189,15 @@ impl ChannelBasis {
                 value: x,
             });
         }
-        let (lo, hi) = self.representable_range();
-        if x < lo || x > hi {
+        // Tested in index space with a slack of 1e-9 channel spacings, so that the ends given
+        // to `covering` are accepted whatever the rounding of `first` and `spacing`.
+        let (tlo, thi) = self.representable_index_range();
+        let t = self.to_index(x);
+        if t < tlo - RANGE_SLACK || t > thi + RANGE_SLACK {
+            let (lo, hi) = self.representable_range();
             return Err(ChanError::OutOfRange { value: x, lo, hi });
         }
-        Ok(self.to_index(x))
+        Ok(t.clamp(tlo, thi))
     }
 
     /// Calls `f(k, B(t − k))` for every channel `k` with a non-zero value at index coordinate
@@ -340,6 +347,23 @@ mod tests {
                 for (s, d) in sparse.iter().zip(&dense) {
                     // cos² is evaluated by phasor rotation when sparse: equal to rounding.
                     assert!((s - d).abs() <= 1e-14, "{kernel:?} at {x}: {s} vs {d}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn covering_accepts_its_own_ends() {
+        for (lo, hi, n) in [(0.0, 640.0, 34), (-0.3, 0.7, 11), (1e-3, 123.456, 97)] {
+            for kernel in [
+                Kernel::Cos2 { m: 3 },
+                Kernel::BSpline2,
+                Kernel::Gaussian { sigma: 0.6 },
+            ] {
+                let b = ChannelBasis::covering(lo, hi, n, kernel).unwrap();
+                for x in [lo, hi] {
+                    let modes = b.decode(&b.encode(x).unwrap()).unwrap();
+                    assert!((modes[0].value - x).abs() < 1e-9 * hi.abs().max(1.0));
                 }
             }
         }

@@ -130,20 +130,11 @@ impl SoftHistogram {
                 got: 1,
             });
         }
-        let basis = self.grid.basis(0).clone();
-        let (lo, hi) = basis.representable_range();
+        let basis = self.grid.basis(0);
+        let counts = &mut self.counts;
         for &x in xs {
-            if !x.is_finite() {
-                return Err(ChanError::NonFinite {
-                    what: "value",
-                    value: x,
-                });
-            }
-            if x < lo || x > hi {
-                return Err(ChanError::OutOfRange { value: x, lo, hi });
-            }
-            let counts = &mut self.counts;
-            basis.for_each_active(basis.to_index(x), |k, v| counts[k] += v);
+            let t = basis.checked_index(x)?;
+            basis.for_each_active(t, |k, v| counts[k] += v);
             self.total_weight += 1.0;
         }
         Ok(())
