@@ -1,0 +1,70 @@
+//! Exact outer contours by crack following.
+//!
+//! The boundary between a 4-connected region and the outside (8-connected) is a closed chain of
+//! pixel edges ("cracks"). We walk it with the region on the left, which is counter-clockwise as
+//! seen on screen (y down), and list the region pixel beside each crack, dropping immediate
+//! repeats. A state is a region pixel `p` and the direction `d` of its non-region 4-neighbour;
+//! looking at the pixel `a` ahead and the pixel `b` diagonally ahead on the outside:
+//!
+//! - `a` outside: convex corner, turn left around `p` (also at a diagonal pinch, because the
+//!   region is 4-connected);
+//! - `a` inside, `b` outside: go straight to `a`;
+//! - `a` and `b` inside: concave corner, turn right onto `b` (`a` has no outside 4-neighbour here
+//!   and is skipped, so the chain steps diagonally).
+//!
+//! Membership is the threshold test alone: every pixel tested is 4-adjacent to a region pixel, so
+//! it is in the region exactly when it passes the threshold. The walk starts at the first region
+//! pixel in raster order, whose upper neighbour belongs to the outside, and stops when it returns
+//! to its first crack: O(perimeter) time, no mask.
+
+use crate::image::GrayView;
+use crate::region::Polarity;
+
+/// Unit steps east, north, west, south; a left turn is `+1`.
+const DIRS: [(i64, i64); 4] = [(1, 0), (0, -1), (-1, 0), (0, 1)];
+
+/// Traces the outer contour of the region through `seed` (its first pixel in raster order); see
+/// [`Region::contour`](crate::Region::contour) for the guarantees.
+pub fn trace_outer_contour(
+    img: &GrayView,
+    seed: (u32, u32),
+    level: u8,
+    polarity: Polarity,
+) -> Vec<(u32, u32)> {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let inside = |x: i64, y: i64| {
+        x >= 0
+            && y >= 0
+            && x < w
+            && y < h
+            && polarity.contains(img.at(x as usize, y as usize), level)
+    };
+    let start = (seed.0 as i64, seed.1 as i64, 1usize);
+    let (mut x, mut y, mut d) = start;
+    let mut out = vec![seed];
+    loop {
+        let t = (d + 1) & 3;
+        let (ax, ay) = (x + DIRS[t].0, y + DIRS[t].1);
+        if !inside(ax, ay) {
+            d = t;
+        } else {
+            let (bx, by) = (ax + DIRS[d].0, ay + DIRS[d].1);
+            if inside(bx, by) {
+                (x, y, d) = (bx, by, (d + 3) & 3);
+            } else {
+                (x, y) = (ax, ay);
+            }
+        }
+        if (x, y, d) == start {
+            break;
+        }
+        let p = (x as u32, y as u32);
+        if *out.last().expect("non-empty") != p {
+            out.push(p);
+        }
+    }
+    if out.len() > 1 && out.last() == out.first() {
+        out.pop();
+    }
+    out
+}

@@ -1,0 +1,116 @@
+//! The region files of the Oxford affine benchmark (Mikolajczyk's `repeatability.m`, VLBenchmarks):
+//! a text file whose first line is the descriptor length (0 or 1 meaning none), the second the
+//! number of regions, then one line `u v a b c [descriptor…]` per region, with the ellipse
+//! `a (x−u)² + 2b (x−u)(y−v) + c (y−v)² = 1` in 0-based pixel coordinates.
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+use crate::error::{MserError, Result};
+use crate::region::Ellipse;
+
+/// One region of a region file: its ellipse and (possibly empty) descriptor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OxfordRegion {
+    /// The ellipse.
+    pub ellipse: Ellipse,
+    /// The descriptor (empty when the file has none).
+    pub descriptor: Vec<f64>,
+}
+
+/// Writes ellipses without descriptors. The numbers are written with Rust's shortest
+/// round-trip formatting, so [`read_regions`] gets the same `f64` values back.
+pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+    writeln!(w, "1.0")?;
+    writeln!(w, "{}", ellipses.len())?;
+    for e in ellipses {
+        writeln!(w, "{} {} {} {} {}", e.u, e.v, e.a, e.b, e.c)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Writes ellipses to a file; see [`write_regions`].
+pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> {
+    let f = std::fs::File::create(path)?;
+    write_regions(std::io::BufWriter::new(f), ellipses)
+}
+
+/// Reads a region file. Every ellipse must be finite and positive definite (`a > 0`,
+/// `ac − b² > 0`); each line must hold `5 + descriptor length` numbers; the count must match.
+pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
+    let mut lines = r.lines().enumerate().filter_map(|(i, l)| match l {
+        Ok(s) if s.trim().is_empty() => None,
+        other => Some((i + 1, other)),
+    });
+    let parse_err = |line, reason: String| MserError::Parse { line, reason };
+    let mut header = |what: &str| -> Result<(usize, f64)> {
+        let (no, l) = lines
+            .next()
+            .ok_or_else(|| parse_err(0, format!("missing {what} line")))?;
+        let l = l?;
+        let v: f64 = l
+            .trim()
+            .parse()
+            .map_err(|_| parse_err(no, format!("{what} `{}` is not a number", l.trim())))?;
+        if !(v.is_finite() && v >= 0.0 && v.fract() == 0.0) {
+            return Err(parse_err(no, format!("{what} {v} is not a whole number")));
+        }
+        Ok((no, v))
+    };
+    let (_, dim) = header("descriptor length")?;
+    let (_, count) = header("region count")?;
+    let dim = if dim <= 1.0 { 0 } else { dim as usize };
+    let count = count as usize;
+    let mut out = Vec::with_capacity(count.min(1 << 20));
+    for (no, l) in lines {
+        let l = l?;
+        if out.len() == count {
+            return Err(parse_err(
+                no,
+                format!("more than the announced {count} regions"),
+            ));
+        }
+        let nums: Vec<f64> = l
+            .split_whitespace()
+            .map(|t| t.parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| parse_err(no, "a field is not a number".into()))?;
+        if nums.len() != 5 + dim {
+            return Err(parse_err(
+                no,
+                format!("{} fields, expected {}", nums.len(), 5 + dim),
+            ));
+        }
+        if nums.iter().any(|v| !v.is_finite()) {
+            return Err(parse_err(no, "non-finite number".into()));
+        }
+        let e = Ellipse {
+            u: nums[0],
+            v: nums[1],
+            a: nums[2],
+            b: nums[3],
+            c: nums[4],
+        };
+        if !(e.a > 0.0 && e.a * e.c - e.b * e.b > 0.0) {
+            return Err(parse_err(no, "ellipse is not positive definite".into()));
+        }
+        out.push(OxfordRegion {
+            ellipse: e,
+            descriptor: nums[5..].to_vec(),
+        });
+    }
+    if out.len() != count {
+        return Err(parse_err(
+            0,
+            format!("announced {count} regions, found {}", out.len()),
+        ));
+    }
+    Ok(out)
+}
+
+/// Reads a region file from disk; see [`read_regions`].
+pub fn load_regions(path: impl AsRef<Path>) -> Result<Vec<OxfordRegion>> {
+    let f = std::fs::File::open(path)?;
+    read_regions(std::io::BufReader::new(f))
+}

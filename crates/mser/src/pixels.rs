@@ -1,0 +1,50 @@
+//! Pixel lists on demand: a flood fill from a region's seed, confined to its bounding box.
+
+use crate::image::GrayView;
+use crate::region::{BoundingBox, Polarity};
+
+/// The pixels of the 4-connected component of `{p : polarity.contains(I(p), level)}` through
+/// `seed`, in raster order. `bbox` must contain the component (it only bounds the work).
+pub fn flood_pixels(
+    img: &GrayView,
+    seed: (u32, u32),
+    level: u8,
+    polarity: Polarity,
+    bbox: BoundingBox,
+) -> Vec<(u32, u32)> {
+    // Clamp the box to the image so a wrong box cannot index outside.
+    let x0 = bbox.x_min.min(seed.0) as usize;
+    let y0 = bbox.y_min.min(seed.1) as usize;
+    let x1 = (bbox.x_max.max(seed.0) as usize).min(img.width() - 1);
+    let y1 = (bbox.y_max.max(seed.1) as usize).min(img.height() - 1);
+    let bw = x1 - x0 + 1;
+    let bh = y1 - y0 + 1;
+    let mut seen = vec![false; bw * bh];
+    let mut todo = vec![(seed.0 as usize, seed.1 as usize)];
+    seen[(seed.1 as usize - y0) * bw + seed.0 as usize - x0] = true;
+    let mut out = Vec::new();
+    while let Some((x, y)) = todo.pop() {
+        out.push((x as u32, y as u32));
+        let mut visit = |nx: usize, ny: usize| {
+            let k = (ny - y0) * bw + nx - x0;
+            if !seen[k] && polarity.contains(img.at(nx, ny), level) {
+                seen[k] = true;
+                todo.push((nx, ny));
+            }
+        };
+        if x > x0 {
+            visit(x - 1, y);
+        }
+        if x < x1 {
+            visit(x + 1, y);
+        }
+        if y > y0 {
+            visit(x, y - 1);
+        }
+        if y < y1 {
+            visit(x, y + 1);
+        }
+    }
+    out.sort_unstable_by_key(|&(x, y)| (y, x));
+    out
+}

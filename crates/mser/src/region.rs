@@ -1,0 +1,288 @@
+//! A detected region: polarity, grey level, size, moments, bounding box and the equivalent ellipse.
+
+use crate::contour::trace_outer_contour;
+use crate::error::{MserError, Result};
+use crate::image::GrayView;
+use crate::pixels::flood_pixels;
+
+/// Whether a region is darker or brighter than its surround.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Polarity {
+    /// A connected component of `{p : I(p) ≤ level}` (darker than its surround).
+    Dark,
+    /// A connected component of `{p : I(p) ≥ level}` (brighter than its surround).
+    Bright,
+}
+
+impl Polarity {
+    /// Whether grey value `g` passes this polarity's threshold at `level`.
+    #[inline]
+    pub fn contains(self, g: u8, level: u8) -> bool {
+        match self {
+            Polarity::Dark => g <= level,
+            Polarity::Bright => g >= level,
+        }
+    }
+}
+
+/// An axis-aligned bounding box with inclusive pixel bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct BoundingBox {
+    /// Leftmost column.
+    pub x_min: u32,
+    /// Topmost row.
+    pub y_min: u32,
+    /// Rightmost column (inclusive).
+    pub x_max: u32,
+    /// Bottom row (inclusive).
+    pub y_max: u32,
+}
+
+impl BoundingBox {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x_max - self.x_min + 1
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y_max - self.y_min + 1
+    }
+}
+
+/// Raw moments of a pixel set, summed exactly in integers over the pixel centres `(x, y)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Moments {
+    /// Number of pixels (the zeroth moment).
+    pub n: u64,
+    /// Σ x.
+    pub sx: u64,
+    /// Σ y.
+    pub sy: u64,
+    /// Σ x².
+    pub sxx: u64,
+    /// Σ x y.
+    pub sxy: u64,
+    /// Σ y².
+    pub syy: u64,
+}
+
+impl Moments {
+    /// The moments of a list of pixels.
+    pub fn of_pixels(pixels: &[(u32, u32)]) -> Self {
+        let mut m = Moments {
+            n: 0,
+            sx: 0,
+            sy: 0,
+            sxx: 0,
+            sxy: 0,
+            syy: 0,
+        };
+        for &(x, y) in pixels {
+            let (x, y) = (x as u64, y as u64);
+            m.n += 1;
+            m.sx += x;
+            m.sy += y;
+            m.sxx += x * x;
+            m.sxy += x * y;
+            m.syy += y * y;
+        }
+        m
+    }
+
+    /// Centroid `(x̄, ȳ)` (first moments over the area).
+    pub fn centroid(&self) -> (f64, f64) {
+        let n = self.n as f64;
+        (self.sx as f64 / n, self.sy as f64 / n)
+    }
+
+    /// Second central moments of the pixel centres `[σxx, σxy, σyy]` (divided by the area), as
+    /// VLFeat and OpenCV compute them. Singular for collinear pixels.
+    pub fn covariance(&self) -> [f64; 3] {
+        let n = self.n as f64;
+        let (mx, my) = self.centroid();
+        // Centre in f64 after an exact integer sum; the cancellation error is far below a pixel².
+        [
+            self.sxx as f64 / n - mx * mx,
+            self.sxy as f64 / n - mx * my,
+            self.syy as f64 / n - my * my,
+        ]
+    }
+
+    /// Second central moments of the region as a plane figure, the union of its unit pixel
+    /// squares: [`covariance`](Self::covariance) plus 1/12 on the diagonal (the variance of a
+    /// unit square). Always positive definite.
+    pub fn area_covariance(&self) -> [f64; 3] {
+        let [xx, xy, yy] = self.covariance();
+        [xx + 1.0 / 12.0, xy, yy + 1.0 / 12.0]
+    }
+}
+
+/// An ellipse `a (x − u)² + 2 b (x − u)(y − v) + c (y − v)² = 1`, the convention of the Oxford
+/// affine benchmark's region files (`OVERLAP.md` §1); `(u, v)` in 0-based pixel coordinates, x
+/// right, y down.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ellipse {
+    /// Centre x.
+    pub u: f64,
+    /// Centre y.
+    pub v: f64,
+    /// Coefficient of (x − u)².
+    pub a: f64,
+    /// Half the coefficient of (x − u)(y − v).
+    pub b: f64,
+    /// Coefficient of (y − v)².
+    pub c: f64,
+}
+
+impl Ellipse {
+    /// The ellipse `dᵀ (k² Σ)⁻¹ d = 1` of a covariance `Σ = [σxx, σxy, σyy]`: semi-axes `k` times
+    /// the standard deviations along the principal axes. `None` if `Σ` is not positive definite or
+    /// `k` is not positive.
+    pub fn from_covariance(u: f64, v: f64, cov: [f64; 3], k: f64) -> Option<Self> {
+        let [xx, xy, yy] = cov.map(|s| s * k * k);
+        let det = xx * yy - xy * xy;
+        if !(det > 0.0 && xx > 0.0 && k > 0.0) || !det.is_finite() {
+            return None;
+        }
+        Some(Ellipse {
+            u,
+            v,
+            a: yy / det,
+            b: -xy / det,
+            c: xx / det,
+        })
+    }
+
+    /// Area `π / √(ac − b²)`.
+    pub fn area(&self) -> f64 {
+        std::f64::consts::PI / (self.a * self.c - self.b * self.b).sqrt()
+    }
+
+    /// Semi-axes `(l_max, l_min)`.
+    pub fn semi_axes(&self) -> (f64, f64) {
+        let tr = self.a + self.c;
+        let det = self.a * self.c - self.b * self.b;
+        let disc = (0.25 * (self.a - self.c).powi(2) + self.b * self.b).sqrt();
+        let l1 = 0.5 * tr + disc; // larger eigenvalue
+        let l2 = det / l1;
+        (1.0 / l2.sqrt(), 1.0 / l1.sqrt())
+    }
+
+    /// Whether `(x, y)` lies strictly inside (`dᵀ M d < 1`, as the benchmark code tests).
+    pub fn contains(&self, x: f64, y: f64) -> bool {
+        let (dx, dy) = (x - self.u, y - self.v);
+        self.a * dx * dx + 2.0 * self.b * dx * dy + self.c * dy * dy < 1.0
+    }
+}
+
+/// One maximally stable extremal region.
+///
+/// The region is the connected component (4-neighbourhood) of `{p : I(p) ≤ level}` (dark) or
+/// `{p : I(p) ≥ level}` (bright) that contains `seed`. Its pixels and contour are not stored; they
+/// are recomputed from the image on demand in time proportional to the area and the perimeter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Region {
+    /// Darker or brighter than the surround.
+    pub polarity: Polarity,
+    /// The threshold at which the region is the component: the largest (dark) or smallest
+    /// (bright) grey value inside it.
+    pub level: u8,
+    /// The region's first pixel in raster order (topmost row, then leftmost column).
+    pub seed: (u32, u32),
+    /// Number of pixels.
+    pub area: u32,
+    /// The stability measure `v` of the region (see [`Variation`](crate::Variation)).
+    pub variation: f64,
+    /// Inclusive bounding box.
+    pub bbox: BoundingBox,
+    /// Exact raw moments.
+    pub moments: Moments,
+}
+
+impl Region {
+    /// Centroid `(x̄, ȳ)`.
+    pub fn centroid(&self) -> (f64, f64) {
+        self.moments.centroid()
+    }
+
+    /// The equivalent ellipse in the Oxford `(u, v, a, b, c)` convention: centred on the centroid,
+    /// with the second moments of the region as a union of unit pixel squares
+    /// ([`Moments::area_covariance`], Σ), scaled as the uniformly filled ellipse with those moments:
+    /// `M = (4Σ)⁻¹`, semi-axes twice the standard deviations, so its area is close to the region's
+    /// (equal for elliptical regions). Use [`ellipse_scaled`](Self::ellipse_scaled)`(1.0)` for
+    /// VLFeat/VLBenchmarks frames (`M = Σ⁻¹`, half the size).
+    pub fn ellipse(&self) -> Ellipse {
+        self.ellipse_scaled(2.0)
+    }
+
+    /// The ellipse `M = (k² Σ)⁻¹` with Σ the region's [`Moments::area_covariance`]. `k = 2` is
+    /// [`ellipse`](Self::ellipse); `k = 1` the moment ellipse of VLFeat. Panics if `k ≤ 0`.
+    pub fn ellipse_scaled(&self, k: f64) -> Ellipse {
+        assert!(k > 0.0, "ellipse scale must be positive");
+        let (u, v) = self.centroid();
+        Ellipse::from_covariance(u, v, self.moments.area_covariance(), k)
+            .expect("the area covariance is positive definite")
+    }
+
+    fn check_seed(&self, img: &GrayView) -> Result<()> {
+        let (x, y) = (self.seed.0 as usize, self.seed.1 as usize);
+        if x >= img.width() || y >= img.height() {
+            return Err(MserError::RegionImageMismatch {
+                reason: "seed outside the image",
+            });
+        }
+        if !self.polarity.contains(img.at(x, y), self.level) {
+            return Err(MserError::RegionImageMismatch {
+                reason: "seed pixel does not pass the region's threshold",
+            });
+        }
+        if y > 0 && self.polarity.contains(img.at(x, y - 1), self.level)
+            || x > 0 && self.polarity.contains(img.at(x - 1, y), self.level)
+        {
+            return Err(MserError::RegionImageMismatch {
+                reason: "seed is not the region's first pixel in raster order",
+            });
+        }
+        Ok(())
+    }
+
+    /// The region's pixels `(x, y)` in raster order, recomputed by a flood fill from the seed.
+    /// `img` must be the image the region was detected in.
+    pub fn pixels(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
+        self.check_seed(img)?;
+        let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox);
+        if px.len() != self.area as usize {
+            return Err(MserError::RegionImageMismatch {
+                reason: "flood fill from the seed does not give the region's area",
+            });
+        }
+        Ok(px)
+    }
+
+    /// The outer contour: a closed, ordered list of region pixels `(x, y)`, each with a
+    /// non-region 4-neighbour, consecutive points (and last to first) 8-adjacent, running once
+    /// along the whole boundary between the region and the outside, counter-clockwise as seen on
+    /// screen (x right, y down; the shoelace sum `Σ x_i y_{i+1} − x_{i+1} y_i` is negative), starting
+    /// at [`seed`](Self::seed). Holes are not part of it. A pixel is listed again when the boundary
+    /// passes it twice (one-pixel-wide parts); the first point is not repeated at the end.
+    /// `img` must be the image the region was detected in.
+    pub fn contour(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
+        self.check_seed(img)?;
+        Ok(trace_outer_contour(
+            img,
+            self.seed,
+            self.level,
+            self.polarity,
+        ))
+    }
+
+    /// [`contour`](Self::contour) as `f64` points, the form `fd-match` consumes.
+    pub fn contour_f64(&self, img: &GrayView) -> Result<Vec<(f64, f64)>> {
+        Ok(self
+            .contour(img)?
+            .into_iter()
+            .map(|(x, y)| (x as f64, y as f64))
+            .collect())
+    }
+}
