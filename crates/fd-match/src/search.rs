@@ -1,0 +1,248 @@
+//! Best and second-best matches of every query descriptor among target descriptors.
+//!
+//! **Pruning for FD Corr.** For unit-norm FDs, `|r₁₂(l)| ≤ Σ_n |C₁(n)||C₂(n)|` (triangle
+//! inequality), so `e_lb = 2 − 2 Σ |C₁||C₂| = Σ (|C₁| − |C₂|)²` — the abs(FD) SSD — is a lower
+//! bound of the correlation error (eq. 10). [`best_two`] computes the bound for every target
+//! (one dot product of magnitudes), visits targets by increasing bound and stops as soon as a
+//! bound exceeds the current second-best error by more than a rounding margin (`1e-9`, far
+//! above the ~1e-14 rounding of either side). Pairs it skips are strictly worse than the
+//! second best, and ties are broken by the lower target index in both searches, so the result
+//! is identical to [`best_two_brute_force`] (tested). SSD methods are cheap and are searched
+//! exhaustively.
+//!
+//! Queries are processed in parallel with rayon; each query's result depends only on the data,
+//! so output (in query order) is identical for any number of threads.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::correlation::Alignment;
+use crate::descriptor::DescriptorSet;
+use crate::error::FdError;
+use crate::method::{Method, PairError, dot};
+
+/// Slack between the magnitude lower bound and the correlation error covering rounding.
+const BOUND_MARGIN: f64 = 1e-9;
+
+/// A target and its error against a query.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// Index of the target in the target set.
+    pub index: usize,
+    /// Error of the method (0 = perfect).
+    pub error: f64,
+    /// Rotation and start-point shift from query to target ([`Method::FdCorr`] only).
+    pub alignment: Option<Alignment>,
+}
+
+impl Candidate {
+    /// Ordering used everywhere: smaller error first, then smaller index.
+    #[inline]
+    fn beats(&self, other: &Candidate) -> bool {
+        self.error < other.error || (self.error == other.error && self.index < other.index)
+    }
+}
+
+/// The best and second-best targets of one query (`e_min`, `e_sec` of eq. 19).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BestTwo {
+    /// Smallest error (None if there are no targets).
+    pub best: Option<Candidate>,
+    /// Second smallest error (None if there are fewer than two targets).
+    pub second: Option<Candidate>,
+}
+
+impl BestTwo {
+    /// Error ratio `e_r = e_min / e_sec` (eq. 19). `0` when there is no second target
+    /// (`e_sec = ∞`), `1` when both errors are 0 (fully ambiguous), None without targets.
+    pub fn ratio(&self) -> Option<f64> {
+        let b = self.best?;
+        Some(match self.second {
+            None => 0.0,
+            Some(s) if s.error == 0.0 => 1.0,
+            Some(s) => b.error / s.error,
+        })
+    }
+
+    #[inline]
+    fn offer(&mut self, c: Candidate) {
+        match self.best {
+            None => self.best = Some(c),
+            Some(b) if c.beats(&b) => {
+                self.second = self.best;
+                self.best = Some(c);
+            }
+            _ => match self.second {
+                Some(s) if !c.beats(&s) => {}
+                _ => self.second = Some(c),
+            },
+        }
+    }
+
+    /// Error a candidate must beat to change this result (∞ while incomplete).
+    #[inline]
+    fn threshold(&self, only_best: bool) -> f64 {
+        let c = if only_best { self.best } else { self.second };
+        c.map_or(f64::INFINITY, |c| c.error)
+    }
+}
+
+/// Work counters of a search.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SearchStats {
+    /// Query–target pairs considered (`queries × targets`, minus self pairs).
+    pub pairs: u64,
+    /// Pairs whose error was actually evaluated (the rest were pruned by the bound).
+    pub evaluated: u64,
+}
+
+fn check(a: &DescriptorSet, b: &DescriptorSet) -> Result<(), FdError> {
+    let (ca, cb) = (a.config(), b.config());
+    if ca.coefficients != cb.coefficients || ca.samples != cb.samples {
+        return Err(FdError::IncompatibleSets {
+            reason: "different numbers of coefficients or samples",
+        });
+    }
+    Ok(())
+}
+
+/// Per-thread scratch of a search.
+#[derive(Clone)]
+struct Work {
+    pair: PairError,
+    cand: Vec<(f64, usize)>,
+}
+
+/// One query against all targets, pruned by the magnitude bound when the method is FD Corr.
+fn search_one(
+    w: &mut Work,
+    q: &DescriptorSet,
+    i: usize,
+    t: &DescriptorSet,
+    skip_self: bool,
+    only_best: bool,
+    method: Method,
+    prune: bool,
+) -> (BestTwo, u64) {
+    let mut out = BestTwo::default();
+    let mut evaluated = 0u64;
+    if method != Method::FdCorr || !prune {
+        for j in 0..t.len() {
+            if skip_self && j == i {
+                continue;
+            }
+            let (error, alignment) = w.pair.eval(q, i, t, j);
+            evaluated += 1;
+            out.offer(Candidate {
+                index: j,
+                error,
+                alignment,
+            });
+        }
+        return (out, evaluated);
+    }
+    let mq = q.magnitudes(i);
+    w.cand.clear();
+    for j in 0..t.len() {
+        if !(skip_self && j == i) {
+            w.cand.push((2.0 - 2.0 * dot(mq, t.magnitudes(j)), j));
+        }
+    }
+    // Visit by increasing bound: first a small sorted head, then (rarely) the sorted rest.
+    let cmp = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+    let head = 16.min(w.cand.len());
+    if head < w.cand.len() {
+        w.cand.select_nth_unstable_by(head, cmp);
+    }
+    w.cand[..head].sort_unstable_by(cmp);
+    let mut sorted_rest = false;
+    let mut idx = 0;
+    while idx < w.cand.len() {
+        if idx == head && !sorted_rest {
+            if w.cand[head].0 - BOUND_MARGIN > out.threshold(only_best) {
+                break; // cand[head] is the smallest bound of the rest
+            }
+            w.cand[head..].sort_unstable_by(cmp);
+            sorted_rest = true;
+        }
+        let (lb, j) = w.cand[idx];
+        if lb - BOUND_MARGIN > out.threshold(only_best) {
+            break;
+        }
+        let (error, alignment) = w.pair.eval(q, i, t, j);
+        evaluated += 1;
+        out.offer(Candidate {
+            index: j,
+            error,
+            alignment,
+        });
+        idx += 1;
+    }
+    (out, evaluated)
+}
+
+fn run(
+    q: &DescriptorSet,
+    t: &DescriptorSet,
+    method: Method,
+    skip_self: bool,
+    only_best: bool,
+    prune: bool,
+) -> Result<(Vec<BestTwo>, SearchStats), FdError> {
+    check(q, t)?;
+    let proto = Work {
+        pair: PairError::new(method, q),
+        cand: Vec::with_capacity(t.len()),
+    };
+    let res: Vec<(BestTwo, u64)> = (0..q.len())
+        .into_par_iter()
+        .map_init(
+            || proto.clone(),
+            |w, i| search_one(w, q, i, t, skip_self, only_best, method, prune),
+        )
+        .collect();
+    let per_query = t.len() as u64 - u64::from(skip_self && !t.is_empty());
+    let stats = SearchStats {
+        pairs: per_query * q.len() as u64,
+        evaluated: res.iter().map(|r| r.1).sum(),
+    };
+    Ok((res.into_iter().map(|r| r.0).collect(), stats))
+}
+
+/// For every query descriptor, its best and second-best target under `method` (fast search;
+/// see the module doc). The ratio test of any threshold then needs no recomputation:
+/// [`BestTwo::ratio`], [`crate::mutual_matches`].
+pub fn best_two(
+    queries: &DescriptorSet,
+    targets: &DescriptorSet,
+    method: Method,
+) -> Result<Vec<BestTwo>, FdError> {
+    run(queries, targets, method, false, false, true).map(|r| r.0)
+}
+
+/// [`best_two`] and its work counters.
+pub fn best_two_with_stats(
+    queries: &DescriptorSet,
+    targets: &DescriptorSet,
+    method: Method,
+) -> Result<(Vec<BestTwo>, SearchStats), FdError> {
+    run(queries, targets, method, false, false, true)
+}
+
+/// Reference: evaluates every pair (no pruning); same result as [`best_two`].
+pub fn best_two_brute_force(
+    queries: &DescriptorSet,
+    targets: &DescriptorSet,
+    method: Method,
+) -> Result<Vec<BestTwo>, FdError> {
+    run(queries, targets, method, false, false, false).map(|r| r.0)
+}
+
+/// `e_min` of eq. 18 for every descriptor: its smallest error against every *other* descriptor
+/// of the same set (∞ for a set of one). Feed to [`crate::preselect`] for any `T_err`.
+pub fn min_errors_within(set: &DescriptorSet, method: Method) -> Result<Vec<f64>, FdError> {
+    let (r, _) = run(set, set, method, true, true, true)?;
+    Ok(r.iter()
+        .map(|b| b.best.map_or(f64::INFINITY, |c| c.error))
+        .collect())
+}
