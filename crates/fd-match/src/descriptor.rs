@@ -72,7 +72,11 @@ impl DescriptorConfig {
             return bad("samples", self.samples, "must be at least `coefficients`");
         }
         if self.dense_samples < self.samples {
-            return bad("dense_samples", self.dense_samples, "must be at least `samples`");
+            return bad(
+                "dense_samples",
+                self.dense_samples,
+                "must be at least `samples`",
+            );
         }
         if !(self.smoothing.is_finite() && self.smoothing >= 0.0) {
             return Err(FdError::InvalidParameter {

@@ -120,7 +120,10 @@ mod tests {
 
     #[test]
     fn preselection_drops_descriptors_below_t_err() {
-        assert_eq!(preselect(&[1e-5, 2e-3, 1e-3, f64::INFINITY], 1e-3), vec![1, 2, 3]);
+        assert_eq!(
+            preselect(&[1e-5, 2e-3, 1e-3, f64::INFINITY], 1e-3),
+            vec![1, 2, 3]
+        );
     }
 
     #[test]

@@ -114,6 +114,24 @@ impl PairError {
         }
     }
 
+    /// Error between descriptor `i` of `a` and `j` of `b` (same configuration), or `None` if
+    /// it provably exceeds `max_error` (FD Corr only; the SSDs are always returned).
+    #[inline]
+    pub(crate) fn eval_below(
+        &mut self,
+        a: &DescriptorSet,
+        i: usize,
+        b: &DescriptorSet,
+        j: usize,
+        max_error: f64,
+    ) -> Option<(f64, Option<Alignment>)> {
+        if self.method == Method::FdCorr {
+            let c = self.corr.correlate_below(a.fd(i), b.fd(j), max_error)?;
+            return Some((c.error, Some(c.alignment)));
+        }
+        Some(self.eval(a, i, b, j))
+    }
+
     /// Error between descriptor `i` of `a` and `j` of `b` (same configuration).
     #[inline]
     pub(crate) fn eval(

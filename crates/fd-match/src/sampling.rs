@@ -199,7 +199,11 @@ impl Sampler {
             let tau = j as f64 * step;
             let k = (self.t.partition_point(|&t| t <= tau).max(1) - 1).min(l0 - 1);
             let dt = self.t[k + 1] - self.t[k];
-            let f = if dt > 0.0 { (tau - self.t[k]) / dt } else { 0.0 };
+            let f = if dt > 0.0 {
+                (tau - self.t[k]) / dt
+            } else {
+                0.0
+            };
             let a = self.dense[k];
             let b = self.dense[(k + 1) % l0];
             *o = a + (b - a) * f;
@@ -262,7 +266,10 @@ mod tests {
             (0.0, 1.0),
         ];
         for (o, w) in out.iter().zip(want) {
-            assert!((o - Complex64::new(w.0, w.1)).norm() < 1e-12, "{o} vs {w:?}");
+            assert!(
+                (o - Complex64::new(w.0, w.1)).norm() < 1e-12,
+                "{o} vs {w:?}"
+            );
         }
     }
 

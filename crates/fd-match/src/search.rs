@@ -5,7 +5,9 @@
 //! bound of the correlation error (eq. 10). [`best_two`] computes the bound for every target
 //! (one dot product of magnitudes), visits targets by increasing bound and stops as soon as a
 //! bound exceeds the current second-best error by more than a rounding margin (`1e-9`, far
-//! above the ~1e-14 rounding of either side). Pairs it skips are strictly worse than the
+//! above the ~1e-14 rounding of either side). A visited pair whose correlation grid maximum
+//! plus its Bernstein slack already rules it out stops before the Newton refinement
+//! ([`crate::Correlator::correlate_below`]). Pairs it skips are strictly worse than the
 //! second best, and ties are broken by the lower target index in both searches, so the result
 //! is identical to [`best_two_brute_force`] (tested). SSD methods are cheap and are searched
 //! exhaustively.
@@ -21,8 +23,7 @@ use crate::descriptor::DescriptorSet;
 use crate::error::FdError;
 use crate::method::{Method, PairError, dot};
 
-/// Slack between the magnitude lower bound and the correlation error covering rounding.
-const BOUND_MARGIN: f64 = 1e-9;
+use crate::correlation::ROUNDING_MARGIN as BOUND_MARGIN;
 
 /// A target and its error against a query.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -166,17 +167,21 @@ fn search_one(
             sorted_rest = true;
         }
         let (lb, j) = w.cand[idx];
-        if lb - BOUND_MARGIN > out.threshold(only_best) {
+        let threshold = out.threshold(only_best);
+        if lb - BOUND_MARGIN > threshold {
             break;
         }
-        let (error, alignment) = w.pair.eval(q, i, t, j);
         evaluated += 1;
-        out.offer(Candidate {
-            index: j,
-            error,
-            alignment,
-        });
         idx += 1;
+        // The correlator may stop after its FFT when its own bound already exceeds the
+        // threshold; such a pair cannot enter the result.
+        if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
+            out.offer(Candidate {
+                index: j,
+                error,
+                alignment,
+            });
+        }
     }
     (out, evaluated)
 }

@@ -129,7 +129,9 @@ fn afd_separates_affine_from_similarity_invariance() {
     let set = set_of(cfg, &[p, q]);
     let afd0 = ssd_real(set.afd0(0), set.afd0(1));
     let afd1 = ssd_complex(set.afd1(0), set.afd1(1));
-    let corr = Correlator::new(25, 256).correlate(set.fd(0), set.fd(1)).error;
+    let corr = Correlator::new(25, 256)
+        .correlate(set.fd(0), set.fd(1))
+        .error;
     assert!(afd0 < 1e-6 && afd1 < 1e-5, "{afd0:e} {afd1:e}");
     assert!(corr > 0.05, "{corr}");
 }
@@ -180,13 +182,21 @@ fn figure1_magnitude_matching_is_blind_to_phase() {
     };
     let cfg = DescriptorConfig::with_sampling(Sampling::ArcLength);
     let set = set_of(cfg, &[curve(&fd_a), curve(&fd_b)]);
-    let abs = best_two_brute_force(&set.select(&[0]).unwrap(), &set.select(&[1]).unwrap(), Method::AbsFdSsd)
-        .unwrap()[0]
+    let abs = best_two_brute_force(
+        &set.select(&[0]).unwrap(),
+        &set.select(&[1]).unwrap(),
+        Method::AbsFdSsd,
+    )
+    .unwrap()[0]
         .best
         .unwrap()
         .error;
-    let cor = best_two_brute_force(&set.select(&[0]).unwrap(), &set.select(&[1]).unwrap(), Method::FdCorr)
-        .unwrap()[0]
+    let cor = best_two_brute_force(
+        &set.select(&[0]).unwrap(),
+        &set.select(&[1]).unwrap(),
+        Method::FdCorr,
+    )
+    .unwrap()[0]
         .best
         .unwrap()
         .error;
@@ -195,4 +205,3 @@ fn figure1_magnitude_matching_is_blind_to_phase() {
     assert!(cor > 4.0 * abs, "corr {cor} vs abs {abs}");
     assert!(cor > 0.01);
 }
-

@@ -21,7 +21,12 @@ pub fn star(seed: u64, n: usize, r0: f64) -> Vec<(f64, f64)> {
     (0..n)
         .map(|i| {
             let a = 2.0 * PI * i as f64 / n as f64;
-            let r = r0 * (1.0 + terms.iter().map(|(k, amp, p)| amp * (k * a + p).cos()).sum::<f64>());
+            let r = r0
+                * (1.0
+                    + terms
+                        .iter()
+                        .map(|(k, amp, p)| amp * (k * a + p).cos())
+                        .sum::<f64>());
             (r * a.cos(), r * a.sin())
         })
         .collect()
@@ -30,7 +35,12 @@ pub fn star(seed: u64, n: usize, r0: f64) -> Vec<(f64, f64)> {
 /// `p ↦ A p + t` applied to every point.
 pub fn affine(pts: &[(f64, f64)], a: [[f64; 2]; 2], t: (f64, f64)) -> Vec<(f64, f64)> {
     pts.iter()
-        .map(|&(x, y)| (a[0][0] * x + a[0][1] * y + t.0, a[1][0] * x + a[1][1] * y + t.1))
+        .map(|&(x, y)| {
+            (
+                a[0][0] * x + a[0][1] * y + t.0,
+                a[1][0] * x + a[1][1] * y + t.1,
+            )
+        })
         .collect()
 }
 
