@@ -1,0 +1,324 @@
+//! Shared by `tests/reference.rs` and `cargo xtask bench lwpr` (included with `#[path]`, not part
+//! of the library): the cross-function data of the reference's benchmark, and building and
+//! running the reference C library (LGPL, from `../shared/peers/lwpr`, built under
+//! `target/peers/lwpr`, never copied into this repository) through `peer/lwpr_peer.c`.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The cross function of papers.md §4.6.
+pub fn cross(x1: f64, x2: f64) -> f64 {
+    let a = (-10.0 * x1 * x1).exp();
+    let b = (-50.0 * x2 * x2).exp();
+    let c = 1.25 * (-5.0 * (x1 * x1 + x2 * x2)).exp();
+    let m = if a > b { a } else { b };
+    if m > c { m } else { c }
+}
+
+/// splitmix64 + Box–Muller, the generator of the reference's `bench_cross.c`, so that a seed
+/// gives exactly the benchmark's samples.
+pub struct Rng {
+    state: u64,
+    spare: Option<f64>,
+}
+
+impl Rng {
+    /// Seeded generator.
+    pub fn new(seed: u64) -> Self {
+        Rng {
+            state: seed,
+            spare: None,
+        }
+    }
+    fn next_u64(&mut self) -> u64 {
+        self.state = self.state.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1) with 53 bits.
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / 9007199254740992.0)
+    }
+    /// Standard normal.
+    pub fn normal(&mut self) -> f64 {
+        if let Some(s) = self.spare.take() {
+            return s;
+        }
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        let r = (-2.0 * u1.ln()).sqrt();
+        let t = 6.283185307179586476925286766559 * u2;
+        self.spare = Some(r * t.sin());
+        r * t.cos()
+    }
+}
+
+/// `n` training samples of `bench_cross.c` (x ~ U[-1,1]², y = cross + N(0, σ²)).
+pub fn cross_samples(seed: u64, n: usize, noise_sd: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = Rng::new(seed);
+    let (mut x, mut y) = (Vec::with_capacity(2 * n), Vec::with_capacity(n));
+    for _ in 0..n {
+        let a = 2.0 * rng.uniform() - 1.0;
+        let b = 2.0 * rng.uniform() - 1.0;
+        x.push(a);
+        x.push(b);
+        y.push(cross(a, b) + noise_sd * rng.normal());
+    }
+    (x, y)
+}
+
+/// The 41 × 41 test grid over [-1, 1]² (x₁ fastest) and its noise-free targets.
+pub fn cross_grid() -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for i in 0..41 * 41 {
+        let a = -1.0 + 0.05 * (i % 41) as f64;
+        let b = -1.0 + 0.05 * (i / 41) as f64;
+        x.push(a);
+        x.push(b);
+        y.push(cross(a, b));
+    }
+    (x, y)
+}
+
+/// A random rotation of R^dim (QR of a Gaussian matrix by Gram–Schmidt), column-major.
+pub fn random_rotation(dim: usize, seed: u64) -> Vec<f64> {
+    let mut rng = Rng::new(seed);
+    let mut q: Vec<f64> = (0..dim * dim).map(|_| rng.normal()).collect();
+    for j in 0..dim {
+        for k in 0..j {
+            let d: f64 = (0..dim).map(|i| q[i + j * dim] * q[i + k * dim]).sum();
+            for i in 0..dim {
+                q[i + j * dim] -= d * q[i + k * dim];
+            }
+        }
+        let nrm: f64 = (0..dim)
+            .map(|i| q[i + j * dim] * q[i + j * dim])
+            .sum::<f64>()
+            .sqrt();
+        for i in 0..dim {
+            q[i + j * dim] /= nrm;
+        }
+    }
+    q
+}
+
+/// Embeds 2-D points into `dim` dimensions: `Q (x₁, x₂, 0, …, 0)ᵀ`.
+pub fn embed(x2: &[f64], q: &[f64], dim: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x2.len() / 2 * dim);
+    for p in x2.chunks(2) {
+        for i in 0..dim {
+            out.push(q[i] * p[0] + q[i + dim] * p[1]);
+        }
+    }
+    out
+}
+
+/// nMSE: mean squared error over the population variance of the targets.
+pub fn nmse(pred: &[f64], target: &[f64]) -> f64 {
+    let n = target.len() as f64;
+    let mean = target.iter().sum::<f64>() / n;
+    let var = target.iter().map(|t| (t - mean) * (t - mean)).sum::<f64>() / n;
+    let mse = pred
+        .iter()
+        .zip(target)
+        .map(|(p, t)| (p - t) * (p - t))
+        .sum::<f64>()
+        / n;
+    mse / var
+}
+
+/// Finds the reference library (env `LWPR_PEER_DIR`, else `<workspace>/../shared/peers/lwpr`),
+/// builds it and the driver into `<workspace>/target/peers/lwpr` and returns the driver's path,
+/// or the reason why that is impossible.
+pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
+    let src = std::env::var_os("LWPR_PEER_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace.join("../shared/peers/lwpr"));
+    if !src.join("build.sh").exists() {
+        return Err(format!(
+            "reference LWPR not found at {} (set LWPR_PEER_DIR)",
+            src.display()
+        ));
+    }
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    if Command::new(&cc).arg("--version").output().is_err() {
+        return Err(format!(
+            "no C compiler (`{cc}`) to build the reference LWPR"
+        ));
+    }
+    let out = workspace.join("target/peers/lwpr");
+    let driver = out.join("lwpr_peer");
+    let driver_src = workspace.join("crates/lwpr/peer/lwpr_peer.c");
+    let fresh = |p: &Path| p.metadata().and_then(|m| m.modified()).ok();
+    if driver.exists() && fresh(&driver) >= fresh(&driver_src) {
+        return Ok(driver);
+    }
+    let st = Command::new("bash")
+        .arg(src.join("build.sh"))
+        .arg(&out)
+        .output()
+        .map_err(|e| format!("cannot run build.sh: {e}"))?;
+    if !st.status.success() {
+        return Err(format!(
+            "building the reference failed: {}",
+            String::from_utf8_lossy(&st.stderr)
+        ));
+    }
+    let st = Command::new(&cc)
+        .args(["-O2", "-o"])
+        .arg(&driver)
+        .arg(format!("-I{}", out.display()))
+        .arg(format!("-I{}", src.join("include").display()))
+        .arg(&driver_src)
+        .arg(out.join("liblwpr.a"))
+        .arg("-lm")
+        .output()
+        .map_err(|e| format!("cannot run {cc}: {e}"))?;
+    if !st.status.success() {
+        return Err(format!(
+            "building the driver failed: {}",
+            String::from_utf8_lossy(&st.stderr)
+        ));
+    }
+    Ok(driver)
+}
+
+/// Settings handed to the reference (a subset of `lwpr::Params`, same names).
+pub struct PeerSettings<'a> {
+    pub n_in: usize,
+    pub n_out: usize,
+    pub diag_only: bool,
+    pub meta: bool,
+    pub update_d: bool,
+    pub bisquare: bool,
+    pub meta_rate: f64,
+    pub penalty: f64,
+    pub init_alpha: f64,
+    pub w_gen: f64,
+    pub w_prune: f64,
+    pub init_lambda: f64,
+    pub final_lambda: f64,
+    pub tau_lambda: f64,
+    pub init_s2: f64,
+    pub add_threshold: f64,
+    pub init_d: &'a [f64],
+    pub norm_in: &'a [f64],
+    pub norm_out: &'a [f64],
+}
+
+/// What the reference produced.
+pub struct PeerRun {
+    /// Per checkpoint: receptive fields per output and test predictions.
+    pub checkpoints: Vec<(Vec<usize>, Vec<f64>)>,
+    /// Predictions returned by every `lwpr_update`.
+    pub update_predictions: Vec<f64>,
+    /// Seconds spent in `lwpr_update` only.
+    pub update_seconds: f64,
+    /// `lwpr_predict` calls per second over repeated passes of the test set.
+    pub predictions_per_second: f64,
+}
+
+/// Runs the reference on the given samples.
+pub fn run_peer(
+    driver: &Path,
+    s: &PeerSettings,
+    x: &[f64],
+    y: &[f64],
+    x_test: &[f64],
+    checkpoints: &[usize],
+) -> Result<PeerRun, String> {
+    let mut b: Vec<u8> = Vec::new();
+    let i32le = |b: &mut Vec<u8>, v: i64| b.extend_from_slice(&(v as i32).to_le_bytes());
+    let f64le = |b: &mut Vec<u8>, v: f64| b.extend_from_slice(&v.to_le_bytes());
+    for v in [
+        s.n_in as i64,
+        s.n_out as i64,
+        s.diag_only as i64,
+        s.meta as i64,
+        s.update_d as i64,
+        s.bisquare as i64,
+    ] {
+        i32le(&mut b, v);
+    }
+    for v in [
+        s.meta_rate,
+        s.penalty,
+        s.init_alpha,
+        s.w_gen,
+        s.w_prune,
+        s.init_lambda,
+        s.final_lambda,
+        s.tau_lambda,
+        s.init_s2,
+        s.add_threshold,
+    ] {
+        f64le(&mut b, v);
+    }
+    for &v in s.init_d.iter().chain(s.norm_in).chain(s.norm_out) {
+        f64le(&mut b, v);
+    }
+    let n_train = x.len() / s.n_in;
+    i32le(&mut b, n_train as i64);
+    for &v in x.iter().chain(y) {
+        f64le(&mut b, v);
+    }
+    let n_test = x_test.len() / s.n_in;
+    i32le(&mut b, n_test as i64);
+    for &v in x_test {
+        f64le(&mut b, v);
+    }
+    i32le(&mut b, checkpoints.len() as i64);
+    for &c in checkpoints {
+        i32le(&mut b, c as i64);
+    }
+    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{}", std::process::id(), n_train));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
+    std::fs::write(&inp, &b).map_err(|e| e.to_string())?;
+    let st = Command::new(driver)
+        .arg(&inp)
+        .arg(&outp)
+        .output()
+        .map_err(|e| format!("cannot run the driver: {e}"))?;
+    if !st.status.success() {
+        return Err(format!(
+            "the driver failed: {}",
+            String::from_utf8_lossy(&st.stderr)
+        ));
+    }
+    let o = std::fs::read(&outp).map_err(|e| e.to_string())?;
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut pos = 0;
+    let mut rd = |k: usize| -> Result<&[u8], String> {
+        let s = o.get(pos..pos + k).ok_or("short driver output")?;
+        pos += k;
+        Ok(s)
+    };
+    let mut cks = Vec::new();
+    for _ in checkpoints {
+        let mut nrf = Vec::new();
+        for _ in 0..s.n_out {
+            nrf.push(i32::from_le_bytes(rd(4)?.try_into().unwrap()) as usize);
+        }
+        let mut p = Vec::new();
+        for _ in 0..n_test * s.n_out {
+            p.push(f64::from_le_bytes(rd(8)?.try_into().unwrap()));
+        }
+        cks.push((nrf, p));
+    }
+    let mut yp = Vec::new();
+    for _ in 0..n_train * s.n_out {
+        yp.push(f64::from_le_bytes(rd(8)?.try_into().unwrap()));
+    }
+    let update_seconds = f64::from_le_bytes(rd(8)?.try_into().unwrap());
+    let predictions_per_second = f64::from_le_bytes(rd(8)?.try_into().unwrap());
+    Ok(PeerRun {
+        checkpoints: cks,
+        update_predictions: yp,
+        update_seconds,
+        predictions_per_second,
+    })
+}

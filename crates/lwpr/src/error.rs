@@ -1,0 +1,50 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in this crate. Every fallible call leaves the model exactly as
+/// it was before the call.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum LwprError {
+    /// A parameter given to the builder is out of its valid range.
+    #[error("invalid parameter `{name}`: {reason}")]
+    InvalidParameter {
+        /// The parameter's name (the reference library's name).
+        name: &'static str,
+        /// Why it was rejected.
+        reason: String,
+    },
+    /// An input or output vector has the wrong length.
+    #[error("dimension mismatch for {what}: expected {expected}, got {got}")]
+    DimensionMismatch {
+        /// Which argument (`x`, `y`, ...).
+        what: &'static str,
+        /// The model's dimension.
+        expected: usize,
+        /// The length that was passed.
+        got: usize,
+    },
+    /// An input or output value is NaN or infinite.
+    #[error("non-finite value in {what} at index {index}")]
+    NonFinite {
+        /// Which argument (`x`, `y`, `cutoff`).
+        what: &'static str,
+        /// Index of the first offending element.
+        index: usize,
+    },
+    /// A saved model could not be read (corrupt, truncated, wrong version or inconsistent).
+    #[error("cannot load model: {0}")]
+    Format(String),
+    /// An I/O error while reading or writing a model file.
+    #[error("i/o error: {0}")]
+    Io(String),
+}
+
+impl From<std::io::Error> for LwprError {
+    fn from(e: std::io::Error) -> Self {
+        LwprError::Io(e.to_string())
+    }
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = std::result::Result<T, LwprError>;

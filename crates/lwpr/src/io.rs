@@ -1,0 +1,496 @@
+//! Saving and loading models: JSON (serde) and a compact little-endian binary form. Both carry
+//! a format version; loading checks structure, sizes and finiteness, so a corrupt or truncated
+//! input is an error and never a panic or a half-loaded model.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{LwprError, Result};
+use crate::model::{Lwpr, SubModel};
+use crate::params::{Kernel, Params, PruneRule};
+use crate::rf::ReceptiveField;
+use crate::workspace::Workspace;
+
+/// Version of both the JSON envelope and the binary layout.
+pub const BINARY_FORMAT_VERSION: u32 = 1;
+const MAGIC: &[u8; 8] = b"LWPR-RS\0";
+const JSON_FORMAT: &str = "lwpr-rs";
+
+#[derive(Serialize, Deserialize)]
+struct Envelope<M> {
+    format: String,
+    version: u32,
+    model: M,
+}
+
+fn fmt_err(s: impl Into<String>) -> LwprError {
+    LwprError::Format(s.into())
+}
+
+/// FNV-1a, 64 bit: detects corruption of the binary payload.
+fn fnv1a(data: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for &b in data {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    h
+}
+
+struct Enc(Vec<u8>);
+
+impl Enc {
+    fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn bool(&mut self, v: bool) {
+        self.0.push(v as u8);
+    }
+    fn vec(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        for &x in v {
+            self.f64(x);
+        }
+    }
+}
+
+struct Dec<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Dec<'a> {
+    fn take(&mut self, k: usize) -> Result<&'a [u8]> {
+        let end = self
+            .pos
+            .checked_add(k)
+            .filter(|&e| e <= self.data.len())
+            .ok_or_else(|| fmt_err("truncated data"))?;
+        let s = &self.data[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+    fn u64(&mut self) -> Result<u64> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn usize(&mut self) -> Result<usize> {
+        usize::try_from(self.u64()?).map_err(|_| fmt_err("size out of range"))
+    }
+    fn f64(&mut self) -> Result<f64> {
+        Ok(f64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn bool(&mut self) -> Result<bool> {
+        match self.take(1)?[0] {
+            0 => Ok(false),
+            1 => Ok(true),
+            b => Err(fmt_err(format!("invalid boolean byte {b}"))),
+        }
+    }
+    fn vec(&mut self) -> Result<Vec<f64>> {
+        let len = self.usize()?;
+        if len > (self.data.len() - self.pos) / 8 {
+            return Err(fmt_err("truncated data (vector longer than the input)"));
+        }
+        (0..len).map(|_| self.f64()).collect()
+    }
+}
+
+fn kernel_code(k: Kernel) -> u64 {
+    match k {
+        Kernel::Gaussian => 0,
+        Kernel::BiSquare => 1,
+    }
+}
+
+fn prune_code(r: PruneRule) -> u64 {
+    match r {
+        PruneRule::Published => 0,
+        PruneRule::ReferenceC => 1,
+    }
+}
+
+fn enc_params(e: &mut Enc, p: &Params) {
+    e.u64(p.n_in as u64);
+    e.u64(p.n_out as u64);
+    e.vec(&p.init_d);
+    e.vec(&p.init_m);
+    e.vec(&p.init_alpha);
+    for v in [
+        p.w_gen,
+        p.w_prune,
+        p.init_lambda,
+        p.final_lambda,
+        p.tau_lambda,
+        p.init_s2,
+        p.add_threshold,
+        p.penalty,
+        p.meta_rate,
+    ] {
+        e.f64(v);
+    }
+    e.bool(p.diag_only);
+    e.bool(p.update_d);
+    e.bool(p.meta);
+    e.vec(&p.norm_in);
+    e.vec(&p.norm_out);
+    e.u64(kernel_code(p.kernel));
+    e.u64(prune_code(p.prune_rule));
+}
+
+fn dec_params(d: &mut Dec) -> Result<Params> {
+    let n_in = d.usize()?;
+    let n_out = d.usize()?;
+    let init_d = d.vec()?;
+    let init_m = d.vec()?;
+    let init_alpha = d.vec()?;
+    let mut f = [0.0; 9];
+    for v in f.iter_mut() {
+        *v = d.f64()?;
+    }
+    let diag_only = d.bool()?;
+    let update_d = d.bool()?;
+    let meta = d.bool()?;
+    let norm_in = d.vec()?;
+    let norm_out = d.vec()?;
+    let kernel = match d.u64()? {
+        0 => Kernel::Gaussian,
+        1 => Kernel::BiSquare,
+        k => return Err(fmt_err(format!("unknown kernel code {k}"))),
+    };
+    let prune_rule = match d.u64()? {
+        0 => PruneRule::Published,
+        1 => PruneRule::ReferenceC,
+        k => return Err(fmt_err(format!("unknown prune rule code {k}"))),
+    };
+    Ok(Params {
+        n_in,
+        n_out,
+        init_d,
+        init_m,
+        init_alpha,
+        w_gen: f[0],
+        w_prune: f[1],
+        init_lambda: f[2],
+        final_lambda: f[3],
+        tau_lambda: f[4],
+        init_s2: f[5],
+        add_threshold: f[6],
+        penalty: f[7],
+        meta_rate: f[8],
+        diag_only,
+        update_d,
+        meta,
+        norm_in,
+        norm_out,
+        kernel,
+        prune_rule,
+    })
+}
+
+fn enc_rf(e: &mut Enc, rf: &ReceptiveField) {
+    e.u64(rf.n_reg as u64);
+    e.bool(rf.trustworthy);
+    for v in [rf.w, rf.sum_e2, rf.beta0, rf.ssp] {
+        e.f64(v);
+    }
+    for v in rf_vecs(rf) {
+        e.vec(v);
+    }
+}
+
+/// The stored vectors of a field, in binary-format order (the slope is derived, not stored).
+fn rf_vecs(rf: &ReceptiveField) -> [&Vec<f64>; 22] {
+    [
+        &rf.d,
+        &rf.m,
+        &rf.alpha,
+        &rf.b,
+        &rf.h,
+        &rf.c,
+        &rf.mean_x,
+        &rf.var_x,
+        &rf.sxy,
+        &rf.ssx,
+        &rf.u,
+        &rf.p,
+        &rf.beta,
+        &rf.ss_s2,
+        &rf.ss_y,
+        &rf.tr_h,
+        &rf.tr_r,
+        &rf.sum_w,
+        &rf.sum_e_cv2,
+        &rf.n_data,
+        &rf.lambda,
+        &rf.s,
+    ]
+}
+
+fn dec_rf(d: &mut Dec) -> Result<ReceptiveField> {
+    let n_reg = d.usize()?;
+    let trustworthy = d.bool()?;
+    let (w, sum_e2, beta0, ssp) = (d.f64()?, d.f64()?, d.f64()?, d.f64()?);
+    let mut v: Vec<Vec<f64>> = Vec::with_capacity(22);
+    for _ in 0..22 {
+        v.push(d.vec()?);
+    }
+    let mut it = v.into_iter();
+    let mut next = || it.next().expect("22 vectors");
+    Ok(ReceptiveField {
+        n_reg,
+        trustworthy,
+        w,
+        sum_e2,
+        beta0,
+        ssp,
+        d: next(),
+        m: next(),
+        alpha: next(),
+        b: next(),
+        h: next(),
+        c: next(),
+        mean_x: next(),
+        var_x: next(),
+        sxy: next(),
+        ssx: next(),
+        u: next(),
+        p: next(),
+        beta: next(),
+        ss_s2: next(),
+        ss_y: next(),
+        tr_h: next(),
+        tr_r: next(),
+        sum_w: next(),
+        sum_e_cv2: next(),
+        n_data: next(),
+        lambda: next(),
+        s: next(),
+        slope: Vec::new(),
+    })
+}
+
+impl Lwpr {
+    /// The model as JSON (with format name and version).
+    pub fn to_json(&self) -> String {
+        let env = Envelope {
+            format: JSON_FORMAT.to_string(),
+            version: BINARY_FORMAT_VERSION,
+            model: self,
+        };
+        serde_json::to_string(&env).expect("a model always serialises")
+    }
+
+    /// Loads a model from [`to_json`](Self::to_json) output.
+    pub fn from_json(s: &str) -> Result<Self> {
+        let env: Envelope<Lwpr> =
+            serde_json::from_str(s).map_err(|e| fmt_err(format!("invalid JSON model: {e}")))?;
+        if env.format != JSON_FORMAT {
+            return Err(fmt_err(format!("unknown format `{}`", env.format)));
+        }
+        if env.version != BINARY_FORMAT_VERSION {
+            return Err(fmt_err(format!(
+                "unsupported format version {}",
+                env.version
+            )));
+        }
+        env.model.finish_load()
+    }
+
+    /// The model in the compact binary form: magic, version, payload length, little-endian
+    /// payload, FNV-1a checksum.
+    pub fn to_binary(&self) -> Vec<u8> {
+        let mut e = Enc(Vec::new());
+        enc_params(&mut e, &self.params);
+        e.u64(self.n_data);
+        e.vec(&self.mean_x);
+        e.vec(&self.var_x);
+        e.u64(self.sub.len() as u64);
+        for s in &self.sub {
+            e.u64(s.n_pruned as u64);
+            e.u64(s.rfs.len() as u64);
+            for rf in &s.rfs {
+                enc_rf(&mut e, rf);
+            }
+        }
+        let payload = e.0;
+        let mut out = Vec::with_capacity(payload.len() + 28);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&BINARY_FORMAT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&payload);
+        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        out
+    }
+
+    /// Loads a model from [`to_binary`](Self::to_binary) output.
+    pub fn from_binary(data: &[u8]) -> Result<Self> {
+        if data.len() < 20 || &data[..8] != MAGIC {
+            return Err(fmt_err("not an lwpr-rs binary model (bad magic)"));
+        }
+        let version = u32::from_le_bytes(data[8..12].try_into().expect("4 bytes"));
+        if version != BINARY_FORMAT_VERSION {
+            return Err(fmt_err(format!("unsupported format version {version}")));
+        }
+        let len = u64::from_le_bytes(data[12..20].try_into().expect("8 bytes"));
+        let rest = &data[20..];
+        if (rest.len() as u64) < 8 || len != rest.len() as u64 - 8 {
+            return Err(fmt_err("truncated or padded data (length mismatch)"));
+        }
+        let (payload, sum) = rest.split_at(len as usize);
+        if fnv1a(payload) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+            return Err(fmt_err("checksum mismatch (corrupt data)"));
+        }
+        let mut d = Dec {
+            data: payload,
+            pos: 0,
+        };
+        let params = dec_params(&mut d)?;
+        let n_data = d.u64()?;
+        let mean_x = d.vec()?;
+        let var_x = d.vec()?;
+        let n_sub = d.usize()?;
+        if n_sub != params.n_out {
+            return Err(fmt_err("number of sub-models differs from n_out"));
+        }
+        let mut sub = Vec::with_capacity(n_sub);
+        for _ in 0..n_sub {
+            let n_pruned = d.usize()?;
+            let k = d.usize()?;
+            if k > payload.len() {
+                return Err(fmt_err("receptive-field count larger than the data"));
+            }
+            let mut rfs = Vec::with_capacity(k);
+            for _ in 0..k {
+                rfs.push(dec_rf(&mut d)?);
+            }
+            sub.push(SubModel { rfs, n_pruned });
+        }
+        if d.pos != payload.len() {
+            return Err(fmt_err("trailing bytes in payload"));
+        }
+        Lwpr {
+            params,
+            n_data,
+            mean_x,
+            var_x,
+            sub,
+            ws: Workspace::default(),
+        }
+        .finish_load()
+    }
+
+    /// Writes the model to `path`: binary if the extension is `bin`, JSON otherwise.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let bytes = if path.extension().is_some_and(|e| e == "bin") {
+            self.to_binary()
+        } else {
+            self.to_json().into_bytes()
+        };
+        std::fs::write(path, bytes)?;
+        Ok(())
+    }
+
+    /// Reads a model written by [`save`](Self::save) (format detected from the content).
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let data = std::fs::read(path)?;
+        if data.starts_with(MAGIC) {
+            Self::from_binary(&data)
+        } else {
+            let s =
+                std::str::from_utf8(&data).map_err(|_| fmt_err("neither binary nor UTF-8 JSON"))?;
+            Self::from_json(s)
+        }
+    }
+
+    /// Checks every invariant of a deserialised model and rebuilds derived data.
+    fn finish_load(mut self) -> Result<Self> {
+        let mut p = self.params.clone();
+        p.validate()
+            .map_err(|e| fmt_err(format!("invalid parameters: {e}")))?;
+        if p.init_m != self.params.init_m {
+            return Err(fmt_err("init_M is not the Cholesky factor of init_D"));
+        }
+        let (n, m) = (p.n_in, p.n_out);
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if self.mean_x.len() != n
+            || self.var_x.len() != n
+            || !finite(&self.mean_x)
+            || !finite(&self.var_x)
+        {
+            return Err(fmt_err(
+                "input statistics have the wrong size or are not finite",
+            ));
+        }
+        if self.sub.len() != m {
+            return Err(fmt_err("number of sub-models differs from n_out"));
+        }
+        for (dim, s) in self.sub.iter_mut().enumerate() {
+            for (k, rf) in s.rfs.iter_mut().enumerate() {
+                let bad =
+                    |what: &str| fmt_err(format!("receptive field {k} of output {dim}: {what}"));
+                let r = rf.n_reg;
+                if r == 0 || r > n {
+                    return Err(bad("PLS dimension out of range"));
+                }
+                let sizes: [(&Vec<f64>, usize); 22] = [
+                    (&rf.d, n * n),
+                    (&rf.m, n * n),
+                    (&rf.alpha, n * n),
+                    (&rf.b, n * n),
+                    (&rf.h, n * n),
+                    (&rf.c, n),
+                    (&rf.mean_x, n),
+                    (&rf.var_x, n),
+                    (&rf.sxy, n * r),
+                    (&rf.ssx, n * r),
+                    (&rf.u, n * r),
+                    (&rf.p, n * r),
+                    (&rf.beta, r),
+                    (&rf.ss_s2, r),
+                    (&rf.ss_y, r),
+                    (&rf.tr_h, r),
+                    (&rf.tr_r, r),
+                    (&rf.sum_w, r),
+                    (&rf.sum_e_cv2, r),
+                    (&rf.n_data, r),
+                    (&rf.lambda, r),
+                    (&rf.s, r),
+                ];
+                for (v, len) in sizes {
+                    if v.len() != len {
+                        return Err(bad("array of the wrong size"));
+                    }
+                    if !finite(v) {
+                        return Err(bad("non-finite value"));
+                    }
+                }
+                if ![rf.w, rf.sum_e2, rf.beta0, rf.ssp]
+                    .iter()
+                    .all(|x| x.is_finite())
+                {
+                    return Err(bad("non-finite value"));
+                }
+                if rf.ss_s2.iter().any(|&v| v <= 0.0) || rf.sum_w.iter().any(|&v| v <= 0.0) {
+                    return Err(bad("non-positive PLS statistics"));
+                }
+                // Restore the growth capacity so later updates do not reallocate.
+                for v in [&mut rf.sxy, &mut rf.ssx, &mut rf.u, &mut rf.p] {
+                    v.reserve_exact(n * n - v.len());
+                }
+                rf.slope = vec![0.0; n];
+                rf.refresh_slope(n);
+            }
+        }
+        self.ws = Workspace::new(n, m);
+        Ok(self)
+    }
+}

@@ -1,0 +1,88 @@
+//! Small dense kernels on column-major `n × n` / `n × R` storage.
+//!
+//! [`dot`] fixes one summation order (blocks of four in ascending order, then the remaining
+//! one to three terms in descending order). That is the order of the reference library's dot
+//! product, which keeps our floating-point results bit-identical to it wherever the formulas
+//! are the same (papers.md §4; see the crate docs, "Faithfulness").
+
+/// `Σ a_i b_i` in the fixed order described in the module docs.
+#[inline(always)]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = 0.0;
+    let blocks = n / 4;
+    for k in 0..blocks {
+        let i = 4 * k;
+        s += b[i] * a[i];
+        s += b[i + 1] * a[i + 1];
+        s += b[i + 2] * a[i + 2];
+        s += b[i + 3] * a[i + 3];
+    }
+    let base = 4 * blocks;
+    let mut r = n - base;
+    while r > 0 {
+        r -= 1;
+        s += b[base + r] * a[base + r];
+    }
+    s
+}
+
+/// Upper-triangular `M` with `MᵀM = A` for a symmetric positive definite `n × n` matrix `A`
+/// (column-major); `None` if `A` is not positive definite.
+pub(crate) fn cholesky_upper(n: usize, a: &[f64]) -> Option<Vec<f64>> {
+    let mut r = vec![0.0; n * n];
+    for k in 0..n {
+        for i in 0..k {
+            let s = dot(&r[i * n..i * n + i], &r[k * n..k * n + i]);
+            r[i + k * n] = (a[i + k * n] - s) / r[i + i * n];
+        }
+        let diag = a[k + k * n] - dot(&r[k * n..k * n + k], &r[k * n..k * n + k]);
+        if !(diag > 0.0) || !diag.is_finite() {
+            return None;
+        }
+        r[k + k * n] = diag.sqrt();
+    }
+    Some(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dot_matches_naive_sum_on_exact_values() {
+        let a: Vec<f64> = (0..7).map(|i| i as f64).collect();
+        let b: Vec<f64> = (0..7).map(|i| (i * 2) as f64).collect();
+        assert_eq!(dot(&a, &b), (0..7).map(|i| (i * i * 2) as f64).sum::<f64>());
+        assert_eq!(dot(&[], &[]), 0.0);
+    }
+
+    #[test]
+    fn dot_remainder_is_summed_in_descending_order() {
+        // 1 + 1e-16 + 1e-16 differs between orders: ascending gives 1, descending
+        // (1e-16 + 1e-16 first is not what happens either: the accumulator starts at 0 and
+        // adds index 2, 1, 0).
+        let a = [1.0, 1e-16, 1e-16];
+        let b = [1.0, 1.0, 1.0];
+        let expected = ((0.0 + 1e-16) + 1e-16) + 1.0;
+        assert_eq!(dot(&a, &b), expected);
+    }
+
+    #[test]
+    fn cholesky_reconstructs_and_rejects_indefinite() {
+        let a = [4.0, 2.0, 0.0, 2.0, 5.0, 1.0, 0.0, 1.0, 3.0];
+        let m = cholesky_upper(3, &a).unwrap();
+        for i in 0..3 {
+            for j in 0..3 {
+                let v: f64 = (0..3).map(|k| m[k + i * 3] * m[k + j * 3]).sum();
+                assert!((v - a[i + j * 3]).abs() < 1e-12);
+            }
+            for k in i + 1..3 {
+                assert_eq!(m[k + i * 3], 0.0, "lower triangle must be zero");
+            }
+        }
+        assert!(cholesky_upper(2, &[1.0, 2.0, 2.0, 1.0]).is_none());
+        assert_eq!(cholesky_upper(1, &[25.0]).unwrap(), vec![5.0]);
+    }
+}

@@ -1,0 +1,669 @@
+//! The LWPR model: one sub-model of receptive fields per output; training, prediction,
+//! confidence and Jacobian (papers.md §3.2, §4.2–4.3).
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{LwprError, Result};
+use crate::metric::update_distance_metric;
+use crate::params::{Params, PruneRule};
+use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, distance, kernel_eval};
+use crate::workspace::Workspace;
+
+/// Receptive fields of one output dimension.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct SubModel {
+    pub rfs: Vec<ReceptiveField>,
+    pub n_pruned: usize,
+}
+
+/// An LWPR model (create it with [`crate::LwprBuilder`]).
+///
+/// Every fallible method validates its arguments before touching the model, so an `Err` leaves
+/// the model exactly as it was.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Lwpr {
+    pub(crate) params: Params,
+    pub(crate) n_data: u64,
+    pub(crate) mean_x: Vec<f64>,
+    pub(crate) var_x: Vec<f64>,
+    pub(crate) sub: Vec<SubModel>,
+    #[serde(skip)]
+    pub(crate) ws: Workspace,
+}
+
+impl PartialEq for Lwpr {
+    /// Two models are equal when every learned and configured number is equal (bit for bit,
+    /// apart from `-0.0 == 0.0`); scratch space is ignored.
+    fn eq(&self, other: &Self) -> bool {
+        self.params == other.params
+            && self.n_data == other.n_data
+            && self.mean_x == other.mean_x
+            && self.var_x == other.var_x
+            && self.sub == other.sub
+    }
+}
+
+/// A prediction together with its Jacobian.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictionWithJacobian {
+    /// The prediction `ŷ(x)` (`m` values).
+    pub y: Vec<f64>,
+    /// `∂ŷ/∂x`, `m × n` (row `i` is the gradient of output `i`).
+    pub jacobian: DMatrix<f64>,
+}
+
+/// A prediction with the reference's confidence bounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictionWithConfidence {
+    /// The prediction `ŷ(x)` (`m` values).
+    pub y: Vec<f64>,
+    /// One standard-deviation-like confidence bound per output (papers.md §4.2); infinite where
+    /// no trustworthy receptive field is active.
+    pub confidence: Vec<f64>,
+}
+
+/// Read-only view of one receptive field.
+#[derive(Debug, Clone, Copy)]
+pub struct RfView<'a> {
+    rf: &'a ReceptiveField,
+    n: usize,
+    norm_in: &'a [f64],
+}
+
+impl<'a> RfView<'a> {
+    /// Centre in input units.
+    pub fn centre(&self) -> Vec<f64> {
+        self.rf
+            .c
+            .iter()
+            .zip(self.norm_in)
+            .map(|(c, s)| c * s)
+            .collect()
+    }
+    /// Distance metric `D` in normalised input units (`n × n`, column-major).
+    pub fn metric(&self) -> &'a [f64] {
+        &self.rf.d
+    }
+    /// Upper-triangular factor `M` of `D = MᵀM` (column-major).
+    pub fn metric_factor(&self) -> &'a [f64] {
+        &self.rf.m
+    }
+    /// Number of PLS directions.
+    pub fn pls_dims(&self) -> usize {
+        self.rf.n_reg
+    }
+    /// Whether the field has seen enough data to predict.
+    pub fn trustworthy(&self) -> bool {
+        self.rf.trustworthy
+    }
+    /// Constant term `β₀` of the local model (normalised output units).
+    pub fn beta0(&self) -> f64 {
+        self.rf.beta0
+    }
+    /// PLS regression coefficients.
+    pub fn beta(&self) -> &'a [f64] {
+        &self.rf.beta
+    }
+    /// Activation in the last update (0 if inactive).
+    pub fn last_activation(&self) -> f64 {
+        self.rf.w
+    }
+    /// Discounted data count of the first PLS direction.
+    pub fn n_data(&self) -> f64 {
+        self.rf.n_data[0]
+    }
+    /// Input dimension.
+    pub fn n_in(&self) -> usize {
+        self.n
+    }
+}
+
+/// Largest and second-largest activations of one sub-model in an update.
+struct Activity {
+    w_max: f64,
+    ind_max: Option<usize>,
+    w_sec: f64,
+    ind_sec: Option<usize>,
+    yp: f64,
+    sum_w: f64,
+}
+
+fn check_vec(what: &'static str, v: &[f64], expected: usize) -> Result<()> {
+    if v.len() != expected {
+        return Err(LwprError::DimensionMismatch {
+            what,
+            expected,
+            got: v.len(),
+        });
+    }
+    if let Some(index) = v.iter().position(|a| !a.is_finite()) {
+        return Err(LwprError::NonFinite { what, index });
+    }
+    Ok(())
+}
+
+fn check_cutoff(cutoff: f64) -> Result<()> {
+    if !cutoff.is_finite() {
+        return Err(LwprError::NonFinite {
+            what: "cutoff",
+            index: 0,
+        });
+    }
+    Ok(())
+}
+
+/// Small input buffer on the stack for the common dimensions.
+const STACK_N: usize = 32;
+
+impl Lwpr {
+    pub(crate) fn from_valid_params(params: Params) -> Self {
+        let (n, m) = (params.n_in, params.n_out);
+        Lwpr {
+            n_data: 0,
+            mean_x: vec![0.0; n],
+            var_x: vec![0.0; n],
+            sub: (0..m)
+                .map(|_| SubModel {
+                    rfs: Vec::new(),
+                    n_pruned: 0,
+                })
+                .collect(),
+            ws: Workspace::new(n, m),
+            params,
+        }
+    }
+
+    /// Input dimension n.
+    pub fn n_in(&self) -> usize {
+        self.params.n_in
+    }
+
+    /// Output dimension m.
+    pub fn n_out(&self) -> usize {
+        self.params.n_out
+    }
+
+    /// The model's parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Number of training samples seen.
+    pub fn n_data(&self) -> u64 {
+        self.n_data
+    }
+
+    /// Running mean of the raw training inputs.
+    pub fn mean_x(&self) -> &[f64] {
+        &self.mean_x
+    }
+
+    /// Running (population) variance of the raw training inputs.
+    pub fn var_x(&self) -> &[f64] {
+        &self.var_x
+    }
+
+    /// Number of receptive fields of each output's sub-model.
+    pub fn num_rfs(&self) -> Vec<usize> {
+        self.sub.iter().map(|s| s.rfs.len()).collect()
+    }
+
+    /// Number of receptive fields pruned so far, per output.
+    pub fn num_pruned(&self) -> Vec<usize> {
+        self.sub.iter().map(|s| s.n_pruned).collect()
+    }
+
+    /// The receptive fields of output `dim` (empty if `dim` is out of range).
+    pub fn receptive_fields(&self, dim: usize) -> Vec<RfView<'_>> {
+        self.sub
+            .get(dim)
+            .map(|s| {
+                s.rfs
+                    .iter()
+                    .map(|rf| RfView {
+                        rf,
+                        n: self.params.n_in,
+                        norm_in: &self.params.norm_in,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Trains on one sample and returns the prediction made while learning (over the
+    /// trustworthy fields after they absorbed the sample, as the reference's `lwpr_update`).
+    ///
+    /// ```
+    /// let mut model = lwpr::LwprBuilder::new(1, 1).build().unwrap();
+    /// for i in 0..200 {
+    ///     let x = i as f64 / 200.0;
+    ///     model.update(&[x], &[2.0 * x]).unwrap();
+    /// }
+    /// assert!(model.update(&[f64::NAN], &[0.0]).is_err());
+    /// ```
+    pub fn update(&mut self, x: &[f64], y: &[f64]) -> Result<Vec<f64>> {
+        let mut out = vec![0.0; self.params.n_out];
+        self.update_into(x, y, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`update`](Self::update) writing the prediction into `y_pred` (`m` values); performs no
+    /// heap allocation unless a receptive field or PLS direction is added.
+    pub fn update_into(&mut self, x: &[f64], y: &[f64], y_pred: &mut [f64]) -> Result<()> {
+        let (n, m) = (self.params.n_in, self.params.n_out);
+        check_vec("x", x, n)?;
+        check_vec("y", y, m)?;
+        if y_pred.len() != m {
+            return Err(LwprError::DimensionMismatch {
+                what: "y_pred",
+                expected: m,
+                got: y_pred.len(),
+            });
+        }
+        // Normalised values must stay finite too (tiny norm factors could overflow).
+        for i in 0..n {
+            if !(x[i] / self.params.norm_in[i]).is_finite() {
+                return Err(LwprError::NonFinite {
+                    what: "x / norm_in",
+                    index: i,
+                });
+            }
+        }
+        for i in 0..m {
+            if !(y[i] / self.params.norm_out[i]).is_finite() {
+                return Err(LwprError::NonFinite {
+                    what: "y / norm_out",
+                    index: i,
+                });
+            }
+        }
+
+        // Global statistics of the raw inputs (inspection only).
+        let nd = self.n_data as f64;
+        self.n_data += 1;
+        let inv = 1.0 / self.n_data as f64;
+        for i in 0..n {
+            self.mean_x[i] = (self.mean_x[i] * nd + x[i]) * inv;
+            let a = x[i] - self.mean_x[i];
+            self.var_x[i] = (self.var_x[i] * nd + a * a) * inv;
+        }
+        let mut ws = std::mem::take(&mut self.ws);
+        for i in 0..n {
+            ws.xn[i] = x[i] / self.params.norm_in[i];
+        }
+        for i in 0..m {
+            ws.yn[i] = y[i] / self.params.norm_out[i];
+        }
+        for dim in 0..m {
+            let yn = ws.yn[dim];
+            let act = self.update_sub(dim, yn, &mut ws);
+            let yp = if act.sum_w > 0.0 {
+                act.yp / act.sum_w
+            } else {
+                0.0
+            };
+            y_pred[dim] = yp * self.params.norm_out[dim];
+            self.add_or_prune(dim, &act, yn, &ws.xn);
+        }
+        self.ws = ws;
+        Ok(())
+    }
+
+    fn update_sub(&mut self, dim: usize, yn: f64, ws: &mut Workspace) -> Activity {
+        let p = &self.params;
+        let n = p.n_in;
+        let mut act = Activity {
+            w_max: 0.0,
+            ind_max: None,
+            w_sec: 0.0,
+            ind_sec: None,
+            yp: 0.0,
+            sum_w: 0.0,
+        };
+        let mut xn = std::mem::take(&mut ws.xn);
+        let mut xmz = std::mem::take(&mut ws.xmz);
+        for (k, rf) in self.sub[dim].rfs.iter_mut().enumerate() {
+            for i in 0..n {
+                ws.xc[i] = xn[i] - rf.c[i];
+            }
+            let q = distance(&rf.d, &ws.xc, p.diag_only);
+            let (w, dwdq, ddwdqdq) = kernel_eval(p.kernel, q);
+            if w > act.w_sec {
+                if w > act.w_max {
+                    act.ind_sec = act.ind_max;
+                    act.w_sec = act.w_max;
+                    act.ind_max = Some(k);
+                    act.w_max = w;
+                } else {
+                    act.ind_sec = Some(k);
+                    act.w_sec = w;
+                }
+            }
+            if w > UPDATE_ACTIVATION {
+                rf.w = w;
+                let ymz = rf.update_means(&xn, yn, w, &mut xmz);
+                let (yp_k, e_cv, e) = rf.update_regression(n, &xmz, ymz, w, ws);
+                if rf.trustworthy {
+                    act.yp += w * yp_k;
+                    act.sum_w += w;
+                }
+                if p.update_d {
+                    update_distance_metric(rf, p, w, dwdq, ddwdqdq, e_cv, e, &xn, ws);
+                }
+                rf.check_add_projection(p);
+                rf.anneal(p);
+                rf.refresh_slope(n);
+            } else {
+                rf.w = 0.0;
+            }
+        }
+        ws.xn = std::mem::take(&mut xn);
+        ws.xmz = xmz;
+        act
+    }
+
+    fn add_or_prune(&mut self, dim: usize, act: &Activity, yn: f64, xn: &[f64]) {
+        let p = &self.params;
+        let sub = &mut self.sub[dim];
+        if act.w_max <= p.w_gen {
+            let template = match act.ind_max {
+                Some(k) if act.w_max > 0.1 * p.w_gen && sub.rfs[k].trustworthy => Some(&sub.rfs[k]),
+                _ => None,
+            };
+            let mut rf = ReceptiveField::new(p, template, xn, yn);
+            rf.refresh_slope(p.n_in);
+            sub.rfs.push(rf);
+            return;
+        }
+        if act.w_sec > p.w_prune {
+            let (Some(a), Some(b)) = (act.ind_max, act.ind_sec) else {
+                return;
+            };
+            let n = p.n_in;
+            let tr = |k: usize| {
+                (0..n)
+                    .map(|i| sub.rfs[k].d[i + i * n])
+                    .fold(0.0, |s, v| s + v)
+            };
+            let (tr_max, tr_sec) = (tr(a), tr(b));
+            let prune = match p.prune_rule {
+                // Remove the narrower field (larger trace).
+                PruneRule::Published => {
+                    if tr_max > tr_sec {
+                        a
+                    } else {
+                        b
+                    }
+                }
+                // The C library: remove the field with the smaller trace.
+                PruneRule::ReferenceC => {
+                    if tr_max < tr_sec {
+                        a
+                    } else {
+                        b
+                    }
+                }
+            };
+            sub.rfs.swap_remove(prune);
+            sub.n_pruned += 1;
+        }
+    }
+
+    /// Writes the normalised input into `buf` and returns it (stack buffer for small n).
+    #[inline(always)]
+    fn normalise<'b>(&self, x: &[f64], buf: &'b mut [f64]) -> &'b [f64] {
+        for i in 0..x.len() {
+            buf[i] = x[i] / self.params.norm_in[i];
+        }
+        &buf[..x.len()]
+    }
+
+    fn validate_x(&self, x: &[f64], cutoff: f64) -> Result<()> {
+        check_vec("x", x, self.params.n_in)?;
+        check_cutoff(cutoff)
+    }
+
+    /// Prediction of output `dim` at normalised `xn` (`xc` scratch of length n); returns
+    /// `(ŷ, max activation)` in normalised units.
+    #[inline(always)]
+    fn predict_dim(&self, dim: usize, xn: &[f64], cutoff: f64, xc: &mut [f64]) -> (f64, f64) {
+        let p = &self.params;
+        let n = p.n_in;
+        let mut yp = 0.0;
+        let mut sum_w = 0.0;
+        let mut w_max: f64 = 0.0;
+        for rf in &self.sub[dim].rfs {
+            let q = if p.diag_only {
+                let mut dist = 0.0;
+                for j in 0..n {
+                    let d = xn[j] - rf.c[j];
+                    dist += d * (rf.d[j + j * n] * d);
+                }
+                dist
+            } else {
+                for i in 0..n {
+                    xc[i] = xn[i] - rf.c[i];
+                }
+                distance(&rf.d, xc, false)
+            };
+            let w = kernel_eval(p.kernel, q).0;
+            if w > w_max {
+                w_max = w;
+            }
+            if w > cutoff && rf.trustworthy {
+                yp += w * rf.predict_slope(xn);
+                sum_w += w;
+            }
+        }
+        if sum_w > 0.0 {
+            yp /= sum_w;
+        }
+        (yp, w_max)
+    }
+
+    /// Predicts `ŷ(x)`; receptive fields with activation ≤ `cutoff` are ignored (the reference
+    /// examples use 0.001). Outputs with no trustworthy active field predict 0.
+    pub fn predict(&self, x: &[f64], cutoff: f64) -> Result<Vec<f64>> {
+        let mut out = vec![0.0; self.params.n_out];
+        self.predict_into(x, cutoff, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`predict`](Self::predict) into `out` (`m` values), without heap allocation for
+    /// `n ≤ 32`.
+    pub fn predict_into(&self, x: &[f64], cutoff: f64, out: &mut [f64]) -> Result<()> {
+        self.validate_x(x, cutoff)?;
+        if out.len() != self.params.n_out {
+            return Err(LwprError::DimensionMismatch {
+                what: "out",
+                expected: self.params.n_out,
+                got: out.len(),
+            });
+        }
+        self.predict_unchecked(x, cutoff, out, None);
+        Ok(())
+    }
+
+    /// Also returns the largest activation per output (`lwpr_predict`'s `max_w`).
+    pub fn predict_with_max_activation(
+        &self,
+        x: &[f64],
+        cutoff: f64,
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
+        self.validate_x(x, cutoff)?;
+        let m = self.params.n_out;
+        let (mut y, mut wm) = (vec![0.0; m], vec![0.0; m]);
+        self.predict_unchecked(x, cutoff, &mut y, Some(&mut wm));
+        Ok((y, wm))
+    }
+
+    fn predict_unchecked(
+        &self,
+        x: &[f64],
+        cutoff: f64,
+        out: &mut [f64],
+        mut max_w: Option<&mut [f64]>,
+    ) {
+        let n = self.params.n_in;
+        let mut heap;
+        let mut stack = [0.0; 2 * STACK_N];
+        let buf: &mut [f64] = if n <= STACK_N {
+            &mut stack[..2 * n]
+        } else {
+            heap = vec![0.0; 2 * n];
+            &mut heap
+        };
+        let (xbuf, xc) = buf.split_at_mut(n);
+        let xn = self.normalise(x, xbuf);
+        for dim in 0..self.params.n_out {
+            let (y, w) = self.predict_dim(dim, xn, cutoff, xc);
+            out[dim] = y * self.params.norm_out[dim];
+            if let Some(mw) = max_w.as_deref_mut() {
+                mw[dim] = w;
+            }
+        }
+    }
+
+    /// Predicts many inputs (`xs` holds them one after another, `k·n` values) in parallel with
+    /// rayon; the result (`k·m` values) is identical to calling [`predict`](Self::predict) on
+    /// each input, on any number of threads.
+    pub fn predict_batch(&self, xs: &[f64], cutoff: f64) -> Result<Vec<f64>> {
+        let (n, m) = (self.params.n_in, self.params.n_out);
+        if xs.len() % n != 0 {
+            return Err(LwprError::DimensionMismatch {
+                what: "xs (multiple of n_in)",
+                expected: n * xs.len().div_ceil(n),
+                got: xs.len(),
+            });
+        }
+        check_cutoff(cutoff)?;
+        if let Some(index) = xs.iter().position(|v| !v.is_finite()) {
+            return Err(LwprError::NonFinite { what: "xs", index });
+        }
+        let mut out = vec![0.0; xs.len() / n * m];
+        out.par_chunks_mut(m)
+            .zip(xs.par_chunks(n))
+            .with_min_len(64)
+            .for_each(|(o, x)| self.predict_unchecked(x, cutoff, o, None));
+        Ok(out)
+    }
+
+    /// Prediction with the reference's confidence bounds (`lwpr_predict` with `conf`): per
+    /// field `σ_k² = E_cv/(W − S_p)·(1 + w Σ s_r²/SSs2_r)`, combined as
+    /// `√|Σ w σ_k² + Σ w ŷ_k² − W ŷ²| / W`.
+    pub fn predict_with_confidence(
+        &self,
+        x: &[f64],
+        cutoff: f64,
+    ) -> Result<PredictionWithConfidence> {
+        self.validate_x(x, cutoff)?;
+        let (n, m) = (self.params.n_in, self.params.n_out);
+        let mut xn = vec![0.0; n];
+        self.normalise(x, &mut xn);
+        let (mut xc, mut s, mut xu, mut z) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut y = vec![0.0; m];
+        let mut confidence = vec![0.0; m];
+        for dim in 0..m {
+            let (mut sum_w, mut sum_wy, mut sum_wyy, mut sum_conf) = (0.0, 0.0, 0.0, 0.0);
+            for rf in &self.sub[dim].rfs {
+                for i in 0..n {
+                    xc[i] = xn[i] - rf.c[i];
+                }
+                let w = kernel_eval(
+                    self.params.kernel,
+                    distance(&rf.d, &xc, self.params.diag_only),
+                )
+                .0;
+                if w > cutoff && rf.trustworthy {
+                    let (yk, s2, nr) = rf.predict_projected(n, &xn, &mut s, &mut xu, &mut z);
+                    let sigma2 =
+                        rf.sum_e_cv2[nr - 1] / (rf.sum_w[nr - 1] - rf.ssp) * (1.0 + w * s2);
+                    sum_wyy += w * yk * yk;
+                    sum_conf += w * sigma2;
+                    sum_wy += w * yk;
+                    sum_w += w;
+                }
+            }
+            let no = self.params.norm_out[dim];
+            if sum_w > 0.0 {
+                let yp = sum_wy / sum_w;
+                y[dim] = yp * no;
+                confidence[dim] = no * (sum_conf + sum_wyy - sum_wy * yp).abs().sqrt() / sum_w;
+            } else {
+                y[dim] = 0.0;
+                confidence[dim] = f64::INFINITY;
+            }
+        }
+        Ok(PredictionWithConfidence { y, confidence })
+    }
+
+    /// Prediction and its analytic Jacobian `∂ŷ/∂x` (`m × n`; papers.md §3.2):
+    /// `∂ŷ/∂x = (1/W) Σ_k (w_k ∂ŷ_k/∂x + ŷ_k ∂w_k/∂x) − (ŷ/W) Σ_k ∂w_k/∂x`, with
+    /// `∂w_k/∂x = 2 (dw/dq) D_k (x − c_k)`, scaled by `norm_out_i / norm_in_j`. Where no
+    /// trustworthy field is active the prediction and the Jacobian are 0.
+    ///
+    /// ```
+    /// let mut model = lwpr::LwprBuilder::new(1, 1).init_d_spherical(4.0).build().unwrap();
+    /// for i in 0..2000 {
+    ///     let x = (i % 100) as f64 / 100.0;
+    ///     model.update(&[x], &[3.0 * x]).unwrap();
+    /// }
+    /// let p = model.predict_with_jacobian(&[0.5], 0.001).unwrap();
+    /// assert!((p.y[0] - 1.5).abs() < 0.05);
+    /// assert!((p.jacobian[(0, 0)] - 3.0).abs() < 0.2);
+    /// ```
+    pub fn predict_with_jacobian(&self, x: &[f64], cutoff: f64) -> Result<PredictionWithJacobian> {
+        self.validate_x(x, cutoff)?;
+        let (n, m) = (self.params.n_in, self.params.n_out);
+        let mut xn = vec![0.0; n];
+        self.normalise(x, &mut xn);
+        let (mut xc, mut dx) = (vec![0.0; n], vec![0.0; n]);
+        let (mut sum_dwdx, mut sum_ydw_wdy) = (vec![0.0; n], vec![0.0; n]);
+        let mut y = vec![0.0; m];
+        let mut jacobian = DMatrix::zeros(m, n);
+        for dim in 0..m {
+            sum_dwdx.iter_mut().for_each(|v| *v = 0.0);
+            sum_ydw_wdy.iter_mut().for_each(|v| *v = 0.0);
+            let (mut yp, mut sum_w) = (0.0, 0.0);
+            for rf in &self.sub[dim].rfs {
+                for i in 0..n {
+                    xc[i] = xn[i] - rf.c[i];
+                }
+                let mut q = 0.0;
+                for j in 0..n {
+                    let dj = if self.params.diag_only {
+                        rf.d[j + j * n] * xc[j]
+                    } else {
+                        crate::linalg::dot(&rf.d[j * n..j * n + n], &xc)
+                    };
+                    dx[j] = dj;
+                    q += xc[j] * dj;
+                }
+                let (w, dwdq, _) = kernel_eval(self.params.kernel, q);
+                if w > cutoff && rf.trustworthy {
+                    let yk = rf.predict_slope(&xn);
+                    yp += w * yk;
+                    sum_w += w;
+                    for j in 0..n {
+                        let dw = 2.0 * dwdq * dx[j];
+                        sum_dwdx[j] += dw;
+                        sum_ydw_wdy[j] += yk * dw + w * rf.slope[j];
+                    }
+                }
+            }
+            let no = self.params.norm_out[dim];
+            if sum_w > 0.0 {
+                yp /= sum_w;
+                y[dim] = yp * no;
+                for j in 0..n {
+                    let g = -yp / sum_w * sum_dwdx[j] + sum_ydw_wdy[j] / sum_w;
+                    jacobian[(dim, j)] = g * no / self.params.norm_in[j];
+                }
+            }
+        }
+        Ok(PredictionWithJacobian { y, jacobian })
+    }
+}

@@ -1,0 +1,133 @@
+//! Faithfulness to the reference C library on the cross function (issue 8): same number of
+//! receptive fields, the same predictions on the 41×41 grid (to 1e-6) and the same prediction
+//! returned by every update. Skipped with a printed reason when the reference cannot be built.
+
+#[path = "../peer/harness.rs"]
+mod harness;
+
+use harness::*;
+use lwpr::{Lwpr, LwprBuilder};
+use std::path::Path;
+
+fn settings(m: &Lwpr) -> PeerSettings<'_> {
+    let p = m.params();
+    PeerSettings {
+        n_in: p.n_in,
+        n_out: p.n_out,
+        diag_only: p.diag_only,
+        meta: p.meta,
+        update_d: p.update_d,
+        bisquare: p.kernel == lwpr::Kernel::BiSquare,
+        meta_rate: p.meta_rate,
+        penalty: p.penalty,
+        init_alpha: p.init_alpha[0],
+        w_gen: p.w_gen,
+        w_prune: p.w_prune,
+        init_lambda: p.init_lambda,
+        final_lambda: p.final_lambda,
+        tau_lambda: p.tau_lambda,
+        init_s2: p.init_s2,
+        add_threshold: p.add_threshold,
+        init_d: &p.init_d,
+        norm_in: &p.norm_in,
+        norm_out: &p.norm_out,
+    }
+}
+
+fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let driver = match build_peer(&root) {
+        Ok(d) => d,
+        Err(reason) => {
+            eprintln!("SKIPPED {label}: {reason}");
+            return;
+        }
+    };
+    let (gx, _) = cross_grid();
+    let n = model.n_in();
+    let gx = if n == 2 {
+        gx
+    } else {
+        embed(&gx, &random_rotation(n, 7), n)
+    };
+    let peer =
+        run_peer(&driver, &settings(&model), x, y, &gx, &[x.len() / n]).expect("reference run");
+    let m = model.n_out();
+    let mut first_divergence = None;
+    for (t, (xs, ys)) in x.chunks(n).zip(y.chunks(m)).enumerate() {
+        let yp = model.update(xs, ys).unwrap();
+        for k in 0..m {
+            let r = peer.update_predictions[t * m + k];
+            if yp[k] != r && first_divergence.is_none() {
+                first_divergence = Some((t, yp[k], r));
+            }
+        }
+    }
+    assert_eq!(
+        first_divergence, None,
+        "{label}: first update whose prediction differs (step, ours, reference)"
+    );
+    let (nrf, pred) = &peer.checkpoints[0];
+    assert_eq!(&model.num_rfs(), nrf, "{label}: receptive-field counts");
+    let ours = model.predict_batch(&gx, 0.001).unwrap();
+    let worst = ours
+        .iter()
+        .zip(pred)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-6,
+        "{label}: largest prediction difference {worst:e}"
+    );
+    eprintln!("{label}: {nrf:?} receptive fields, largest grid difference {worst:e}");
+}
+
+#[test]
+fn cross_setting_a_matches_reference() {
+    let (x, y) = cross_samples(1, 20_000, 0.1);
+    let model = LwprBuilder::new(2, 1)
+        .init_d_spherical(50.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .build()
+        .unwrap();
+    compare(model, &x, &y, "cross, setting A, seed 1");
+}
+
+#[test]
+fn cross_full_metric_meta_matches_reference() {
+    let (x, y) = cross_samples(2, 5_000, 0.1);
+    let model = LwprBuilder::new(2, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .diag_only(false)
+        .meta(true)
+        .build()
+        .unwrap();
+    compare(model, &x, &y, "cross, full metric + meta, seed 2");
+}
+
+#[test]
+fn cross_bisquare_two_outputs_normalised_matches_reference() {
+    let (x, y1) = cross_samples(3, 4_000, 0.1);
+    let y: Vec<f64> = y1
+        .iter()
+        .zip(x.chunks(2))
+        .flat_map(|(a, p)| [*a, 10.0 * (p[0] + p[1]).sin()])
+        .collect();
+    let model = LwprBuilder::new(2, 2)
+        .init_d_spherical(10.0)
+        .w_gen(0.2)
+        .norm_in(&[2.0, 1.0])
+        .norm_out(&[1.0, 10.0])
+        .kernel(lwpr::Kernel::BiSquare)
+        .build()
+        .unwrap();
+    compare(
+        model,
+        &x,
+        &y,
+        "cross, BiSquare, 2 outputs, norm_in/out, seed 3",
+    );
+}
