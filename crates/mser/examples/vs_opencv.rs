@@ -16,7 +16,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mat = mser::OpenCvMser::mat(&img)?;
         let med = |f: &mut dyn FnMut()| {
             f();
-            let mut t: Vec<f64> = (0..11)
+            let mut t: Vec<f64> = (0..31)
                 .map(|_| {
                     let t0 = Instant::now();
                     f();
@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect();
             t.sort_by(f64::total_cmp);
-            t[5]
+            t[3]
         };
         let (mut n1, mut n2) = (0, 0);
         let a = med(&mut || n1 = ours.detect(&img).unwrap().len());

@@ -90,8 +90,11 @@ impl Region {
 /// let img = mser::GrayView::packed(&px, w, h).unwrap();
 /// let params = mser::MserParams { min_area: 10, ..Default::default() };
 /// let regions = mser::Mser::new(params).unwrap().detect(&img).unwrap();
-/// assert_eq!(regions.len(), 1);
+/// // The square, and the bright background around it (a region with a hole).
+/// assert_eq!(regions.len(), 2);
 /// let r = &regions[0];
+/// assert_eq!(regions[1].polarity, mser::Polarity::Bright);
+/// assert_eq!(regions[1].area as usize, w * h - 100);
 /// assert_eq!((r.polarity, r.area, r.seed), (mser::Polarity::Dark, 100, (15, 10)));
 /// assert_eq!(r.contour(&img).unwrap().len(), 36);
 /// ```

@@ -58,14 +58,12 @@ impl Selector {
             let lower = match p.variation {
                 Variation::Upward => area[i],
                 Variation::Symmetric => {
+                    // The smallest region on the largest-child chain whose level is >= g − Δ.
                     let mut m = i;
                     loop {
                         let c = main[m];
-                        if c == NONE {
-                            break 0;
-                        }
-                        if level[c as usize] as u32 + delta <= g {
-                            break area[c as usize];
+                        if c == NONE || level[c as usize] as u32 + delta < g {
+                            break area[m];
                         }
                         m = c as usize;
                     }
@@ -84,7 +82,7 @@ impl Selector {
             if q == NONE || a < min_area || a > max_area || var[i] > p.max_variation {
                 continue;
             }
-            if var[i] >= var[q as usize] {
+            if var[i] > var[q as usize] {
                 continue;
             }
             let mut c = tree.first_child[i];

@@ -202,16 +202,19 @@ impl TreeBuilder {
 
         // Boundary heap: one stack per level, carved from one array, each with one spare slot
         // so that a push can write unconditionally and only count when it is real.
-        let mut base = [0u32; 256];
+        // `bottom[g]..top[g]` are level g's entries; a sentinel level 256 is never empty.
+        let mut bottom = [0u32; 257];
+        let mut top_of = [0u32; 257];
         let mut acc = 0u32;
         for g in 0..256 {
-            base[g] = acc;
+            bottom[g] = acc;
+            top_of[g] = acc;
             acc += hist[g] + 1;
         }
-        let mut len = [0u32; 256];
-        let mut mask = [0u64; 4];
+        bottom[256] = acc;
+        top_of[256] = acc + 1;
         self.heap.clear();
-        self.heap.resize(acc as usize, 0);
+        self.heap.resize(acc as usize + 1, 0);
         let heap = &mut self.heap[..];
         let cells = &mut self.cells[..];
         let stack = &mut self.stack;
@@ -226,6 +229,26 @@ impl TreeBuilder {
         let mut top = Comp::new(cur_level);
         let mut dir = 0u32;
         loop {
+            // Fast path for a pixel seen for the first time: read the four neighbours at once;
+            // if none is lower, mark them all and push the unreached ones.
+            if dir == 0 {
+                let ns = offs.map(|o| cur.wrapping_add(o));
+                // SAFETY: as below, every neighbour of an image pixel lies in the buffer.
+                let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
+                if vs.iter().all(|&v| v >= cur_level) {
+                    let mut fresh = 0u32;
+                    for i in 0..4 {
+                        unsafe { *cells.get_unchecked_mut(ns[i] as usize) = (vs[i] as u16) | SEEN };
+                        fresh |= ((vs[i] >> 8) ^ 1) << i;
+                    }
+                    while fresh != 0 {
+                        let i = fresh.trailing_zeros() as usize;
+                        fresh &= fresh - 1;
+                        push(heap, &mut top_of, vs[i], ns[i] << 3, 1);
+                    }
+                    dir = 4;
+                }
+            }
             // Explore the remaining neighbours of `cur`.
             while dir < 4 {
                 // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the
@@ -237,12 +260,7 @@ impl TreeBuilder {
                 *cell |= SEEN;
                 if v < cur_level {
                     // Unreached and lower: push `cur` back and descend.
-                    push(
-                        heap,
-                        &base,
-                        &mut len,
-                        &mut mask,
-                        cur_level,
+                    push(heap, &mut top_of, cur_level,
                         (cur << 3) | dir,
                         1,
                     );
@@ -255,19 +273,28 @@ impl TreeBuilder {
                     // Unreached and not lower: a real push. Reached before (bit 8 set): the
                     // write lands in the spare slot and is not counted.
                     let fresh = (v >> 8) ^ 1;
-                    push(heap, &base, &mut len, &mut mask, v & 0xff, n << 3, fresh);
+                    push(heap, &mut top_of, v & 0xff, n << 3, fresh);
                 }
             }
             top.add_pixel(cur, shift, xmask);
 
             // Next pixel: from the current level's stack, else from the lowest non-empty one.
-            let g = cur_level as usize;
-            let e = if len[g] > 0 {
-                pop(heap, &base, &mut len, &mut mask, g)
+            let mut g = cur_level as usize;
+            let e = if top_of[g] != bottom[g] {
+                top_of[g] -= 1;
+                heap[top_of[g] as usize]
             } else {
-                let Some(next) = lowest(&mask) else { break };
-                let e = pop(heap, &base, &mut len, &mut mask, next);
-                let next = next as u32;
+                // Every entry lies at or above the current level: scan upwards.
+                g += 1;
+                while top_of[g] == bottom[g] {
+                    g += 1;
+                }
+                if g == 256 {
+                    break;
+                }
+                top_of[g] -= 1;
+                let e = heap[top_of[g] as usize];
+                let next = g as u32;
                 // Process the component stack: raise the top or merge it into the next.
                 loop {
                     let below = stack.last().map_or(u32::MAX, |c| c.level);
@@ -307,45 +334,13 @@ impl TreeBuilder {
 
 /// Writes `e` on top of level `g`'s stack and counts it when `real` is 1 (0: no-op push).
 #[inline(always)]
-fn push(
-    heap: &mut [u32],
-    base: &[u32; 256],
-    len: &mut [u32; 256],
-    mask: &mut [u64; 4],
-    g: u32,
-    e: u32,
-    real: u32,
-) {
+fn push(heap: &mut [u32], top_of: &mut [u32; 257], g: u32, e: u32, real: u32) {
     let g = (g & 0xff) as usize;
-    let slot = (base[g] + len[g]) as usize;
+    let slot = top_of[g] as usize;
     // SAFETY: level g has hist[g] + 1 slots and at most hist[g] real entries, so the slot past
     // the top is in bounds.
     unsafe { *heap.get_unchecked_mut(slot) = e };
-    len[g] += real;
-    mask[g >> 6] |= (real as u64) << (g & 63);
-}
-
-#[inline(always)]
-fn pop(
-    heap: &[u32],
-    base: &[u32; 256],
-    len: &mut [u32; 256],
-    mask: &mut [u64; 4],
-    g: usize,
-) -> u32 {
-    len[g] -= 1;
-    if len[g] == 0 {
-        mask[g >> 6] &= !(1 << (g & 63));
-    }
-    heap[(base[g] + len[g]) as usize]
-}
-
-#[inline]
-fn lowest(mask: &[u64; 4]) -> Option<usize> {
-    mask.iter()
-        .enumerate()
-        .find(|(_, w)| **w != 0)
-        .map(|(i, w)| i * 64 + w.trailing_zeros() as usize)
+    top_of[g] += real;
 }
 
 /// Closes the node `c` (its children are linked through `c.children`) and returns its id.

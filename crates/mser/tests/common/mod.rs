@@ -118,12 +118,13 @@ fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Ve
         let lower = match p.variation {
             Variation::Upward => area[s],
             Variation::Symmetric => {
+                // Walk down the largest children while they still exist at threshold g − Δ or
+                // later; the last one reached stands for Q_{g−Δ}.
                 let mut m = s;
                 loop {
                     match main_child(m) {
-                        None => break 0,
-                        Some(c) if level[c] as usize + delta <= g => break area[c],
-                        Some(c) => m = c,
+                        Some(c) if level[c] as usize + delta >= g => m = c,
+                        _ => break area[m],
                     }
                 }
             }
@@ -137,7 +138,7 @@ fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Ve
             area[s] >= p.min_area
                 && area[s] <= p.max_area
                 && vars[s] <= p.max_variation
-                && vars[s] < vars[q]
+                && vars[s] <= vars[q]
                 && children[s]
                     .iter()
                     .all(|&c| area[c] < p.min_area || vars[s] <= vars[c])

@@ -1,0 +1,60 @@
+//! Oxford region files: exact round trip, the benchmark's header conventions, malformed files.
+
+use mser::{Ellipse, MserError, read_regions, write_regions};
+
+#[test]
+fn round_trip_is_exact() {
+    let es = vec![
+        Ellipse { u: 1.5, v: 2.25, a: 0.1, b: -0.01, c: 0.2 },
+        Ellipse { u: 300.123456789, v: 0.0, a: 1.0 / 3.0, b: 1e-17, c: 7.0 },
+    ];
+    let mut buf = Vec::new();
+    write_regions(&mut buf, &es).unwrap();
+    let text = String::from_utf8(buf.clone()).unwrap();
+    assert!(text.starts_with("1.0\n2\n"), "{text}");
+    let back = read_regions(&buf[..]).unwrap();
+    assert_eq!(back.len(), 2);
+    for (a, b) in es.iter().zip(&back) {
+        assert_eq!(*a, b.ellipse);
+        assert!(b.descriptor.is_empty());
+    }
+}
+
+#[test]
+fn reads_descriptors_and_zero_header() {
+    let text = "3\n2\n10 20 0.01 0 0.02 1 2 3\n30 40 0.5 0.1 0.5 4 5 6\n";
+    let r = read_regions(text.as_bytes()).unwrap();
+    assert_eq!(r[1].descriptor, vec![4.0, 5.0, 6.0]);
+    assert_eq!(r[0].ellipse.u, 10.0);
+    let r = read_regions("0\n1\n1 2 1 0 1\n".as_bytes()).unwrap();
+    assert_eq!(r.len(), 1);
+}
+
+#[test]
+fn malformed_files_give_line_numbers() {
+    let bad = [
+        ("", 0),
+        ("1.0\n", 0),
+        ("x\n1\n1 2 1 0 1\n", 1),
+        ("1.0\n2\n1 2 1 0 1\n", 0),
+        ("1.0\n1\n1 2 1 0\n", 3),
+        ("1.0\n1\n1 2 1 0 nan\n", 3),
+        ("1.0\n1\n1 2 1 2 1\n", 3),
+        ("1.0\n1\n1 2 -1 0 1\n", 3),
+        ("1.0\n1\n1 2 1 0 1\n1 2 1 0 1\n", 4),
+        ("1.0\n-1\n", 2),
+        ("1.0\n1.5\n", 2),
+    ];
+    for (text, line) in bad {
+        match read_regions(text.as_bytes()) {
+            Err(MserError::Parse { line: l, .. }) => assert_eq!(l, line, "{text:?}"),
+            other => panic!("{text:?}: expected a parse error, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn unreadable_file_is_an_io_error() {
+    let err = mser::load_regions("/nonexistent/dir/file.mser").unwrap_err();
+    assert!(matches!(err, MserError::Io(_)));
+}
