@@ -1,0 +1,55 @@
+//! Criterion bench of one CBT predict + update step against the particle filter with 1,000
+//! particles and the Kalman filter, on the same frames of a synthetic L2 sequence.
+
+use cbt_tracker::sim::{Level, Scenario, generate};
+use cbt_tracker::{
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ParticleFilter,
+    PfModel, Scales, Space, Tracker,
+};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+fn bench(c: &mut Criterion) {
+    let sc = Scenario::default();
+    let level = Level::preset(2);
+    let train = generate(&sc, &level, 4, 300, 1);
+    let test = generate(&sc, &level, 1, 200, 2).remove(0);
+    let scales = Scales::estimate(&train, sc.width).unwrap();
+    let spacing = scales.spacing(sc.height);
+    let space = Space::image(sc.width, sc.height, spacing).unwrap();
+    let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
+    let cal = Calibration::estimate(&train, sc.width / 10.0).unwrap();
+    let mut trackers: Vec<(&str, Box<dyn Tracker>)> = vec![
+        ("cbt-2nd-separable", Box::new(CbtTracker::new(model))),
+        (
+            "pf-1000",
+            Box::new(
+                ParticleFilter::new(
+                    PfModel::from_calibration(&cal, sc.width * sc.height),
+                    1000,
+                    3,
+                )
+                .unwrap(),
+            ),
+        ),
+        (
+            "kalman-nn",
+            Box::new(KalmanTracker::new(KalmanParams::from_calibration(&cal)).unwrap()),
+        ),
+    ];
+    let mut group = c.benchmark_group("predict+update");
+    for (name, t) in trackers.iter_mut() {
+        t.reset(test.frames[0].truth.unwrap()).unwrap();
+        let mut k = 1;
+        group.bench_function(*name, |b| {
+            b.iter(|| {
+                let e = t.step(&test.frames[k].detections).unwrap();
+                k = if k + 1 < test.frames.len() { k + 1 } else { 1 };
+                e
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

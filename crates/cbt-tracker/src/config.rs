@@ -1,0 +1,146 @@
+//! Parameters of learning and filtering, with their documented defaults.
+
+use serde::{Deserialize, Serialize};
+
+use crate::TrackError;
+use crate::error::{positive, unit};
+
+/// Order of the learned Markov model of the position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Order {
+    /// `p(x_k | x_{k−1})` (the MLVMA-08 version of CBT).
+    First,
+    /// `p(x_k | x_{k−1}, x_{k−2})` with the marginal approximation (Paper B, ISVC 2009).
+    Second,
+}
+
+/// How the models are laid out over the axes of a 2-D state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Layout {
+    /// One model per axis (`N×N` observation and first-order matrices, `N×N×N` second-order
+    /// tensor per axis), dense: the default. The prediction acts on the posterior's per-axis
+    /// marginals; the update and the posterior stay joint.
+    Separable,
+    /// One model over the joint 2-D grid of `G = N_x·N_y` cells, stored sparsely (only cells
+    /// the training data touched): captures couplings between the axes at a higher cost.
+    SparseJoint,
+}
+
+/// What the observation model does with the clutter background of correspondence-free learning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Clutter {
+    /// Keep it: wrong within-frame pairings spread into a broad floor, so the learned
+    /// `p(z | x)` models the clutter (papers.md §2.2 step 1). The default.
+    Model,
+    /// Remove it: subtract the product of the detection and state marginals, scaled by the
+    /// expected share of wrong pairs, and clamp at zero (papers.md §2.2 "optional refinement").
+    Subtract,
+}
+
+/// Prior column used where the observation model has (almost) no training mass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObservationFallback {
+    /// An ideal sensor `z = x` (channel vector of the state centre in the measurement basis;
+    /// uniform where that centre is outside the measurement range). Needs state and
+    /// measurement to share units, as in image tracking. The default.
+    Identity,
+    /// A uniform column: no prior knowledge of `p(z | x)`.
+    Uniform,
+}
+
+/// Prior column of the second-order system model where its training mass is small.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SystemFallback {
+    /// A Gaussian of [`CbtConfig::fallback_sigma`] channels around the constant-velocity
+    /// extrapolation `2·x_{k−1} − x_{k−2}` (clamped to the grid).
+    ConstantVelocity,
+    /// The learned first-order column `p(x_k | x_{k−1})`. The default: under the marginal
+    /// approximation a pair `(x_{k−1}, x_{k−2})` drawn from two different modes of the
+    /// posterior (target and clutter) has a velocity never seen in training; the
+    /// constant-velocity extrapolation throws such pairs' mass far across the grid (where any
+    /// clutter detection then captures the track — observed on synthetic L2 data), the
+    /// first-order column keeps it near `x_{k−1}`.
+    FirstOrder,
+}
+
+/// Parameters of Channel Based Tracking. The defaults ([`CbtConfig::default`]) are those of
+/// the second-order, separable tracker of Paper B as reconstructed in papers.md §2.2.
+///
+/// **Fallback for empty cells.** Every learned column (observation: per state cell; system:
+/// per previous state or pair of previous states) is a Dirichlet-smoothed estimate
+/// `p = (C + α·F) / (Σ C + α)`: the soft counts `C` of the training data plus the prior column
+/// `F` with pseudo-mass `α` ([`prior_weight`](Self::prior_weight)). A column without training
+/// mass is exactly `F`; one with much more mass than `α` is the data's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CbtConfig {
+    /// Markov order of the system model. Default: [`Order::Second`].
+    pub order: Order,
+    /// Per-axis or joint models. Default: [`Layout::Separable`].
+    pub layout: Layout,
+    /// Clutter background handling. Default: [`Clutter::Model`].
+    pub clutter: Clutter,
+    /// Observation prior column. Default: [`ObservationFallback::Identity`].
+    pub observation_fallback: ObservationFallback,
+    /// Second-order system prior column. Default: [`SystemFallback::FirstOrder`].
+    pub system_fallback: SystemFallback,
+    /// Pseudo-mass `α` of the prior columns, in units of soft counts (one training pair of
+    /// cos² channel vectors with `a = π/3` carries mass `1.5² = 2.25` per axis).
+    /// Default 1: a column needs about one training sample to be mostly data-driven.
+    pub prior_weight: f64,
+    /// Standard deviation (in channel spacings) of the system fallback's Gaussian. Default 1.
+    pub fallback_sigma: f64,
+    /// Floor `ε`: every observation column is mixed `(1 − ε)·p + ε·uniform`, so no detection
+    /// has zero likelihood anywhere. Default 1e-3.
+    pub observation_floor: f64,
+    /// Lost-track recovery: the prior is mixed `(1 − γ)·p + γ·uniform` before every update.
+    /// Default 1e-3.
+    pub mixing: f64,
+    /// Pruning of the prediction: the lightest cells of each previous posterior holding
+    /// together at most this share of its mass are skipped, and the mass of every skipped
+    /// pair is spread uniformly over the grid (as the lost-track mixing does). This drops the
+    /// uniform floor the mixing leaves everywhere, so the cost follows the posterior's spread
+    /// instead of the grid size. 0 disables pruning (exact sums). Default 0.01.
+    pub prune: f64,
+    /// Weight of one frame in [`learn_online`](crate::CbtTracker::learn_online) relative to a
+    /// batch training frame. Default 1.
+    pub online_weight: f64,
+    /// Number of runner-up modes reported by the estimate. Default 3.
+    pub runner_ups: usize,
+}
+
+impl Default for CbtConfig {
+    fn default() -> Self {
+        CbtConfig {
+            order: Order::Second,
+            layout: Layout::Separable,
+            clutter: Clutter::Model,
+            observation_fallback: ObservationFallback::Identity,
+            system_fallback: SystemFallback::FirstOrder,
+            prior_weight: 1.0,
+            fallback_sigma: 1.0,
+            observation_floor: 1e-3,
+            mixing: 1e-3,
+            prune: 0.01,
+            online_weight: 1.0,
+            runner_ups: 3,
+        }
+    }
+}
+
+impl CbtConfig {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), TrackError> {
+        positive("prior_weight", self.prior_weight)?;
+        positive("fallback_sigma", self.fallback_sigma)?;
+        unit("observation_floor", self.observation_floor, true)?;
+        unit("mixing", self.mixing, true)?;
+        unit("prune", self.prune, true)?;
+        positive("online_weight", self.online_weight)?;
+        Ok(())
+    }
+}

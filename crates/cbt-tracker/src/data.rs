@@ -1,0 +1,96 @@
+//! Plain data: points, detections, training frames and sequences.
+
+use serde::{Deserialize, Serialize};
+
+use crate::TrackError;
+
+/// A position. Two-dimensional problems (image coordinates) use both entries; one-dimensional
+/// problems (e.g. the UNGM benchmark) use `[x, 0.0]`.
+pub type Point = [f64; 2];
+
+/// One detection of a frame: its position and a non-negative confidence weight (1 for a
+/// plain detection). Clutter is not marked: the trackers cannot tell it from the target.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Detection {
+    /// Detected position (measurement space).
+    pub pos: Point,
+    /// Detector confidence; the channel encoding of the detection is scaled by it.
+    pub weight: f64,
+}
+
+impl Detection {
+    /// A detection with weight 1.
+    pub fn new(x: f64, y: f64) -> Self {
+        Detection {
+            pos: [x, y],
+            weight: 1.0,
+        }
+    }
+
+    /// Checks the coordinates (the first `dims`) and the weight are finite, weight ≥ 0.
+    pub(crate) fn validate(&self, dims: usize) -> Result<(), TrackError> {
+        check_point("detection coordinate", &self.pos, dims)?;
+        if !self.weight.is_finite() {
+            return Err(TrackError::NonFinite {
+                what: "detection weight",
+                value: self.weight,
+            });
+        }
+        if self.weight < 0.0 {
+            return Err(TrackError::NegativeWeight(self.weight));
+        }
+        Ok(())
+    }
+}
+
+/// Checks the first `dims` coordinates of a point are finite.
+pub(crate) fn check_point(what: &'static str, p: &Point, dims: usize) -> Result<(), TrackError> {
+    for &v in &p[..dims] {
+        if !v.is_finite() {
+            return Err(TrackError::NonFinite { what, value: v });
+        }
+    }
+    Ok(())
+}
+
+/// One training frame: the (unordered) set of true states and the (unordered) set of
+/// detections, clutter included. No association between the two is given or needed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrainingFrame {
+    /// The states present in the frame (usually the one annotated target position; may be
+    /// empty when the frame is unannotated).
+    pub states: Vec<Point>,
+    /// The frame's detections.
+    pub detections: Vec<Detection>,
+}
+
+/// A sequence of frames with ground truth and detections, as used for training and scoring.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Sequence {
+    /// A name (file stem, generator label).
+    pub name: String,
+    /// The frames, in time order.
+    pub frames: Vec<Frame>,
+}
+
+/// One frame of a [`Sequence`]: at most one true position and any number of detections.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Frame {
+    /// The true target position, when known.
+    pub truth: Option<Point>,
+    /// Detections, clutter included.
+    pub detections: Vec<Detection>,
+}
+
+impl Sequence {
+    /// The sequence as training frames (the truth, when present, is the frame's one state).
+    pub fn training_frames(&self) -> Vec<TrainingFrame> {
+        self.frames
+            .iter()
+            .map(|f| TrainingFrame {
+                states: f.truth.into_iter().collect(),
+                detections: f.detections.clone(),
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,53 @@
+//! Scores of a tracker on a sequence: RMSE of the position estimate and the track-loss share.
+
+use serde::{Deserialize, Serialize};
+
+use crate::Point;
+
+/// Accuracy of one tracker on one sequence.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Score {
+    /// Root mean square of the Euclidean position error over the scored frames.
+    pub rmse: f64,
+    /// Share of scored frames whose error exceeds the track-loss radius.
+    pub loss_share: f64,
+    /// Number of scored frames (frames after the first with a truth).
+    pub frames: usize,
+}
+
+/// Scores `estimates[k]` against `truths[k]` over the frames `k ≥ 1` that have a truth
+/// (frame 0 is the trackers' given start), using the first `dims` coordinates.
+///
+/// ```
+/// use cbt_tracker::metrics::score;
+/// let truth = [Some([0.0, 0.0]), Some([1.0, 0.0]), Some([2.0, 0.0])];
+/// let est = [[0.0, 0.0], [1.0, 3.0], [2.0, 4.0]];
+/// let s = score(&est, &truth, 2, 3.5);
+/// assert_eq!(s.frames, 2);
+/// assert!((s.rmse - 12.5f64.sqrt()).abs() < 1e-12);
+/// assert_eq!(s.loss_share, 0.5);
+/// ```
+pub fn score(estimates: &[Point], truths: &[Option<Point>], dims: usize, radius: f64) -> Score {
+    let (mut se, mut lost, mut n) = (0.0, 0usize, 0usize);
+    for (e, t) in estimates.iter().zip(truths).skip(1) {
+        let Some(t) = t else { continue };
+        let d2: f64 = (0..dims).map(|d| (e[d] - t[d]).powi(2)).sum();
+        se += d2;
+        if d2.sqrt() > radius {
+            lost += 1;
+        }
+        n += 1;
+    }
+    if n == 0 {
+        return Score {
+            rmse: 0.0,
+            loss_share: 0.0,
+            frames: 0,
+        };
+    }
+    Score {
+        rmse: (se / n as f64).sqrt(),
+        loss_share: lost as f64 / n as f64,
+        frames: n,
+    }
+}

@@ -1,0 +1,313 @@
+//! Learned CBT models: the observation model and the system model of one tracking space,
+//! learned in batch ([`CbtModel::learn`]) or frame by frame (online).
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{CbtConfig, Layout, Order};
+use crate::encode::{Encoded, encode_detections, encode_states};
+use crate::observation::{AxisObservation, JointObservation};
+use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
+use crate::{Sequence, Space, TrackError, TrainingFrame};
+
+/// The observation model in one of the two layouts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) enum ObservationModel {
+    Separable(Vec<AxisObservation>),
+    Joint(JointObservation),
+}
+
+/// The system model in one of the two layouts (first order always learned: it is the
+/// first-order tracker's model and the second order's optional fallback).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) enum SystemModel {
+    Separable {
+        first: Vec<AxisSystem1>,
+        second: Option<Vec<AxisSystem2>>,
+    },
+    Joint(JointSystem),
+}
+
+/// What learning has counted, for reporting.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct LearnStats {
+    /// Frames with at least one state and one detection (observation-model samples).
+    pub observation_frames: usize,
+    /// Consecutive-frame pairs with states (first-order samples).
+    pub transitions: usize,
+    /// Consecutive-frame triples with states (second-order samples).
+    pub triples: usize,
+}
+
+/// The two learned models of Channel Based Tracking on one [`Space`].
+///
+/// ```
+/// use cbt_tracker::{CbtConfig, CbtModel, Detection, Space, TrainingFrame};
+/// let space = Space::image(100.0, 100.0, 10.0).unwrap();
+/// // A target moving right by 2 px per frame, detected exactly, no clutter.
+/// let frames: Vec<TrainingFrame> = (0..30)
+///     .map(|k| {
+///         let p = [20.0 + 2.0 * k as f64, 50.0];
+///         TrainingFrame { states: vec![p], detections: vec![Detection::new(p[0], p[1])] }
+///     })
+///     .collect();
+/// let model = CbtModel::learn(space, CbtConfig::default(), &[frames]).unwrap();
+/// assert_eq!(model.stats().triples, 28);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CbtModel {
+    space: Space,
+    config: CbtConfig,
+    pub(crate) obs: ObservationModel,
+    pub(crate) sys: SystemModel,
+    stats: LearnStats,
+}
+
+/// The encodings of the last two frames' states, chaining transitions across
+/// [`CbtModel::add_frame`] calls.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct History {
+    prev: Option<Encoded>,
+    prev2: Option<Encoded>,
+}
+
+impl CbtModel {
+    /// An untrained model: every column is its fallback prior.
+    pub fn untrained(space: Space, config: CbtConfig) -> Result<Self, TrackError> {
+        config.validate()?;
+        let dims = space.dims();
+        let (obs, sys) = match config.layout {
+            Layout::Separable => {
+                let obs = (0..dims)
+                    .map(|d| AxisObservation::new(&space, d, &config))
+                    .collect();
+                let first: Vec<AxisSystem1> = (0..dims)
+                    .map(|d| AxisSystem1::new(space.axis_len(d), &config))
+                    .collect();
+                let second = (config.order == Order::Second).then(|| {
+                    (0..dims)
+                        .map(|d| AxisSystem2::new(space.axis_len(d), &config, &first[d]))
+                        .collect()
+                });
+                (
+                    ObservationModel::Separable(obs),
+                    SystemModel::Separable { first, second },
+                )
+            }
+            Layout::SparseJoint => (
+                ObservationModel::Joint(JointObservation::new(&space, &config)),
+                SystemModel::Joint(JointSystem::new(
+                    &space,
+                    &config,
+                    config.order == Order::Second,
+                )),
+            ),
+        };
+        Ok(CbtModel {
+            space,
+            config,
+            obs,
+            sys,
+            stats: LearnStats::default(),
+        })
+    }
+
+    /// Learns both models from training sequences, each a list of frames with unordered state
+    /// and detection sets (papers.md §2.2 steps 1–2). Every state and detection must lie on
+    /// the grid; errors name the first that does not.
+    pub fn learn(
+        space: Space,
+        config: CbtConfig,
+        sequences: &[Vec<TrainingFrame>],
+    ) -> Result<Self, TrackError> {
+        let mut model = CbtModel::untrained(space, config)?;
+        for seq in sequences {
+            let mut h = History::default();
+            for f in seq {
+                model.add_frame(&mut h, &f.states, &f.detections, 1.0, false)?;
+            }
+        }
+        if model.stats.observation_frames == 0 {
+            return Err(TrackError::EmptyTraining {
+                reason: "no frame has both a state and a detection",
+            });
+        }
+        let needed = match model.config.order {
+            Order::First => model.stats.transitions,
+            Order::Second => model.stats.triples,
+        };
+        if needed == 0 {
+            return Err(TrackError::EmptyTraining {
+                reason: "no run of consecutive frames with states long enough for the system model",
+            });
+        }
+        model.normalise_all();
+        Ok(model)
+    }
+
+    /// [`CbtModel::learn`] from [`Sequence`]s (the truth is each frame's state).
+    pub fn learn_sequences(
+        space: Space,
+        config: CbtConfig,
+        sequences: &[Sequence],
+    ) -> Result<Self, TrackError> {
+        let frames: Vec<Vec<TrainingFrame>> =
+            sequences.iter().map(Sequence::training_frames).collect();
+        CbtModel::learn(space, config, &frames)
+    }
+
+    /// The tracking space.
+    pub fn space(&self) -> &Space {
+        &self.space
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &CbtConfig {
+        &self.config
+    }
+
+    /// What learning has counted.
+    pub fn stats(&self) -> LearnStats {
+        self.stats
+    }
+
+    /// Adds one frame's soft counts with weight `weight`; with `renormalise`, updates the
+    /// normalised columns the frame touched (online learning). All input is validated before
+    /// anything is counted, so an error leaves the model unchanged.
+    pub(crate) fn add_frame(
+        &mut self,
+        h: &mut History,
+        states: &[crate::Point],
+        dets: &[crate::Detection],
+        weight: f64,
+        renormalise: bool,
+    ) -> Result<(), TrackError> {
+        let joint = self.config.layout == Layout::SparseJoint;
+        let x = encode_states(&self.space, states, weight, joint)?;
+        let z = encode_detections(&self.space, dets, 1.0, joint)?;
+        let dims = self.space.dims();
+        if !x.is_empty() && !z.is_empty() {
+            self.stats.observation_frames += 1;
+            match &mut self.obs {
+                ObservationModel::Separable(axes) => {
+                    for (d, o) in axes.iter_mut().enumerate() {
+                        o.add(&z, &x, d);
+                        if renormalise {
+                            let cols: Vec<usize> = x.axes[d].iter().map(|e| e.0).collect();
+                            o.normalise_columns(&cols, &self.config);
+                        }
+                    }
+                }
+                ObservationModel::Joint(o) => {
+                    o.add(&z, &x);
+                    if renormalise {
+                        o.normalise(&self.config);
+                    }
+                }
+            }
+        }
+        let prev = h.prev.take().filter(|p| !p.is_empty());
+        let prev2 = h.prev2.take().filter(|p| !p.is_empty());
+        if let (false, Some(p1)) = (x.is_empty(), prev.as_ref()) {
+            self.stats.transitions += 1;
+            let p2 = prev2.as_ref();
+            if p2.is_some() {
+                self.stats.triples += 1;
+            }
+            let cfg = self.config;
+            match &mut self.sys {
+                SystemModel::Separable { first, second } => {
+                    for d in 0..dims {
+                        first[d].add(&x.axes[d], &p1.axes[d]);
+                        if renormalise {
+                            let cols: Vec<usize> = p1.axes[d].iter().map(|e| e.0).collect();
+                            first[d].normalise_columns(&cols, &cfg);
+                        }
+                        if let (Some(second), Some(p2)) = (second.as_mut(), p2) {
+                            let mut touched = Vec::new();
+                            second[d].add(&x.axes[d], &p1.axes[d], &p2.axes[d], &mut touched);
+                            if renormalise {
+                                second[d].normalise_columns(&touched, &cfg, &first[d]);
+                            }
+                        }
+                    }
+                }
+                SystemModel::Joint(s) => {
+                    s.add(&x.joint, &p1.joint, p2.map(|p| &p.joint[..]));
+                }
+            }
+        }
+        h.prev2 = prev;
+        h.prev = Some(x);
+        Ok(())
+    }
+
+    /// Recomputes every normalised column from the counts.
+    pub(crate) fn normalise_all(&mut self) {
+        let cfg = self.config;
+        match &mut self.obs {
+            ObservationModel::Separable(axes) => {
+                axes.iter_mut().for_each(|o| o.normalise_all(&cfg))
+            }
+            ObservationModel::Joint(o) => o.normalise(&cfg),
+        }
+        match &mut self.sys {
+            SystemModel::Separable { first, second } => {
+                for (d, f) in first.iter_mut().enumerate() {
+                    let n = self.space.axis_len(d);
+                    f.normalise_columns(&(0..n).collect::<Vec<_>>(), &cfg);
+                    if let Some(s) = second.as_mut() {
+                        s[d].normalise_columns(&(0..n * n).collect::<Vec<_>>(), &cfg, f);
+                    }
+                }
+            }
+            SystemModel::Joint(s) => s.prepare(&self.space, &cfg),
+        }
+    }
+
+    /// The normalised observation matrix of axis `d` (separable layout), row-major
+    /// `O[m·N_x + n] ≈ p(z = z̃_m | x = x̃_n)`; `None` for the joint layout.
+    pub fn observation_matrix(&self, d: usize) -> Option<&[f64]> {
+        match &self.obs {
+            ObservationModel::Separable(axes) => axes.get(d).map(|o| o.model()),
+            ObservationModel::Joint(_) => None,
+        }
+    }
+
+    /// The raw soft counts `C_zx` of axis `d` (separable layout), row-major.
+    pub fn observation_counts(&self, d: usize) -> Option<&[f64]> {
+        match &self.obs {
+            ObservationModel::Separable(axes) => axes.get(d).map(|o| o.counts()),
+            ObservationModel::Joint(_) => None,
+        }
+    }
+
+    /// The normalised first-order matrix of axis `d` (separable layout), column-major
+    /// `S[n·N + m] ≈ p(x_k = x̃_m | x_{k−1} = x̃_n)`.
+    pub fn first_order_matrix(&self, d: usize) -> Option<&[f64]> {
+        match &self.sys {
+            SystemModel::Separable { first, .. } => first.get(d).map(|s| s.model()),
+            SystemModel::Joint(_) => None,
+        }
+    }
+
+    /// The normalised second-order tensor of axis `d` (separable layout, second order),
+    /// `T[(o·N + n)·N + m] ≈ p(x_k = x̃_m | x_{k−1} = x̃_n, x_{k−2} = x̃_o)`.
+    pub fn second_order_tensor(&self, d: usize) -> Option<&[f64]> {
+        match &self.sys {
+            SystemModel::Separable { second, .. } => {
+                second.as_ref().and_then(|s| s.get(d)).map(|s| s.model())
+            }
+            SystemModel::Joint(_) => None,
+        }
+    }
+
+    /// Stored entries of the sparse joint models `(observation counts, second-order columns)`.
+    pub fn sparse_size(&self) -> Option<(usize, usize)> {
+        match (&self.obs, &self.sys) {
+            (ObservationModel::Joint(o), SystemModel::Joint(s)) => {
+                Some((o.stored(), s.second_columns()))
+            }
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! Baseline: SIR particle filter (Arulampalam et al.'s generic particle filter with
+//! resampling at every step, systematic resampling), seeded.
+
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use crate::calibrate::Calibration;
+use crate::error::{positive, unit};
+use crate::tracker::{Estimate, Tracker};
+use crate::{Detection, Point, TrackError};
+
+/// The particle filter's motion and measurement model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PfModel {
+    /// Image tracking: state `[x, y, vx, vy]`, discrete white-noise acceleration
+    /// (`x += v + a/2, v += a`, `a ~ N(0, σ_a² I)`), measurement `z = (x, y) + N(0, σ_z² I)`,
+    /// clutter-aware likelihood `(1 − P_D) + P_D/λ · Σ_i w_i N(z_i; (x, y), σ_z² I)` with
+    /// clutter density `λ` (detections per pixel per frame).
+    ConstantVelocity {
+        /// Acceleration noise σ_a.
+        accel_sigma: f64,
+        /// Detection noise σ_z.
+        meas_sigma: f64,
+        /// Detection probability `P_D ∈ (0, 1]`.
+        p_detect: f64,
+        /// Clutter density `λ > 0` (clutter rate / image area).
+        clutter_density: f64,
+        /// Initial velocity spread (standard deviation).
+        init_vel_sigma: f64,
+    },
+    /// The univariate non-stationary growth model (papers.md §2.4):
+    /// `x_k = x/2 + 25x/(1 + x²) + 8 cos(1.2 k) + v`, `z = x²/20 + n`, likelihood
+    /// `Σ_i w_i N(z_i; x²/20, σ_n²)`.
+    Ungm {
+        /// Process noise variance (10 in the benchmark).
+        process_var: f64,
+        /// Measurement noise variance (1 in the benchmark).
+        meas_var: f64,
+        /// Initial spread around the start (standard deviation).
+        init_sigma: f64,
+    },
+}
+
+impl PfModel {
+    /// The image-tracking model from training statistics over an image of `area` px²
+    /// (clutter density at least 0.01 per frame over the image, so that the likelihood keeps
+    /// a floor).
+    pub fn from_calibration(c: &Calibration, area: f64) -> Self {
+        PfModel::ConstantVelocity {
+            accel_sigma: c.accel_sigma,
+            meas_sigma: c.meas_sigma,
+            p_detect: c.p_detect,
+            clutter_density: c.clutter_rate.max(0.01) / area,
+            init_vel_sigma: 5.0 * c.accel_sigma,
+        }
+    }
+
+    fn validate(&self) -> Result<(), TrackError> {
+        match *self {
+            PfModel::ConstantVelocity {
+                accel_sigma,
+                meas_sigma,
+                p_detect,
+                clutter_density,
+                init_vel_sigma,
+            } => {
+                positive("accel_sigma", accel_sigma)?;
+                positive("meas_sigma", meas_sigma)?;
+                unit("p_detect", p_detect, false)?;
+                positive("p_detect", p_detect)?;
+                positive("clutter_density", clutter_density)?;
+                if init_vel_sigma < 0.0 || !init_vel_sigma.is_finite() {
+                    return Err(TrackError::InvalidParameter {
+                        name: "init_vel_sigma",
+                        value: init_vel_sigma,
+                        reason: "must be finite and non-negative",
+                    });
+                }
+                Ok(())
+            }
+            PfModel::Ungm {
+                process_var,
+                meas_var,
+                init_sigma,
+            } => {
+                positive("process_var", process_var)?;
+                positive("meas_var", meas_var)?;
+                positive("init_sigma", init_sigma)
+            }
+        }
+    }
+
+    fn dims(&self) -> usize {
+        match self {
+            PfModel::ConstantVelocity { .. } => 2,
+            PfModel::Ungm { .. } => 1,
+        }
+    }
+}
+
+/// A SIR particle filter with `n` particles, systematic resampling after every update and a
+/// seeded generator (`Xoshiro256++`, serialised with the filter, so a reloaded filter
+/// continues the same random sequence).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParticleFilter {
+    model: PfModel,
+    particles: Vec<[f64; 4]>,
+    weights: Vec<f64>,
+    logw: Vec<f64>,
+    rng: Xoshiro256PlusPlus,
+    /// Time index of the current estimate (UNGM's `k`).
+    k: u64,
+    estimate: Point,
+}
+
+impl ParticleFilter {
+    /// `n ≥ 1` particles, all random draws from `seed`.
+    pub fn new(model: PfModel, n: usize, seed: u64) -> Result<Self, TrackError> {
+        model.validate()?;
+        if n == 0 {
+            return Err(TrackError::InvalidParameter {
+                name: "particles",
+                value: 0.0,
+                reason: "at least one particle is needed",
+            });
+        }
+        let mut pf = ParticleFilter {
+            model,
+            particles: vec![[0.0; 4]; n],
+            weights: vec![1.0 / n as f64; n],
+            logw: vec![0.0; n],
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            k: 0,
+            estimate: [0.0; 2],
+        };
+        pf.reset([0.0, 0.0])?;
+        Ok(pf)
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Always false (at least one particle).
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The particles `[x, y, vx, vy]` (1-D models use `x` only).
+    pub fn particles(&self) -> &[[f64; 4]] {
+        &self.particles
+    }
+
+    fn normal(&mut self) -> f64 {
+        StandardNormal.sample(&mut self.rng)
+    }
+
+    fn propagate(&mut self) {
+        self.k += 1;
+        match self.model {
+            PfModel::ConstantVelocity { accel_sigma, .. } => {
+                for i in 0..self.particles.len() {
+                    let ax = accel_sigma * self.normal();
+                    let ay = accel_sigma * self.normal();
+                    let p = &mut self.particles[i];
+                    p[0] += p[2] + 0.5 * ax;
+                    p[1] += p[3] + 0.5 * ay;
+                    p[2] += ax;
+                    p[3] += ay;
+                }
+            }
+            PfModel::Ungm { process_var, .. } => {
+                let s = process_var.sqrt();
+                let drive = 8.0 * (1.2 * self.k as f64).cos();
+                for i in 0..self.particles.len() {
+                    let v = s * self.normal();
+                    let p = &mut self.particles[i];
+                    let x = p[0];
+                    p[0] = 0.5 * x + 25.0 * x / (1.0 + x * x) + drive + v;
+                }
+            }
+        }
+    }
+
+    /// Log-likelihood of every particle; `false` when there is no information (no detection).
+    fn log_likelihoods(&mut self, dets: &[Detection]) -> bool {
+        let dets: Vec<&Detection> = dets.iter().filter(|d| d.weight > 0.0).collect();
+        if dets.is_empty() {
+            return false;
+        }
+        match self.model {
+            PfModel::ConstantVelocity {
+                meas_sigma,
+                p_detect,
+                clutter_density,
+                ..
+            } => {
+                let inv2 = 0.5 / (meas_sigma * meas_sigma);
+                let norm = 1.0 / (2.0 * std::f64::consts::PI * meas_sigma * meas_sigma);
+                let c = p_detect / clutter_density * norm;
+                for (lw, p) in self.logw.iter_mut().zip(&self.particles) {
+                    let mut s = 0.0;
+                    for d in &dets {
+                        let (dx, dy) = (d.pos[0] - p[0], d.pos[1] - p[1]);
+                        s += d.weight * (-(dx * dx + dy * dy) * inv2).exp();
+                    }
+                    *lw = ((1.0 - p_detect) + c * s).ln();
+                }
+            }
+            PfModel::Ungm { meas_var, .. } => {
+                let inv2 = 0.5 / meas_var;
+                for (lw, p) in self.logw.iter_mut().zip(&self.particles) {
+                    let h = p[0] * p[0] / 20.0;
+                    // log Σ_i w_i exp(−(z_i − h)²/2σ²), stable.
+                    let terms = dets
+                        .iter()
+                        .map(|d| (d.weight.ln(), -(d.pos[0] - h).powi(2) * inv2));
+                    let m = terms
+                        .clone()
+                        .map(|(a, b)| a + b)
+                        .fold(f64::NEG_INFINITY, f64::max);
+                    let s: f64 = terms.map(|(a, b)| (a + b - m).exp()).sum();
+                    *lw = m + s.ln();
+                }
+            }
+        }
+        true
+    }
+
+    fn systematic_resample(&mut self) {
+        let n = self.particles.len();
+        let u0: f64 = self.rng.random::<f64>() / n as f64;
+        let mut out = Vec::with_capacity(n);
+        let mut cum = self.weights[0];
+        let mut i = 0;
+        for j in 0..n {
+            let u = u0 + j as f64 / n as f64;
+            while u > cum && i + 1 < n {
+                i += 1;
+                cum += self.weights[i];
+            }
+            out.push(self.particles[i]);
+        }
+        self.particles = out;
+        self.weights.iter_mut().for_each(|w| *w = 1.0 / n as f64);
+    }
+}
+
+impl Tracker for ParticleFilter {
+    fn name(&self) -> String {
+        format!("PF {}", self.particles.len())
+    }
+
+    fn reset(&mut self, start: Point) -> Result<(), TrackError> {
+        let dims = self.model.dims();
+        crate::data::check_point("start coordinate", &start, dims)?;
+        let (pos_sigma, vel_sigma) = match self.model {
+            PfModel::ConstantVelocity {
+                meas_sigma,
+                init_vel_sigma,
+                ..
+            } => (meas_sigma, init_vel_sigma),
+            PfModel::Ungm { init_sigma, .. } => (init_sigma, 0.0),
+        };
+        for i in 0..self.particles.len() {
+            let r = [self.normal(), self.normal(), self.normal(), self.normal()];
+            let p = &mut self.particles[i];
+            p[0] = start[0] + pos_sigma * r[0];
+            p[1] = if dims == 2 {
+                start[1] + pos_sigma * r[1]
+            } else {
+                0.0
+            };
+            p[2] = if dims == 2 { vel_sigma * r[2] } else { 0.0 };
+            p[3] = if dims == 2 { vel_sigma * r[3] } else { 0.0 };
+        }
+        let n = self.particles.len();
+        self.weights.iter_mut().for_each(|w| *w = 1.0 / n as f64);
+        self.k = 0;
+        self.estimate = start;
+        Ok(())
+    }
+
+    fn step(&mut self, detections: &[Detection]) -> Result<Estimate, TrackError> {
+        for d in detections {
+            d.validate(self.model.dims())?;
+        }
+        self.propagate();
+        if self.log_likelihoods(detections) {
+            let m = self.logw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            if m.is_finite() {
+                let mut s = 0.0;
+                for (w, lw) in self.weights.iter_mut().zip(&self.logw) {
+                    *w *= (lw - m).exp();
+                    s += *w;
+                }
+                if s > 0.0 && s.is_finite() {
+                    self.weights.iter_mut().for_each(|w| *w /= s);
+                } else {
+                    let n = self.weights.len() as f64;
+                    self.weights.iter_mut().for_each(|w| *w = 1.0 / n);
+                }
+            }
+        }
+        let mut e = [0.0; 2];
+        for (w, p) in self.weights.iter().zip(&self.particles) {
+            e[0] += w * p[0];
+            e[1] += w * p[1];
+        }
+        self.estimate = e;
+        self.systematic_resample();
+        Ok(self.estimate())
+    }
+
+    fn estimate(&self) -> Estimate {
+        Estimate::at(self.estimate)
+    }
+}

@@ -1,0 +1,54 @@
+//! The interface shared by every tracker of the crate, and their common output.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Detection, Point, TrackError};
+
+/// One hypothesis of an estimate: a position and its certainty.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Hypothesis {
+    /// Position (value space).
+    pub position: Point,
+    /// Certainty: for CBT the posterior mass of the decoding window (eq. 2.5 on the
+    /// posterior), in `[0, 1]`.
+    pub certainty: f64,
+}
+
+/// A tracker's state estimate after a step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// The estimated position (CBT: the best decoded mode; Kalman: the filtered mean;
+    /// particle filter: the weighted particle mean).
+    pub position: Point,
+    /// Certainty of the estimate when the tracker has one (CBT), else `None`.
+    pub certainty: Option<f64>,
+    /// Runner-up hypotheses by decreasing certainty (CBT only; empty for the others).
+    pub runner_ups: Vec<Hypothesis>,
+}
+
+impl Estimate {
+    /// A bare position estimate.
+    pub fn at(position: Point) -> Self {
+        Estimate {
+            position,
+            certainty: None,
+            runner_ups: Vec::new(),
+        }
+    }
+}
+
+/// A frame-by-frame tracker: the interface the evaluation treats every method through.
+///
+/// A step whose input is bad (non-finite, off-grid) returns an error and leaves the tracker
+/// exactly as it was before the call.
+pub trait Tracker {
+    /// A short label, e.g. `CBT 2nd order` or `PF 1000`.
+    fn name(&self) -> String;
+    /// Restarts the track at a known position (zero velocity).
+    fn reset(&mut self, start: Point) -> Result<(), TrackError>;
+    /// One time step: prediction, then the update with this frame's detections (possibly
+    /// none); returns the new estimate.
+    fn step(&mut self, detections: &[Detection]) -> Result<Estimate, TrackError>;
+    /// The current estimate.
+    fn estimate(&self) -> Estimate;
+}
