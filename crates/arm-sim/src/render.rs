@@ -1,0 +1,480 @@
+//! Per-frame rendering: the arm as shaded capsules and boxes over the pre-rendered background,
+//! then the frame's lighting change and sensor noise.
+//!
+//! Each arm part is rasterised only inside the bounding box of its projection. Per pixel the
+//! pixel's precomputed ray (lens distortion included) is intersected with the part: for a
+//! capsule, the closest approach of the ray to the axis segment gives both the hit and, for rays
+//! that miss, the distance from the silhouette, which becomes the anti-aliasing coverage
+//! `clamp(0.5 + (r − dist)·px_per_mm)`; for a box the slab test gives the hit and, for near
+//! misses, a convex 1-D minimisation of the box's distance function along the ray gives the
+//! coverage. A depth buffer (seeded by the background's depths) resolves occlusion; parts are
+//! drawn far to near so anti-aliased fringes blend over what lies behind them. No allocation
+//! happens per pixel.
+
+use image::GrayImage;
+use nalgebra::Vector3;
+use rand::Rng;
+
+use crate::camera::Camera;
+use crate::config::{ArmGeometry, SceneConfig};
+use crate::error::Result;
+use crate::kinematics::{ArmPose, FINGER_THICKNESS_MM, FINGER_WIDTH_MM};
+use crate::scene::Background;
+
+type V3 = Vector3<f32>;
+
+/// Label of pixels showing the arm's links and servos in [`crate::Inspection::labels`].
+pub const LABEL_ARM: u8 = 1;
+/// Label of pixels showing the gripper's palm.
+pub const LABEL_PALM: u8 = 2;
+/// Label of pixels showing the first finger.
+pub const LABEL_FINGER_A: u8 = 3;
+/// Label of pixels showing the second finger.
+pub const LABEL_FINGER_B: u8 = 4;
+
+/// Length of the gripper palm along the hand (mm).
+const PALM_LENGTH_MM: f64 = 18.0;
+/// Palm thickness across the opening direction and the approach (mm).
+const PALM_THICKNESS_MM: f64 = 20.0;
+
+#[derive(Clone, Debug)]
+enum Shape {
+    Capsule { a: V3, b: V3, r: f32 },
+    Cuboid { c: V3, axes: [V3; 3], half: V3 },
+}
+
+#[derive(Clone, Debug)]
+struct Part {
+    shape: Shape,
+    label: u8,
+    albedo: f32,
+    /// Specular strength (share of the exposure).
+    specular: f32,
+}
+
+fn v3(v: &Vector3<f64>) -> V3 {
+    V3::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// The arm's drawable parts for `pose`.
+fn arm_parts(g: &ArmGeometry, scene: &SceneConfig, pose: &ArmPose) -> Vec<Part> {
+    let arm = scene.arm_albedo as f32;
+    let grip = scene.gripper_albedo as f32;
+    let p = pose.pitch_axis;
+    let a = pose.approach;
+    let o = pose.opening_axis;
+    let b = a.cross(&o);
+    let sr = g.servo_radius_mm;
+    let capsule = |from: Vector3<f64>, to: Vector3<f64>, r: f64, albedo: f32| Part {
+        shape: Shape::Capsule {
+            a: v3(&from),
+            b: v3(&to),
+            r: r as f32,
+        },
+        label: LABEL_ARM,
+        albedo,
+        specular: 0.15,
+    };
+    let cuboid = |c: Vector3<f64>, half: [f64; 3], label: u8| Part {
+        shape: Shape::Cuboid {
+            c: v3(&c),
+            axes: [v3(&a), v3(&o), v3(&b)],
+            half: V3::new(half[0] as f32, half[1] as f32, half[2] as f32),
+        },
+        label,
+        albedo: grip,
+        specular: 0.25,
+    };
+    let finger_start = g.hand_mm + g.finger_pad_mm - g.finger_length_mm;
+    let palm_centre = pose.wrist + a * (finger_start - 0.5 * PALM_LENGTH_MM);
+    let roll_end = (finger_start - PALM_LENGTH_MM - 0.6 * sr).max(0.0);
+    let finger_centre = pose.tip + a * (g.finger_pad_mm - 0.5 * g.finger_length_mm);
+    let finger_off = o * (0.5 * pose.opening_mm + 0.5 * FINGER_THICKNESS_MM);
+    let finger_half = [
+        0.5 * g.finger_length_mm,
+        0.5 * FINGER_THICKNESS_MM,
+        0.5 * FINGER_WIDTH_MM,
+    ];
+    vec![
+        capsule(pose.shoulder - p * 26.0, pose.shoulder + p * 26.0, sr, arm),
+        capsule(pose.shoulder, pose.elbow, g.link_radius_mm[0], arm * 1.2),
+        capsule(pose.elbow - p * 22.0, pose.elbow + p * 22.0, 0.9 * sr, arm),
+        capsule(pose.elbow, pose.wrist, g.link_radius_mm[1], arm * 1.2),
+        capsule(pose.wrist - p * 18.0, pose.wrist + p * 18.0, 0.8 * sr, arm),
+        capsule(pose.wrist, pose.wrist + a * roll_end, 0.75 * sr, arm),
+        cuboid(
+            palm_centre,
+            [
+                0.5 * PALM_LENGTH_MM,
+                0.5 * g.max_opening_mm + FINGER_THICKNESS_MM + 3.0,
+                0.5 * PALM_THICKNESS_MM,
+            ],
+            LABEL_PALM,
+        ),
+        cuboid(finger_centre + finger_off, finger_half, LABEL_FINGER_A),
+        cuboid(finger_centre - finger_off, finger_half, LABEL_FINGER_B),
+    ]
+}
+
+/// The frame's lighting: global gain and brightness gradients across the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Lighting {
+    pub gain: f32,
+    pub grad_x: f32,
+    pub grad_y: f32,
+}
+
+/// One camera's renderer with its buffers.
+pub(crate) struct CameraView {
+    pub camera: Camera,
+    background: Background,
+    work: Vec<f32>,
+    depth: Vec<f32>,
+    pub labels: Vec<u8>,
+    column_gain: Vec<f32>,
+    light: V3,
+    origin: V3,
+    forward: V3,
+    px_per_mm_at_unit: f32,
+}
+
+impl CameraView {
+    pub fn new(camera: Camera, scene: &SceneConfig, arm: &ArmGeometry) -> Result<Self> {
+        let background = Background::render(&camera, scene, arm)?;
+        let n = background.radiance.len();
+        let light = Vector3::from(scene.light_direction).normalize();
+        let forward = camera.rotation.row(2).transpose();
+        Ok(CameraView {
+            work: vec![0.0; n],
+            depth: vec![0.0; n],
+            labels: vec![0; n],
+            column_gain: vec![0.0; camera.width as usize],
+            light: v3(&light),
+            origin: v3(&camera.centre),
+            forward: v3(&forward),
+            px_per_mm_at_unit: (0.5 * (camera.fx + camera.fy)) as f32,
+            background,
+            camera,
+        })
+    }
+
+    /// Renders the arm in `pose` into a new 8-bit image.
+    pub fn render<R: Rng + ?Sized>(
+        &mut self,
+        g: &ArmGeometry,
+        scene: &SceneConfig,
+        pose: &ArmPose,
+        lighting: Lighting,
+        rng: &mut R,
+    ) -> GrayImage {
+        self.work.copy_from_slice(&self.background.radiance);
+        self.depth.copy_from_slice(&self.background.depth);
+        self.labels.fill(0);
+        let mut parts = arm_parts(g, scene, pose);
+        let centre_distance = |p: &Part| -> f32 {
+            let c = match &p.shape {
+                Shape::Capsule { a, b, .. } => (a + b) * 0.5,
+                Shape::Cuboid { c, .. } => *c,
+            };
+            (c - self.origin).norm()
+        };
+        parts.sort_by(|x, y| centre_distance(y).total_cmp(&centre_distance(x)));
+        for part in &parts {
+            self.draw(scene, part);
+        }
+        self.composite(scene, lighting, rng)
+    }
+
+    /// Pixel bounding box `[u0, u1) × [v0, v1)` of world points (plus `margin` pixels).
+    fn bbox(&self, points: &[V3], margin: f64) -> Option<[usize; 4]> {
+        let (w, h) = (self.camera.width as f64, self.camera.height as f64);
+        let (mut u0, mut v0, mut u1, mut v1) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for p in points {
+            let q = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
+            match self.camera.project(&q) {
+                Ok([u, v]) => {
+                    u0 = u0.min(u);
+                    u1 = u1.max(u);
+                    v0 = v0.min(v);
+                    v1 = v1.max(v);
+                }
+                // A corner behind the camera: fall back to the whole image.
+                Err(_) => return Some([0, 0, w as usize, h as usize]),
+            }
+        }
+        let u0 = (u0 - margin).floor().max(0.0);
+        let v0 = (v0 - margin).floor().max(0.0);
+        let u1 = (u1 + margin).ceil().min(w - 1.0) + 1.0;
+        let v1 = (v1 + margin).ceil().min(h - 1.0) + 1.0;
+        if u0 >= u1 || v0 >= v1 {
+            return None;
+        }
+        Some([u0 as usize, v0 as usize, u1 as usize, v1 as usize])
+    }
+
+    fn shade(&self, scene: &SceneConfig, part: &Part, n: &V3, d: &V3) -> f32 {
+        let ambient = scene.ambient as f32;
+        let exposure = scene.exposure as f32;
+        let diffuse = n.dot(&self.light).max(0.0);
+        let half = self.light - d;
+        let hn = half.norm();
+        let mut spec = if hn > 1e-6 {
+            (n.dot(&half) / hn).max(0.0)
+        } else {
+            0.0
+        };
+        spec *= spec; // ^2
+        spec *= spec; // ^4
+        spec *= spec; // ^8
+        spec *= spec; // ^16
+        exposure * (part.albedo * (ambient + (1.0 - ambient) * diffuse) + part.specular * spec)
+    }
+
+    fn draw(&mut self, scene: &SceneConfig, part: &Part) {
+        match part.shape {
+            Shape::Capsule { a, b, r } => self.draw_capsule(scene, part, a, b, r),
+            Shape::Cuboid { c, axes, half } => self.draw_cuboid(scene, part, c, axes, half),
+        }
+    }
+
+    fn draw_capsule(&mut self, scene: &SceneConfig, part: &Part, a: V3, b: V3, r: f32) {
+        let rv = V3::new(r, r, r);
+        let (lo, hi) = (a.inf(&b) - rv, a.sup(&b) + rv);
+        let corners = box_corners(lo, hi);
+        let Some([u0, v0, u1, v1]) = self.bbox(&corners, 2.0) else {
+            return;
+        };
+        let mid = (a + b) * 0.5;
+        let z_mid = (mid - self.origin).dot(&self.forward).max(1.0);
+        let ppm = self.px_per_mm_at_unit / z_mid;
+        let o = self.origin;
+        let u = b - a;
+        let c = u.dot(&u);
+        let w0 = o - a;
+        let e = u.dot(&w0);
+        let width = self.camera.width as usize;
+        let r2 = r * r;
+        for v in v0..v1 {
+            for x in u0..u1 {
+                let i = v * width + x;
+                let d = V3::from(self.background.rays[i]);
+                let bb = d.dot(&u);
+                let dd = d.dot(&w0);
+                let denom = c - bb * bb;
+                let s = if denom > 1e-6 * c {
+                    ((e - bb * dd) / denom).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let t = s * bb - dd;
+                if t <= 0.0 {
+                    continue;
+                }
+                let closest = w0 + d * t - u * s;
+                let dist2 = closest.norm_squared();
+                let dist = dist2.sqrt();
+                let coverage = (0.5 + (r - dist) * ppm).clamp(0.0, 1.0);
+                if coverage <= 0.0 {
+                    continue;
+                }
+                let (t_hit, normal) = if dist2 < r2 {
+                    let t_hit = t - (r2 - dist2).sqrt();
+                    let rel = w0 + d * t_hit;
+                    let s2 = (rel.dot(&u) / c).clamp(0.0, 1.0);
+                    let n = rel - u * s2;
+                    let nn = n.norm();
+                    (t_hit, if nn > 0.0 { n / nn } else { -d })
+                } else {
+                    (t, if dist > 0.0 { closest / dist } else { -d })
+                };
+                if t_hit >= self.depth[i] {
+                    continue;
+                }
+                let g = self.shade(scene, part, &normal, &d);
+                self.blend(i, coverage, g, t_hit, part.label);
+            }
+        }
+    }
+
+    fn draw_cuboid(&mut self, scene: &SceneConfig, part: &Part, c: V3, axes: [V3; 3], half: V3) {
+        let z_c = (c - self.origin).dot(&self.forward).max(1.0);
+        let ppm = self.px_per_mm_at_unit / z_c;
+        let margin = 1.0 / ppm;
+        let mut corners = [V3::zeros(); 8];
+        for (k, corner) in corners.iter_mut().enumerate() {
+            let s = |bit: usize| if k & bit != 0 { 1.0 } else { -1.0 };
+            *corner = c
+                + axes[0] * (s(1) * half.x)
+                + axes[1] * (s(2) * half.y)
+                + axes[2] * (s(4) * half.z);
+        }
+        let Some([u0, v0, u1, v1]) = self.bbox(&corners, 2.0) else {
+            return;
+        };
+        let rel = self.origin - c;
+        let ol = V3::new(axes[0].dot(&rel), axes[1].dot(&rel), axes[2].dot(&rel));
+        let grown = half.add_scalar(margin);
+        let width = self.camera.width as usize;
+        for v in v0..v1 {
+            for x in u0..u1 {
+                let i = v * width + x;
+                let d = V3::from(self.background.rays[i]);
+                let dl = V3::new(axes[0].dot(&d), axes[1].dot(&d), axes[2].dot(&d));
+                let Some((tn, tf, _)) = slab(&ol, &dl, &grown) else {
+                    continue;
+                };
+                if tf <= 0.0 {
+                    continue;
+                }
+                let (coverage, t_hit, nl) = match slab(&ol, &dl, &half) {
+                    Some((t0, t1, axis)) if t0 > 0.0 && t0 <= t1 => {
+                        let mut nl = V3::zeros();
+                        nl[axis] = -dl[axis].signum();
+                        (1.0, t0, nl)
+                    }
+                    _ => {
+                        // Near miss: minimise the (convex) exterior distance along the ray.
+                        let (mut lo, mut hi) = (tn.max(0.0), tf);
+                        for _ in 0..12 {
+                            let m1 = lo + (hi - lo) / 3.0;
+                            let m2 = hi - (hi - lo) / 3.0;
+                            if box_distance(&(ol + dl * m1), &half)
+                                < box_distance(&(ol + dl * m2), &half)
+                            {
+                                hi = m2;
+                            } else {
+                                lo = m1;
+                            }
+                        }
+                        let t = 0.5 * (lo + hi);
+                        let p = ol + dl * t;
+                        let dist = box_distance(&p, &half);
+                        let q = V3::new(
+                            (p.x.abs() - half.x).max(0.0) * p.x.signum(),
+                            (p.y.abs() - half.y).max(0.0) * p.y.signum(),
+                            (p.z.abs() - half.z).max(0.0) * p.z.signum(),
+                        );
+                        let qn = q.norm();
+                        let nl = if qn > 0.0 { q / qn } else { -dl };
+                        ((0.5 - dist * ppm).clamp(0.0, 1.0), t, nl)
+                    }
+                };
+                if coverage <= 0.0 || t_hit >= self.depth[i] {
+                    continue;
+                }
+                let normal = axes[0] * nl.x + axes[1] * nl.y + axes[2] * nl.z;
+                let g = self.shade(scene, part, &normal, &d);
+                self.blend(i, coverage, g, t_hit, part.label);
+            }
+        }
+    }
+
+    #[inline]
+    fn blend(&mut self, i: usize, coverage: f32, grey: f32, t: f32, label: u8) {
+        self.work[i] = coverage * grey + (1.0 - coverage) * self.work[i];
+        if coverage >= 0.5 {
+            self.depth[i] = t;
+            self.labels[i] = label;
+        }
+    }
+
+    /// Lighting change and sensor noise, quantised to 8 bits.
+    fn composite<R: Rng + ?Sized>(
+        &mut self,
+        scene: &SceneConfig,
+        light: Lighting,
+        rng: &mut R,
+    ) -> GrayImage {
+        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let (hw, hh) = (0.5 * w as f32, 0.5 * h as f32);
+        for (x, g) in self.column_gain.iter_mut().enumerate() {
+            *g = light.grad_x * (x as f32 + 0.5 - hw) / hw;
+        }
+        let sigma = scene.sensor_noise_sigma as f32;
+        // Irwin–Hall: the sum of four uniform bytes has mean 510 and std. dev. 147.80.
+        let noise_scale = sigma / 147.80;
+        let mut out = vec![0u8; w * h];
+        for y in 0..h {
+            let row_gain = light.gain + light.grad_y * (y as f32 + 0.5 - hh) / hh;
+            let src = &self.work[y * w..(y + 1) * w];
+            let dst = &mut out[y * w..(y + 1) * w];
+            if sigma > 0.0 {
+                let mut x = 0;
+                while x < w {
+                    let bits = rng.next_u64();
+                    for k in 0..2 {
+                        if x + k >= w {
+                            break;
+                        }
+                        let b = bits >> (32 * k);
+                        let sum = (b & 0xFF)
+                            + ((b >> 8) & 0xFF)
+                            + ((b >> 16) & 0xFF)
+                            + ((b >> 24) & 0xFF);
+                        let n = (sum as f32 - 510.0) * noise_scale;
+                        let v = src[x + k] * (row_gain + self.column_gain[x + k]) + n;
+                        dst[x + k] = (v + 0.5) as u8;
+                    }
+                    x += 2;
+                }
+            } else {
+                for x in 0..w {
+                    let v = src[x] * (row_gain + self.column_gain[x]);
+                    dst[x] = (v + 0.5) as u8;
+                }
+            }
+        }
+        GrayImage::from_raw(w as u32, h as u32, out).expect("buffer matches size")
+    }
+}
+
+fn box_corners(lo: V3, hi: V3) -> [V3; 8] {
+    std::array::from_fn(|k| {
+        V3::new(
+            if k & 1 != 0 { hi.x } else { lo.x },
+            if k & 2 != 0 { hi.y } else { lo.y },
+            if k & 4 != 0 { hi.z } else { lo.z },
+        )
+    })
+}
+
+/// Slab test of a local-frame ray against the box `|p| ≤ half`: entry, exit and entry axis.
+#[inline]
+fn slab(o: &V3, d: &V3, half: &V3) -> Option<(f32, f32, usize)> {
+    let (mut tn, mut tf) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut axis = 0;
+    for k in 0..3 {
+        if d[k].abs() < 1e-9 {
+            if o[k].abs() > half[k] {
+                return None;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[k];
+        let t1 = (-half[k] - o[k]) * inv;
+        let t2 = (half[k] - o[k]) * inv;
+        let (a, b) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
+        if a > tn {
+            tn = a;
+            axis = k;
+        }
+        tf = tf.min(b);
+    }
+    (tn <= tf).then_some((tn, tf, axis))
+}
+
+/// Distance from a local point to the box `|p| ≤ half` (0 inside).
+#[inline]
+fn box_distance(p: &V3, half: &V3) -> f32 {
+    let q = V3::new(
+        (p.x.abs() - half.x).max(0.0),
+        (p.y.abs() - half.y).max(0.0),
+        (p.z.abs() - half.z).max(0.0),
+    );
+    q.norm()
+}
