@@ -1,0 +1,98 @@
+//! Cross-check against OpenCV's MSER (feature `opencv`) on graf, boat and leuven img1 with equal
+//! parameters: the fraction of OpenCV's regions whose pixel set is identical to one of ours, and
+//! vice versa. The systematic differences are explained in the crate docs ("OpenCV").
+#![cfg(feature = "opencv")]
+
+mod common;
+
+use std::collections::HashSet;
+
+use mser::{GrayView, Mser, MserParams, OpenCvMser};
+
+type Set = Vec<(u32, u32)>;
+
+struct Agreement {
+    ours: usize,
+    theirs: usize,
+    theirs_in_ours: f64,
+    ours_in_theirs: f64,
+    ours_off_border_in_theirs: f64,
+}
+
+/// Our regions of `img`; with `inner_only`, of `img` without its outermost pixel ring (the part
+/// OpenCV 4.x floods), mapped back to full-image coordinates.
+fn ours(img: &GrayView, p: &MserParams, inner_only: bool) -> Vec<Set> {
+    if !inner_only {
+        let rs = Mser::new(p.clone()).unwrap().detect(img).unwrap();
+        return rs.iter().map(|r| r.pixels(img).unwrap()).collect();
+    }
+    let (w, h) = (img.width(), img.height());
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        data.extend_from_slice(img.row(y));
+    }
+    let inner = GrayView::new(&data[w + 1..], w - 2, h - 2, w).unwrap();
+    let rs = Mser::new(p.clone()).unwrap().detect(&inner).unwrap();
+    rs.iter()
+        .map(|r| r.pixels(&inner).unwrap().into_iter().map(|(x, y)| (x + 1, y + 1)).collect())
+        .collect()
+}
+
+fn compare(img: &GrayView, p: &MserParams, inner_only: bool) -> Agreement {
+    let ours = ours(img, p, inner_only);
+    let theirs: Vec<Set> = OpenCvMser::new(p).unwrap().detect(img).unwrap();
+    let ours_set: HashSet<&Set> = ours.iter().collect();
+    let theirs_set: HashSet<&Set> = theirs.iter().collect();
+    let frac = |num: usize, den: usize| if den == 0 { 1.0 } else { num as f64 / den as f64 };
+    let (w, h) = (img.width() as u32, img.height() as u32);
+    let off_border: Vec<&Set> = ours
+        .iter()
+        .filter(|s| s.iter().all(|&(x, y)| x > 0 && y > 0 && x + 1 < w && y + 1 < h))
+        .collect();
+    Agreement {
+        ours: ours.len(),
+        theirs: theirs.len(),
+        theirs_in_ours: frac(theirs.iter().filter(|s| ours_set.contains(s)).count(), theirs.len()),
+        ours_in_theirs: frac(ours.iter().filter(|s| theirs_set.contains(s)).count(), ours.len()),
+        ours_off_border_in_theirs: frac(
+            off_border.iter().filter(|s| theirs_set.contains(*s)).count(),
+            off_border.len(),
+        ),
+    }
+}
+
+#[test]
+fn agrees_with_opencv_on_oxford_img1() {
+    let Some(dir) = common::oxford_dir() else { return };
+    mser::set_opencv_threads(1).unwrap();
+    let version = mser::opencv_version();
+    // OpenCV 4.x ignores min_diversity on grey images, so "equal parameters" means 0 there.
+    let cases = [
+        ("OpenCV defaults", MserParams::default()),
+        ("defaults, min_diversity 0", MserParams { min_diversity: 0.0, ..MserParams::default() }),
+    ];
+    for seq in ["graf", "boat", "leuven"] {
+        let g = mser::load_gray(dir.join(seq).join("img1.png")).unwrap();
+        let img = GrayView::from_image(&g).unwrap();
+        for ((name, p), inner) in cases.iter().flat_map(|c| [(c, false), (c, true)]) {
+            let a = compare(&img, p, inner);
+            let name = if inner { format!("{name}, ours without the outer pixel ring") } else { name.to_string() };
+            println!(
+                "{seq} img1, {name}, OpenCV {version}: ours {} regions, OpenCV {}; OpenCV's found in ours {:.1}%, ours found in OpenCV's {:.1}% ({:.1}% of ours off the image border)",
+                a.ours,
+                a.theirs,
+                100.0 * a.theirs_in_ours,
+                100.0 * a.ours_in_theirs,
+                100.0 * a.ours_off_border_in_theirs,
+            );
+            if p.min_diversity == 0.0 {
+                // Same parameters in effect: our regions that avoid the image border are OpenCV's.
+                assert!(a.ours_off_border_in_theirs > 0.95, "{seq}: too little agreement");
+                if inner {
+                    // Same pixels flooded too: the sets agree both ways.
+                    assert!(a.theirs_in_ours > 0.99 && a.ours_in_theirs > 0.99, "{seq}: sets differ");
+                }
+            }
+        }
+    }
+}
