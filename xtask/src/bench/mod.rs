@@ -5,6 +5,7 @@
 //! in [`BENCHES`].
 
 mod chan_repr;
+mod mser;
 
 use clap::Args;
 
@@ -36,6 +37,11 @@ pub const BENCHES: &[Bench] = &[Bench {
     name: "chan-repr",
     peer: "dense O(N) encoding (eq. 2.1 evaluated for every channel)",
     run: chan_repr::run,
+},
+Bench {
+    name: "mser",
+    peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters",
+    run: mser::run,
 }];
 
 /// Runs `cargo xtask bench`.
