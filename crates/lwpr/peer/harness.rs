@@ -50,7 +50,7 @@ impl Rng {
         let u1 = 1.0 - self.uniform();
         let u2 = self.uniform();
         let r = (-2.0 * u1.ln()).sqrt();
-        let t = 6.283185307179586476925286766559 * u2;
+        let t = std::f64::consts::TAU * u2; // the C literal rounds to the same double
         self.spare = Some(r * t.sin());
         r * t.cos()
     }
@@ -274,7 +274,9 @@ pub fn run_peer(
     for &c in checkpoints {
         i32le(&mut b, c as i64);
     }
-    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{}", std::process::id(), n_train));
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
     let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
     std::fs::write(&inp, &b).map_err(|e| e.to_string())?;

@@ -63,6 +63,8 @@
 //! ```
 
 #![deny(missing_docs)]
+// The numerical kernels index column-major matrices the way the formulas (and the reference) do.
+#![allow(clippy::needless_range_loop)]
 
 mod error;
 mod io;

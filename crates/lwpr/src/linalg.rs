@@ -38,7 +38,7 @@ pub(crate) fn cholesky_upper(n: usize, a: &[f64]) -> Option<Vec<f64>> {
             r[i + k * n] = (a[i + k * n] - s) / r[i + i * n];
         }
         let diag = a[k + k * n] - dot(&r[k * n..k * n + k], &r[k * n..k * n + k]);
-        if !(diag > 0.0) || !diag.is_finite() {
+        if diag.is_nan() || diag <= 0.0 || diag.is_infinite() {
             return None;
         }
         r[k + k * n] = diag.sqrt();

@@ -531,7 +531,7 @@ impl Lwpr {
     /// each input, on any number of threads.
     pub fn predict_batch(&self, xs: &[f64], cutoff: f64) -> Result<Vec<f64>> {
         let (n, m) = (self.params.n_in, self.params.n_out);
-        if xs.len() % n != 0 {
+        if !xs.len().is_multiple_of(n) {
             return Err(LwprError::DimensionMismatch {
                 what: "xs (multiple of n_in)",
                 expected: n * xs.len().div_ceil(n),

@@ -267,9 +267,7 @@ impl ReceptiveField {
             e_cv[i] = y - yres[i];
         }
         ytarget[0] = y;
-        for i in 0..nr - 1 {
-            ytarget[i + 1] = e_cv[i];
-        }
+        ytarget[1..nr].copy_from_slice(&e_cv[..nr - 1]);
         let mut ws2_ss_s2 = 0.0;
         for j in 0..nr {
             let jn = j * n;

@@ -56,10 +56,10 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     let mut first_divergence = None;
     for (t, (xs, ys)) in x.chunks(n).zip(y.chunks(m)).enumerate() {
         let yp = model.update(xs, ys).unwrap();
-        for k in 0..m {
+        for (k, ours) in yp.iter().enumerate() {
             let r = peer.update_predictions[t * m + k];
-            if yp[k] != r && first_divergence.is_none() {
-                first_divergence = Some((t, yp[k], r));
+            if *ours != r && first_divergence.is_none() {
+                first_divergence = Some((t, *ours, r));
             }
         }
     }
@@ -129,5 +129,29 @@ fn cross_bisquare_two_outputs_normalised_matches_reference() {
         &x,
         &y,
         "cross, BiSquare, 2 outputs, norm_in/out, seed 3",
+    );
+}
+
+#[test]
+fn cross_25d_full_metric_meta_pruning_matches_reference() {
+    let dim = 25;
+    let q = random_rotation(dim, 7);
+    let (x2, y) = cross_samples(5, 4_000, 0.1);
+    let x = embed(&x2, &q, dim);
+    let model = LwprBuilder::new(dim, 1)
+        .init_d_spherical(0.25)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.7)
+        .diag_only(false)
+        .meta(true)
+        .prune_rule(lwpr::PruneRule::ReferenceC)
+        .build()
+        .unwrap();
+    compare(
+        model,
+        &x,
+        &y,
+        "cross in 25-D, full metric + meta, w_prune 0.7, reference pruning rule",
     );
 }

@@ -1,0 +1,173 @@
+//! Accuracy on the reference's benchmarks (papers.md §4.6): the cross function in settings A
+//! and B, the reference's 1-D test and the cross function rotated into 25 dimensions.
+//! Thresholds are the reference library's measured ranges (papers.md §4.6), not tuned values.
+
+#[path = "../peer/harness.rs"]
+mod harness;
+
+use harness::*;
+use lwpr::{Lwpr, LwprBuilder};
+
+/// Setting A: 20 000 fresh samples (the stream of the reference's `bench_cross.c`).
+pub fn setting_a(seed: u64) -> (Lwpr, f64) {
+    let (x, y) = cross_samples(seed, 20_000, 0.1);
+    let mut m = LwprBuilder::new(2, 1)
+        .init_d_spherical(50.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .build()
+        .unwrap();
+    for (a, b) in x.chunks(2).zip(&y) {
+        m.update(a, &[*b]).unwrap();
+    }
+    let (gx, gy) = cross_grid();
+    let e = nmse(&m.predict_batch(&gx, 0.001).unwrap(), &gy);
+    (m, e)
+}
+
+/// Setting B: 500 fixed samples, σ = 0.1, 20 shuffled epochs, full metric with meta learning.
+pub fn setting_b(seed: u64) -> (Lwpr, f64) {
+    let (x, y) = cross_samples(seed, 500, 0.1);
+    let mut m = LwprBuilder::new(2, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .diag_only(false)
+        .meta(true)
+        .meta_rate(250.0)
+        .build()
+        .unwrap();
+    let mut rng = Rng::new(seed ^ 0xB);
+    let mut order: Vec<usize> = (0..500).collect();
+    for _ in 0..20 {
+        for i in (1..order.len()).rev() {
+            let j = (rng.uniform() * (i + 1) as f64) as usize;
+            order.swap(i, j);
+        }
+        for &k in &order {
+            m.update(&x[2 * k..2 * k + 2], &[y[k]]).unwrap();
+        }
+    }
+    let (gx, gy) = cross_grid();
+    let e = nmse(&m.predict_batch(&gx, 0.001).unwrap(), &gy);
+    (m, e)
+}
+
+#[test]
+fn cross_setting_a_reaches_reference_accuracy() {
+    for seed in [1, 2, 3] {
+        let (m, e) = setting_a(seed);
+        eprintln!("setting A seed {seed}: {} RFs, nMSE {e:.5}", m.num_rfs()[0]);
+        assert!(e <= 0.025, "seed {seed}: nMSE {e}");
+        assert!((50..=70).contains(&m.num_rfs()[0]));
+    }
+}
+
+#[test]
+fn cross_setting_b_reaches_reference_accuracy() {
+    for seed in [1, 2] {
+        let (m, e) = setting_b(seed);
+        eprintln!("setting B seed {seed}: {} RFs, nMSE {e:.5}", m.num_rfs()[0]);
+        assert!(e <= 0.042, "seed {seed}: nMSE {e}");
+    }
+}
+
+/// nMSE of the reference on the same stream, if it can be built (else `None`, printed).
+fn reference_nmse(m: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> Option<f64> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let driver = build_peer(&root)
+        .map_err(|r| eprintln!("reference comparison skipped: {r}"))
+        .ok()?;
+    let p = m.params();
+    let s = PeerSettings {
+        n_in: p.n_in,
+        n_out: p.n_out,
+        diag_only: p.diag_only,
+        meta: p.meta,
+        update_d: p.update_d,
+        bisquare: false,
+        meta_rate: p.meta_rate,
+        penalty: p.penalty,
+        init_alpha: p.init_alpha[0],
+        w_gen: p.w_gen,
+        w_prune: p.w_prune,
+        init_lambda: p.init_lambda,
+        final_lambda: p.final_lambda,
+        tau_lambda: p.tau_lambda,
+        init_s2: p.init_s2,
+        add_threshold: p.add_threshold,
+        init_d: &p.init_d,
+        norm_in: &p.norm_in,
+        norm_out: &p.norm_out,
+    };
+    let run = run_peer(&driver, &s, x, y, tx, &[x.len() / p.n_in]).expect("reference run");
+    Some(nmse(&run.checkpoints[0].1, ty))
+}
+
+/// The reference's 1-D test: `5 + 10 sin(7.8 ln(1+x)) / (1 + 0.1 x²)` on [0, 10] with
+/// heteroscedastic noise `0.1·x·N(0,1)`, 500 points, `init_D = 20`, `init_alpha = 40`,
+/// `penalty = 1e-4`, 20 epochs. Ours must be at least as accurate as the reference.
+#[test]
+fn one_d_test_function() {
+    let f = |x: f64| 5.0 + 10.0 * (7.8 * (1.0 + x).ln()).sin() / (1.0 + 0.1 * x * x);
+    let mut rng = Rng::new(11);
+    let xs: Vec<f64> = (0..500).map(|_| 10.0 * rng.uniform()).collect();
+    let ys: Vec<f64> = xs.iter().map(|&x| f(x) + 0.1 * x * rng.normal()).collect();
+    let (x, y): (Vec<f64>, Vec<f64>) = (xs.repeat(20), ys.repeat(20));
+    let mut m = LwprBuilder::new(1, 1)
+        .init_d_spherical(20.0)
+        .init_alpha(40.0)
+        .penalty(1e-4)
+        .build()
+        .unwrap();
+    let fresh = m.clone();
+    for (a, b) in x.iter().zip(&y) {
+        m.update(&[*a], &[*b]).unwrap();
+    }
+    let tx: Vec<f64> = (0..=1000).map(|i| i as f64 / 100.0).collect();
+    let ty: Vec<f64> = tx.iter().map(|&x| f(x)).collect();
+    let e = nmse(&m.predict_batch(&tx, 0.001).unwrap(), &ty);
+    eprintln!("1-D: {} RFs, nMSE {e:.5}", m.num_rfs()[0]);
+    assert!(e < 0.05, "nMSE {e}");
+    if let Some(r) = reference_nmse(&fresh, &x, &y, &tx, &ty) {
+        eprintln!("1-D reference nMSE {r:.5}");
+        assert!(e <= r * (1.0 + 1e-9), "ours {e} vs reference {r}");
+    }
+}
+
+/// The cross function rotated into 25 dimensions (`init_D = 0.25·I`, full metric,
+/// `w_prune = 0.7`, meta learning; `init_alpha = 250`, `w_gen = 0.2` as in setting A),
+/// 4 000 samples here (20 000 in `cargo xtask bench lwpr`). At least as accurate as the
+/// reference with the reference's pruning rule. Pruning fires in this setting; with the
+/// published rule (our default) accuracy is lower (see the crate docs, "Pruning", and the
+/// bench), so this test states the rule explicitly.
+#[test]
+fn cross_in_25_dimensions() {
+    let dim = 25;
+    let q = random_rotation(dim, 7);
+    let (x2, y) = cross_samples(5, 4_000, 0.1);
+    let x = embed(&x2, &q, dim);
+    let mut m = LwprBuilder::new(dim, 1)
+        .init_d_spherical(0.25)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.7)
+        .diag_only(false)
+        .meta(true)
+        .prune_rule(lwpr::PruneRule::ReferenceC)
+        .build()
+        .unwrap();
+    let fresh = m.clone();
+    for (a, b) in x.chunks(dim).zip(&y) {
+        m.update(a, &[*b]).unwrap();
+    }
+    let (gx, gy) = cross_grid();
+    let tx = embed(&gx, &q, dim);
+    let e = nmse(&m.predict_batch(&tx, 0.001).unwrap(), &gy);
+    eprintln!("25-D: {} RFs, nMSE {e:.5}", m.num_rfs()[0]);
+    assert!(e < 0.1, "nMSE {e}");
+    if let Some(r) = reference_nmse(&fresh, &x, &y, &tx, &gy) {
+        eprintln!("25-D reference nMSE {r:.5}");
+        assert!(e <= r * (1.0 + 1e-9), "ours {e} vs reference {r}");
+    }
+}

@@ -1,0 +1,75 @@
+//! No heap allocation per update once the model has stopped growing, and none per
+//! `predict_into` (counting global allocator).
+
+#[path = "../peer/harness.rs"]
+mod harness;
+
+use harness::*;
+use lwpr::LwprBuilder;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn grown_model_updates_and_predicts_without_allocating() {
+    for (diag, meta) in [(true, false), (false, true)] {
+        let (x, y) = cross_samples(1, 6000, 0.1);
+        let mut m = LwprBuilder::new(2, 1)
+            .init_d_spherical(50.0)
+            .init_alpha(250.0)
+            .w_gen(0.2)
+            .diag_only(diag)
+            .meta(meta)
+            .build()
+            .unwrap();
+        for (a, b) in x.chunks(2).zip(&y) {
+            m.update(a, &[*b]).unwrap();
+        }
+        // Replay seen inputs until a whole pass adds neither fields nor PLS directions.
+        let dims = |m: &lwpr::Lwpr| {
+            m.receptive_fields(0)
+                .iter()
+                .map(|r| r.pls_dims())
+                .sum::<usize>()
+        };
+        let mut out = [0.0];
+        let mut checked = false;
+        for _pass in 0..10 {
+            let (rfs, pls) = (m.num_rfs(), dims(&m));
+            let before = ALLOCS.load(Ordering::SeqCst);
+            for (a, b) in x.chunks(2).zip(&y).take(2000) {
+                m.update_into(a, &[*b], &mut out).unwrap();
+                m.predict_into(a, 0.001, &mut out).unwrap();
+            }
+            let allocs = ALLOCS.load(Ordering::SeqCst) - before;
+            if (m.num_rfs(), dims(&m)) == (rfs, pls) {
+                assert_eq!(
+                    allocs, 0,
+                    "allocations in 2000 updates + predictions (diag {diag}, meta {meta})"
+                );
+                checked = true;
+                break;
+            }
+        }
+        assert!(checked, "the model never stopped growing");
+    }
+}
