@@ -142,7 +142,7 @@ impl Ellipse {
     pub fn from_covariance(u: f64, v: f64, cov: [f64; 3], k: f64) -> Option<Self> {
         let [xx, xy, yy] = cov.map(|s| s * k * k);
         let det = xx * yy - xy * xy;
-        if !(det > 0.0 && xx > 0.0 && k > 0.0) || !det.is_finite() {
+        if !(det > 0.0 && xx > 0.0 && k > 0.0 && det.is_finite()) {
             return None;
         }
         Some(Ellipse {

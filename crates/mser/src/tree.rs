@@ -260,10 +260,7 @@ impl TreeBuilder {
                 *cell |= SEEN;
                 if v < cur_level {
                     // Unreached and lower: push `cur` back and descend.
-                    push(heap, &mut top_of, cur_level,
-                        (cur << 3) | dir,
-                        1,
-                    );
+                    push(heap, &mut top_of, cur_level, (cur << 3) | dir, 1);
                     cur = n;
                     cur_level = v;
                     stack.push(top);

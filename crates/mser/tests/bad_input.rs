@@ -8,9 +8,18 @@ use proptest::prelude::*;
 
 #[test]
 fn empty_images_are_rejected() {
-    assert!(matches!(GrayView::new(&[], 0, 0, 0), Err(MserError::EmptyImage { .. })));
-    assert!(matches!(GrayView::new(&[1, 2], 0, 2, 1), Err(MserError::EmptyImage { .. })));
-    assert!(matches!(GrayView::new(&[1, 2], 2, 0, 2), Err(MserError::EmptyImage { .. })));
+    assert!(matches!(
+        GrayView::new(&[], 0, 0, 0),
+        Err(MserError::EmptyImage { .. })
+    ));
+    assert!(matches!(
+        GrayView::new(&[1, 2], 0, 2, 1),
+        Err(MserError::EmptyImage { .. })
+    ));
+    assert!(matches!(
+        GrayView::new(&[1, 2], 2, 0, 2),
+        Err(MserError::EmptyImage { .. })
+    ));
 }
 
 #[test]
@@ -18,7 +27,10 @@ fn stride_smaller_than_width_is_rejected() {
     let px = [0u8; 16];
     assert!(matches!(
         GrayView::new(&px, 4, 4, 3),
-        Err(MserError::StrideTooSmall { stride: 3, width: 4 })
+        Err(MserError::StrideTooSmall {
+            stride: 3,
+            width: 4
+        })
     ));
 }
 
@@ -27,7 +39,10 @@ fn short_buffer_is_rejected() {
     let px = [0u8; 15];
     assert!(matches!(
         GrayView::new(&px, 4, 4, 4),
-        Err(MserError::BufferTooSmall { got: 15, needed: 16 })
+        Err(MserError::BufferTooSmall {
+            got: 15,
+            needed: 16
+        })
     ));
     // The last row needs only `width` bytes, not `stride`.
     assert!(GrayView::new(&px, 3, 4, 4).is_ok());
@@ -42,13 +57,21 @@ fn huge_dimensions_are_rejected_without_allocating() {
 
 #[test]
 fn one_pixel_and_constant_images_give_no_regions() {
-    let p = MserParams { min_area: 1, ..Default::default() };
+    let p = MserParams {
+        min_area: 1,
+        ..Default::default()
+    };
     let one = GrayView::packed(&[77], 1, 1).unwrap();
     assert!(detect(&one, &p).unwrap().is_empty());
     let flat = vec![128u8; 50 * 40];
     let img = GrayView::packed(&flat, 50, 40).unwrap();
     for variation in [Variation::Symmetric, Variation::Upward] {
-        let p = MserParams { min_area: 1, max_area: usize::MAX, variation, ..Default::default() };
+        let p = MserParams {
+            min_area: 1,
+            max_area: usize::MAX,
+            variation,
+            ..Default::default()
+        };
         assert!(detect(&img, &p).unwrap().is_empty(), "{variation:?}");
     }
 }
@@ -56,17 +79,42 @@ fn one_pixel_and_constant_images_give_no_regions() {
 #[test]
 fn contradictory_parameters_are_rejected() {
     let cases = [
-        MserParams { min_area: 100, max_area: 99, ..Default::default() },
-        MserParams { delta: 0, ..Default::default() },
-        MserParams { min_area: 0, ..Default::default() },
-        MserParams { max_variation: f64::NAN, ..Default::default() },
-        MserParams { max_variation: -0.1, ..Default::default() },
-        MserParams { min_diversity: 1.5, ..Default::default() },
-        MserParams { min_diversity: f64::NAN, ..Default::default() },
+        MserParams {
+            min_area: 100,
+            max_area: 99,
+            ..Default::default()
+        },
+        MserParams {
+            delta: 0,
+            ..Default::default()
+        },
+        MserParams {
+            min_area: 0,
+            ..Default::default()
+        },
+        MserParams {
+            max_variation: f64::NAN,
+            ..Default::default()
+        },
+        MserParams {
+            max_variation: -0.1,
+            ..Default::default()
+        },
+        MserParams {
+            min_diversity: 1.5,
+            ..Default::default()
+        },
+        MserParams {
+            min_diversity: f64::NAN,
+            ..Default::default()
+        },
     ];
     for p in cases {
         let err = Mser::new(p.clone()).unwrap_err();
-        assert!(matches!(err, MserError::InvalidParameter { .. }), "{p:?}: {err}");
+        assert!(
+            matches!(err, MserError::InvalidParameter { .. }),
+            "{p:?}: {err}"
+        );
     }
 }
 
@@ -80,12 +128,21 @@ fn regions_refuse_a_foreign_image() {
         }
     }
     let img = GrayView::packed(&px, w, h).unwrap();
-    let p = MserParams { min_area: 10, ..Default::default() };
+    let p = MserParams {
+        min_area: 10,
+        ..Default::default()
+    };
     let r = detect(&img, &p).unwrap().remove(0);
     let other = vec![100u8; 4];
     let small = GrayView::packed(&other, 2, 2).unwrap();
-    assert!(matches!(r.contour(&small), Err(MserError::RegionImageMismatch { .. })));
-    assert!(matches!(r.pixels(&small), Err(MserError::RegionImageMismatch { .. })));
+    assert!(matches!(
+        r.contour(&small),
+        Err(MserError::RegionImageMismatch { .. })
+    ));
+    assert!(matches!(
+        r.pixels(&small),
+        Err(MserError::RegionImageMismatch { .. })
+    ));
     let flat = vec![0u8; w * h];
     let flat = GrayView::packed(&flat, w, h).unwrap();
     assert!(r.pixels(&flat).is_err());
@@ -93,17 +150,30 @@ fn regions_refuse_a_foreign_image() {
 }
 
 fn any_params() -> impl Strategy<Value = MserParams> {
-    (0u8..=20, 0usize..=40, 0usize..=3000, -0.1f64..3.0, -0.1f64..1.1, any::<u8>()).prop_map(
-        |(delta, min_area, max_area, max_variation, min_diversity, sel)| MserParams {
-            delta,
-            min_area,
-            max_area,
-            max_variation,
-            min_diversity,
-            polarities: [Polarities::Dark, Polarities::Bright, Polarities::Both][sel as usize % 3],
-            variation: if sel & 4 == 0 { Variation::Symmetric } else { Variation::Upward },
-        },
+    (
+        0u8..=20,
+        0usize..=40,
+        0usize..=3000,
+        -0.1f64..3.0,
+        -0.1f64..1.1,
+        any::<u8>(),
     )
+        .prop_map(
+            |(delta, min_area, max_area, max_variation, min_diversity, sel)| MserParams {
+                delta,
+                min_area,
+                max_area,
+                max_variation,
+                min_diversity,
+                polarities: [Polarities::Dark, Polarities::Bright, Polarities::Both]
+                    [sel as usize % 3],
+                variation: if sel & 4 == 0 {
+                    Variation::Symmetric
+                } else {
+                    Variation::Upward
+                },
+            },
+        )
 }
 
 proptest! {

@@ -6,8 +6,10 @@ mod common;
 use mser::{GrayView, Mser, MserParams, Polarities, Polarity, Region, Variation};
 use proptest::prelude::*;
 
-fn sets(img: &GrayView, rs: &[Region]) -> Vec<(Polarity, u8, Vec<(u32, u32)>)> {
-    rs.iter().map(|r| (r.polarity, r.level, r.pixels(img).unwrap())).collect()
+fn sets(img: &GrayView, rs: &[Region]) -> Vec<common::RefRegion> {
+    rs.iter()
+        .map(|r| (r.polarity, r.level, r.pixels(img).unwrap()))
+        .collect()
 }
 
 fn small_params() -> MserParams {
@@ -23,9 +25,8 @@ fn small_params() -> MserParams {
 }
 
 fn images() -> impl Strategy<Value = (usize, usize, Vec<u8>)> {
-    (2usize..=16, 2usize..=16).prop_flat_map(|(w, h)| {
-        (Just(w), Just(h), proptest::collection::vec(0u8..6, w * h))
-    })
+    (2usize..=16, 2usize..=16)
+        .prop_flat_map(|(w, h)| (Just(w), Just(h), proptest::collection::vec(0u8..6, w * h)))
 }
 
 proptest! {

@@ -34,7 +34,13 @@ fn ours(img: &GrayView, p: &MserParams, inner_only: bool) -> Vec<Set> {
     let inner = GrayView::new(&data[w + 1..], w - 2, h - 2, w).unwrap();
     let rs = Mser::new(p.clone()).unwrap().detect(&inner).unwrap();
     rs.iter()
-        .map(|r| r.pixels(&inner).unwrap().into_iter().map(|(x, y)| (x + 1, y + 1)).collect())
+        .map(|r| {
+            r.pixels(&inner)
+                .unwrap()
+                .into_iter()
+                .map(|(x, y)| (x + 1, y + 1))
+                .collect()
+        })
         .collect()
 }
 
@@ -43,19 +49,37 @@ fn compare(img: &GrayView, p: &MserParams, inner_only: bool) -> Agreement {
     let theirs: Vec<Set> = OpenCvMser::new(p).unwrap().detect(img).unwrap();
     let ours_set: HashSet<&Set> = ours.iter().collect();
     let theirs_set: HashSet<&Set> = theirs.iter().collect();
-    let frac = |num: usize, den: usize| if den == 0 { 1.0 } else { num as f64 / den as f64 };
+    let frac = |num: usize, den: usize| {
+        if den == 0 {
+            1.0
+        } else {
+            num as f64 / den as f64
+        }
+    };
     let (w, h) = (img.width() as u32, img.height() as u32);
     let off_border: Vec<&Set> = ours
         .iter()
-        .filter(|s| s.iter().all(|&(x, y)| x > 0 && y > 0 && x + 1 < w && y + 1 < h))
+        .filter(|s| {
+            s.iter()
+                .all(|&(x, y)| x > 0 && y > 0 && x + 1 < w && y + 1 < h)
+        })
         .collect();
     Agreement {
         ours: ours.len(),
         theirs: theirs.len(),
-        theirs_in_ours: frac(theirs.iter().filter(|s| ours_set.contains(s)).count(), theirs.len()),
-        ours_in_theirs: frac(ours.iter().filter(|s| theirs_set.contains(s)).count(), ours.len()),
+        theirs_in_ours: frac(
+            theirs.iter().filter(|s| ours_set.contains(s)).count(),
+            theirs.len(),
+        ),
+        ours_in_theirs: frac(
+            ours.iter().filter(|s| theirs_set.contains(s)).count(),
+            ours.len(),
+        ),
         ours_off_border_in_theirs: frac(
-            off_border.iter().filter(|s| theirs_set.contains(*s)).count(),
+            off_border
+                .iter()
+                .filter(|s| theirs_set.contains(*s))
+                .count(),
             off_border.len(),
         ),
     }
@@ -63,20 +87,32 @@ fn compare(img: &GrayView, p: &MserParams, inner_only: bool) -> Agreement {
 
 #[test]
 fn agrees_with_opencv_on_oxford_img1() {
-    let Some(dir) = common::oxford_dir() else { return };
+    let Some(dir) = common::oxford_dir() else {
+        return;
+    };
     mser::set_opencv_threads(1).unwrap();
     let version = mser::opencv_version();
     // OpenCV 4.x ignores min_diversity on grey images, so "equal parameters" means 0 there.
     let cases = [
         ("OpenCV defaults", MserParams::default()),
-        ("defaults, min_diversity 0", MserParams { min_diversity: 0.0, ..MserParams::default() }),
+        (
+            "defaults, min_diversity 0",
+            MserParams {
+                min_diversity: 0.0,
+                ..MserParams::default()
+            },
+        ),
     ];
     for seq in ["graf", "boat", "leuven"] {
         let g = mser::load_gray(dir.join(seq).join("img1.png")).unwrap();
         let img = GrayView::from_image(&g).unwrap();
         for ((name, p), inner) in cases.iter().flat_map(|c| [(c, false), (c, true)]) {
             let a = compare(&img, p, inner);
-            let name = if inner { format!("{name}, ours without the outer pixel ring") } else { name.to_string() };
+            let name = if inner {
+                format!("{name}, ours without the outer pixel ring")
+            } else {
+                name.to_string()
+            };
             println!(
                 "{seq} img1, {name}, OpenCV {version}: ours {} regions, OpenCV {}; OpenCV's found in ours {:.1}%, ours found in OpenCV's {:.1}% ({:.1}% of ours off the image border)",
                 a.ours,
@@ -87,10 +123,16 @@ fn agrees_with_opencv_on_oxford_img1() {
             );
             if p.min_diversity == 0.0 {
                 // Same parameters in effect: our regions that avoid the image border are OpenCV's.
-                assert!(a.ours_off_border_in_theirs > 0.95, "{seq}: too little agreement");
+                assert!(
+                    a.ours_off_border_in_theirs > 0.95,
+                    "{seq}: too little agreement"
+                );
                 if inner {
                     // Same pixels flooded too: the sets agree both ways.
-                    assert!(a.theirs_in_ours > 0.99 && a.ours_in_theirs > 0.99, "{seq}: sets differ");
+                    assert!(
+                        a.theirs_in_ours > 0.99 && a.ours_in_theirs > 0.99,
+                        "{seq}: sets differ"
+                    );
                 }
             }
         }

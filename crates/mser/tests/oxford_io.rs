@@ -5,8 +5,20 @@ use mser::{Ellipse, MserError, read_regions, write_regions};
 #[test]
 fn round_trip_is_exact() {
     let es = vec![
-        Ellipse { u: 1.5, v: 2.25, a: 0.1, b: -0.01, c: 0.2 },
-        Ellipse { u: 300.123456789, v: 0.0, a: 1.0 / 3.0, b: 1e-17, c: 7.0 },
+        Ellipse {
+            u: 1.5,
+            v: 2.25,
+            a: 0.1,
+            b: -0.01,
+            c: 0.2,
+        },
+        Ellipse {
+            u: 300.123456789,
+            v: 0.0,
+            a: 1.0 / 3.0,
+            b: 1e-17,
+            c: 7.0,
+        },
     ];
     let mut buf = Vec::new();
     write_regions(&mut buf, &es).unwrap();
