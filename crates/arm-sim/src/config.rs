@@ -351,6 +351,21 @@ impl Default for SceneConfig {
 }
 
 impl CameraConfig {
+    /// The same camera with its image scaled by `factor` (size rounded; focal lengths and
+    /// principal point scaled so that the view is unchanged, pixel centres at integers).
+    pub fn scaled(&self, factor: f64) -> Self {
+        let mut c = self.clone();
+        c.width = (self.width as f64 * factor).round().max(1.0) as u32;
+        c.height = (self.height as f64 * factor).round().max(1.0) as u32;
+        let fu = c.width as f64 / self.width as f64;
+        let fv = c.height as f64 / self.height as f64;
+        c.fx = self.fx * fu;
+        c.fy = self.fy * fv;
+        c.cx = (self.cx + 0.5) * fu - 0.5;
+        c.cy = (self.cy + 0.5) * fv - 0.5;
+        c
+    }
+
     /// A 640×480 webcam-like camera (fx = fy = 560 px, mild barrel distortion k1 = −0.10,
     /// k2 = 0.01) at `position_mm`, looking at `look_at_mm`.
     pub fn looking_at(position_mm: [f64; 3], look_at_mm: [f64; 3]) -> Self {
@@ -371,6 +386,15 @@ impl CameraConfig {
 }
 
 impl SimConfig {
+    /// This configuration with every camera's image scaled by `factor` (e.g. 0.25 for 160×120):
+    /// the same view at a lower resolution, for quick tests and previews.
+    pub fn with_image_scale(mut self, factor: f64) -> Self {
+        for c in &mut self.cameras {
+            *c = c.scaled(factor);
+        }
+        self
+    }
+
     /// The same arm, cameras and scene with every non-ideality off: no calibration error,
     /// quantisation, deadband, backlash, move noise or sag, steady lighting and no sensor noise.
     /// Lens distortion and clutter stay (they are part of the scene, not faults).

@@ -17,7 +17,6 @@ use rand::Rng;
 
 use crate::camera::Camera;
 use crate::config::{ArmGeometry, SceneConfig};
-use crate::error::Result;
 use crate::kinematics::{ArmPose, FINGER_THICKNESS_MM, FINGER_WIDTH_MM};
 use crate::scene::Background;
 
@@ -127,7 +126,7 @@ pub(crate) struct Lighting {
 /// One camera's renderer with its buffers.
 pub(crate) struct CameraView {
     pub camera: Camera,
-    background: Background,
+    background: Option<Background>,
     work: Vec<f32>,
     depth: Vec<f32>,
     pub labels: Vec<u8>,
@@ -139,23 +138,33 @@ pub(crate) struct CameraView {
 }
 
 impl CameraView {
-    pub fn new(camera: Camera, scene: &SceneConfig, arm: &ArmGeometry) -> Result<Self> {
-        let background = Background::render(&camera, scene, arm)?;
-        let n = background.radiance.len();
+    /// A renderer for `camera`; the static background is ray-traced on the first frame.
+    pub fn new(camera: Camera, scene: &SceneConfig) -> Self {
         let light = Vector3::from(scene.light_direction).normalize();
         let forward = camera.rotation.row(2).transpose();
-        Ok(CameraView {
-            work: vec![0.0; n],
-            depth: vec![0.0; n],
-            labels: vec![0; n],
+        CameraView {
+            background: None,
+            work: Vec::new(),
+            depth: Vec::new(),
+            labels: Vec::new(),
             column_gain: vec![0.0; camera.width as usize],
             light: v3(&light),
             origin: v3(&camera.centre),
             forward: v3(&forward),
             px_per_mm_at_unit: (0.5 * (camera.fx + camera.fy)) as f32,
-            background,
             camera,
-        })
+        }
+    }
+
+    fn ensure_background(&mut self, scene: &SceneConfig, g: &ArmGeometry) {
+        if self.background.is_none() {
+            let bg = Background::render(&self.camera, scene, g);
+            let n = bg.radiance.len();
+            self.work = vec![0.0; n];
+            self.depth = vec![0.0; n];
+            self.labels = vec![0; n];
+            self.background = Some(bg);
+        }
     }
 
     /// Renders the arm in `pose` into a new 8-bit image.
@@ -167,8 +176,10 @@ impl CameraView {
         lighting: Lighting,
         rng: &mut R,
     ) -> GrayImage {
-        self.work.copy_from_slice(&self.background.radiance);
-        self.depth.copy_from_slice(&self.background.depth);
+        self.ensure_background(scene, g);
+        let bg = self.background.as_ref().expect("just ensured");
+        self.work.copy_from_slice(&bg.radiance);
+        self.depth.copy_from_slice(&bg.depth);
         self.labels.fill(0);
         let mut parts = arm_parts(g, scene, pose);
         let centre_distance = |p: &Part| -> f32 {
@@ -236,13 +247,26 @@ impl CameraView {
     }
 
     fn draw(&mut self, scene: &SceneConfig, part: &Part) {
+        // The background (with the ray table) is moved out while the buffers are written.
+        let bg = self.background.take().expect("background rendered");
         match part.shape {
-            Shape::Capsule { a, b, r } => self.draw_capsule(scene, part, a, b, r),
-            Shape::Cuboid { c, axes, half } => self.draw_cuboid(scene, part, c, axes, half),
+            Shape::Capsule { a, b, r } => self.draw_capsule(scene, part, &bg.rays, a, b, r),
+            Shape::Cuboid { c, axes, half } => {
+                self.draw_cuboid(scene, part, &bg.rays, c, axes, half)
+            }
         }
+        self.background = Some(bg);
     }
 
-    fn draw_capsule(&mut self, scene: &SceneConfig, part: &Part, a: V3, b: V3, r: f32) {
+    fn draw_capsule(
+        &mut self,
+        scene: &SceneConfig,
+        part: &Part,
+        rays: &[[f32; 3]],
+        a: V3,
+        b: V3,
+        r: f32,
+    ) {
         let rv = V3::new(r, r, r);
         let (lo, hi) = (a.inf(&b) - rv, a.sup(&b) + rv);
         let corners = box_corners(lo, hi);
@@ -262,7 +286,7 @@ impl CameraView {
         for v in v0..v1 {
             for x in u0..u1 {
                 let i = v * width + x;
-                let d = V3::from(self.background.rays[i]);
+                let d = V3::from(rays[i]);
                 let bb = d.dot(&u);
                 let dd = d.dot(&w0);
                 let denom = c - bb * bb;
@@ -301,7 +325,15 @@ impl CameraView {
         }
     }
 
-    fn draw_cuboid(&mut self, scene: &SceneConfig, part: &Part, c: V3, axes: [V3; 3], half: V3) {
+    fn draw_cuboid(
+        &mut self,
+        scene: &SceneConfig,
+        part: &Part,
+        rays: &[[f32; 3]],
+        c: V3,
+        axes: [V3; 3],
+        half: V3,
+    ) {
         let z_c = (c - self.origin).dot(&self.forward).max(1.0);
         let ppm = self.px_per_mm_at_unit / z_c;
         let margin = 1.0 / ppm;
@@ -323,7 +355,7 @@ impl CameraView {
         for v in v0..v1 {
             for x in u0..u1 {
                 let i = v * width + x;
-                let d = V3::from(self.background.rays[i]);
+                let d = V3::from(rays[i]);
                 let dl = V3::new(axes[0].dot(&d), axes[1].dot(&d), axes[2].dot(&d));
                 let Some((tn, tf, _)) = slab(&ol, &dl, &grown) else {
                     continue;

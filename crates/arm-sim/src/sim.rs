@@ -63,11 +63,7 @@ impl ArmSim {
         config.validate()?;
         let mut views = Vec::with_capacity(config.cameras.len());
         for (i, c) in config.cameras.iter().enumerate() {
-            views.push(CameraView::new(
-                Camera::new(c, i)?,
-                &config.scene,
-                &config.arm,
-            )?);
+            views.push(CameraView::new(Camera::new(c, i)?, &config.scene));
         }
         let home = home_set_points(&config);
         let servos = std::array::from_fn(|i| ServoState::at_rest(&config.servos[i], home[i]));

@@ -1,0 +1,118 @@
+//! Projection against hand-computed pixels, undistortion round trip, cameras that do not see
+//! the scene.
+
+use arm_sim::{ArmSim, ArmSimError, Camera, CameraConfig, SimConfig};
+use nalgebra::Vector3;
+use proptest::prelude::*;
+
+fn overhead() -> Camera {
+    // 1 m above the base, looking straight down: image right = world −y, image down = world −x.
+    Camera::new(
+        &CameraConfig::looking_at([0.0, 0.0, 1000.0], [0.0, 0.0, 0.0]),
+        0,
+    )
+    .unwrap()
+}
+
+#[test]
+fn projection_by_hand() {
+    let cam = overhead();
+    // (100, 50, 0): camera frame (−50, −100, 1000); x = −0.05, y = −0.1, r² = 0.0125,
+    // d = 1 − 0.1·0.0125 + 0.01·0.0125² = 0.9987515625.
+    let [u, v] = cam.project(&Vector3::new(100.0, 50.0, 0.0)).unwrap();
+    let d = 0.998_751_562_5;
+    assert!((u - (319.5 - 560.0 * d * 0.05)).abs() < 1e-9, "u = {u}");
+    assert!((v - (239.5 - 560.0 * d * 0.1)).abs() < 1e-9, "v = {v}");
+    assert!((u - 291.534_956_25).abs() < 1e-9 && (v - 183.569_912_5).abs() < 1e-9);
+    // A point on the optical axis lands on the principal point whatever its depth.
+    let [u, v] = cam.project(&Vector3::new(0.0, 0.0, 400.0)).unwrap();
+    assert!((u - 319.5).abs() < 1e-12 && (v - 239.5).abs() < 1e-12);
+}
+
+#[test]
+fn projection_without_distortion_is_pinhole() {
+    let mut cfg = CameraConfig::looking_at([500.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
+    cfg.position_mm[2] = 1e-9 + 1.0; // just above the table
+    cfg.look_at_mm[2] = 1.0;
+    cfg.k1 = 0.0;
+    cfg.k2 = 0.0;
+    let cam = Camera::new(&cfg, 0).unwrap();
+    // Looking along −x: image right = +y, down = −z. Point (0, −100, −49): 500 mm ahead,
+    // x = −100/500, y = 50/500.
+    let [u, v] = cam.project(&Vector3::new(0.0, -100.0, -49.0)).unwrap();
+    assert!(
+        (u - (319.5 - 112.0)).abs() < 1e-9 && (v - (239.5 + 56.0)).abs() < 1e-9,
+        "{u} {v}"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    #[test]
+    fn undistort_round_trip(u in -0.5f64..639.5, v in -0.5f64..479.5) {
+        let cam = overhead();
+        let [x, y] = cam.undistort(u, v).unwrap();
+        let [u2, v2] = cam.normalised_to_pixel(x, y);
+        prop_assert!((u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9);
+        // And through the world: the ray's point projects back to the pixel.
+        let p = cam.centre + cam.ray(u, v).unwrap() * 700.0;
+        let [u3, v3] = cam.project(&p).unwrap();
+        prop_assert!((u - u3).abs() < 1e-7 && (v - v3).abs() < 1e-7);
+    }
+}
+
+#[test]
+fn point_behind_camera_is_an_error() {
+    let cam = overhead();
+    let e = cam.project(&Vector3::new(0.0, 0.0, 1500.0)).unwrap_err();
+    assert!(matches!(
+        e,
+        ArmSimError::PointBehindCamera { camera: 0, .. }
+    ));
+    let e = cam.project(&Vector3::new(f64::NAN, 0.0, 0.0)).unwrap_err();
+    assert!(matches!(e, ArmSimError::NonFinite { .. }));
+    assert!(matches!(
+        cam.undistort(f64::INFINITY, 0.0),
+        Err(ArmSimError::NonFinite { .. })
+    ));
+}
+
+#[test]
+fn camera_behind_scene_is_a_typed_error() {
+    // Looking away from the arm.
+    let mut cfg = SimConfig::default();
+    cfg.cameras[1] = CameraConfig::looking_at([400.0, 0.0, 300.0], [900.0, 0.0, 300.0]);
+    let e = ArmSim::new(cfg).err().unwrap();
+    assert!(
+        matches!(e, ArmSimError::CameraBehindScene { camera: 1, .. }),
+        "{e}"
+    );
+    // Under the table.
+    let mut cfg = SimConfig::default();
+    cfg.cameras[0].position_mm[2] = -50.0;
+    let e = ArmSim::new(cfg).err().unwrap();
+    assert!(
+        matches!(e, ArmSimError::CameraBehindScene { camera: 0, .. }),
+        "{e}"
+    );
+    // Inspection asks for a camera that does not exist.
+    let sim = ArmSim::new(SimConfig::ideal()).unwrap();
+    assert!(matches!(
+        sim.inspect().project(2, &Vector3::zeros()),
+        Err(ArmSimError::NoSuchCamera {
+            camera: 2,
+            count: 2
+        })
+    ));
+}
+
+#[test]
+fn default_cameras_see_the_home_tip() {
+    let sim = ArmSim::new(SimConfig::default()).unwrap();
+    for (i, uv) in sim.inspect().tip_pixels().unwrap().into_iter().enumerate() {
+        assert!(
+            sim.inspect().camera(i).unwrap().in_image(uv),
+            "camera {i}: {uv:?}"
+        );
+    }
+}

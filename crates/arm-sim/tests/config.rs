@@ -1,0 +1,119 @@
+//! Configuration: JSON round trip, file round trip, unknown keys and impossible values named.
+
+use arm_sim::{ArmSim, ArmSimError, SimConfig};
+
+fn key_of(e: ArmSimError) -> String {
+    match e {
+        ArmSimError::InvalidConfig { key, .. } => key,
+        other => panic!("expected InvalidConfig, got {other}"),
+    }
+}
+
+#[test]
+fn default_round_trips_through_json_and_files() {
+    let c = SimConfig::default();
+    let text = c.to_json();
+    assert_eq!(SimConfig::from_json(&text).unwrap(), c);
+    let path = std::env::temp_dir().join(format!("arm-sim-config-{}.json", std::process::id()));
+    c.write_file(&path).unwrap();
+    assert_eq!(SimConfig::read_file(&path).unwrap(), c);
+    std::fs::remove_file(&path).unwrap();
+    assert!(matches!(
+        SimConfig::read_file(&path),
+        Err(ArmSimError::ConfigIo { .. })
+    ));
+    let ideal = SimConfig::ideal();
+    assert_eq!(SimConfig::from_json(&ideal.to_json()).unwrap(), ideal);
+}
+
+#[test]
+fn default_configuration_snapshot() {
+    insta::assert_snapshot!(SimConfig::default().to_json());
+}
+
+#[test]
+fn unknown_keys_are_rejected_by_name() {
+    let mut v: serde_json::Value = serde_json::from_str(&SimConfig::default().to_json()).unwrap();
+    v["servos"][2]["stiffness"] = 1.0.into();
+    let e = SimConfig::from_json(&v.to_string()).unwrap_err();
+    assert!(
+        matches!(&e, ArmSimError::ConfigParse(m) if m.contains("stiffness")),
+        "{e}"
+    );
+    let mut v: serde_json::Value = serde_json::from_str(&SimConfig::default().to_json()).unwrap();
+    v["cameras"][0]["fov"] = 60.into();
+    let e = SimConfig::from_json(&v.to_string()).unwrap_err();
+    assert!(e.to_string().contains("fov"), "{e}");
+    let e = SimConfig::from_json("{\"seed\": 1}").unwrap_err();
+    assert!(e.to_string().contains("arm"), "{e}");
+}
+
+#[test]
+fn impossible_values_name_the_key() {
+    let check = |f: &dyn Fn(&mut SimConfig), key: &str| {
+        let mut c = SimConfig::default();
+        f(&mut c);
+        assert_eq!(key_of(c.validate().unwrap_err()), key);
+        assert_eq!(key_of(SimConfig::from_json(&c.to_json()).unwrap_err()), key);
+        assert!(ArmSim::new(c).is_err());
+    };
+    check(&|c| c.arm.upper_arm_mm = -120.0, "arm.upper_arm_mm");
+    check(
+        &|c| c.arm.joint_limits_deg[2] = [10.0, -10.0],
+        "arm.joint_limits_deg[2]",
+    );
+    check(&|c| c.servos[1].gain = 0.0, "servos[1].gain");
+    check(
+        &|c| c.servos[4].backlash_deg = -0.1,
+        "servos[4].backlash_deg",
+    );
+    check(&|c| c.servos[0].min_us = 3000.0, "servos[0].max_us");
+    check(
+        &|c| c.sag.compliance_deg_per_nm[1] = -1.0,
+        "sag.compliance_deg_per_nm[1]",
+    );
+    check(&|c| c.cameras.push(c.cameras[0].clone()), "cameras");
+    check(&|c| c.cameras.clear(), "cameras");
+    check(&|c| c.cameras[1].k1 = -1.5, "cameras[1].k1");
+    check(&|c| c.cameras[0].fx = 0.0, "cameras[0].fx");
+    check(
+        &|c| c.scene.sensor_noise_sigma = -2.0,
+        "scene.sensor_noise_sigma",
+    );
+    check(
+        &|c| c.scene.clutter[1].albedo = 1.5,
+        "scene.clutter[1].albedo",
+    );
+    check(
+        &|c| c.scene.light_direction = [0.0, 0.0, -1.0],
+        "scene.light_direction",
+    );
+    // NaN cannot even be written as JSON, but the struct check still names it.
+    let mut c = SimConfig::default();
+    c.servos[3].offset_us = f64::NAN;
+    assert_eq!(key_of(c.validate().unwrap_err()), "servos[3].offset_us");
+}
+
+#[test]
+fn ideal_switches_every_non_ideality_off() {
+    let c = SimConfig::ideal();
+    for s in &c.servos {
+        assert_eq!(
+            (
+                s.offset_us,
+                s.gain,
+                s.quantum_us,
+                s.deadband_us,
+                s.backlash_deg,
+                s.end_noise_deg
+            ),
+            (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+        );
+    }
+    assert_eq!(c.sag.compliance_deg_per_nm, [0.0; 3]);
+    assert_eq!(c.scene.sensor_noise_sigma, 0.0);
+    assert_eq!(c.scene.lighting_gain_sigma, 0.0);
+    assert_eq!(c.scene.lighting_gradient_sigma, 0.0);
+    let d = SimConfig::default();
+    assert_eq!((c.arm, c.cameras), (d.arm, d.cameras));
+}

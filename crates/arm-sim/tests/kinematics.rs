@@ -1,0 +1,111 @@
+//! Forward kinematics and gravity torques against hand-computed values.
+
+use arm_sim::kinematics::{FINGER_THICKNESS_MM, GRAVITY, gripper_opening};
+use arm_sim::{ArmGeometry, SagConfig, apply_sag, forward_kinematics, gravity_torques};
+use nalgebra::Vector3;
+
+fn close(a: &Vector3<f64>, b: [f64; 3]) {
+    let b = Vector3::from(b);
+    assert!((a - b).norm() < 1e-9, "{a:?} != {b:?}");
+}
+
+#[test]
+fn upright_chain_stacks_the_links() {
+    let g = ArmGeometry::default();
+    let p = forward_kinematics(&g, &[0.0; 6]);
+    close(&p.shoulder, [0.0, 0.0, 75.0]);
+    close(&p.elbow, [0.0, 0.0, 195.0]);
+    close(&p.wrist, [0.0, 0.0, 315.0]);
+    close(&p.tip, [0.0, 0.0, 415.0]);
+    close(&p.approach, [0.0, 0.0, 1.0]);
+    close(&p.pitch_axis, [0.0, 1.0, 0.0]);
+}
+
+#[test]
+fn home_pose_has_horizontal_forearm() {
+    // Elbow servo centred = 90°: the forearm and hand point straight forward.
+    let g = ArmGeometry::default();
+    let p = forward_kinematics(&g, &[0.0, 0.0, 90.0, 0.0, 0.0, 0.0]);
+    close(&p.elbow, [0.0, 0.0, 195.0]);
+    close(&p.wrist, [120.0, 0.0, 195.0]);
+    close(&p.tip, [220.0, 0.0, 195.0]);
+}
+
+#[test]
+fn stretched_forward_and_yawed() {
+    let g = ArmGeometry::default();
+    let p = forward_kinematics(&g, &[0.0, 90.0, 0.0, 0.0, 0.0, 0.0]);
+    close(&p.tip, [340.0, 0.0, 75.0]);
+    // Base yaw 90° turns the arm plane to +y.
+    let p = forward_kinematics(&g, &[90.0, 90.0, 0.0, 0.0, 0.0, 0.0]);
+    close(&p.tip, [0.0, 340.0, 75.0]);
+    close(&p.pitch_axis, [-1.0, 0.0, 0.0]);
+}
+
+#[test]
+fn mixed_angles_by_hand() {
+    // φ1 = 30°, φ2 = 90°, φ3 = 135°:
+    // E = (120 sin30, 0, 75 + 120 cos30) = (60, 0, 178.923…),
+    // W = E + 120 (1, 0, 0), T = W + 100 (sin135, 0, cos135).
+    let g = ArmGeometry::default();
+    let p = forward_kinematics(&g, &[0.0, 30.0, 60.0, 45.0, 0.0, 0.0]);
+    let c30 = 3f64.sqrt() / 2.0;
+    let h = 0.5f64.sqrt();
+    close(&p.elbow, [60.0, 0.0, 75.0 + 120.0 * c30]);
+    close(&p.wrist, [180.0, 0.0, 75.0 + 120.0 * c30]);
+    close(
+        &p.tip,
+        [180.0 + 100.0 * h, 0.0, 75.0 + 120.0 * c30 - 100.0 * h],
+    );
+    // Yaw −30° rotates the same pose about z.
+    let q = forward_kinematics(&g, &[-30.0, 30.0, 60.0, 45.0, 0.0, 0.0]);
+    let r = 180.0 + 100.0 * h;
+    close(&q.tip, [r * c30, -r * 0.5, p.tip.z]);
+}
+
+#[test]
+fn wrist_roll_turns_fingers_not_tip() {
+    let g = ArmGeometry::default();
+    let a = forward_kinematics(&g, &[10.0, 20.0, 70.0, 30.0, 0.0, 0.0]);
+    let b = forward_kinematics(&g, &[10.0, 20.0, 70.0, 30.0, 90.0, 0.0]);
+    assert!((a.tip - b.tip).norm() < 1e-9);
+    assert!(a.opening_axis.dot(&b.opening_axis).abs() < 1e-9);
+    assert!(b.opening_axis.dot(&b.approach).abs() < 1e-9);
+    // Fingers symmetric about the tool point pushed forward by the pad.
+    let mid = (b.finger_ends[0] + b.finger_ends[1]) * 0.5;
+    assert!((mid - (b.tip + b.approach * g.finger_pad_mm)).norm() < 1e-9);
+    let gap = (b.finger_ends[0] - b.finger_ends[1]).norm();
+    assert!((gap - (b.opening_mm + FINGER_THICKNESS_MM)).abs() < 1e-9);
+}
+
+#[test]
+fn gripper_opening_is_linear_in_servo_angle() {
+    let g = ArmGeometry::default();
+    assert_eq!(gripper_opening(&g, -90.0), 0.0);
+    assert!((gripper_opening(&g, 0.0) - 16.0).abs() < 1e-12);
+    assert_eq!(gripper_opening(&g, 90.0), 32.0);
+    assert_eq!(gripper_opening(&g, 120.0), 32.0);
+}
+
+#[test]
+fn gravity_torques_of_horizontal_arm_by_hand() {
+    // Stretched horizontally: levers from the shoulder are 60 (upper arm), 120 (elbow servo),
+    // 180 (forearm), 240 (wrist servos), 290 (hand) mm.
+    let g = ArmGeometry::default();
+    let sag = SagConfig {
+        compliance_deg_per_nm: [1.0, 1.0, 1.0],
+        masses_kg: [0.1, 0.2, 0.3, 0.4, 0.5],
+    };
+    let t = gravity_torques(&g, &sag, &[0.0, 90.0, 0.0, 0.0, 0.0, 0.0]);
+    let shoulder =
+        GRAVITY * 1e-3 * (0.1 * 60.0 + 0.3 * 120.0 + 0.2 * 180.0 + 0.4 * 240.0 + 0.5 * 290.0);
+    let elbow = GRAVITY * 1e-3 * (0.2 * 60.0 + 0.4 * 120.0 + 0.5 * 170.0);
+    let wrist = GRAVITY * 1e-3 * (0.5 * 50.0);
+    assert!((t[0] - shoulder).abs() < 1e-12, "{t:?}");
+    assert!((t[1] - elbow).abs() < 1e-12);
+    assert!((t[2] - wrist).abs() < 1e-12);
+    // Upright: no lever, no torque, no sag.
+    let t0 = gravity_torques(&g, &sag, &[0.0; 6]);
+    assert!(t0.iter().all(|v| v.abs() < 1e-12));
+    assert_eq!(apply_sag(&g, &sag, &[0.0; 6])[1..4], [0.0; 3]);
+}
