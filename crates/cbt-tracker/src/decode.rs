@@ -158,3 +158,49 @@ fn decode_patch(
     }
     grid.decode(&patch).unwrap_or_default()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::rng_for;
+    use rand::RngExt;
+
+    /// Random mixtures of one to three encoded points plus a floor: the best mode equals the
+    /// full decoder's, and every mode found is one of the full decoder's modes.
+    #[test]
+    fn matches_the_full_decoder() {
+        for (dims, case) in (0..200).map(|c| (1 + c % 2, c)) {
+            let space = if dims == 2 {
+                Space::image(60.0, 40.0, 2.0).unwrap()
+            } else {
+                let b = ChannelBasis::covering(0.0, 50.0, 40, crate::DEFAULT_KERNEL).unwrap();
+                Space::new(vec![b.clone()], vec![b]).unwrap()
+            };
+            let mut rng = rng_for(77, case as u64);
+            let grid = space.grid().clone();
+            let mut q = vec![1e-6; grid.len()];
+            for _ in 0..1 + case % 3 {
+                let p: Vec<f64> = (0..dims)
+                    .map(|d| {
+                        let (lo, hi) = space.state_basis(d).representable_range();
+                        lo + (hi - lo) * rng.random::<f64>()
+                    })
+                    .collect();
+                grid.accumulate(&p, 0.2 + rng.random::<f64>(), &mut q)
+                    .unwrap();
+            }
+            let full = grid.decode(&q).unwrap();
+            let fast = decode_posterior(&space, &q, 4);
+            // Equal up to rounding (the patch's basis starts at a shifted centre).
+            let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
+            assert!(same(&full[0].value, &fast[0].value), "case {case}");
+            assert!((full[0].certainty - fast[0].certainty).abs() < 1e-12);
+            for m in &fast {
+                assert!(
+                    full.iter().any(|f| same(&f.value, &m.value)),
+                    "case {case}: {m:?}"
+                );
+            }
+        }
+    }
+}

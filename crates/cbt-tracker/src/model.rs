@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, Layout, Order};
+use crate::config::{CbtConfig, Layout, Order, SystemFallback};
 use crate::encode::{Encoded, encode_detections, encode_states};
 use crate::observation::{AxisObservation, JointObservation};
 use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
@@ -218,16 +218,28 @@ impl CbtModel {
                 SystemModel::Separable { first, second } => {
                     for d in 0..dims {
                         first[d].add(&x.axes[d], &p1.axes[d]);
+                        let cols: Vec<usize> = p1.axes[d].iter().map(|e| e.0).collect();
                         if renormalise {
-                            let cols: Vec<usize> = p1.axes[d].iter().map(|e| e.0).collect();
                             first[d].normalise_columns(&cols, &cfg);
                         }
-                        if let (Some(second), Some(p2)) = (second.as_mut(), p2) {
-                            let mut touched = Vec::new();
+                        let Some(second) = second.as_mut() else {
+                            continue;
+                        };
+                        let mut touched = Vec::new();
+                        if let Some(p2) = p2 {
                             second[d].add(&x.axes[d], &p1.axes[d], &p2.axes[d], &mut touched);
-                            if renormalise {
-                                second[d].normalise_columns(&touched, &cfg, &first[d]);
+                        }
+                        if renormalise {
+                            if cfg.system_fallback == SystemFallback::FirstOrder {
+                                // Every column (·, n) falls back on the changed column n.
+                                let len = self.space.axis_len(d);
+                                for &n in &cols {
+                                    touched.extend((0..len).map(|o| o * len + n));
+                                }
                             }
+                            touched.sort_unstable();
+                            touched.dedup();
+                            second[d].normalise_columns(&touched, &cfg, &first[d]);
                         }
                     }
                 }

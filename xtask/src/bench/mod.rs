@@ -6,6 +6,7 @@
 
 mod chan_repr;
 mod mser;
+mod tracking;
 
 use clap::Args;
 
@@ -42,6 +43,11 @@ Bench {
     name: "mser",
     peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters",
     run: mser::run,
+},
+Bench {
+    name: "tracking",
+    peer: "SIR particle filter (100/1,000/10,000 particles), Kalman + NN",
+    run: tracking::run,
 }];
 
 /// Runs `cargo xtask bench`.

@@ -9,6 +9,7 @@
 //! and one line in each of [`EvalTarget::all`], [`EvalTarget::name`] and [`EvalTarget::run`].
 
 mod chan_repr;
+pub(crate) mod tracking;
 
 use std::path::{Path, PathBuf};
 
@@ -38,24 +39,29 @@ pub struct EvalArgs {
 pub enum EvalTarget {
     /// The thesis's channel-coding worked example (eq. 2.3-2.9) and Figure 2.1.
     ChanRepr,
+    /// Paper B: Channel Based Tracking against Kalman and particle filters (synthetic
+    /// RC-car sequences, UNGM, or the user's CSV sequences); fixtures in `fixtures/paper-b/`.
+    Tracking(tracking::TrackingArgs),
 }
 
 impl EvalTarget {
     /// Every target with default options, in the order a plain `cargo xtask eval` runs them.
     pub fn all() -> Vec<EvalTarget> {
-        vec![EvalTarget::ChanRepr]
+        vec![EvalTarget::ChanRepr, EvalTarget::Tracking(Default::default())]
     }
 
     /// The target's name, also its fixture sub-folder.
     pub fn name(&self) -> &'static str {
         match self {
             EvalTarget::ChanRepr => "chan-repr",
+            EvalTarget::Tracking(_) => "paper-b",
         }
     }
 
     fn run(&self, ctx: &EvalContext) -> Result<()> {
         match self {
             EvalTarget::ChanRepr => chan_repr::run(ctx),
+            EvalTarget::Tracking(args) => tracking::run(ctx, args),
         }
     }
 }

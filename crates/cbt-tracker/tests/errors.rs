@@ -1,0 +1,195 @@
+//! Bad input gets typed errors, and a tracker given a bad frame keeps its previous state.
+
+use cbt_tracker::sim::{Level, Scenario, generate};
+use cbt_tracker::{
+    Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker,
+    ParticleFilter, PfModel, Space, TrackError, Tracker, TrainingFrame,
+};
+use chan_repr::{ChanError, ChannelBasis, Kernel};
+
+fn setup() -> (CbtModel, Vec<cbt_tracker::Sequence>) {
+    let sc = Scenario::default();
+    let train = generate(&sc, &Level::preset(1), 2, 200, 5);
+    let space = Space::image(sc.width, sc.height, 10.0).unwrap();
+    (
+        CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap(),
+        train,
+    )
+}
+
+#[test]
+fn learning_rejects_bad_training_data() {
+    let space = Space::image(100.0, 100.0, 10.0).unwrap();
+    let cfg = CbtConfig::default();
+    assert!(matches!(
+        CbtModel::learn(space.clone(), cfg, &[]),
+        Err(TrackError::EmptyTraining { .. })
+    ));
+    // States but no detections: no observation sample.
+    let no_dets: Vec<TrainingFrame> = (0..5)
+        .map(|k| TrainingFrame {
+            states: vec![[10.0 + k as f64, 50.0]],
+            detections: vec![],
+        })
+        .collect();
+    assert!(matches!(
+        CbtModel::learn(space.clone(), cfg, &[no_dets]),
+        Err(TrackError::EmptyTraining { .. })
+    ));
+    // Two frames: no triple for the second-order model.
+    let two: Vec<TrainingFrame> = (0..2)
+        .map(|k| TrainingFrame {
+            states: vec![[10.0 + k as f64, 50.0]],
+            detections: vec![Detection::new(10.0, 50.0)],
+        })
+        .collect();
+    assert!(matches!(
+        CbtModel::learn(space.clone(), cfg, &[two]),
+        Err(TrackError::EmptyTraining { .. })
+    ));
+    let outside = vec![TrainingFrame {
+        states: vec![[150.0, 50.0]],
+        detections: vec![],
+    }];
+    assert!(matches!(
+        CbtModel::learn(space.clone(), cfg, &[outside]),
+        Err(TrackError::OutsideGrid { what: "state", .. })
+    ));
+    let nan = vec![TrainingFrame {
+        states: vec![[50.0, 50.0]],
+        detections: vec![Detection::new(f64::NAN, 3.0)],
+    }];
+    assert!(matches!(
+        CbtModel::learn(space, cfg, &[nan]),
+        Err(TrackError::NonFinite { .. })
+    ));
+}
+
+#[test]
+fn bad_spaces_and_parameters_are_errors() {
+    assert!(matches!(
+        Space::image(100.0, 100.0, 0.0),
+        Err(TrackError::InvalidParameter { .. })
+    ));
+    assert!(matches!(
+        Space::image(100.0, f64::NAN, 5.0),
+        Err(TrackError::InvalidParameter { .. })
+    ));
+    // Zero channels.
+    assert!(matches!(
+        ChannelBasis::integer(0, Kernel::Cos2 { m: 3 }).map_err(TrackError::from),
+        Err(TrackError::Chan(ChanError::TooFewChannels { got: 0, .. }))
+    ));
+    let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+    assert!(matches!(
+        Space::new(vec![], vec![]),
+        Err(TrackError::Mismatch(_))
+    ));
+    assert!(matches!(
+        Space::new(vec![b.clone()], vec![b.clone(), b.clone()]),
+        Err(TrackError::Mismatch(_))
+    ));
+    let space = Space::new(vec![b.clone()], vec![b]).unwrap();
+    for cfg in [
+        CbtConfig {
+            mixing: 1.0,
+            ..Default::default()
+        },
+        CbtConfig {
+            prior_weight: 0.0,
+            ..Default::default()
+        },
+        CbtConfig {
+            observation_floor: f64::NAN,
+            ..Default::default()
+        },
+    ] {
+        assert!(matches!(
+            CbtModel::untrained(space.clone(), cfg),
+            Err(TrackError::InvalidParameter { .. })
+        ));
+    }
+    assert!(
+        ParticleFilter::new(
+            PfModel::Ungm {
+                process_var: 10.0,
+                meas_var: 1.0,
+                init_sigma: 1.0
+            },
+            0,
+            1
+        )
+        .is_err()
+    );
+    assert!(
+        KalmanTracker::new(KalmanParams {
+            accel_sigma: -1.0,
+            meas_sigma: 1.0,
+            init_vel_sigma: 1.0,
+            gate: 9.0
+        })
+        .is_err()
+    );
+}
+
+#[test]
+fn trackers_keep_their_state_on_a_bad_frame() {
+    let (model, train) = setup();
+    let cal = Calibration::estimate(&train, 32.0).unwrap();
+    let s = &train[0];
+    let mut cbt = CbtTracker::new(model);
+    let mut kf = KalmanTracker::new(KalmanParams::from_calibration(&cal)).unwrap();
+    let mut pf =
+        ParticleFilter::new(PfModel::from_calibration(&cal, 320.0 * 240.0), 200, 4).unwrap();
+    let bad_frames = [
+        vec![Detection::new(100.0, 100.0), Detection::new(f64::NAN, 1.0)],
+        vec![Detection::new(100.0, f64::INFINITY)],
+        vec![Detection {
+            pos: [100.0, 100.0],
+            weight: -1.0,
+        }],
+    ];
+    for t in [&mut cbt as &mut dyn Tracker, &mut kf, &mut pf] {
+        t.reset(s.frames[0].truth.unwrap()).unwrap();
+        for f in &s.frames[1..10] {
+            t.step(&f.detections).unwrap();
+        }
+    }
+    let before = (
+        serde_json::to_string(&cbt).unwrap(),
+        serde_json::to_string(&kf).unwrap(),
+        serde_json::to_string(&pf).unwrap(),
+    );
+    for bad in &bad_frames {
+        assert!(cbt.step(bad).is_err());
+        assert!(kf.step(bad).is_err());
+        assert!(pf.step(bad).is_err());
+    }
+    // Off the grid: only CBT has a grid.
+    assert!(matches!(
+        cbt.step(&[Detection::new(500.0, 10.0)]),
+        Err(TrackError::OutsideGrid {
+            what: "detection",
+            ..
+        })
+    ));
+    assert!(matches!(
+        cbt.learn_online(&[[10.0, 1e6]], &[]),
+        Err(TrackError::OutsideGrid { what: "state", .. })
+    ));
+    let after = (
+        serde_json::to_string(&cbt).unwrap(),
+        serde_json::to_string(&kf).unwrap(),
+        serde_json::to_string(&pf).unwrap(),
+    );
+    assert_eq!(before, after);
+    // And they carry on.
+    for f in &s.frames[10..15] {
+        cbt.step(&f.detections).unwrap();
+    }
+    assert!(matches!(
+        cbt.reset([f64::NAN, 1.0]),
+        Err(TrackError::NonFinite { .. })
+    ));
+    assert!(cbt.reset_to(&[1.0, 2.0]).is_err());
+}

@@ -1,0 +1,405 @@
+//! The tracking study: learn on training sequences, run every tracker on every test sequence
+//! from the first frame's truth, score RMSE and track loss.
+
+use std::time::Instant;
+
+use cbt_tracker::metrics::{Score, score};
+use cbt_tracker::{
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ObservationFallback,
+    Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis,
+};
+use indicatif::ProgressBar;
+use serde::Serialize;
+
+use crate::Result;
+
+/// Particle counts of the particle-filter baselines.
+pub const PARTICLES: [usize; 3] = [100, 1000, 10_000];
+
+/// What kind of data a set holds.
+#[derive(Debug, Clone, Copy, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum SetKind {
+    /// Image coordinates on `[x_lo, x_hi] × [y_lo, y_hi]`.
+    Image {
+        /// Lower end of x.
+        x_lo: f64,
+        /// Upper end of x.
+        x_hi: f64,
+        /// Lower end of y.
+        y_lo: f64,
+        /// Upper end of y.
+        y_hi: f64,
+    },
+    /// The 1-D UNGM benchmark (state x, measurement z = x²/20 + n).
+    Ungm,
+}
+
+/// A set of training and test sequences to study.
+pub struct SetSpec {
+    /// Name (file name of its JSON).
+    pub name: String,
+    /// One-line description.
+    pub description: String,
+    /// Clutter rate of the set (for the RMSE-vs-clutter plot), if known.
+    pub clutter_rate: Option<f64>,
+    /// Data kind.
+    pub kind: SetKind,
+    /// Training sequences (truth + detections).
+    pub train: Vec<Sequence>,
+    /// Test sequences.
+    pub test: Vec<Sequence>,
+    /// Track-loss radius.
+    pub radius: f64,
+    /// Seed of the particle filters (sequence `i` uses `seed + i`).
+    pub seed: u64,
+}
+
+/// One tracker on one sequence.
+#[derive(Debug, Clone, Serialize)]
+pub struct Run {
+    /// Tracker label.
+    pub tracker: String,
+    /// RMSE, track-loss share, scored frames.
+    #[serde(flatten)]
+    pub score: Score,
+    /// Frames whose detections the tracker rejected (off its grid) and treated as empty.
+    pub rejected_frames: usize,
+    /// The estimates (frame 0 = the given start); not serialised.
+    #[serde(skip)]
+    pub estimates: Vec<Point>,
+    /// Wall time of the steps in seconds; not serialised (fixtures hold no timings).
+    #[serde(skip)]
+    pub seconds: f64,
+}
+
+/// All trackers on one sequence.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeqResult {
+    /// Sequence name.
+    pub sequence: String,
+    /// Number of frames.
+    pub frames: usize,
+    /// Detections per frame on average.
+    pub mean_detections: f64,
+    /// One entry per tracker.
+    pub runs: Vec<Run>,
+}
+
+/// The result of one set.
+#[derive(Debug, Clone, Serialize)]
+pub struct SetResult {
+    /// Set name.
+    pub set: String,
+    /// Description.
+    pub description: String,
+    /// Clutter rate (synthetic sets).
+    pub clutter_rate: Option<f64>,
+    /// Data kind and extent.
+    pub kind: SetKind,
+    /// Channel spacing of CBT's grid (state axes; UNGM: state, measurement).
+    pub spacing: Vec<f64>,
+    /// Channels per state axis.
+    pub channels: Vec<usize>,
+    /// Calibrated baseline parameters (image sets).
+    pub calibration: Option<Calibration>,
+    /// Track-loss radius.
+    pub loss_radius: f64,
+    /// Tracker labels in run order.
+    pub trackers: Vec<String>,
+    /// Per sequence.
+    pub sequences: Vec<SeqResult>,
+}
+
+/// Makes a fresh tracker from a seed.
+type Maker = Box<dyn Fn(u64) -> Result<Box<dyn Tracker>>>;
+
+/// A set's trackers with its CBT grid (spacing, channels) and the baselines' calibration.
+type SetTrackers = (Trackers, Vec<f64>, Vec<usize>, Option<Calibration>);
+
+/// A factory of fresh trackers for one set.
+struct Trackers {
+    makers: Vec<Maker>,
+}
+
+fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
+    let second = CbtModel::learn_sequences(space.clone(), base, train)?;
+    let first = CbtModel::learn_sequences(
+        space.clone(),
+        CbtConfig {
+            order: Order::First,
+            ..base
+        },
+        train,
+    )?;
+    Ok((second, first))
+}
+
+fn cbt_makers(second: CbtModel, first: CbtModel) -> Vec<Maker> {
+    let (s2, s1, s3) = (second.clone(), first, second);
+    vec![
+        Box::new(move |_| Ok(Box::new(CbtTracker::new(s2.clone())) as Box<dyn Tracker>)),
+        Box::new(move |_| Ok(Box::new(CbtTracker::new(s1.clone())) as Box<dyn Tracker>)),
+        Box::new(move |_| {
+            Ok(Box::new(CbtTracker::new(s3.clone()).with_self_learning()) as Box<dyn Tracker>)
+        }),
+    ]
+}
+
+impl Trackers {
+    fn for_set(spec: &SetSpec) -> Result<SetTrackers> {
+        match spec.kind {
+            SetKind::Image {
+                x_lo,
+                x_hi,
+                y_lo,
+                y_hi,
+            } => {
+                let extent = (x_hi - x_lo).min(y_hi - y_lo);
+                let spacing = Scales::estimate(&spec.train, extent)?.spacing(extent);
+                let kernel = cbt_tracker::DEFAULT_KERNEL;
+                let (bx, by) = (
+                    axis(x_lo, x_hi, spacing, kernel)?,
+                    axis(y_lo, y_hi, spacing, kernel)?,
+                );
+                let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by])?;
+                let (second, first) = cbt_models(&space, CbtConfig::default(), &spec.train)?;
+                let cal = Calibration::estimate(&spec.train, extent / 10.0)?;
+                let area = (x_hi - x_lo) * (y_hi - y_lo);
+                let mut makers = cbt_makers(second, first);
+                makers.push(Box::new(move |_| {
+                    Ok(
+                        Box::new(KalmanTracker::new(KalmanParams::from_calibration(&cal))?)
+                            as Box<dyn Tracker>,
+                    )
+                }));
+                for n in PARTICLES {
+                    let model = PfModel::from_calibration(&cal, area);
+                    makers.push(Box::new(move |seed| {
+                        Ok(Box::new(ParticleFilter::new(model, n, seed)?) as Box<dyn Tracker>)
+                    }));
+                }
+                Ok((
+                    Trackers { makers },
+                    vec![
+                        space.state_basis(0).spacing(),
+                        space.state_basis(1).spacing(),
+                    ],
+                    vec![space.axis_len(0), space.axis_len(1)],
+                    Some(cal),
+                ))
+            }
+            SetKind::Ungm => {
+                // Grid over the training data's extent (+5 state, +3 measurement units);
+                // spacing 1 on both: a third of the process noise σ_v = √10 and the
+                // measurement noise σ_n = 1.
+                let (mut xl, mut xh, mut zl, mut zh) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+                for s in &spec.train {
+                    for f in &s.frames {
+                        if let Some(t) = f.truth {
+                            xl = xl.min(t[0]);
+                            xh = xh.max(t[0]);
+                        }
+                        for d in &f.detections {
+                            zl = zl.min(d.pos[0]);
+                            zh = zh.max(d.pos[0]);
+                        }
+                    }
+                }
+                let kernel = cbt_tracker::DEFAULT_KERNEL;
+                let state = axis(xl - 5.0, xh + 5.0, 1.0, kernel)?;
+                let meas = axis(zl - 3.0, zh + 3.0, 1.0, kernel)?;
+                let space = Space::new(vec![state.clone()], vec![meas.clone()])?;
+                let cfg = CbtConfig {
+                    observation_fallback: ObservationFallback::Uniform,
+                    ..CbtConfig::default()
+                };
+                let (second, first) = cbt_models(&space, cfg, &spec.train)?;
+                let mut makers = cbt_makers(second, first);
+                for n in PARTICLES {
+                    let model = PfModel::Ungm {
+                        process_var: 10.0,
+                        meas_var: 1.0,
+                        init_sigma: 1.0,
+                    };
+                    makers.push(Box::new(move |seed| {
+                        Ok(Box::new(ParticleFilter::new(model, n, seed)?) as Box<dyn Tracker>)
+                    }));
+                }
+                Ok((
+                    Trackers { makers },
+                    vec![state.spacing(), meas.spacing()],
+                    vec![state.len()],
+                    None,
+                ))
+            }
+        }
+    }
+}
+
+/// Runs one tracker over a sequence; frames with detections the tracker rejects count as
+/// empty frames.
+fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> Result<Run> {
+    let start = s.frames[0].truth.ok_or_else(|| {
+        format!(
+            "sequence {}: the first frame has no truth to start from",
+            s.name
+        )
+    })?;
+    t.reset(start)?;
+    let mut est = vec![start];
+    let mut rejected = 0;
+    let t0 = Instant::now();
+    for f in &s.frames[1..] {
+        let e = match t.step(&f.detections) {
+            Ok(e) => e,
+            Err(TrackError::OutsideGrid { .. }) => {
+                rejected += 1;
+                t.step(&[])?
+            }
+            Err(e) => return Err(format!("sequence {}: {e}", s.name).into()),
+        };
+        est.push(e.position);
+    }
+    let seconds = t0.elapsed().as_secs_f64();
+    let truths: Vec<Option<Point>> = s.frames.iter().map(|f| f.truth).collect();
+    Ok(Run {
+        tracker: t.name(),
+        score: score(&est, &truths, dims, radius),
+        rejected_frames: rejected,
+        estimates: est,
+        seconds,
+    })
+}
+
+/// Runs every tracker on every test sequence of a set.
+pub fn run_set(spec: &SetSpec, pb: &ProgressBar) -> Result<SetResult> {
+    let (trackers, spacing, channels, calibration) = Trackers::for_set(spec)?;
+    let dims = match spec.kind {
+        SetKind::Image { .. } => 2,
+        SetKind::Ungm => 1,
+    };
+    let mut sequences = Vec::new();
+    let mut names = Vec::new();
+    for (i, s) in spec.test.iter().enumerate() {
+        if s.frames.is_empty() {
+            return Err(format!("test sequence {} has no frames", s.name).into());
+        }
+        let mut runs = Vec::new();
+        for make in &trackers.makers {
+            let mut t = make(spec.seed.wrapping_add(i as u64))?;
+            runs.push(run_one(t.as_mut(), s, dims, spec.radius)?);
+        }
+        if names.is_empty() {
+            names = runs.iter().map(|r| r.tracker.clone()).collect();
+        }
+        let dets: usize = s.frames.iter().map(|f| f.detections.len()).sum();
+        sequences.push(SeqResult {
+            sequence: s.name.clone(),
+            frames: s.frames.len(),
+            mean_detections: dets as f64 / s.frames.len() as f64,
+            runs,
+        });
+        pb.inc(1);
+    }
+    Ok(SetResult {
+        set: spec.name.clone(),
+        description: spec.description.clone(),
+        clutter_rate: spec.clutter_rate,
+        kind: spec.kind,
+        spacing,
+        channels,
+        calibration,
+        loss_radius: spec.radius,
+        trackers: names,
+        sequences,
+    })
+}
+
+/// Per-tracker aggregate of a set (or of several).
+#[derive(Debug, Clone, Serialize)]
+pub struct Aggregate {
+    /// Tracker label.
+    pub tracker: String,
+    /// Mean over sequences of the per-sequence RMSE.
+    pub mean_rmse: f64,
+    /// Median over sequences of the per-sequence RMSE.
+    pub median_rmse: f64,
+    /// Mean track-loss share.
+    pub mean_loss_share: f64,
+    /// Sequences where this tracker has the lowest RMSE (ties count for each).
+    pub best_in: usize,
+    /// Sequences scored.
+    pub sequences: usize,
+}
+
+/// Aggregates over all sequences of the given sets, per tracker (trackers in the order of
+/// the first set).
+pub fn aggregate(sets: &[&SetResult]) -> Vec<Aggregate> {
+    let Some(first) = sets.first() else {
+        return Vec::new();
+    };
+    first
+        .trackers
+        .iter()
+        .enumerate()
+        .map(|(ti, name)| {
+            let mut rmse = Vec::new();
+            let (mut loss, mut best) = (0.0, 0);
+            for set in sets {
+                for s in &set.sequences {
+                    let Some(r) = s.runs.iter().find(|r| &r.tracker == name) else {
+                        continue;
+                    };
+                    rmse.push(r.score.rmse);
+                    loss += r.score.loss_share;
+                    let min = s
+                        .runs
+                        .iter()
+                        .map(|r| r.score.rmse)
+                        .fold(f64::INFINITY, f64::min);
+                    if r.score.rmse <= min {
+                        best += 1;
+                    }
+                }
+            }
+            let n = rmse.len();
+            let mean = rmse.iter().sum::<f64>() / n.max(1) as f64;
+            rmse.sort_by(f64::total_cmp);
+            let median = if n == 0 {
+                0.0
+            } else if n % 2 == 1 {
+                rmse[n / 2]
+            } else {
+                0.5 * (rmse[n / 2 - 1] + rmse[n / 2])
+            };
+            let _ = ti;
+            Aggregate {
+                tracker: name.clone(),
+                mean_rmse: mean,
+                median_rmse: median,
+                mean_loss_share: loss / n.max(1) as f64,
+                best_in: best,
+                sequences: n,
+            }
+        })
+        .collect()
+}
+
+/// Sequences where tracker `a` has an RMSE no larger than tracker `b`'s.
+pub fn head_to_head(sets: &[&SetResult], a: &str, b: &str) -> (usize, usize) {
+    let (mut wins, mut total) = (0, 0);
+    for set in sets {
+        for s in &set.sequences {
+            let ra = s.runs.iter().find(|r| r.tracker == a);
+            let rb = s.runs.iter().find(|r| r.tracker == b);
+            if let (Some(ra), Some(rb)) = (ra, rb) {
+                total += 1;
+                if ra.score.rmse <= rb.score.rmse {
+                    wins += 1;
+                }
+            }
+        }
+    }
+    (wins, total)
+}
