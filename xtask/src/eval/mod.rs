@@ -8,6 +8,7 @@
 //! Adding a target: a module here with `run(&EvalContext, &Args)`, a variant of [`EvalTarget`],
 //! and one line in each of [`EvalTarget::all`], [`EvalTarget::name`] and [`EvalTarget::run`].
 
+mod arm_sim;
 mod chan_repr;
 pub(crate) mod tracking;
 
@@ -42,18 +43,25 @@ pub enum EvalTarget {
     /// Paper B: Channel Based Tracking against Kalman and particle filters (synthetic
     /// RC-car sequences, UNGM, or the user's CSV sequences); fixtures in `fixtures/paper-b/`.
     Tracking(tracking::TrackingArgs),
+    /// The simulated arm: a rendered frame per camera with the true tip, the workspace in the image.
+    ArmSim,
 }
 
 impl EvalTarget {
     /// Every target with default options, in the order a plain `cargo xtask eval` runs them.
     pub fn all() -> Vec<EvalTarget> {
-        vec![EvalTarget::ChanRepr, EvalTarget::Tracking(Default::default())]
+        vec![
+            EvalTarget::ChanRepr,
+            EvalTarget::Tracking(Default::default()),
+            EvalTarget::ArmSim,
+        ]
     }
 
     /// The target's name, also its fixture sub-folder.
     pub fn name(&self) -> &'static str {
         match self {
             EvalTarget::ChanRepr => "chan-repr",
+            EvalTarget::ArmSim => "arm-sim",
             EvalTarget::Tracking(_) => "paper-b",
         }
     }
@@ -61,6 +69,7 @@ impl EvalTarget {
     fn run(&self, ctx: &EvalContext) -> Result<()> {
         match self {
             EvalTarget::ChanRepr => chan_repr::run(ctx),
+            EvalTarget::ArmSim => arm_sim::run(ctx),
             EvalTarget::Tracking(args) => tracking::run(ctx, args),
         }
     }
