@@ -1,0 +1,117 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// Everything that can stop learning or servoing. Every error leaves the learned models
+/// ([`crate::InverseModel`], [`crate::GripperModel`]) exactly as they were before the failing
+/// step: a model is only updated with a move whose command was executed *and* whose percept was
+/// recognised.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ServoError {
+    /// The robot reported an error (the message is the robot's own).
+    #[error("robot error during {during}: {message}")]
+    Robot {
+        /// `"command"` or `"capture"`.
+        during: &'static str,
+        /// The robot's error message.
+        message: String,
+    },
+    /// The gripper was not found in a camera image with enough certainty.
+    #[error("gripper not recognised in camera {camera}: certainty {certainty:.3} below {min:.3}")]
+    RecognitionFailed {
+        /// Camera index.
+        camera: usize,
+        /// Certainty of the best match (0 when there was no candidate at all).
+        certainty: f64,
+        /// The required certainty.
+        min: f64,
+    },
+    /// A command left the servo range; nothing was sent.
+    #[error("command for joint {joint} is {value:.1}, outside the servo range [{min}, {max}]")]
+    OutOfServoRange {
+        /// Index of the controlled joint.
+        joint: usize,
+        /// The offending set-point.
+        value: f64,
+        /// Lower end of the range.
+        min: f64,
+        /// Upper end of the range.
+        max: f64,
+    },
+    /// A target lies outside the image of a camera.
+    #[error("target ({u:.1}, {v:.1}) lies outside camera {camera}'s {width}×{height} image")]
+    TargetOutsideImage {
+        /// Camera index.
+        camera: usize,
+        /// Column.
+        u: f64,
+        /// Row.
+        v: f64,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+    },
+    /// A number that must be finite is not.
+    #[error("non-finite value in {what} at index {index}")]
+    NonFinite {
+        /// Which argument.
+        what: &'static str,
+        /// Index of the first offending element.
+        index: usize,
+    },
+    /// A vector or image set has the wrong size.
+    #[error("dimension mismatch for {what}: expected {expected}, got {got}")]
+    DimensionMismatch {
+        /// Which argument.
+        what: &'static str,
+        /// Expected size.
+        expected: usize,
+        /// Given size.
+        got: usize,
+    },
+    /// A parameter is outside its valid range.
+    #[error("invalid parameter `{name}`: {reason}")]
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// Why it was rejected.
+        reason: String,
+    },
+    /// Learning found too little usable data (e.g. no move changed the image).
+    #[error("not enough training data: {0}")]
+    NotEnoughData(String),
+    /// The learned inverse model has no trustworthy receptive field at the query.
+    #[error("the learned model does not cover the percept (no trustworthy receptive field)")]
+    OutsideModel,
+    /// An error of the LWPR model.
+    #[error("lwpr: {0}")]
+    Lwpr(#[from] lwpr::LwprError),
+    /// An error of the channel coding.
+    #[error("channel coding: {0}")]
+    Channel(#[from] chan_repr::ChanError),
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = std::result::Result<T, ServoError>;
+
+/// Checks that every value is finite.
+pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<()> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(index) => Err(ServoError::NonFinite { what, index }),
+        None => Ok(()),
+    }
+}
+
+/// Checks a length.
+pub(crate) fn check_len(what: &'static str, v: &[f64], expected: usize) -> Result<()> {
+    if v.len() == expected {
+        Ok(())
+    } else {
+        Err(ServoError::DimensionMismatch {
+            what,
+            expected,
+            got: v.len(),
+        })
+    }
+}

@@ -1,0 +1,78 @@
+//! The plant seen by the learning and servo loops: commands of the controlled joints in, a
+//! percept (the gripper's image position in every camera) out.
+
+use crate::error::{Result, ServoError, check_finite, check_len};
+
+/// What one observation of the plant gives: the percept `x` (for a visual plant: `[u₀, v₀,
+/// u₁, v₁, …]`, the gripper point in every camera, pixels) and its certainty in `[0, 1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    /// The percept.
+    pub x: Vec<f64>,
+    /// Certainty of the recognition (1 for an analytic plant).
+    pub certainty: f64,
+}
+
+/// A plant: the servo loop's view of a robot with its percept extraction. Implemented by
+/// [`crate::VisualPlant`] (a [`crate::Robot`] with a learned [`crate::GripperModel`]) and by
+/// analytic plants in tests.
+pub trait Plant {
+    /// Dimension of the percept `x`.
+    fn percept_dim(&self) -> usize;
+    /// Number of controlled set-points `y`.
+    fn command_dim(&self) -> usize;
+    /// Valid range `[min, max]` of controlled set-point `j`.
+    fn command_range(&self, j: usize) -> [f64; 2];
+    /// Executes the command `y` (controlled set-points only). Implementations may assume that
+    /// `y` was checked with [`check_command`].
+    fn act(&mut self, y: &[f64]) -> Result<()>;
+    /// Observes the current percept.
+    fn observe(&mut self) -> Result<Observation>;
+    /// Bounds of the percept space, `[min, max]` per component, if known (the image size of a
+    /// visual plant); targets outside are rejected with [`ServoError::TargetOutsideImage`].
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        None
+    }
+}
+
+/// Validates a command against the plant: length, finiteness and servo range
+/// ([`ServoError::OutOfServoRange`] names the first joint outside).
+pub fn check_command<P: Plant + ?Sized>(plant: &P, y: &[f64]) -> Result<()> {
+    check_len("command", y, plant.command_dim())?;
+    check_finite("command", y)?;
+    for (joint, &value) in y.iter().enumerate() {
+        let [min, max] = plant.command_range(joint);
+        if value < min || value > max {
+            return Err(ServoError::OutOfServoRange {
+                joint,
+                value,
+                min,
+                max,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Validates a target percept: length, finiteness and (if the plant knows them) the percept
+/// bounds; for a visual plant, components `2i, 2i+1` are camera `i`'s `(u, v)`.
+pub fn check_target<P: Plant + ?Sized>(plant: &P, x_w: &[f64]) -> Result<()> {
+    check_len("target", x_w, plant.percept_dim())?;
+    check_finite("target", x_w)?;
+    if let Some(bounds) = plant.percept_bounds() {
+        for cam in 0..x_w.len() / 2 {
+            let (u, v) = (x_w[2 * cam], x_w[2 * cam + 1]);
+            let (bu, bv) = (bounds[2 * cam], bounds[2 * cam + 1]);
+            if u < bu[0] || u > bu[1] || v < bv[0] || v > bv[1] {
+                return Err(ServoError::TargetOutsideImage {
+                    camera: cam,
+                    u,
+                    v,
+                    width: (bu[1] + 1.0).round() as u32,
+                    height: (bv[1] + 1.0).round() as u32,
+                });
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,17 @@
+//! Gripper recognition learned from action (Paper C; papers.md §1.4, §3.1).
+//!
+//! - [`image`]: grey images to half-resolution float images.
+//! - [`features`]: the channel-coded feature map (CCFM) of an image: a soft histogram over
+//!   (column, row, gradient orientation), weighted by a saturated gradient magnitude, with
+//!   quadratic B-spline spatial channels and cyclic cos² orientation channels (chan-repr).
+//! - [`change`]: the changed region between two images (the fingers, when only the gripper
+//!   servo moved) and its robust centroid, the gripper point.
+//! - [`model`]: the gripper model learned from those regions (prototype feature maps around
+//!   the gripper point) and its localisation in a new image with a certainty.
+
+pub mod change;
+pub mod features;
+pub mod image;
+pub mod model;
+
+pub use model::{GripperModel, Localisation, RecognitionConfig};

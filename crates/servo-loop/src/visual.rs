@@ -1,0 +1,281 @@
+//! A [`Robot`] with a learned [`GripperModel`] as a [`Plant`]: the percept is the gripper point
+//! in every camera, the command the set-points of the controlled servos.
+
+use image::GrayImage;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, ServoError};
+use crate::learn::RandomCommands;
+use crate::plant::{Observation, Plant};
+use crate::recognition::model::{RecognitionReport, TrainingView};
+use crate::recognition::{GripperModel, Localisation, RecognitionConfig};
+use crate::robot::Robot;
+
+/// Which servos are controlled, and how the others are held.
+///
+/// **Redundancy.** An arm such as the Lynx-6 has more joints (base, shoulder, elbow, wrist
+/// pitch, wrist roll) than a gripper point has degrees of freedom (3), so the inverse map
+/// percept → command is one-to-many and cannot be learned as a function. We resolve it the
+/// simplest way Paper C's setting allows, without any kinematic model: only `controlled`
+/// servos are commanded by the learner (e.g. base, shoulder, elbow), and every other servo is
+/// held at its set-point in `rest` throughout (e.g. the wrist pitch at a fixed posture). The
+/// gripper servo is only moved to learn recognition ([`ControlSpace::gripper`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlSpace {
+    /// Indices of the controlled servos, in command order.
+    pub controlled: Vec<usize>,
+    /// A full command: the held set-points of the uncontrolled servos (values at controlled
+    /// indices are ignored).
+    pub rest: Vec<f64>,
+    /// The gripper servo and its two set-points `[open, closed]` used to learn recognition.
+    pub gripper: Option<(usize, [f64; 2])>,
+}
+
+impl ControlSpace {
+    /// Checks indices and set-points against the robot.
+    pub fn validate<R: Robot>(&self, robot: &R) -> Result<()> {
+        let n = robot.num_servos();
+        if self.rest.len() != n {
+            return Err(ServoError::DimensionMismatch {
+                what: "rest command",
+                expected: n,
+                got: self.rest.len(),
+            });
+        }
+        if self.controlled.is_empty() {
+            return Err(ServoError::InvalidParameter {
+                name: "controlled",
+                reason: "at least one servo must be controlled".into(),
+            });
+        }
+        for (k, &i) in self.controlled.iter().enumerate() {
+            if i >= n || self.controlled[..k].contains(&i) {
+                return Err(ServoError::InvalidParameter {
+                    name: "controlled",
+                    reason: format!("servo index {i} is out of range or repeated"),
+                });
+            }
+        }
+        for (i, &v) in self.rest.iter().enumerate() {
+            let [lo, hi] = robot.servo_range(i);
+            let held = !self.controlled.contains(&i);
+            if held && !(v.is_finite() && v >= lo && v <= hi) {
+                return Err(ServoError::OutOfServoRange {
+                    joint: i,
+                    value: v,
+                    min: lo,
+                    max: hi,
+                });
+            }
+        }
+        if let Some((g, states)) = self.gripper {
+            if g >= n || self.controlled.contains(&g) {
+                return Err(ServoError::InvalidParameter {
+                    name: "gripper",
+                    reason: format!("servo {g} is out of range or controlled"),
+                });
+            }
+            let [lo, hi] = robot.servo_range(g);
+            for v in states {
+                if !(v.is_finite() && v >= lo && v <= hi) {
+                    return Err(ServoError::OutOfServoRange {
+                        joint: g,
+                        value: v,
+                        min: lo,
+                        max: hi,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The full command for controlled set-points `y`.
+    pub fn full_command(&self, y: &[f64]) -> Vec<f64> {
+        let mut c = self.rest.clone();
+        for (&i, &v) in self.controlled.iter().zip(y) {
+            c[i] = v;
+        }
+        c
+    }
+}
+
+/// Learns the gripper model by action (Paper C): at `views` random poses (controlled servos
+/// uniform in `explore`, seeded), capture with the gripper open, close it, capture again; the
+/// change is the gripper ([`GripperModel::learn`]). Leaves the gripper open.
+pub fn learn_recognition<R: Robot>(
+    robot: &mut R,
+    space: &ControlSpace,
+    explore: &[[f64; 2]],
+    views: usize,
+    seed: u64,
+    config: &RecognitionConfig,
+) -> Result<(GripperModel, RecognitionReport)> {
+    space.validate(robot)?;
+    let (g, [open, closed]) = space.gripper.ok_or(ServoError::InvalidParameter {
+        name: "gripper",
+        reason: "learning recognition needs the gripper servo and its two states".into(),
+    })?;
+    let mut commands = RandomCommands::new(explore, seed)?;
+    let mut training = Vec::with_capacity(views);
+    for _ in 0..views {
+        let mut c = space.full_command(&commands.next_command());
+        c[g] = open;
+        send(robot, &c)?;
+        let before = grab(robot)?;
+        c[g] = closed;
+        send(robot, &c)?;
+        let after = grab(robot)?;
+        c[g] = open;
+        send(robot, &c)?;
+        training.push(TrainingView { before, after });
+    }
+    GripperModel::learn(config, &training)
+}
+
+fn send<R: Robot>(robot: &mut R, c: &[f64]) -> Result<()> {
+    robot.command(c).map_err(|e| ServoError::Robot {
+        during: "command",
+        message: e.to_string(),
+    })
+}
+
+fn grab<R: Robot>(robot: &mut R) -> Result<Vec<GrayImage>> {
+    robot.capture().map_err(|e| ServoError::Robot {
+        during: "capture",
+        message: e.to_string(),
+    })
+}
+
+/// A robot seen through a learned gripper model.
+pub struct VisualPlant<R: Robot> {
+    robot: R,
+    space: ControlSpace,
+    model: GripperModel,
+    tracking: bool,
+    hints: Vec<Option<[f64; 2]>>,
+    last_images: Vec<GrayImage>,
+    last_localisations: Vec<Localisation>,
+}
+
+impl<R: Robot> VisualPlant<R> {
+    /// Connects a robot, its control space and a gripper model.
+    pub fn new(robot: R, space: ControlSpace, model: GripperModel) -> Result<Self> {
+        space.validate(&robot)?;
+        let cams = model.num_cameras();
+        Ok(VisualPlant {
+            robot,
+            space,
+            model,
+            tracking: true,
+            hints: vec![None; cams],
+            last_images: Vec::new(),
+            last_localisations: Vec::new(),
+        })
+    }
+
+    /// With tracking on (the default), each observation first searches near the previous
+    /// gripper point and falls back to the whole image when that fails; off: whole image.
+    pub fn set_tracking(&mut self, on: bool) {
+        self.tracking = on;
+        if !on {
+            self.hints.iter_mut().for_each(|h| *h = None);
+        }
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &R {
+        &self.robot
+    }
+
+    /// The robot, mutably.
+    pub fn robot_mut(&mut self) -> &mut R {
+        &mut self.robot
+    }
+
+    /// The gripper model.
+    pub fn model(&self) -> &GripperModel {
+        &self.model
+    }
+
+    /// The control space.
+    pub fn space(&self) -> &ControlSpace {
+        &self.space
+    }
+
+    /// Images of the last observation.
+    pub fn last_images(&self) -> &[GrayImage] {
+        &self.last_images
+    }
+
+    /// Localisations of the last successful observation.
+    pub fn last_localisations(&self) -> &[Localisation] {
+        &self.last_localisations
+    }
+
+    /// Gives the robot back.
+    pub fn into_robot(self) -> R {
+        self.robot
+    }
+}
+
+impl<R: Robot> Plant for VisualPlant<R> {
+    fn percept_dim(&self) -> usize {
+        2 * self.model.num_cameras()
+    }
+
+    fn command_dim(&self) -> usize {
+        self.space.controlled.len()
+    }
+
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        self.robot.servo_range(self.space.controlled[j])
+    }
+
+    fn act(&mut self, y: &[f64]) -> Result<()> {
+        send(&mut self.robot, &self.space.full_command(y))
+    }
+
+    fn observe(&mut self) -> Result<Observation> {
+        let images = grab(&mut self.robot)?;
+        if images.len() != self.model.num_cameras() {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera images",
+                expected: self.model.num_cameras(),
+                got: images.len(),
+            });
+        }
+        let mut locs = Vec::with_capacity(images.len());
+        for (cam, img) in images.iter().enumerate() {
+            let hinted = match (self.tracking, self.hints[cam]) {
+                (true, Some(h)) => self.model.locate(cam, img, Some(h)).ok(),
+                _ => None,
+            };
+            let loc = match hinted {
+                Some(l) => l,
+                None => self.model.locate(cam, img, None)?,
+            };
+            locs.push(loc);
+        }
+        if self.tracking {
+            for (h, l) in self.hints.iter_mut().zip(&locs) {
+                *h = Some(l.position);
+            }
+        }
+        let x = locs.iter().flat_map(|l| l.position).collect();
+        let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
+        self.last_images = images;
+        self.last_localisations = locs;
+        Ok(Observation { x, certainty })
+    }
+
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        let [w, h] = self.model.image_size();
+        Some(
+            (0..self.model.num_cameras())
+                .flat_map(|_| [[0.0, f64::from(w) - 1.0], [0.0, f64::from(h) - 1.0]])
+                .collect(),
+        )
+    }
+}
