@@ -50,7 +50,7 @@ pub(crate) fn affine_invariants(
             total += delta(n).norm();
         }
     }
-    if !(d11.norm() > 1e-12 * total) {
+    if d11.norm().partial_cmp(&(1e-12 * total)) != Some(std::cmp::Ordering::Greater) {
         return Err(FdError::DegenerateFirstHarmonic);
     }
     let theta = (delta(2) / d11).arg();

@@ -88,7 +88,9 @@ pub(crate) fn signed_area(p: &[Complex64]) -> f64 {
 /// Polygon perimeter (closed).
 pub(crate) fn perimeter(p: &[Complex64]) -> f64 {
     let n = p.len();
-    (0..n).map(|i| (p[(i + 1) % n] - p[i]).norm()).sum()
+    (0..n)
+        .map(|i| (p[(i + 1) % n] - p[i]).norm_sqr().sqrt())
+        .sum()
 }
 
 /// Area moments of a polygon region (Green's theorem), central up to order two, plus the

@@ -61,7 +61,7 @@ impl DescriptorConfig {
                 reason,
             })
         };
-        if self.coefficients < 5 || self.coefficients % 2 == 0 {
+        if self.coefficients < 5 || self.coefficients.is_multiple_of(2) {
             return bad(
                 "coefficients",
                 self.coefficients,
@@ -271,7 +271,7 @@ impl DescriptorSet {
 
     /// Removes the last descriptor (used to roll back a failed in-place fill).
     pub(crate) fn pop(&mut self) {
-        if let Some(_) = self.source.pop() {
+        if self.source.pop().is_some() {
             let (d, a) = (self.fd_len(), self.afd_len());
             let i = self.source.len();
             self.fd.truncate(i * d);

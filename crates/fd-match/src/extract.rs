@@ -105,7 +105,7 @@ impl Extractor {
         // energy > 0: a polygon with positive area has a non-constant resampling.
         for (c, m) in fd.iter_mut().zip(mag.iter_mut()) {
             *c /= energy;
-            *m = c.norm();
+            *m = c.norm_sqr().sqrt();
         }
         let fd: &[Complex64] = fd;
         if let Err(e) = affine_invariants(fd, k, &mut afd0[..2 * k - 1], &mut afd1[..2 * k - 1]) {

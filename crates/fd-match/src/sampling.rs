@@ -59,7 +59,7 @@ fn cumulative(poly: &[Complex64], cum: &mut Vec<f64>) {
     let n = poly.len();
     let mut s = 0.0;
     for i in 0..n {
-        s += (poly[(i + 1) % n] - poly[i]).norm();
+        s += (poly[(i + 1) % n] - poly[i]).norm_sqr().sqrt();
         cum.push(s);
     }
 }
@@ -277,7 +277,7 @@ mod tests {
     fn canonical_frame_of_a_rectangle_is_centred_axis_aligned_unit_area() {
         // 4 × 1 rectangle rotated by 30° and shifted: canonical frame is the axis-aligned
         // 2 × 0.5 rectangle (area 1), sampled from the middle of its right edge.
-        let rot = Complex64::from_polar(1.0, 0.5236);
+        let rot = Complex64::from_polar(1.0, std::f64::consts::FRAC_PI_6);
         let p: Vec<Complex64> = [(0.0, 0.0), (4.0, 0.0), (4.0, 1.0), (0.0, 1.0)]
             .iter()
             .map(|&(x, y)| Complex64::new(x, y) * rot + Complex64::new(10.0, -3.0))

@@ -115,16 +115,31 @@ struct Work {
 }
 
 /// One query against all targets, pruned by the magnitude bound when the method is FD Corr.
+/// What a search looks for.
+#[derive(Clone, Copy)]
+struct Mode {
+    method: Method,
+    /// Query and target sets are the same; skip `j == i`.
+    skip_self: bool,
+    /// Only the best target matters (eq. 18), so prune against it rather than the second.
+    only_best: bool,
+    /// Use the magnitude bound (false: brute force).
+    prune: bool,
+}
+
 fn search_one(
     w: &mut Work,
     q: &DescriptorSet,
     i: usize,
     t: &DescriptorSet,
-    skip_self: bool,
-    only_best: bool,
-    method: Method,
-    prune: bool,
+    mode: Mode,
 ) -> (BestTwo, u64) {
+    let Mode {
+        method,
+        skip_self,
+        only_best,
+        prune,
+    } = mode;
     let mut out = BestTwo::default();
     let mut evaluated = 0u64;
     if method != Method::FdCorr || !prune {
@@ -149,39 +164,43 @@ fn search_one(
             w.cand.push((2.0 - 2.0 * dot(mq, t.magnitudes(j)), j));
         }
     }
-    // Visit by increasing bound: first a small sorted head, then (rarely) the sorted rest.
+    // Visit by increasing bound, sorting lazily: a block of the smallest remaining bounds is
+    // selected and sorted, and the next (4× larger) block only if the search gets that far.
     let cmp = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-    let head = 16.min(w.cand.len());
-    if head < w.cand.len() {
-        w.cand.select_nth_unstable_by(head, cmp);
-    }
-    w.cand[..head].sort_unstable_by(cmp);
-    let mut sorted_rest = false;
-    let mut idx = 0;
-    while idx < w.cand.len() {
-        if idx == head && !sorted_rest {
-            if w.cand[head].0 - BOUND_MARGIN > out.threshold(only_best) {
-                break; // cand[head] is the smallest bound of the rest
-            }
-            w.cand[head..].sort_unstable_by(cmp);
-            sorted_rest = true;
-        }
-        let (lb, j) = w.cand[idx];
-        let threshold = out.threshold(only_best);
-        if lb - BOUND_MARGIN > threshold {
+    let mut done = 0;
+    let mut block = 16;
+    'blocks: while done < w.cand.len() {
+        let rest = &mut w.cand[done..];
+        if rest[..]
+            .iter()
+            .all(|c| c.0 - BOUND_MARGIN > out.threshold(only_best))
+        {
             break;
         }
-        evaluated += 1;
-        idx += 1;
-        // The correlator may stop after its FFT when its own bound already exceeds the
-        // threshold; such a pair cannot enter the result.
-        if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
-            out.offer(Candidate {
-                index: j,
-                error,
-                alignment,
-            });
+        let end = block.min(rest.len());
+        if end < rest.len() {
+            rest.select_nth_unstable_by(end, cmp);
         }
+        rest[..end].sort_unstable_by(cmp);
+        for idx in done..done + end {
+            let (lb, j) = w.cand[idx];
+            let threshold = out.threshold(only_best);
+            if lb - BOUND_MARGIN > threshold {
+                break 'blocks;
+            }
+            evaluated += 1;
+            // The correlator may stop after its FFT when its own bound already exceeds the
+            // threshold; such a pair cannot enter the result.
+            if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
+                out.offer(Candidate {
+                    index: j,
+                    error,
+                    alignment,
+                });
+            }
+        }
+        done += end;
+        block *= 4;
     }
     (out, evaluated)
 }
@@ -194,6 +213,12 @@ fn run(
     only_best: bool,
     prune: bool,
 ) -> Result<(Vec<BestTwo>, SearchStats), FdError> {
+    let mode = Mode {
+        method,
+        skip_self,
+        only_best,
+        prune,
+    };
     check(q, t)?;
     let proto = Work {
         pair: PairError::new(method, q),
@@ -201,10 +226,7 @@ fn run(
     };
     let res: Vec<(BestTwo, u64)> = (0..q.len())
         .into_par_iter()
-        .map_init(
-            || proto.clone(),
-            |w, i| search_one(w, q, i, t, skip_self, only_best, method, prune),
-        )
+        .map_init(|| proto.clone(), |w, i| search_one(w, q, i, t, mode))
         .collect();
     let per_query = t.len() as u64 - u64::from(skip_self && !t.is_empty());
     let stats = SearchStats {

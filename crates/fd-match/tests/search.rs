@@ -8,13 +8,12 @@ use rand::{RngExt, SeedableRng, rngs::StdRng};
 
 /// Image A: 40 random shapes. Image B: similarity copies with vertex jitter of 25 of them (in a
 /// scrambled order), 15 unrelated shapes, and an exact duplicate (to exercise ties).
-fn images(
-    seed: u64,
-) -> (
-    Vec<Vec<(f64, f64)>>,
-    Vec<Vec<(f64, f64)>>,
-    Vec<(usize, usize)>,
-) {
+type Contour = Vec<(f64, f64)>;
+
+/// Image A, image B and the true pairs `(index in A, index in B)`.
+type Images = (Vec<Contour>, Vec<Contour>, Vec<(usize, usize)>);
+
+fn images(seed: u64) -> Images {
     let mut rng = StdRng::seed_from_u64(seed);
     let a: Vec<_> = (0..40).map(|i| star(seed * 1000 + i, 200, 30.0)).collect();
     let mut b = Vec::new();
