@@ -1,15 +1,21 @@
 //! The component tree of one polarity, built in linear time by the flood-fill algorithm of Nistér
 //! & Stewénius (ECCV 2008).
 //!
-//! The image is copied into a padded buffer whose row length is a power of two (so `x` and `y` of
-//! a pixel index are a mask and a shift) with a frame of pixels marked as already visited (so the
-//! four neighbour steps never leave the buffer). The flood keeps one "boundary heap" per grey
-//! level: 256 stacks carved out of one array, sized by the grey-level histogram, plus a 256-bit
-//! mask of the non-empty ones. A stack of open components holds, for each, its grey level and its
-//! running area, moments, bounding box and first pixel; only the top component lives in local
-//! variables. Raising a component to a higher level or merging it into the one below it closes
-//! the node: one record of a few integers in flat arrays (plus moments when the area is in the
-//! reportable range). No per-region heap allocation happens in the loop, and memory is O(pixels).
+//! The image is copied into a padded `u16` buffer (grey level in the low byte, a "reached" bit
+//! above it) whose row length is a power of two, so `x` and `y` of a pixel index are a mask and a
+//! shift, with a frame of pixels marked as reached, so the four neighbour steps never leave the
+//! buffer. The flood keeps one "boundary heap" per grey level: 256 stacks carved out of one array,
+//! sized by the grey-level histogram plus one spare slot each (so a push can write before it knows
+//! whether it counts). All waiting pixels lie at or above the current level, so when the current
+//! level's stack runs empty the next one is found by scanning upwards. A pixel reached for the
+//! first time reads its four neighbours at once and, when none is lower (the common case), marks
+//! them and pushes the unreached ones without further branching on each.
+//!
+//! A stack of open components holds, for each, its grey level and its running area, moments,
+//! bounding box and first pixel; the top component lives in a local variable. Raising a component
+//! to a higher level or merging it into the one below it closes the node: one record of a few
+//! integers in flat arrays (plus moments when the area is in the reportable range). No
+//! per-region heap allocation happens in the loop, and memory is O(pixels).
 
 use crate::image::GrayView;
 
