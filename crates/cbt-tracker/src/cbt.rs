@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Layout, Order};
+use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
 use crate::model::{History, ObservationModel, SystemModel};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
@@ -200,7 +200,7 @@ impl CbtTracker {
 
     /// The likelihood `ℓ[g] = Σ_i w_i · p(z_i | x̃_g)` of an encoded detection set.
     fn likelihood(&mut self, z: &Encoded, dets: &[Detection]) -> Result<(), TrackError> {
-        let space = self.model.space().clone();
+        let space = self.model.space();
         let cfg = *self.model.config();
         let g = space.cells();
         let s = &mut self.scratch;
@@ -208,22 +208,39 @@ impl CbtTracker {
         s.lik.resize(g, 0.0);
         match &self.model.obs {
             ObservationModel::Separable(axes) => {
+                // Clutter::Uniform: (1 − π)·Π_d O'_d + π·Π_d (Σ_m b_m / N_z,d) per detection.
+                let (keep, uniform) = if cfg.clutter == Clutter::Uniform {
+                    let pi = axes[0].clutter_share();
+                    let mut u = pi;
+                    for d in 0..space.dims() {
+                        u /= space.meas_len(d) as f64;
+                    }
+                    (1.0 - pi, u)
+                } else {
+                    (1.0, 0.0)
+                };
                 s.axis_lik.resize(space.dims(), Vec::new());
                 let mut per: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
+                let mut umass = 0.0;
                 for det in dets {
                     if det.weight == 0.0 {
                         continue;
                     }
                     let t = space.detection_index(det)?;
+                    let mut mass = det.weight * uniform;
                     for d in 0..space.dims() {
                         per[d].clear();
                         space
                             .meas_basis(d)
                             .for_each_active(t[d], |k, v| per[d].push((k, v)));
+                        mass *= per[d].iter().map(|e| e.1).sum::<f64>();
+                        if d + 1 == space.dims() {
+                            umass += mass;
+                        }
                         s.axis_lik[d].resize(space.axis_len(d), 0.0);
                         axes[d].likelihood(&per[d], &mut s.axis_lik[d]);
                     }
-                    let w = det.weight;
+                    let w = det.weight * keep;
                     if space.dims() == 1 {
                         for (l, a) in s.lik.iter_mut().zip(&s.axis_lik[0]) {
                             *l += w * a;
@@ -239,11 +256,20 @@ impl CbtTracker {
                         }
                     }
                 }
+                if umass > 0.0 {
+                    s.lik.iter_mut().for_each(|l| *l += umass);
+                }
             }
             ObservationModel::Joint(o) => {
                 // `z.joint` holds every detection's weighted joint encoding; the likelihood
                 // is linear in it, so one pass gives the mixture.
                 o.add_likelihood(&z.joint, &cfg, &mut s.lik);
+                if cfg.clutter == Clutter::Uniform {
+                    let pi = o.clutter_share();
+                    let total: f64 = z.joint.iter().map(|e| e.1).sum();
+                    let u = pi * total / o.meas_cells() as f64;
+                    s.lik.iter_mut().for_each(|l| *l = (1.0 - pi) * *l + u);
+                }
             }
         }
         Ok(())

@@ -38,6 +38,12 @@ pub enum Clutter {
     /// Remove it: subtract the product of the detection and state marginals, scaled by the
     /// expected share of wrong pairs, and clamp at zero (papers.md §2.2 "optional refinement").
     Subtract,
+    /// Remove it as [`Clutter::Subtract`] does, and model clutter instead as a uniform
+    /// component over the joint measurement grid with the learned share `π` of wrong pairs:
+    /// `p(z | x) = (1 − π)·O'(z | x) + π/G_z`. In the separable layout this avoids the
+    /// "ridges" a per-axis floor creates (a per-axis floor times the other axis's peak gives
+    /// every clutter detection aligned with the target in one coordinate a bonus).
+    Uniform,
 }
 
 /// Prior column used where the observation model has (almost) no training mass.

@@ -24,21 +24,21 @@ pub(crate) fn decode_posterior(space: &Space, q: &[f64], max_modes: usize) -> Ve
         .collect();
     let n: Vec<usize> = (0..dims).map(|d| space.axis_len(d)).collect();
     let nw: Vec<usize> = (0..dims).map(|d| n[d] - w[d] + 1).collect();
-    // Window sums.
+    // Window sums `r_l` (eq. 2.5), separably: along y (contiguous) first, then along x.
     let sums: Vec<f64> = if dims == 1 {
-        box_sum(q, w[0])
+        box_sum(q, w[0]).collect()
     } else {
-        // Along y (contiguous) first, then along x.
-        let mut rows = vec![0.0; n[0] * nw[1]];
-        for i in 0..n[0] {
-            let r = box_sum(&q[i * n[1]..(i + 1) * n[1]], w[1]);
-            rows[i * nw[1]..(i + 1) * nw[1]].copy_from_slice(&r);
+        let mut rows = Vec::with_capacity(n[0] * nw[1]);
+        for row in q.chunks_exact(n[1]) {
+            rows.extend(box_sum(row, w[1]));
         }
         let mut out = vec![0.0; nw[0] * nw[1]];
-        for j in 0..nw[1] {
-            let col: Vec<f64> = (0..n[0]).map(|i| rows[i * nw[1] + j]).collect();
-            for (i, v) in box_sum(&col, w[0]).into_iter().enumerate() {
-                out[i * nw[1] + j] = v;
+        for (i, dst) in out.chunks_exact_mut(nw[1]).enumerate() {
+            for k in 0..w[0] {
+                let src = &rows[(i + k) * nw[1]..(i + k + 1) * nw[1]];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += s;
+                }
             }
         }
         out
@@ -106,20 +106,10 @@ pub(crate) fn decode_posterior(space: &Space, q: &[f64], max_modes: usize) -> Ve
     modes
 }
 
-/// Sums of `w` consecutive entries: `len − w + 1` values.
-fn box_sum(x: &[f64], w: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(x.len() + 1 - w);
-    let mut s: f64 = x[..w].iter().sum();
-    out.push(s);
-    for k in w..x.len() {
-        s += x[k] - x[k - w];
-        out.push(s);
-    }
-    // Re-sum every window exactly (the running sum drifts by rounding; cheap for small w).
-    for (l, o) in out.iter_mut().enumerate() {
-        *o = x[l..l + w].iter().sum();
-    }
-    out
+/// Sums of `w` consecutive entries: `len − w + 1` values, each summed directly (no running
+/// sum, so no rounding drift).
+fn box_sum(x: &[f64], w: usize) -> impl Iterator<Item = f64> + '_ {
+    x.windows(w).map(|win| win.iter().sum())
 }
 
 /// Decodes the patch of windows around window `start` with `chan-repr`'s n-D decoder.

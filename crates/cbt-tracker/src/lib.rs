@@ -24,7 +24,8 @@
 //! `O ∝ Σ_t (Σ_i b(z_t^i))(Σ_j b(x_t^j))ᵀ`, `S ∝ Σ_t a_t a_{t−1}ᵀ`,
 //! `T ∝ Σ_t a_t ⊗ a_{t−1} ⊗ a_{t−2}` with `a_t = Σ_j b(x_t^j)`; columns normalised with a
 //! Dirichlet fallback for cells without training data (see [`CbtConfig`]). Clutter pairs spread
-//! into a broad floor of `O` ([`Clutter::Model`]) or are subtracted ([`Clutter::Subtract`]).
+//! into a broad floor of `O` ([`Clutter::Model`]), are subtracted ([`Clutter::Subtract`]), or
+//! are subtracted and replaced by a learned uniform clutter share ([`Clutter::Uniform`]).
 //! Models are per axis by default ([`Layout::Separable`]) or sparse over the joint 2-D grid
 //! ([`Layout::SparseJoint`]). [`CbtTracker::learn_online`] adds frames incrementally.
 //!

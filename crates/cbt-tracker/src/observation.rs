@@ -57,6 +57,15 @@ impl Background {
         self.wrong += n_states * (w_dets - w_dets.min(1.0));
     }
 
+    /// The learned share `π` of wrong (clutter) pairs among all detection–state pairs.
+    pub fn clutter_share(&self) -> f64 {
+        if self.pairs > 0.0 {
+            (self.wrong / self.pairs).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
     /// The factor `k` with `B[m, n] = k · zsum[m] · xsum[n]`.
     fn scale(&self) -> f64 {
         let (tz, tx): (f64, f64) = (self.zsum.iter().sum(), self.xsum.iter().sum());
@@ -124,7 +133,7 @@ impl AxisObservation {
     /// Recomputes the given columns (all of them when the clutter background is subtracted,
     /// since the background depends on every frame).
     pub fn normalise_columns(&mut self, cols: &[usize], cfg: &CbtConfig) {
-        let subtract = cfg.clutter == Clutter::Subtract;
+        let subtract = cfg.clutter != Clutter::Model;
         let k = if subtract {
             self.background.scale()
         } else {
@@ -167,6 +176,11 @@ impl AxisObservation {
                 *o += v * r;
             }
         }
+    }
+
+    /// The learned share of clutter pairs.
+    pub fn clutter_share(&self) -> f64 {
+        self.background.clutter_share()
     }
 
     /// The normalised model, row-major `[m·N_x + n]`.
@@ -265,7 +279,7 @@ impl JointObservation {
 
     /// Recomputes the per-column normalisers (O(stored entries)).
     pub fn normalise(&mut self, cfg: &CbtConfig) {
-        self.k = if cfg.clutter == Clutter::Subtract {
+        self.k = if cfg.clutter != Clutter::Model {
             self.background.scale()
         } else {
             0.0
@@ -312,6 +326,16 @@ impl JointObservation {
         } else {
             out.iter_mut().for_each(|o| *o += floor);
         }
+    }
+
+    /// The learned share of clutter pairs.
+    pub fn clutter_share(&self) -> f64 {
+        self.background.clutter_share()
+    }
+
+    /// Number of measurement cells.
+    pub fn meas_cells(&self) -> usize {
+        self.gz
     }
 
     /// Number of stored (non-zero) counts.

@@ -42,7 +42,7 @@ fn walk(seed: u64, frames: usize, lo: f64, hi: f64, shift: f64) -> Vec<TrainingF
         .collect()
 }
 
-fn config(order: bool, joint: bool, subtract: bool) -> CbtConfig {
+fn config(order: bool, joint: bool, clutter: u8) -> CbtConfig {
     CbtConfig {
         order: if order { Order::Second } else { Order::First },
         layout: if joint {
@@ -50,10 +50,10 @@ fn config(order: bool, joint: bool, subtract: bool) -> CbtConfig {
         } else {
             Layout::Separable
         },
-        clutter: if subtract {
-            Clutter::Subtract
-        } else {
-            Clutter::Model
+        clutter: match clutter {
+            0 => Clutter::Model,
+            1 => Clutter::Subtract,
+            _ => Clutter::Uniform,
         },
         ..CbtConfig::default()
     }
@@ -67,11 +67,11 @@ proptest! {
         seed in 0u64..1000,
         order in any::<bool>(),
         joint in any::<bool>(),
-        subtract in any::<bool>(),
+        clutter in 0u8..3,
         two_d in any::<bool>(),
         weights in proptest::collection::vec(0.0f64..3.0, 30),
     ) {
-        let cfg = config(order, joint, subtract);
+        let cfg = config(order, joint, clutter);
         let (space, to2) = if two_d {
             (Space::image(40.0, 30.0, 2.5).unwrap(), true)
         } else {
@@ -112,7 +112,7 @@ proptest! {
         let b = ChannelBasis::covering(0.0, 46.0, 48, Kernel::Cos2 { m: 3 }).unwrap();
         prop_assert!((b.spacing() - 1.0).abs() < 1e-12);
         let space = Space::new(vec![b.clone()], vec![b]).unwrap();
-        let cfg = config(order, false, false);
+        let cfg = config(order, false, 0);
         let estimates = |s: f64| -> Vec<f64> {
             let train = walk(seed, 300, 12.0, 26.0, s);
             let model = CbtModel::learn(space.clone(), cfg, &[train]).unwrap();
