@@ -28,6 +28,46 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
+/// Four dot products `a_t · b` at once, each summed in exactly the order of [`dot`]; the four
+/// independent accumulation chains run interleaved, so the CPU overlaps their latencies.
+#[inline(always)]
+pub(crate) fn dot4(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
+    let n = b.len();
+    let a = [&a[0][..n], &a[1][..n], &a[2][..n], &a[3][..n]];
+    let mut s = [0.0; 4];
+    let full = 4 * (n / 4);
+    for i in 0..full {
+        let bi = b[i];
+        for t in 0..4 {
+            s[t] += bi * a[t][i];
+        }
+    }
+    let mut r = n;
+    while r > full {
+        r -= 1;
+        let bi = b[r];
+        for t in 0..4 {
+            s[t] += bi * a[t][r];
+        }
+    }
+    s
+}
+
+/// Four sums `Σ_i a_t[i]·b[i]` in plain ascending order, interleaved like [`dot4`].
+#[inline(always)]
+pub(crate) fn seq_dot4(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
+    let n = b.len();
+    let a = [&a[0][..n], &a[1][..n], &a[2][..n], &a[3][..n]];
+    let mut s = [0.0; 4];
+    for i in 0..n {
+        let bi = b[i];
+        for t in 0..4 {
+            s[t] += a[t][i] * bi;
+        }
+    }
+    s
+}
+
 /// Upper-triangular `M` with `MᵀM = A` for a symmetric positive definite `n × n` matrix `A`
 /// (column-major); `None` if `A` is not positive definite.
 pub(crate) fn cholesky_upper(n: usize, a: &[f64]) -> Option<Vec<f64>> {
@@ -67,6 +107,28 @@ mod tests {
         let b = [1.0, 1.0, 1.0];
         let expected = ((0.0 + 1e-16) + 1e-16) + 1.0;
         assert_eq!(dot(&a, &b), expected);
+    }
+
+    #[test]
+    fn interleaved_sums_are_bit_identical_to_single_ones() {
+        for n in [1usize, 2, 3, 5, 8, 11, 25] {
+            let v = |k: usize| -> Vec<f64> {
+                (0..n)
+                    .map(|i| ((i * 7 + k * 13) % 17) as f64 / 3.0 - 2.7 + 1e-9 * i as f64)
+                    .collect()
+            };
+            let (a0, a1, a2, a3, b) = (v(1), v(2), v(3), v(4), v(5));
+            let d = dot4([&a0, &a1, &a2, &a3], &b);
+            let s = seq_dot4([&a0, &a1, &a2, &a3], &b);
+            for (t, a) in [&a0, &a1, &a2, &a3].iter().enumerate() {
+                assert_eq!(d[t].to_bits(), dot(a, &b).to_bits());
+                let mut q = 0.0;
+                for i in 0..n {
+                    q += a[i] * b[i];
+                }
+                assert_eq!(s[t].to_bits(), q.to_bits());
+            }
+        }
     }
 
     #[test]

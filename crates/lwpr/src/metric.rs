@@ -6,7 +6,7 @@
 //!
 //! The arithmetic follows the reference operation by operation so results stay bit-identical.
 
-use crate::linalg::dot;
+use crate::linalg::{dot, dot4, seq_dot4};
 use crate::params::Params;
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
@@ -26,7 +26,7 @@ fn dist_derivatives(
     meta: bool,
 ) {
     let penalty = penalty + penalty;
-    let dx = &ws.dx;
+    let dx = &ws.dx[..n];
     if diag_only {
         for k in 0..n {
             let kk = k + k * n;
@@ -41,28 +41,74 @@ fn dist_derivatives(
         }
         return;
     }
+    // Row r of M (elements r..n) is copied into a contiguous buffer, and the reference's
+    // `dqdM` sum, which does not depend on the column, is computed once per row; every sum is
+    // still accumulated in the reference's order, so the results are bit-identical.
     for r in 0..n {
-        for c in r..n {
-            let mut sum_aux = 0.0;
-            let mut sum_aux1 = 0.0;
-            let mut dqdm = 0.0;
-            for i in r..n {
-                let m_ri = m[r + i * n];
-                dqdm += dx[i] * m_ri;
-                sum_aux += d[i + c * n] * m_ri;
-                if meta {
-                    if i == c {
-                        sum_aux1 += 2.0 * m_ri * m_ri;
-                    } else {
-                        sum_aux1 += m_ri * m_ri;
+        let mrow = &mut ws.mrow[..n - r];
+        for (i, v) in mrow.iter_mut().enumerate() {
+            *v = m[r + (r + i) * n];
+        }
+        let mut dq = 0.0;
+        for (x, mv) in dx[r..].iter().zip(mrow.iter()) {
+            dq += x * mv;
+        }
+        let mrow = &ws.mrow[..n - r];
+        // sum_aux for four columns at a time (independent chains, each in ascending order).
+        let mut c = r;
+        while c < n {
+            let k = (n - c).min(4);
+            let col = |t: usize| &d[(c + t.min(k - 1)) * n + r..(c + t.min(k - 1)) * n + n];
+            let sums = seq_dot4([col(0), col(1), col(2), col(3)], mrow);
+            ws.sum_aux[c..c + k].copy_from_slice(&sums[..k]);
+            c += k;
+        }
+        if meta {
+            // Σ_i M_ri² with the term i = c doubled, per column c. The reference sums from
+            // i = r upwards, so all columns share the prefix sums; the suffixes are independent
+            // chains, run four at a time.
+            let len = n - r;
+            let prefix = &mut ws.prefix[..=len];
+            prefix[0] = 0.0;
+            for (i, mv) in mrow.iter().enumerate() {
+                prefix[i + 1] = prefix[i] + mv * mv;
+            }
+            let mut k0 = 0;
+            while k0 < len {
+                let g = (len - k0).min(4);
+                let mut s = [0.0; 4];
+                for t in 0..g {
+                    let k = k0 + t;
+                    s[t] = prefix[k] + 2.0 * mrow[k] * mrow[k];
+                }
+                // Columns k0..k0+g: the first suffix terms are only owed by the earlier
+                // columns of the group.
+                let head_end = (k0 + g).min(len);
+                for i in k0 + 1..head_end {
+                    let sq = mrow[i] * mrow[i];
+                    for t in 0..i - k0 {
+                        s[t] += sq;
                     }
                 }
+                // Past the group every chain takes every term (unused chains are ignored).
+                for &mv in &mrow[head_end..] {
+                    let sq = mv * mv;
+                    for v in s.iter_mut() {
+                        *v += sq;
+                    }
+                }
+                ws.sum_aux1[r + k0..r + k0 + g].copy_from_slice(&s[..g]);
+                k0 += g;
             }
+        }
+        for c in r..n {
+            let sum_aux = ws.sum_aux[c];
             let off = r + c * n;
-            let dqdm = dqdm * (2.0 * dx[c]);
+            let dqdm = dq * (2.0 * dx[c]);
             ws.dwdm[off] = dqdm * dwdq;
             ws.dj2dm[off] = 2.0 * penalty * sum_aux;
             if meta {
+                let sum_aux1 = ws.sum_aux1[c];
                 ws.ddwdmdm[off] = ddwdqdq * dqdm * dqdm + 2.0 * dwdq * dx[c] * dx[c];
                 ws.ddj2dmdm[off] = 2.0 * penalty * (d[c + c * n] + sum_aux1);
             }
@@ -258,8 +304,16 @@ pub(crate) fn update_distance_metric(
             for i in 0..j {
                 rf.d[i + j * n] = rf.d[j + i * n];
             }
-            for i in j..n {
-                rf.d[i + j * n] = dot(&rf.m[i * n..i * n + j + 1], &rf.m[j * n..j * n + j + 1]);
+            let mj = &rf.m[j * n..j * n + j + 1];
+            let mut i = j;
+            while i + 4 <= n {
+                let col = |k: usize| &rf.m[k * n..k * n + j + 1];
+                let s = dot4([col(i), col(i + 1), col(i + 2), col(i + 3)], mj);
+                rf.d[i + j * n..i + j * n + 4].copy_from_slice(&s);
+                i += 4;
+            }
+            for i in i..n {
+                rf.d[i + j * n] = dot(&rf.m[i * n..i * n + j + 1], mj);
             }
         }
     }

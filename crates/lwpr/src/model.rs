@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::metric::update_distance_metric;
-use crate::params::{Params, PruneRule};
+use crate::params::{Kernel, Params, PruneRule};
 use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, distance, kernel_eval};
 use crate::workspace::Workspace;
 
@@ -324,11 +324,23 @@ impl Lwpr {
         };
         let mut xn = std::mem::take(&mut ws.xn);
         let mut xmz = std::mem::take(&mut ws.xmz);
+        // Activations below every threshold that matters (updating, creation template,
+        // pruning) change nothing, so the exponential is skipped for them; the margin covers
+        // rounding, so decisions are the reference's.
+        let threshold = UPDATE_ACTIVATION.min(0.1 * p.w_gen).min(p.w_prune);
+        let q_skip = match p.kernel {
+            Kernel::Gaussian => -2.0 * threshold.ln() * (1.0 + 1e-9) + 1e-9,
+            Kernel::BiSquare => f64::INFINITY,
+        };
         for (k, rf) in self.sub[dim].rfs.iter_mut().enumerate() {
             for i in 0..n {
                 ws.xc[i] = xn[i] - rf.c[i];
             }
             let q = distance(&rf.d, &ws.xc, p.diag_only);
+            if q > q_skip {
+                rf.w = 0.0;
+                continue;
+            }
             let (w, dwdq, ddwdqdq) = kernel_eval(p.kernel, q);
             if w > act.w_sec {
                 if w > act.w_max {
@@ -425,7 +437,7 @@ impl Lwpr {
         check_cutoff(cutoff)
     }
 
-    /// Prediction of output `dim` at normalised `xn` (`xc` scratch of length n); returns
+    /// Prediction of output `dim` at normalised `xn` (`xc` scratch of length 2n); returns
     /// `(ŷ, max activation)` in normalised units.
     #[inline(always)]
     fn predict_dim(&self, dim: usize, xn: &[f64], cutoff: f64, xc: &mut [f64]) -> (f64, f64) {
@@ -443,10 +455,21 @@ impl Lwpr {
                 }
                 dist
             } else {
+                // q = |M (x − c)|² with the triangular factor: half the work of (x−c)ᵀD(x−c),
+                // equal up to rounding (training uses the reference's form).
+                let (xc, v) = xc.split_at_mut(n);
                 for i in 0..n {
                     xc[i] = xn[i] - rf.c[i];
+                    v[i] = 0.0;
                 }
-                distance(&rf.d, xc, false)
+                for j in 0..n {
+                    let col = &rf.m[j * n..j * n + j + 1];
+                    let xj = xc[j];
+                    for (vi, mij) in v[..=j].iter_mut().zip(col) {
+                        *vi += mij * xj;
+                    }
+                }
+                v.iter().map(|a| a * a).sum()
             };
             let w = kernel_eval(p.kernel, q).0;
             if w > w_max {
@@ -508,11 +531,11 @@ impl Lwpr {
     ) {
         let n = self.params.n_in;
         let mut heap;
-        let mut stack = [0.0; 2 * STACK_N];
+        let mut stack = [0.0; 3 * STACK_N];
         let buf: &mut [f64] = if n <= STACK_N {
-            &mut stack[..2 * n]
+            &mut stack[..3 * n]
         } else {
-            heap = vec![0.0; 2 * n];
+            heap = vec![0.0; 3 * n];
             &mut heap
         };
         let (xbuf, xc) = buf.split_at_mut(n);

@@ -39,6 +39,14 @@ pub(crate) struct Workspace {
     pub pse: Vec<f64>,
     /// `x − c` for the metric update.
     pub dx: Vec<f64>,
+    /// One row of `M` (metric derivatives).
+    pub mrow: Vec<f64>,
+    /// Per-column sums of the metric derivatives.
+    pub sum_aux: Vec<f64>,
+    /// Per-column sums of the second metric derivatives (meta learning).
+    pub sum_aux1: Vec<f64>,
+    /// Prefix sums of squared `M` row elements.
+    pub prefix: Vec<f64>,
 }
 
 impl Workspace {
@@ -62,6 +70,10 @@ impl Workspace {
             ps: vec![0.0; n],
             pse: vec![0.0; n],
             dx: vec![0.0; n],
+            mrow: vec![0.0; n],
+            sum_aux: vec![0.0; n],
+            sum_aux1: vec![0.0; n],
+            prefix: vec![0.0; n + 1],
         }
     }
 }

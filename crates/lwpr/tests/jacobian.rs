@@ -1,6 +1,6 @@
 //! The analytic Jacobian against central finite differences (property test), and its
-#![allow(clippy::needless_range_loop)]
 //! consistency with `predict`.
+#![allow(clippy::needless_range_loop)]
 
 #[path = "../peer/harness.rs"]
 mod harness;

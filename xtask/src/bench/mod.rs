@@ -5,6 +5,8 @@
 //! in [`BENCHES`].
 
 mod chan_repr;
+mod fd;
+mod lwpr;
 mod mser;
 mod tracking;
 
@@ -34,21 +36,33 @@ pub struct Bench {
 }
 
 /// Every bench.
-pub const BENCHES: &[Bench] = &[Bench {
-    name: "chan-repr",
-    peer: "dense O(N) encoding (eq. 2.1 evaluated for every channel)",
-    run: chan_repr::run,
-},
-Bench {
-    name: "mser",
-    peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters",
-    run: mser::run,
-},
-Bench {
-    name: "tracking",
-    peer: "SIR particle filter (100/1,000/10,000 particles), Kalman + NN",
-    run: tracking::run,
-}];
+pub const BENCHES: &[Bench] = &[
+    Bench {
+        name: "chan-repr",
+        peer: "dense O(N) encoding (eq. 2.1 evaluated for every channel)",
+        run: chan_repr::run,
+    },
+    Bench {
+        name: "lwpr",
+        peer: "reference LWPR C library 1.2.6 (built from ../shared/peers/lwpr in the same run)",
+        run: lwpr::run,
+    },
+    Bench {
+        name: "fd",
+        peer: "naive per-pair zero-padded FFT correlation (eq. 9-12), no bound, allocating per pair",
+        run: fd::run,
+    },
+    Bench {
+        name: "mser",
+        peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters",
+        run: mser::run,
+    },
+    Bench {
+        name: "tracking",
+        peer: "SIR particle filter (100/1,000/10,000 particles), Kalman + NN",
+        run: tracking::run,
+    },
+];
 
 /// Runs `cargo xtask bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {

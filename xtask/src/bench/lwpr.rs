@@ -1,0 +1,239 @@
+//! `cargo xtask bench lwpr`: our LWPR against the reference C library (LWPR 1.2.6, built from
+//! `../shared/peers/lwpr` into `target/peers/lwpr` in the same run) on identical sample streams:
+//! updates/s, predictions/s, receptive fields and nMSE for the 2-D cross function (setting A of
+//! papers.md §4.6, seeds 1–3) and its rotation into 25 dimensions, plus the learning curve and
+//! the largest prediction difference (faithfulness).
+
+#[path = "../../../crates/lwpr/peer/harness.rs"]
+mod harness;
+
+use std::time::Instant;
+
+use harness::*;
+use lwpr::{Lwpr, LwprBuilder, PruneRule};
+
+use super::BenchArgs;
+use crate::report::{BenchRow, median};
+use crate::{Result, workspace_root};
+
+const RUNS: usize = 3;
+
+fn settings(m: &Lwpr) -> PeerSettings<'_> {
+    let p = m.params();
+    PeerSettings {
+        n_in: p.n_in,
+        n_out: p.n_out,
+        diag_only: p.diag_only,
+        meta: p.meta,
+        update_d: p.update_d,
+        bisquare: p.kernel == lwpr::Kernel::BiSquare,
+        meta_rate: p.meta_rate,
+        penalty: p.penalty,
+        init_alpha: p.init_alpha[0],
+        w_gen: p.w_gen,
+        w_prune: p.w_prune,
+        init_lambda: p.init_lambda,
+        final_lambda: p.final_lambda,
+        tau_lambda: p.tau_lambda,
+        init_s2: p.init_s2,
+        add_threshold: p.add_threshold,
+        init_d: &p.init_d,
+        norm_in: &p.norm_in,
+        norm_out: &p.norm_out,
+    }
+}
+
+struct Measured {
+    updates_per_s: f64,
+    predictions_per_s: f64,
+    n_rf: usize,
+    nmse: f64,
+    pred: Vec<f64>,
+}
+
+/// Trains `RUNS` fresh copies (median update rate), then times repeated passes of `predict_into`
+/// over the test set for at least 0.25 s (as the reference driver does).
+fn measure_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> Measured {
+    let n = fresh.n_in();
+    let mut rates = Vec::new();
+    let mut model = fresh.clone();
+    for _ in 0..RUNS {
+        model = fresh.clone();
+        let mut out = [0.0];
+        let t0 = Instant::now();
+        for (a, b) in x.chunks(n).zip(y) {
+            model
+                .update_into(a, std::slice::from_ref(b), &mut out)
+                .expect("valid sample");
+        }
+        rates.push(y.len() as f64 / t0.elapsed().as_secs_f64());
+    }
+    let mut pred = vec![0.0; ty.len()];
+    for (o, p) in pred.iter_mut().zip(tx.chunks(n)) {
+        model
+            .predict_into(p, 0.001, std::slice::from_mut(o))
+            .expect("valid input");
+    }
+    let mut count = 0usize;
+    let mut sink = 0.0;
+    let mut out = [0.0];
+    let t0 = Instant::now();
+    while t0.elapsed().as_secs_f64() < 0.25 || count < 3 * ty.len() {
+        for p in tx.chunks(n) {
+            model.predict_into(p, 0.001, &mut out).expect("valid input");
+            sink += out[0];
+        }
+        count += ty.len();
+    }
+    let predictions_per_s = count as f64 / t0.elapsed().as_secs_f64();
+    assert!(sink.is_finite());
+    Measured {
+        updates_per_s: median(&mut rates),
+        predictions_per_s,
+        n_rf: model.num_rfs()[0],
+        nmse: nmse(&pred, ty),
+        pred,
+    }
+}
+
+fn measure_peer(
+    driver: &std::path::Path,
+    fresh: &Lwpr,
+    x: &[f64],
+    y: &[f64],
+    tx: &[f64],
+    ty: &[f64],
+) -> Result<Measured> {
+    let mut ups = Vec::new();
+    let mut pps = Vec::new();
+    let mut last = None;
+    for _ in 0..RUNS {
+        let run = run_peer(driver, &settings(fresh), x, y, tx, &[y.len()])?;
+        ups.push(y.len() as f64 / run.update_seconds);
+        pps.push(run.predictions_per_second);
+        last = Some(run);
+    }
+    let run = last.expect("RUNS > 0");
+    let (nrf, pred) = run.checkpoints.into_iter().next().expect("one checkpoint");
+    Ok(Measured {
+        updates_per_s: median(&mut ups),
+        predictions_per_s: median(&mut pps),
+        n_rf: nrf[0],
+        nmse: nmse(&pred, ty),
+        pred,
+    })
+}
+
+fn rows_for(case: &str, ours: &Measured, peer: &Measured, rows: &mut Vec<BenchRow>) {
+    let diff = ours
+        .pred
+        .iter()
+        .zip(&peer.pred)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    println!(
+        "{case}: RFs {} vs {}, nMSE {:.6} vs {:.6}, largest prediction difference {diff:.2e}",
+        ours.n_rf, peer.n_rf, ours.nmse, peer.nmse
+    );
+    rows.push(BenchRow::higher_is_better(
+        format!("{case}: updates"),
+        ours.updates_per_s,
+        peer.updates_per_s,
+        "updates/s",
+    ));
+    rows.push(BenchRow::higher_is_better(
+        format!("{case}: predictions"),
+        ours.predictions_per_s,
+        peer.predictions_per_s,
+        "pred/s",
+    ));
+    rows.push(BenchRow::lower_is_better(
+        format!("{case}: receptive fields"),
+        ours.n_rf as f64,
+        peer.n_rf as f64,
+        "RFs",
+    ));
+    rows.push(BenchRow::lower_is_better(
+        format!("{case}: test nMSE"),
+        ours.nmse,
+        peer.nmse,
+        "nMSE",
+    ));
+}
+
+/// Runs the bench.
+pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
+    let driver = match build_peer(&workspace_root()) {
+        Ok(d) => d,
+        Err(reason) => {
+            println!("lwpr bench SKIPPED: {reason}");
+            return Ok(Vec::new());
+        }
+    };
+    let mut rows = Vec::new();
+    let (gx, gy) = cross_grid();
+
+    // 2-D cross, setting A (the reference's bench_cross.c stream).
+    for seed in [1u64, 2, 3] {
+        let (x, y) = cross_samples(seed, 20_000, 0.1);
+        let fresh = LwprBuilder::new(2, 1)
+            .init_d_spherical(50.0)
+            .init_alpha(250.0)
+            .w_gen(0.2)
+            .build()?;
+        let ours = measure_ours(&fresh, &x, &y, &gx, &gy);
+        let peer = measure_peer(&driver, &fresh, &x, &y, &gx, &gy)?;
+        rows_for(&format!("cross 2-D seed {seed}"), &ours, &peer, &mut rows);
+    }
+
+    // Learning curve, seed 1 (the fixture holds ours only; this prints both).
+    let (x, y) = cross_samples(1, 20_000, 0.1);
+    let checkpoints = [250usize, 500, 1000, 2000, 5000, 10_000, 20_000];
+    let mut model = LwprBuilder::new(2, 1)
+        .init_d_spherical(50.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .build()?;
+    let run = run_peer(&driver, &settings(&model), &x, &y, &gx, &checkpoints)?;
+    println!("learning curve, cross 2-D seed 1 (samples: RFs ours/ref, nMSE ours/ref)");
+    let mut done = 0;
+    for (k, &c) in checkpoints.iter().enumerate() {
+        for (a, b) in x[2 * done..2 * c].chunks(2).zip(&y[done..c]) {
+            model.update(a, &[*b])?;
+        }
+        done = c;
+        let e = nmse(&model.predict_batch(&gx, 0.001)?, &gy);
+        let (nrf, pred) = &run.checkpoints[k];
+        println!(
+            "  {c:>6}: {:>3}/{:<3} {e:.5}/{:.5}",
+            model.num_rfs()[0],
+            nrf[0],
+            nmse(pred, &gy)
+        );
+    }
+
+    // 25-D: the cross function rotated into 25 dimensions.
+    let dim = 25;
+    let q = random_rotation(dim, 7);
+    let (x2, y) = cross_samples(5, 20_000, 0.1);
+    let x = embed(&x2, &q, dim);
+    let tx = embed(&gx, &q, dim);
+    for (label, rule) in [
+        ("published pruning", PruneRule::Published),
+        ("reference pruning", PruneRule::ReferenceC),
+    ] {
+        let fresh = LwprBuilder::new(dim, 1)
+            .init_d_spherical(0.25)
+            .init_alpha(250.0)
+            .w_gen(0.2)
+            .w_prune(0.7)
+            .diag_only(false)
+            .meta(true)
+            .prune_rule(rule)
+            .build()?;
+        let ours = measure_ours(&fresh, &x, &y, &tx, &gy);
+        let peer = measure_peer(&driver, &fresh, &x, &y, &tx, &gy)?;
+        rows_for(&format!("cross 25-D, {label}"), &ours, &peer, &mut rows);
+    }
+    Ok(rows)
+}
