@@ -31,7 +31,8 @@
 //!
 //! ```
 //! use arm_sim::{ArmSim, SimConfig};
-//! let mut sim = ArmSim::new(SimConfig::default()).unwrap();
+//! // (Quarter-size images keep this example quick; the default is 640×480.)
+//! let mut sim = ArmSim::new(SimConfig::default().with_image_scale(0.25)).unwrap();
 //! sim.command(&[1600.0, 1350.0, 1700.0, 1500.0, 1500.0, 1200.0]).unwrap();
 //! let images = sim.capture();
 //! let tip_px = sim.inspect().tip_pixels().unwrap();

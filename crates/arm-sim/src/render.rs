@@ -131,6 +131,9 @@ pub(crate) struct CameraView {
     depth: Vec<f32>,
     pub labels: Vec<u8>,
     column_gain: Vec<f32>,
+    /// Pixel rectangle `[u0, v0, u1, v1)` the arm was drawn into last frame (work, depth and
+    /// labels differ from the background only there).
+    dirty: Option<[usize; 4]>,
     light: V3,
     origin: V3,
     forward: V3,
@@ -148,6 +151,7 @@ impl CameraView {
             depth: Vec::new(),
             labels: Vec::new(),
             column_gain: vec![0.0; camera.width as usize],
+            dirty: None,
             light: v3(&light),
             origin: v3(&camera.centre),
             forward: v3(&forward),
@@ -160,9 +164,10 @@ impl CameraView {
         if self.background.is_none() {
             let bg = Background::render(&self.camera, scene, g);
             let n = bg.radiance.len();
-            self.work = vec![0.0; n];
-            self.depth = vec![0.0; n];
+            self.work = bg.radiance.clone();
+            self.depth = bg.depth.clone();
             self.labels = vec![0; n];
+            self.dirty = None;
             self.background = Some(bg);
         }
     }
@@ -177,10 +182,17 @@ impl CameraView {
         rng: &mut R,
     ) -> GrayImage {
         self.ensure_background(scene, g);
+        // Restore only what the last frame's arm touched.
         let bg = self.background.as_ref().expect("just ensured");
-        self.work.copy_from_slice(&bg.radiance);
-        self.depth.copy_from_slice(&bg.depth);
-        self.labels.fill(0);
+        if let Some([u0, v0, u1, v1]) = self.dirty.take() {
+            let w = self.camera.width as usize;
+            for v in v0..v1 {
+                let r = v * w + u0..v * w + u1;
+                self.work[r.clone()].copy_from_slice(&bg.radiance[r.clone()]);
+                self.depth[r.clone()].copy_from_slice(&bg.depth[r.clone()]);
+                self.labels[r].fill(0);
+            }
+        }
         let mut parts = arm_parts(g, scene, pose);
         let centre_distance = |p: &Part| -> f32 {
             let c = match &p.shape {
@@ -273,6 +285,7 @@ impl CameraView {
         let Some([u0, v0, u1, v1]) = self.bbox(&corners, 2.0) else {
             return;
         };
+        self.mark_dirty([u0, v0, u1, v1]);
         let mid = (a + b) * 0.5;
         let z_mid = (mid - self.origin).dot(&self.forward).max(1.0);
         let ppm = self.px_per_mm_at_unit / z_mid;
@@ -348,6 +361,7 @@ impl CameraView {
         let Some([u0, v0, u1, v1]) = self.bbox(&corners, 2.0) else {
             return;
         };
+        self.mark_dirty([u0, v0, u1, v1]);
         let rel = self.origin - c;
         let ol = V3::new(axes[0].dot(&rel), axes[1].dot(&rel), axes[2].dot(&rel));
         let grown = half.add_scalar(margin);
@@ -406,6 +420,18 @@ impl CameraView {
         }
     }
 
+    fn mark_dirty(&mut self, r: [usize; 4]) {
+        self.dirty = Some(match self.dirty {
+            None => r,
+            Some(d) => [
+                d[0].min(r[0]),
+                d[1].min(r[1]),
+                d[2].max(r[2]),
+                d[3].max(r[3]),
+            ],
+        });
+    }
+
     #[inline]
     fn blend(&mut self, i: usize, coverage: f32, grey: f32, t: f32, label: u8) {
         self.work[i] = coverage * grey + (1.0 - coverage) * self.work[i];
@@ -431,33 +457,27 @@ impl CameraView {
         // Irwin–Hall: the sum of four uniform bytes has mean 510 and std. dev. 147.80.
         let noise_scale = sigma / 147.80;
         let mut out = vec![0u8; w * h];
+        let cols = &self.column_gain;
         for y in 0..h {
             let row_gain = light.gain + light.grad_y * (y as f32 + 0.5 - hh) / hh;
             let src = &self.work[y * w..(y + 1) * w];
             let dst = &mut out[y * w..(y + 1) * w];
             if sigma > 0.0 {
-                let mut x = 0;
-                while x < w {
+                for ((d2, s2), c2) in dst.chunks_mut(2).zip(src.chunks(2)).zip(cols.chunks(2)) {
                     let bits = rng.next_u64();
-                    for k in 0..2 {
-                        if x + k >= w {
-                            break;
-                        }
+                    for k in 0..d2.len() {
                         let b = bits >> (32 * k);
                         let sum = (b & 0xFF)
                             + ((b >> 8) & 0xFF)
                             + ((b >> 16) & 0xFF)
                             + ((b >> 24) & 0xFF);
                         let n = (sum as f32 - 510.0) * noise_scale;
-                        let v = src[x + k] * (row_gain + self.column_gain[x + k]) + n;
-                        dst[x + k] = (v + 0.5) as u8;
+                        d2[k] = (s2[k] * (row_gain + c2[k]) + n + 0.5) as u8;
                     }
-                    x += 2;
                 }
             } else {
-                for x in 0..w {
-                    let v = src[x] * (row_gain + self.column_gain[x]);
-                    dst[x] = (v + 0.5) as u8;
+                for ((d, s), c) in dst.iter_mut().zip(src).zip(cols) {
+                    *d = (s * (row_gain + c) + 0.5) as u8;
                 }
             }
         }

@@ -36,10 +36,11 @@ pub struct MoveReport {
 ///
 /// ```
 /// use arm_sim::{ArmSim, SimConfig};
-/// let mut sim = ArmSim::new(SimConfig::default()).unwrap();
+/// // Quarter-size images (160×120) keep the example quick; the default is 640×480.
+/// let mut sim = ArmSim::new(SimConfig::default().with_image_scale(0.25)).unwrap();
 /// sim.command(&[1500.0, 1300.0, 1600.0, 1400.0, 1500.0, 1000.0]).unwrap();
 /// let images = sim.capture();
-/// assert_eq!((images.len(), images[0].width(), images[0].height()), (2, 640, 480));
+/// assert_eq!((images.len(), images[0].width(), images[0].height()), (2, 160, 120));
 /// // Out of the servo range: a typed error, and the arm does not move.
 /// assert!(sim.command(&[1500.0, 2600.0, 1500.0, 1500.0, 1500.0, 1500.0]).is_err());
 /// ```
@@ -90,11 +91,6 @@ impl ArmSim {
             });
         }
         Ok(sim)
-    }
-
-    /// The configuration in use.
-    pub fn config(&self) -> &SimConfig {
-        &self.config
     }
 
     /// Number of servos (commands hold one set-point each): 6.
@@ -244,7 +240,12 @@ pub struct Inspection<'a> {
     sim: &'a ArmSim,
 }
 
-impl Inspection<'_> {
+impl<'a> Inspection<'a> {
+    /// The configuration in use, including the calibration errors a learner must not know.
+    pub fn config(&self) -> &'a SimConfig {
+        &self.sim.config
+    }
+
     /// True joint angles (degrees) after every non-ideality, including sag.
     pub fn joint_angles(&self) -> JointAngles {
         self.sim.angles

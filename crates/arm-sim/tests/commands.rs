@@ -58,9 +58,9 @@ fn non_finite_out_of_range_and_wrong_length_are_typed_errors() {
 fn joint_limit_clamps_and_reports() {
     let mut s = ArmSim::new(SimConfig::ideal().with_image_scale(0.25)).unwrap();
     // The elbow servo reaches 0°..180°; its bracket stops it at 150°.
-    let p = nominal_pulse(&s.config().servos[2], 170.0);
+    let p = nominal_pulse(&s.inspect().config().servos[2], 170.0);
     // (Shoulder leaning back 40° so that the folded arm stays above the table.)
-    let back = nominal_pulse(&s.config().servos[1], -40.0);
+    let back = nominal_pulse(&s.inspect().config().servos[1], -40.0);
     s.command(&[1500.0, back, p, 1500.0, 1500.0, 1500.0])
         .unwrap();
     assert!(!s.inspect().last_move().table_contact);

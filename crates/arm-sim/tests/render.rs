@@ -38,22 +38,24 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
 }
 
 #[test]
-fn full_size_frame_is_640_by_480_and_textured() {
-    let mut c = SimConfig::default();
+fn frame_has_the_configured_size_and_a_textured_table() {
+    // The default 640×480 (and its speed) is exercised by `cargo xtask eval arm-sim` and the
+    // criterion bench; here half size keeps the debug build quick.
+    let mut c = SimConfig::default().with_image_scale(SCALE);
     c.cameras.truncate(1);
     let mut sim = ArmSim::new(c).unwrap();
     let img = &sim.capture()[0];
-    assert_eq!(img.dimensions(), (640, 480));
+    assert_eq!(img.dimensions(), (320, 240));
     let (min, max) = img
         .pixels()
         .fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[0]), hi.max(p[0])));
     assert!(max - min > 100, "{min}..{max}");
     // The table texture varies locally: neighbouring pixels in the lower image half differ.
-    let row = 400 * 640;
-    let diffs = (0..639)
+    let row = 200 * 320;
+    let diffs = (0..319)
         .filter(|&x| img.as_raw()[row + x].abs_diff(img.as_raw()[row + x + 1]) > 4)
         .count();
-    assert!(diffs > 50, "{diffs}");
+    assert!(diffs > 25, "{diffs}");
 }
 
 #[test]

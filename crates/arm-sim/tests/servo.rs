@@ -103,14 +103,14 @@ fn move_noise_has_the_configured_spread_and_only_on_moves() {
 #[test]
 fn sag_grows_with_reach() {
     let mut sim = sim_with(|c| c.sag = SimConfig::default().sag);
-    let g = sim.config().arm.clone();
+    let g = sim.inspect().config().arm.clone();
     let mut last_drop = -1.0;
     let mut last_reach = -1.0;
     // Shoulder leaning further forward with the forearm kept horizontal: the reach grows.
     for shoulder in [0.0, 15.0, 30.0, 45.0, 60.0, 75.0] {
         let angles = [0.0, shoulder, 90.0 - shoulder, 0.0, 0.0, 0.0];
         let set: [f64; 6] =
-            std::array::from_fn(|i| nominal_pulse(&sim.config().servos[i], angles[i]));
+            std::array::from_fn(|i| nominal_pulse(&sim.inspect().config().servos[i], angles[i]));
         sim.command(&set).unwrap();
         let rigid = forward_kinematics(&g, &angles);
         let drop = rigid.tip.z - sim.inspect().tip().z;
@@ -127,7 +127,7 @@ fn sag_grows_with_reach() {
     assert!(last_drop > 3.0 && last_drop < 30.0, "{last_drop}");
     // apply_sag agrees with the simulator.
     let angles = [0.0, 75.0, 15.0, 0.0, 0.0, 0.0];
-    let sagged = apply_sag(&g, &sim.config().sag, &angles);
+    let sagged = apply_sag(&g, &sim.inspect().config().sag, &angles);
     assert!((sagged[1] - sim.inspect().joint_angles()[1]).abs() < 1e-9);
 }
 
@@ -145,7 +145,7 @@ fn ideal_arm_has_none_of_them() {
         }
         let nominal = sim.inspect().nominal_angles(&set);
         assert_eq!(sim.inspect().joint_angles(), nominal);
-        let pose = forward_kinematics(&sim.config().arm, &nominal);
+        let pose = forward_kinematics(&sim.inspect().config().arm, &nominal);
         assert_eq!(sim.inspect().tip(), pose.tip);
     }
 }
