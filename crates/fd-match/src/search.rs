@@ -164,43 +164,45 @@ fn search_one(
             w.cand.push((2.0 - 2.0 * dot(mq, t.magnitudes(j)), j));
         }
     }
-    // Visit by increasing bound, sorting lazily: a block of the smallest remaining bounds is
-    // selected and sorted, and the next (4× larger) block only if the search gets that far.
-    let cmp = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-    let mut done = 0;
-    let mut block = 16;
-    'blocks: while done < w.cand.len() {
-        let rest = &mut w.cand[done..];
-        if rest[..]
-            .iter()
-            .all(|c| c.0 - BOUND_MARGIN > out.threshold(only_best))
-        {
+    // Seed the result with the smallest bounds (one linear pass), then keep only the targets
+    // whose bound can still beat the threshold and visit those by increasing bound.
+    let seeds = if only_best { 1 } else { 2 };
+    for _ in 0..seeds.min(w.cand.len()) {
+        let mut m = 0;
+        for (idx, c) in w.cand.iter().enumerate() {
+            let best = w.cand[m];
+            if c.0 < best.0 || (c.0 == best.0 && c.1 < best.1) {
+                m = idx;
+            }
+        }
+        let (_, j) = w.cand.swap_remove(m);
+        evaluated += 1;
+        let (error, alignment) = w.pair.eval(q, i, t, j);
+        out.offer(Candidate {
+            index: j,
+            error,
+            alignment,
+        });
+    }
+    let threshold = out.threshold(only_best);
+    w.cand.retain(|c| c.0 - BOUND_MARGIN <= threshold);
+    w.cand
+        .sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    for &(lb, j) in &w.cand {
+        let threshold = out.threshold(only_best);
+        if lb - BOUND_MARGIN > threshold {
             break;
         }
-        let end = block.min(rest.len());
-        if end < rest.len() {
-            rest.select_nth_unstable_by(end, cmp);
+        evaluated += 1;
+        // The correlator may stop after its FFT when its own bound already exceeds the
+        // threshold; such a pair cannot enter the result.
+        if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
+            out.offer(Candidate {
+                index: j,
+                error,
+                alignment,
+            });
         }
-        rest[..end].sort_unstable_by(cmp);
-        for idx in done..done + end {
-            let (lb, j) = w.cand[idx];
-            let threshold = out.threshold(only_best);
-            if lb - BOUND_MARGIN > threshold {
-                break 'blocks;
-            }
-            evaluated += 1;
-            // The correlator may stop after its FFT when its own bound already exceeds the
-            // threshold; such a pair cannot enter the result.
-            if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
-                out.offer(Candidate {
-                    index: j,
-                    error,
-                    alignment,
-                });
-            }
-        }
-        done += end;
-        block *= 4;
     }
     (out, evaluated)
 }
