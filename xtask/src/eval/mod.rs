@@ -10,6 +10,7 @@
 
 mod arm_sim;
 mod chan_repr;
+mod lwpr;
 pub(crate) mod tracking;
 
 use std::path::{Path, PathBuf};
@@ -40,6 +41,8 @@ pub struct EvalArgs {
 pub enum EvalTarget {
     /// The thesis's channel-coding worked example (eq. 2.3-2.9) and Figure 2.1.
     ChanRepr,
+    /// LWPR learning curves on the cross function (nMSE and receptive fields against samples).
+    Lwpr,
     /// Paper B: Channel Based Tracking against Kalman and particle filters (synthetic
     /// RC-car sequences, UNGM, or the user's CSV sequences); fixtures in `fixtures/paper-b/`.
     Tracking(tracking::TrackingArgs),
@@ -52,6 +55,7 @@ impl EvalTarget {
     pub fn all() -> Vec<EvalTarget> {
         vec![
             EvalTarget::ChanRepr,
+            EvalTarget::Lwpr,
             EvalTarget::Tracking(Default::default()),
             EvalTarget::ArmSim,
         ]
@@ -61,6 +65,7 @@ impl EvalTarget {
     pub fn name(&self) -> &'static str {
         match self {
             EvalTarget::ChanRepr => "chan-repr",
+            EvalTarget::Lwpr => "lwpr",
             EvalTarget::ArmSim => "arm-sim",
             EvalTarget::Tracking(_) => "paper-b",
         }
@@ -69,6 +74,7 @@ impl EvalTarget {
     fn run(&self, ctx: &EvalContext) -> Result<()> {
         match self {
             EvalTarget::ChanRepr => chan_repr::run(ctx),
+            EvalTarget::Lwpr => lwpr::run(ctx),
             EvalTarget::ArmSim => arm_sim::run(ctx),
             EvalTarget::Tracking(args) => tracking::run(ctx, args),
         }
