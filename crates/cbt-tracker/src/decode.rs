@@ -13,8 +13,9 @@ use chan_repr::{ChannelBasis, ChannelGrid, ModeNd};
 
 use crate::Space;
 
-/// Smallest window mass (relative to the largest) considered as a candidate mode.
-pub const MIN_SHARE: f64 = 1e-3;
+/// Smallest window mass (relative to the largest) considered as a candidate mode: a
+/// runner-up with less than 1 % of the best mode's mass is not reported.
+pub const MIN_SHARE: f64 = 1e-2;
 
 /// The modes of `q` by decreasing certainty (at most `max_modes`).
 pub(crate) fn decode_posterior(space: &Space, q: &[f64], max_modes: usize) -> Vec<ModeNd> {
