@@ -241,7 +241,7 @@ impl TreeBuilder {
                 let ns = offs.map(|o| cur.wrapping_add(o));
                 // SAFETY: as below, every neighbour of an image pixel lies in the buffer.
                 let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
-                if vs.iter().all(|&v| v >= cur_level) {
+                if vs[0].min(vs[1]).min(vs[2].min(vs[3])) >= cur_level {
                     let mut fresh = 0u32;
                     for i in 0..4 {
                         unsafe { *cells.get_unchecked_mut(ns[i] as usize) = (vs[i] as u16) | SEEN };
