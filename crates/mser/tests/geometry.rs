@@ -1,0 +1,102 @@
+//! Exact geometry on hand-checkable regions: the ellipse convention and the contour's start,
+//! orientation and corner handling.
+
+use mser::{GrayView, MserParams, Polarities, detect};
+
+fn one_dark_region(px: &[u8], w: usize, h: usize) -> (GrayView<'_>, mser::Region) {
+    let img = GrayView::packed(px, w, h).unwrap();
+    let p = MserParams {
+        min_area: 1,
+        polarities: Polarities::Dark,
+        ..Default::default()
+    };
+    let mut rs = detect(&img, &p).unwrap();
+    assert_eq!(rs.len(), 1);
+    (img, rs.remove(0))
+}
+
+#[test]
+fn rectangle_ellipse_has_the_uniform_ellipse_moments() {
+    // A 6x3 dark rectangle at x 2..8, y 1..4: pixel-centre variances (6²−1)/12 and (3²−1)/12,
+    // plus 1/12 for the unit squares: W²/12 and H²/12. M = (4Σ)⁻¹: a = 3/W², c = 3/H², b = 0.
+    let (w, h) = (10, 6);
+    let mut px = vec![200u8; w * h];
+    for y in 1..4 {
+        for x in 2..8 {
+            px[y * w + x] = 10;
+        }
+    }
+    let (_, r) = one_dark_region(&px, w, h);
+    assert_eq!((r.area, r.seed, r.level), (18, (2, 1), 10));
+    assert_eq!(
+        (r.bbox.x_min, r.bbox.y_min, r.bbox.x_max, r.bbox.y_max),
+        (2, 1, 7, 3)
+    );
+    let e = r.ellipse();
+    assert!((e.u - 4.5).abs() < 1e-12 && (e.v - 2.0).abs() < 1e-12);
+    assert!((e.a - 3.0 / 36.0).abs() < 1e-12, "{e:?}");
+    assert!(e.b.abs() < 1e-12);
+    assert!((e.c - 3.0 / 9.0).abs() < 1e-12);
+    // VLFeat frame (k = 1): M = Σ⁻¹, four times larger coefficients.
+    let f = r.ellipse_scaled(1.0);
+    assert!((f.a - 12.0 / 36.0).abs() < 1e-12 && (f.c - 12.0 / 9.0).abs() < 1e-12);
+    let [sxx, sxy, syy] = r.moments.covariance();
+    assert!(
+        (sxx - 35.0 / 12.0).abs() < 1e-12 && sxy.abs() < 1e-12 && (syy - 8.0 / 12.0).abs() < 1e-12
+    );
+}
+
+#[test]
+fn contour_of_an_l_shape_is_counter_clockwise_and_cuts_the_concave_corner() {
+    // Dark L: column x = 1 for y = 1..=3 and row y = 3 for x = 1..=3.
+    //   . . . . .
+    //   . # . . .
+    //   . # . . .
+    //   . # # # .
+    //   . . . . .
+    let (w, h) = (5, 5);
+    let mut px = vec![200u8; w * h];
+    for (x, y) in [(1, 1), (1, 2), (1, 3), (2, 3), (3, 3)] {
+        px[y * w + x] = 10;
+    }
+    let (img, r) = one_dark_region(&px, w, h);
+    let c = r.contour(&img).unwrap();
+    // Down the left side, along the bottom, back along the top of the foot and up the right
+    // side of the stem: counter-clockwise on screen, every pixel on the boundary.
+    assert_eq!(
+        c,
+        vec![(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (2, 3), (1, 2)]
+    );
+    let f = r.contour_f64(&img).unwrap();
+    assert_eq!(f[0], (1.0, 1.0));
+}
+
+#[test]
+fn contour_skips_a_pixel_without_outside_4_neighbour_and_ignores_holes() {
+    // A 5x5 dark square with a bright 1-pixel hole in the middle: the contour is the 16 pixels of
+    // the outer ring; the ring around the hole is not part of it.
+    let (w, h) = (7, 7);
+    let mut px = vec![200u8; w * h];
+    for y in 1..6 {
+        for x in 1..6 {
+            px[y * w + x] = 10;
+        }
+    }
+    px[3 * w + 3] = 200;
+    let img = GrayView::packed(&px, w, h).unwrap();
+    let p = MserParams {
+        min_area: 1,
+        polarities: Polarities::Dark,
+        ..Default::default()
+    };
+    let r = detect(&img, &p)
+        .unwrap()
+        .into_iter()
+        .find(|r| r.area == 24)
+        .unwrap();
+    let c = r.contour(&img).unwrap();
+    assert_eq!(c.len(), 16);
+    assert_eq!(c[0], (1, 1));
+    assert_eq!(c[1], (1, 2)); // heading down first: counter-clockwise on screen
+    assert!(c.iter().all(|&(x, y)| x == 1 || x == 5 || y == 1 || y == 5));
+}
