@@ -16,7 +16,7 @@ use super::BenchArgs;
 use crate::report::{BenchRow, median};
 use crate::{Result, workspace_root};
 
-const RUNS: usize = 3;
+const RUNS: usize = 5;
 
 fn settings(m: &Lwpr) -> PeerSettings<'_> {
     let p = m.params();
@@ -51,32 +51,21 @@ struct Measured {
     pred: Vec<f64>,
 }
 
-/// Trains `RUNS` fresh copies (median update rate), then times repeated passes of `predict_into`
+/// One timed run of ours: trains a fresh copy, then times repeated passes of `predict_into`
 /// over the test set for at least 0.25 s (as the reference driver does).
-fn measure_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> Measured {
+fn run_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> (f64, f64, Lwpr) {
     let n = fresh.n_in();
-    let mut rates = Vec::new();
     let mut model = fresh.clone();
-    for _ in 0..RUNS {
-        model = fresh.clone();
-        let mut out = [0.0];
-        let t0 = Instant::now();
-        for (a, b) in x.chunks(n).zip(y) {
-            model
-                .update_into(a, std::slice::from_ref(b), &mut out)
-                .expect("valid sample");
-        }
-        rates.push(y.len() as f64 / t0.elapsed().as_secs_f64());
-    }
-    let mut pred = vec![0.0; ty.len()];
-    for (o, p) in pred.iter_mut().zip(tx.chunks(n)) {
+    let mut out = [0.0];
+    let t0 = Instant::now();
+    for (a, b) in x.chunks(n).zip(y) {
         model
-            .predict_into(p, 0.001, std::slice::from_mut(o))
-            .expect("valid input");
+            .update_into(a, std::slice::from_ref(b), &mut out)
+            .expect("valid sample");
     }
+    let updates_per_s = y.len() as f64 / t0.elapsed().as_secs_f64();
     let mut count = 0usize;
     let mut sink = 0.0;
-    let mut out = [0.0];
     let t0 = Instant::now();
     while t0.elapsed().as_secs_f64() < 0.25 || count < 3 * ty.len() {
         for p in tx.chunks(n) {
@@ -85,43 +74,53 @@ fn measure_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> M
         }
         count += ty.len();
     }
-    let predictions_per_s = count as f64 / t0.elapsed().as_secs_f64();
     assert!(sink.is_finite());
-    Measured {
-        updates_per_s: median(&mut rates),
-        predictions_per_s,
-        n_rf: model.num_rfs()[0],
-        nmse: nmse(&pred, ty),
-        pred,
-    }
+    (
+        updates_per_s,
+        count as f64 / t0.elapsed().as_secs_f64(),
+        model,
+    )
 }
 
-fn measure_peer(
+/// `RUNS` alternating runs of ours and the reference on the same samples (so that the load of
+/// the shared machine hits both alike); medians of the rates.
+fn measure(
     driver: &std::path::Path,
     fresh: &Lwpr,
     x: &[f64],
     y: &[f64],
     tx: &[f64],
     ty: &[f64],
-) -> Result<Measured> {
-    let mut ups = Vec::new();
-    let mut pps = Vec::new();
+) -> Result<(Measured, Measured)> {
+    let (mut ou, mut op, mut pu, mut pp) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut last = None;
     for _ in 0..RUNS {
+        let (u, p, model) = run_ours(fresh, x, y, tx, ty);
+        ou.push(u);
+        op.push(p);
         let run = run_peer(driver, &settings(fresh), x, y, tx, &[y.len()])?;
-        ups.push(y.len() as f64 / run.update_seconds);
-        pps.push(run.predictions_per_second);
-        last = Some(run);
+        pu.push(y.len() as f64 / run.update_seconds);
+        pp.push(run.predictions_per_second);
+        last = Some((model, run));
     }
-    let run = last.expect("RUNS > 0");
-    let (nrf, pred) = run.checkpoints.into_iter().next().expect("one checkpoint");
-    Ok(Measured {
-        updates_per_s: median(&mut ups),
-        predictions_per_s: median(&mut pps),
-        n_rf: nrf[0],
+    let (model, run) = last.expect("RUNS > 0");
+    let pred = model.predict_batch(tx, 0.001)?;
+    let (nrf, peer_pred) = run.checkpoints.into_iter().next().expect("one checkpoint");
+    let ours = Measured {
+        updates_per_s: median(&mut ou),
+        predictions_per_s: median(&mut op),
+        n_rf: model.num_rfs()[0],
         nmse: nmse(&pred, ty),
         pred,
-    })
+    };
+    let peer = Measured {
+        updates_per_s: median(&mut pu),
+        predictions_per_s: median(&mut pp),
+        n_rf: nrf[0],
+        nmse: nmse(&peer_pred, ty),
+        pred: peer_pred,
+    };
+    Ok((ours, peer))
 }
 
 fn rows_for(case: &str, ours: &Measured, peer: &Measured, rows: &mut Vec<BenchRow>) {
@@ -181,8 +180,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
             .init_alpha(250.0)
             .w_gen(0.2)
             .build()?;
-        let ours = measure_ours(&fresh, &x, &y, &gx, &gy);
-        let peer = measure_peer(&driver, &fresh, &x, &y, &gx, &gy)?;
+        let (ours, peer) = measure(&driver, &fresh, &x, &y, &gx, &gy)?;
         rows_for(&format!("cross 2-D seed {seed}"), &ours, &peer, &mut rows);
     }
 
@@ -231,8 +229,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
             .meta(true)
             .prune_rule(rule)
             .build()?;
-        let ours = measure_ours(&fresh, &x, &y, &tx, &gy);
-        let peer = measure_peer(&driver, &fresh, &x, &y, &tx, &gy)?;
+        let (ours, peer) = measure(&driver, &fresh, &x, &y, &tx, &gy)?;
         rows_for(&format!("cross 25-D, {label}"), &ours, &peer, &mut rows);
     }
     Ok(rows)
