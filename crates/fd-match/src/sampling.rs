@@ -64,18 +64,33 @@ fn cumulative(poly: &[Complex64], cum: &mut Vec<f64>) {
     }
 }
 
-/// Fills `out` with points at arc lengths `start + k·P/L` (cyclic) along the polygon.
+/// Fills `out` with points at arc lengths `start + k·P/L` (cyclic) along the polygon. The
+/// positions increase monotonically, so the edge is found by walking forward (O(n + L)).
 fn sample_arc_length(poly: &[Complex64], cum: &[f64], start: f64, out: &mut [Complex64]) {
     let n = poly.len();
     let per = cum[n];
     let step = per / out.len() as f64;
+    let start = start - per * (start / per).floor();
+    // Edge e with cum[e] <= start < cum[e + 1].
+    let mut e = (cum.partition_point(|&c| c <= start).max(1) - 1).min(n - 1);
+    let mut offset = 0.0; // multiples of the perimeter passed
     for (k, o) in out.iter_mut().enumerate() {
-        let mut s = start + k as f64 * step;
-        s -= per * (s / per).floor();
-        // Edge e with cum[e] <= s < cum[e + 1].
-        let e = (cum.partition_point(|&c| c <= s).max(1) - 1).min(n - 1);
+        let s = start + k as f64 * step - offset;
+        let mut s = s;
+        while s >= cum[e + 1] {
+            e += 1;
+            if e == n {
+                e = 0;
+                offset += per;
+                s -= per;
+            }
+        }
         let len = cum[e + 1] - cum[e];
-        let f = if len > 0.0 { (s - cum[e]) / len } else { 0.0 };
+        let f = if len > 0.0 {
+            ((s - cum[e]) / len).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let a = poly[e];
         let b = poly[(e + 1) % n];
         *o = a + (b - a) * f;
@@ -164,21 +179,27 @@ impl Sampler {
             .process_with_scratch(&mut self.smooth, &mut self.scratch);
         let h = per / l0 as f64;
         let sigma = self.sigma.max(h);
-        for k in 0..l0 {
-            let n = if k <= l0 / 2 {
-                k as f64
-            } else {
-                k as f64 - l0 as f64
-            };
-            let w = 2.0 * std::f64::consts::PI * n / per;
-            let g = (-0.5 * (w * sigma) * (w * sigma)).exp() / l0 as f64;
-            let c = self.smooth[k] * g;
-            self.smooth[k] = c;
-            self.deriv[k] = if 2 * k == l0 {
-                Complex64::new(0.0, 0.0)
-            } else {
-                c * Complex64::new(0.0, w)
-            };
+        // Gaussian exp(−½(ω_n σ)²) with ω_n = 2πn/P by the recurrence g_{n+1} = g_n·ρ_n,
+        // ρ_{n+1} = ρ_n·exp(−2a) (a = ½(2πσ/P)²): two exp calls instead of one per bin.
+        let a = 0.5 * (2.0 * std::f64::consts::PI * sigma / per).powi(2);
+        let q = (-2.0 * a).exp();
+        let (mut g, mut rho) = (1.0 / l0 as f64, (-a).exp());
+        for n in 0..=l0 / 2 {
+            let w = 2.0 * std::f64::consts::PI * n as f64 / per;
+            for (k, sign) in [(n, 1.0), (l0 - n, -1.0)] {
+                if k == l0 || (sign < 0.0 && (n == 0 || 2 * n == l0)) {
+                    continue; // bin 0 and the Nyquist bin appear once
+                }
+                let c = self.smooth[k] * g;
+                self.smooth[k] = c;
+                self.deriv[k] = if 2 * k == l0 {
+                    Complex64::new(0.0, 0.0)
+                } else {
+                    c * Complex64::new(0.0, sign * w)
+                };
+            }
+            g *= rho;
+            rho *= q;
         }
         self.inv
             .process_with_scratch(&mut self.smooth, &mut self.scratch);
@@ -195,12 +216,15 @@ impl Sampler {
         }
         let total = self.t[l0];
         let step = total / out.len() as f64;
+        let mut k = 0;
         for (j, o) in out.iter_mut().enumerate() {
             let tau = j as f64 * step;
-            let k = (self.t.partition_point(|&t| t <= tau).max(1) - 1).min(l0 - 1);
+            while k + 1 < l0 && self.t[k + 1] <= tau {
+                k += 1;
+            }
             let dt = self.t[k + 1] - self.t[k];
             let f = if dt > 0.0 {
-                (tau - self.t[k]) / dt
+                ((tau - self.t[k]) / dt).clamp(0.0, 1.0)
             } else {
                 0.0
             };

@@ -11,6 +11,7 @@
 mod arm_sim;
 mod chan_repr;
 mod lwpr;
+mod servo;
 pub(crate) mod tracking;
 
 use std::path::{Path, PathBuf};
@@ -48,6 +49,8 @@ pub enum EvalTarget {
     Tracking(tracking::TrackingArgs),
     /// The simulated arm: a rendered frame per camera with the true tip, the workspace in the image.
     ArmSim,
+    /// Paper C: learned visual servoing of the simulated arm (LWPR, Broyden, true Jacobian).
+    Servo(servo::ServoArgs),
 }
 
 impl EvalTarget {
@@ -58,6 +61,7 @@ impl EvalTarget {
             EvalTarget::Lwpr,
             EvalTarget::Tracking(Default::default()),
             EvalTarget::ArmSim,
+            EvalTarget::Servo(Default::default()),
         ]
     }
 
@@ -67,6 +71,7 @@ impl EvalTarget {
             EvalTarget::ChanRepr => "chan-repr",
             EvalTarget::Lwpr => "lwpr",
             EvalTarget::ArmSim => "arm-sim",
+            EvalTarget::Servo(_) => "paper-c",
             EvalTarget::Tracking(_) => "paper-b",
         }
     }
@@ -76,6 +81,7 @@ impl EvalTarget {
             EvalTarget::ChanRepr => chan_repr::run(ctx),
             EvalTarget::Lwpr => lwpr::run(ctx),
             EvalTarget::ArmSim => arm_sim::run(ctx),
+            EvalTarget::Servo(args) => servo::run(ctx, args),
             EvalTarget::Tracking(args) => tracking::run(ctx, args),
         }
     }
