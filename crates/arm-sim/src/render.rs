@@ -134,6 +134,8 @@ pub(crate) struct CameraView {
     /// Pixel rectangle `[u0, v0, u1, v1)` the arm was drawn into last frame (work, depth and
     /// labels differ from the background only there).
     dirty: Option<[usize; 4]>,
+    /// Random bits of one row's sensor noise (reused).
+    noise_bits: Vec<u32>,
     light: V3,
     origin: V3,
     forward: V3,
@@ -152,6 +154,7 @@ impl CameraView {
             labels: Vec::new(),
             column_gain: vec![0.0; camera.width as usize],
             dirty: None,
+            noise_bits: vec![0; camera.width as usize],
             light: v3(&light),
             origin: v3(&camera.centre),
             forward: v3(&forward),
@@ -296,8 +299,19 @@ impl CameraView {
         let e = u.dot(&w0);
         let width = self.camera.width as usize;
         let r2 = r * r;
+        let stadium = self.projected_stadium(a, b, r);
         for v in v0..v1 {
-            for x in u0..u1 {
+            let (x0, x1) = match &stadium {
+                Some(st) => match st.row_span(v as f64) {
+                    Some((lo, hi)) => (
+                        (lo.floor().max(u0 as f64) as usize).min(u1),
+                        ((hi.ceil() + 1.0).max(0.0) as usize).clamp(u0, u1),
+                    ),
+                    None => continue,
+                },
+                None => (u0, u1),
+            };
+            for x in x0..x1 {
                 let i = v * width + x;
                 let d = V3::from(rays[i]);
                 let bb = d.dot(&u);
@@ -336,6 +350,36 @@ impl CameraView {
                 self.blend(i, coverage, g, t_hit, part.label);
             }
         }
+    }
+
+    /// The capsule's outline in the image as a 2-D stadium (projected axis, radius enlarged by
+    /// the lens's bowing of the axis and a 2-pixel margin), or `None` if an end is behind.
+    fn projected_stadium(&self, a: V3, b: V3, r: f32) -> Option<Stadium> {
+        let f64v = |p: V3| Vector3::new(p.x as f64, p.y as f64, p.z as f64);
+        let (a, b) = (f64v(a), f64v(b));
+        let pa = self.camera.project(&a).ok()?;
+        let pb = self.camera.project(&b).ok()?;
+        let pm = self.camera.project(&((a + b) * 0.5)).ok()?;
+        let f = 0.5 * (self.camera.fx + self.camera.fy);
+        let radius_at = |p: &Vector3<f64>| {
+            let z = self.camera.to_camera(p).z;
+            // Radial distortion stretches by at most a few per cent at the border.
+            1.1 * r as f64 * f / z
+        };
+        let bow = {
+            let (dx, dy) = (pb[0] - pa[0], pb[1] - pa[1]);
+            let l = dx.hypot(dy);
+            if l > 1e-9 {
+                ((pm[0] - pa[0]) * dy - (pm[1] - pa[1]) * dx).abs() / l
+            } else {
+                0.0
+            }
+        };
+        Some(Stadium {
+            p0: pa,
+            p1: pb,
+            radius: radius_at(&a).max(radius_at(&b)) + bow + 2.0,
+        })
     }
 
     fn draw_cuboid(
@@ -463,17 +507,20 @@ impl CameraView {
             let src = &self.work[y * w..(y + 1) * w];
             let dst = &mut out[y * w..(y + 1) * w];
             if sigma > 0.0 {
-                for ((d2, s2), c2) in dst.chunks_mut(2).zip(src.chunks(2)).zip(cols.chunks(2)) {
+                // 32 random bits per pixel, then a branch-free (vectorisable) pass.
+                for pair in self.noise_bits.chunks_mut(2) {
                     let bits = rng.next_u64();
-                    for k in 0..d2.len() {
-                        let b = bits >> (32 * k);
-                        let sum = (b & 0xFF)
-                            + ((b >> 8) & 0xFF)
-                            + ((b >> 16) & 0xFF)
-                            + ((b >> 24) & 0xFF);
-                        let n = (sum as f32 - 510.0) * noise_scale;
-                        d2[k] = (s2[k] * (row_gain + c2[k]) + n + 0.5) as u8;
+                    pair[0] = bits as u32;
+                    if let Some(second) = pair.get_mut(1) {
+                        *second = (bits >> 32) as u32;
                     }
+                }
+                for (((d, s), c), &n) in dst.iter_mut().zip(src).zip(cols).zip(&self.noise_bits) {
+                    // Sum of the four bytes (SWAR): Irwin–Hall of 4 uniform bytes.
+                    let pairs = (n & 0x00FF_00FF) + ((n >> 8) & 0x00FF_00FF);
+                    let sum = (pairs & 0xFFFF) + (pairs >> 16);
+                    let noise = (sum as f32 - 510.0) * noise_scale;
+                    *d = (s * (row_gain + c) + noise + 0.5) as u8;
                 }
             } else {
                 for ((d, s), c) in dst.iter_mut().zip(src).zip(cols) {
@@ -483,6 +530,58 @@ impl CameraView {
         }
         GrayImage::from_raw(w as u32, h as u32, out).expect("buffer matches size")
     }
+}
+
+/// A 2-D capsule (all points within `radius` of the segment `p0 p1`), pixel units.
+struct Stadium {
+    p0: [f64; 2],
+    p1: [f64; 2],
+    radius: f64,
+}
+
+impl Stadium {
+    /// The x-interval of row `y` inside the stadium (the shape is convex, so the hull of the two
+    /// end discs' and the band's intervals).
+    fn row_span(&self, y: f64) -> Option<(f64, f64)> {
+        let r = self.radius;
+        let mut span: Option<(f64, f64)> = None;
+        let mut join = |lo: f64, hi: f64| {
+            if lo <= hi {
+                span = Some(span.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+        };
+        for p in [self.p0, self.p1] {
+            let dy = y - p[1];
+            if dy.abs() <= r {
+                let h = (r * r - dy * dy).sqrt();
+                join(p[0] - h, p[0] + h);
+            }
+        }
+        let (dx, dy) = (self.p1[0] - self.p0[0], self.p1[1] - self.p0[1]);
+        let l2 = dx * dx + dy * dy;
+        if l2 > 1e-12 {
+            let l = l2.sqrt();
+            // Perpendicular offset n·(p − p0) in [−r, r] and axis parameter in [0, 1], both
+            // linear in x along the row.
+            let (nx, ny) = (-dy / l, dx / l);
+            let ry = y - self.p0[1];
+            let band = linear_range(nx, ny * ry - nx * self.p0[0], -r, r);
+            let along = linear_range(dx / l2, (ry * dy - self.p0[0] * dx) / l2, 0.0, 1.0);
+            if let (Some((a0, a1)), Some((b0, b1))) = (band, along) {
+                join(a0.max(b0), a1.min(b1));
+            }
+        }
+        span
+    }
+}
+
+/// The x-interval where `lo <= alpha·x + beta <= hi` (unbounded as ±∞).
+fn linear_range(alpha: f64, beta: f64, lo: f64, hi: f64) -> Option<(f64, f64)> {
+    if alpha.abs() < 1e-12 {
+        return (beta >= lo && beta <= hi).then_some((f64::NEG_INFINITY, f64::INFINITY));
+    }
+    let (x0, x1) = ((lo - beta) / alpha, (hi - beta) / alpha);
+    Some(if x0 < x1 { (x0, x1) } else { (x1, x0) })
 }
 
 fn box_corners(lo: V3, hi: V3) -> [V3; 8] {
