@@ -33,16 +33,19 @@ pub struct FeatureParams {
     pub orientations: usize,
     /// Gradient magnitude of half weight, `g₀` (grey levels per half-resolution pixel).
     pub magnitude_half: f32,
+    /// Number of grey-level channels (cos², over 0–255; 0 = none), each pixel weighted 1.
+    pub intensities: usize,
 }
 
-/// A dense channel-coded feature map: `blocks_y × blocks_x × orientations` values.
+/// A dense channel-coded feature map: `blocks_y × blocks_x × channels` values (the
+/// orientation channels, then the grey-level channels).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeatureMap {
     /// Spatial channels along x.
     pub blocks_x: usize,
     /// Spatial channels along y.
     pub blocks_y: usize,
-    /// Orientation channels.
+    /// Feature channels per spatial channel (orientations + grey levels).
     pub orientations: usize,
     /// Full-resolution pixels per spatial channel (`2·block`).
     pub scale: f64,
@@ -53,12 +56,24 @@ pub struct FeatureMap {
 impl FeatureMap {
     /// Computes the map of a half-resolution image (see the module doc).
     pub fn compute(img: &FloatImage, p: &FeatureParams) -> Result<FeatureMap> {
-        let (w, h, b, no) = (img.width, img.height, p.block.max(1), p.orientations.max(3));
+        let (w, h, b, no0) = (img.width, img.height, p.block.max(1), p.orientations.max(3));
+        let ni = p.intensities;
+        let no = no0 + ni;
+        let grey = if ni >= 3 {
+            Some(ChannelBasis::covering(
+                0.0,
+                255.0,
+                ni,
+                Kernel::Cos2 { m: 3 },
+            )?)
+        } else {
+            None
+        };
         let bx = w.div_ceil(b).max(1);
         let by = h.div_ceil(b).max(1);
         let sx = ChannelBasis::integer(bx.max(3), Kernel::BSpline2)?;
         let sy = ChannelBasis::integer(by.max(3), Kernel::BSpline2)?;
-        let orient = ChannelBasis::integer(no + 3, Kernel::Cos2 { m: 3 })?;
+        let orient = ChannelBasis::integer(no0 + 3, Kernel::Cos2 { m: 3 })?;
         let tcoord = |x: usize| (x as f64 + 0.5) / b as f64 - 0.5;
         let weights = |basis: &ChannelBasis, t: f64, n: usize| {
             let mut v = [(0usize, 0.0f32); 3];
@@ -82,6 +97,16 @@ impl FeatureMap {
             for x in 1..w - 1 {
                 let gx = 0.5 * (img.at(x + 1, y) - img.at(x - 1, y));
                 let gy = 0.5 * (img.at(x, y + 1) - img.at(x, y - 1));
+                let (xw, nxw) = &col_w[x];
+                if let Some(gb) = &grey {
+                    let t = gb.to_index(f64::from(img.at(x, y)).clamp(0.0, 255.0));
+                    gb.for_each_active(t, |k, val| {
+                        for &(kx, vx) in &xw[..*nxw] {
+                            row[kx * no + no0 + k] += vx * val as f32;
+                        }
+                    });
+                    any = true;
+                }
                 let m2 = gx * gx + gy * gy;
                 if m2 < 1e-6 {
                     continue;
@@ -90,16 +115,15 @@ impl FeatureMap {
                 let wgt = m / (m + p.magnitude_half);
                 let phi = f64::from(gy * gx * 2.0).atan2(f64::from(gx * gx - gy * gy));
                 let phi = if phi < 0.0 { phi + tau } else { phi };
-                let t = phi / tau * no as f64 + 1.0;
+                let t = phi / tau * no0 as f64 + 1.0;
                 let mut oc = [(0usize, 0.0f32); 3];
                 let mut n_oc = 0;
                 orient.for_each_active(t, |k, val| {
                     if n_oc < 3 {
-                        oc[n_oc] = ((k + no - 1) % no, val as f32 * wgt);
+                        oc[n_oc] = ((k + no0 - 1) % no0, val as f32 * wgt);
                         n_oc += 1;
                     }
                 });
-                let (xw, nxw) = &col_w[x];
                 for &(kx, vx) in &xw[..*nxw] {
                     let base = kx * no;
                     for &(o, vo) in &oc[..n_oc] {

@@ -32,6 +32,8 @@ pub struct RecognitionConfig {
     pub orientations: usize,
     /// Gradient magnitude of half weight (grey levels per half-resolution pixel).
     pub magnitude_half: f32,
+    /// Grey-level channels (0 = gradients only).
+    pub intensities: usize,
     /// Descriptor size in spatial channels per side.
     pub cells: usize,
     /// Prototypes per camera.
@@ -50,6 +52,7 @@ impl Default for RecognitionConfig {
             block: 3,
             orientations: 8,
             magnitude_half: 40.0,
+            intensities: 8,
             cells: 8,
             prototypes: 4,
             min_certainty: 0.6,
@@ -93,6 +96,7 @@ impl RecognitionConfig {
             block: self.block,
             orientations: self.orientations,
             magnitude_half: self.magnitude_half,
+            intensities: self.intensities,
         }
     }
 }

@@ -1,0 +1,189 @@
+//! `arm-sim` connected to `servo-loop`: the robot adapter, the evaluation plant (percept = the
+//! simulator's true tip projection plus detection noise, with a ground-truth log) and the
+//! analytic image Jacobian of the ideal arm.
+
+use arm_sim::{ArmSim, ArmSimError, NUM_SERVOS, forward_kinematics};
+use image::GrayImage;
+use nalgebra::{DMatrix, Vector3};
+use rand::SeedableRng;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand_distr::{Distribution, Normal};
+use servo_loop::{Observation, Plant, Robot, ServoError};
+
+/// `ArmSim` as a [`Robot`] (a newtype: both the trait and the type are foreign here).
+pub struct SimRobot(pub ArmSim);
+
+impl Robot for SimRobot {
+    type Error = ArmSimError;
+    fn num_servos(&self) -> usize {
+        self.0.num_servos()
+    }
+    fn servo_range(&self, i: usize) -> [f64; 2] {
+        self.0.servo_range(i).unwrap_or([0.0, 0.0])
+    }
+    fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), ArmSimError> {
+        self.0.command(set_points)
+    }
+    fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, ArmSimError> {
+        Ok(self.0.capture())
+    }
+}
+
+/// Ground truth after one executed move.
+#[derive(Debug, Clone, Copy)]
+pub struct Truth {
+    /// True tip per camera (pixels), at most two cameras.
+    pub px: [[f64; 2]; 2],
+    /// True tip (mm).
+    pub mm: [f64; 3],
+}
+
+/// Ground truth of the simulator's current state.
+pub fn truth(sim: &ArmSim) -> Truth {
+    let tips = sim.inspect().tip_pixels().unwrap_or_default();
+    let mut px = [[f64::NAN; 2]; 2];
+    for (p, t) in px.iter_mut().zip(&tips) {
+        *p = *t;
+    }
+    let tip = sim.inspect().tip();
+    Truth {
+        px,
+        mm: [tip.x, tip.y, tip.z],
+    }
+}
+
+/// The evaluation plant: controlled servos `controlled`, the others held at `rest`; the
+/// percept is the true tip projection plus Gaussian detection noise of `noise_px`; every
+/// observation's ground truth is logged.
+pub struct SimPlant {
+    pub sim: ArmSim,
+    pub controlled: Vec<usize>,
+    pub rest: [f64; NUM_SERVOS],
+    pub cameras: usize,
+    pub size: [u32; 2],
+    noise: Normal<f64>,
+    rng: Xoshiro256PlusPlus,
+    pub log: Vec<Truth>,
+}
+
+impl SimPlant {
+    pub fn new(
+        sim: ArmSim,
+        controlled: &[usize],
+        rest: [f64; NUM_SERVOS],
+        noise_px: f64,
+        seed: u64,
+    ) -> Self {
+        let cameras = sim.num_cameras().min(2);
+        let c = &sim.inspect().config().cameras[0];
+        let size = [c.width, c.height];
+        SimPlant {
+            sim,
+            controlled: controlled.to_vec(),
+            rest,
+            cameras,
+            size,
+            noise: Normal::new(0.0, noise_px.max(0.0)).expect("valid σ"),
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            log: Vec::new(),
+        }
+    }
+
+    pub fn full_command(&self, y: &[f64]) -> [f64; NUM_SERVOS] {
+        let mut c = self.rest;
+        for (&i, &v) in self.controlled.iter().zip(y) {
+            c[i] = v;
+        }
+        c
+    }
+}
+
+impl Plant for SimPlant {
+    fn percept_dim(&self) -> usize {
+        2 * self.cameras
+    }
+    fn command_dim(&self) -> usize {
+        self.controlled.len()
+    }
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        self.sim
+            .servo_range(self.controlled[j])
+            .unwrap_or([0.0, 0.0])
+    }
+    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        let c = self.full_command(y);
+        self.sim.command(&c).map_err(|e| ServoError::Robot {
+            during: "command",
+            message: e.to_string(),
+        })
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        let t = truth(&self.sim);
+        self.log.push(t);
+        let mut x = Vec::with_capacity(2 * self.cameras);
+        for (cam, p) in t.px.iter().take(self.cameras).enumerate() {
+            let inside = p[0] >= 0.0
+                && p[1] >= 0.0
+                && p[0] < f64::from(self.size[0])
+                && p[1] < f64::from(self.size[1]);
+            if !inside {
+                return Err(ServoError::RecognitionFailed {
+                    camera: cam,
+                    certainty: 0.0,
+                    min: 0.5,
+                });
+            }
+            x.push(p[0] + self.noise.sample(&mut self.rng));
+            x.push(p[1] + self.noise.sample(&mut self.rng));
+        }
+        Ok(Observation { x, certainty: 1.0 })
+    }
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        let (w, h) = (f64::from(self.size[0]) - 1.0, f64::from(self.size[1]) - 1.0);
+        Some(
+            (0..self.cameras)
+                .flat_map(|_| [[0.0, w], [0.0, h]])
+                .collect(),
+        )
+    }
+}
+
+/// The ideal arm's image position of the tip for a full command (nominal servo mapping, no
+/// calibration error, backlash or sag), per camera.
+fn ideal_pixels(sim: &ArmSim, c: &[f64; NUM_SERVOS], cameras: usize) -> Option<Vec<f64>> {
+    let angles = sim.inspect().nominal_angles(c);
+    let pose = forward_kinematics(&sim.inspect().config().arm, &angles);
+    let tip: Vector3<f64> = pose.tip;
+    let mut x = Vec::with_capacity(2 * cameras);
+    for cam in 0..cameras {
+        let p = sim.inspect().project(cam, &tip).ok()?;
+        x.extend(p);
+    }
+    Some(x)
+}
+
+/// The analytic image Jacobian `∂x/∂y` of the ideal arm at the controlled command `y`
+/// (central differences of ±0.5 µs on the exact model: the upper-bound baseline).
+pub fn ideal_image_jacobian(plant: &SimPlant, y: &[f64]) -> servo_loop::Result<DMatrix<f64>> {
+    let n = 2 * plant.cameras;
+    let m = y.len();
+    let mut j = DMatrix::zeros(n, m);
+    let h = 0.5;
+    for k in 0..m {
+        let (mut yp, mut ym) = (y.to_vec(), y.to_vec());
+        yp[k] += h;
+        ym[k] -= h;
+        let xp = ideal_pixels(&plant.sim, &plant.full_command(&yp), plant.cameras);
+        let xm = ideal_pixels(&plant.sim, &plant.full_command(&ym), plant.cameras);
+        let (Some(xp), Some(xm)) = (xp, xm) else {
+            return Err(ServoError::InvalidParameter {
+                name: "ideal model",
+                reason: "the tip is behind a camera".into(),
+            });
+        };
+        for i in 0..n {
+            j[(i, k)] = (xp[i] - xm[i]) / (2.0 * h);
+        }
+    }
+    Ok(j)
+}

@@ -1,0 +1,499 @@
+//! Statistics, JSON, summary.md, SVG plots and the PNG strip of `eval servo`.
+
+use arm_sim::{ArmSim, SimConfig};
+use image::{Rgb, RgbImage};
+use plotters::prelude::*;
+use serde::Serialize;
+use servo_loop::{InverseModel, Observation, Plant, ServoConfig, servo_lwpr};
+
+use super::plant::SimPlant;
+use super::{EvalContext, Protocol, Study, Target, TargetResult, servo_config, write_json};
+use crate::Result;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct IterationStats {
+    pub iteration: usize,
+    pub median_px: f64,
+    pub p90_px: f64,
+    pub median_mm: f64,
+    pub p90_mm: f64,
+    pub success_rate: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodStats {
+    pub method: String,
+    pub targets: usize,
+    pub per_iteration: Vec<IterationStats>,
+    /// Median number of iterations until the true image error is ≤ `success_px` (runs that
+    /// never get there count as `K + 1`).
+    pub median_iterations_to_success: f64,
+    /// Runs whose percept error met the servo tolerance.
+    pub converged: usize,
+    /// Runs stopped by a typed error.
+    pub stopped_by_error: usize,
+}
+
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s.sort_by(f64::total_cmp);
+    let pos = q * (s.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    s[lo] + (pos - lo as f64) * (s[hi] - s[lo])
+}
+
+fn round6(x: f64) -> f64 {
+    (x * 1e6).round() / 1e6
+}
+
+pub fn method_stats(name: &str, results: &[TargetResult], p: &Protocol) -> MethodStats {
+    let k_max = results.first().map_or(0, |r| r.px.len().saturating_sub(1));
+    let per_iteration = (0..=k_max)
+        .map(|k| {
+            let px: Vec<f64> = results.iter().map(|r| r.px[k]).collect();
+            let mm: Vec<f64> = results.iter().map(|r| r.mm[k]).collect();
+            IterationStats {
+                iteration: k,
+                median_px: round6(quantile(&px, 0.5)),
+                p90_px: round6(quantile(&px, 0.9)),
+                median_mm: round6(quantile(&mm, 0.5)),
+                p90_mm: round6(quantile(&mm, 0.9)),
+                success_rate: round6(
+                    px.iter().filter(|&&e| e <= p.success_px).count() as f64
+                        / px.len().max(1) as f64,
+                ),
+            }
+        })
+        .collect();
+    let to_success: Vec<f64> = results
+        .iter()
+        .map(|r| {
+            r.px.iter()
+                .position(|&e| e <= p.success_px)
+                .unwrap_or(k_max + 1) as f64
+        })
+        .collect();
+    MethodStats {
+        method: name.to_string(),
+        targets: results.len(),
+        per_iteration,
+        median_iterations_to_success: quantile(&to_success, 0.5),
+        converged: results.iter().filter(|r| r.converged_at.is_some()).count(),
+        stopped_by_error: results.iter().filter(|r| r.error.is_some()).count(),
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CurvePoint {
+    pub training_moves: usize,
+    pub median_px_open_loop: f64,
+    pub median_px_after_5: f64,
+    pub median_mm_after_5: f64,
+    pub success_rate_after_5: f64,
+}
+
+pub fn curve_points(study: &Study) -> Vec<CurvePoint> {
+    study
+        .curve
+        .iter()
+        .map(|(k, r)| {
+            let s = method_stats("lwpr", r, &study.protocol);
+            let last = s.per_iteration.last().expect("iterations");
+            CurvePoint {
+                training_moves: *k,
+                median_px_open_loop: s.per_iteration[0].median_px,
+                median_px_after_5: last.median_px,
+                median_mm_after_5: last.median_mm,
+                success_rate_after_5: last.success_rate,
+            }
+        })
+        .collect()
+}
+
+/// The summary (markdown); deterministic.
+pub fn summary(study: &Study) -> String {
+    let p = &study.protocol;
+    let stats: Vec<MethodStats> = study
+        .per_method
+        .iter()
+        .map(|(m, r)| method_stats(m, r, p))
+        .collect();
+    let mut s = String::new();
+    s += "# Paper C: learned visual servoing on the simulated arm\n\n";
+    s += &format!(
+        "Seed {}; controlled servos {:?} (base, shoulder, elbow), others held at {:?} µs (redundancy: fixed wrist posture); \
+         {} random training moves ({} used); {} reachable targets; K = {} corrections; servo tolerance {} px; success = true image error ≤ {} px.\n\n",
+        p.seed,
+        p.controlled,
+        p.rest_us,
+        p.training_moves,
+        study.learn.used.min(p.training_moves),
+        p.targets,
+        p.iterations,
+        p.tolerance_px,
+        p.success_px
+    );
+    s += &format!(
+        "**Percept:** the simulator's true tip projection + Gaussian detection noise σ = {} px (papers.md §3.4), \
+         NOT the learned gripper recognition (evaluated separately below; it misses its goal). Errors are measured on ground truth \
+         (image error = RMS over both cameras of the true tip's pixel distance to the target; 3-D = tip distance in mm).\n\n",
+        p.noise_px
+    );
+    s += "## Error per iteration (median / p90 px, median mm, success rate)\n\n";
+    s += "| iteration |";
+    for st in &stats {
+        s += &format!(" {} |", st.method);
+    }
+    s += "\n|---|";
+    for _ in &stats {
+        s += "---|";
+    }
+    s += "\n";
+    for k in 0..=p.iterations {
+        s += &format!("| {k} |");
+        for st in &stats {
+            let it = &st.per_iteration[k];
+            s += &format!(
+                " {:.2} / {:.2} px, {:.2} mm, {:.0} % |",
+                it.median_px,
+                it.p90_px,
+                it.median_mm,
+                100.0 * it.success_rate
+            );
+        }
+        s += "\n";
+    }
+    s += "\n| method | median iterations to ≤ 1 px | converged (percept) | stopped by error |\n|---|---|---|---|\n";
+    for st in &stats {
+        s += &format!(
+            "| {} | {} | {} / {} | {} |\n",
+            st.method,
+            st.median_iterations_to_success,
+            st.converged,
+            st.targets,
+            st.stopped_by_error
+        );
+    }
+    s += "\n## Accuracy against training moves (lwpr, first ";
+    s += &format!(
+        "{} targets, 5 corrections)\n\n| training moves | open loop median px | median px after 5 | median mm after 5 | success after 5 |\n|---|---|---|---|---|\n",
+        p.curve_targets
+    );
+    for c in curve_points(study) {
+        s += &format!(
+            "| {} | {:.2} | {:.2} | {:.2} | {:.0} % |\n",
+            c.training_moves,
+            c.median_px_open_loop,
+            c.median_px_after_5,
+            c.median_mm_after_5,
+            100.0 * c.success_rate_after_5
+        );
+    }
+    if let Some(r) = &study.recognition {
+        s += "\n## Gripper recognition (learned from gripper moves, rendered images)\n\n";
+        s += &format!(
+            "{} training views (used per camera {:?}); {} test poses, gripper found in all cameras in {}; median certainty {:.3}.\n\n| camera | median error to true tip (px) | after removing the median offset (px) | within 30 px |\n|---|---|---|---|\n",
+            p.recognition_views, r.views_used, r.tests, r.found, r.median_certainty
+        );
+        for c in 0..r.median_px.len() {
+            s += &format!(
+                "| {c} | {:.1} | {:.1} | {:.0} % |\n",
+                r.median_px[c],
+                r.median_px_offset_removed[c],
+                100.0 * r.within_30px[c]
+            );
+        }
+    }
+    // Goal check.
+    s += "\n## Goals\n\n";
+    let lw = stats.iter().find(|s| s.method == "lwpr").expect("lwpr");
+    let br = stats
+        .iter()
+        .find(|s| s.method == "broyden")
+        .expect("broyden");
+    let at5 = &lw.per_iteration[5.min(lw.per_iteration.len() - 1)];
+    let check = |ok: bool| if ok { "met" } else { "MISSED" };
+    s += &format!(
+        "- median image error ≤ 0.5 px after ≤ 5 iterations: {:.2} px — {}{}\n",
+        at5.median_px,
+        check(at5.median_px <= 0.5),
+        if at5.median_px > 0.5 {
+            format!(" by {:.2} px", at5.median_px - 0.5)
+        } else {
+            String::new()
+        }
+    );
+    s += &format!(
+        "- median 3-D error ≤ 1 mm after ≤ 5 iterations: {:.2} mm — {}{}\n",
+        at5.median_mm,
+        check(at5.median_mm <= 1.0),
+        if at5.median_mm > 1.0 {
+            format!(" by {:.2} mm", at5.median_mm - 1.0)
+        } else {
+            String::new()
+        }
+    );
+    s += &format!(
+        "- from ≤ 2,000 training moves: {} — {}\n",
+        p.training_moves,
+        check(p.training_moves <= 2000)
+    );
+    s += &format!(
+        "- fewer iterations than Broyden (median iterations to ≤ 1 px): lwpr {} vs broyden {} — {}\n",
+        lw.median_iterations_to_success,
+        br.median_iterations_to_success,
+        check(lw.median_iterations_to_success < br.median_iterations_to_success)
+    );
+    match &study.recognition {
+        Some(r) => {
+            let worst = r.median_px.iter().copied().fold(0.0, f64::max);
+            s += &format!(
+                "- recognition median error ≤ 1 px: {:.1} px (worst camera) — {}{}\n",
+                worst,
+                check(worst <= 1.0),
+                if worst > 1.0 {
+                    format!(
+                        " by {:.1} px; the servo results above therefore use the noisy true percept",
+                        worst - 1.0
+                    )
+                } else {
+                    String::new()
+                }
+            );
+        }
+        None => s += "- recognition median error ≤ 1 px: not evaluated in this run\n",
+    }
+    s += "- whole `eval servo` under 3 minutes on 2 cores: see docs/performance.md (`## servo-loop`)\n";
+    s
+}
+
+fn plot_iterations(path: &std::path::Path, study: &Study) -> Result<()> {
+    let p = &study.protocol;
+    let stats: Vec<MethodStats> = study
+        .per_method
+        .iter()
+        .map(|(m, r)| method_stats(m, r, p))
+        .collect();
+    let root = SVGBackend::new(path, (720, 440)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let ymax = stats
+        .iter()
+        .flat_map(|s| s.per_iteration.iter().map(|i| i.median_px))
+        .fold(1.0, f64::max)
+        * 1.5;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "servo: median true image error per iteration",
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0f64..p.iterations as f64, (0.05f64..ymax).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("iteration")
+        .y_desc("median error (px)")
+        .draw()?;
+    let colours = [RED, BLUE, GREEN, MAGENTA];
+    for (st, c) in stats.iter().zip(colours) {
+        let pts: Vec<(f64, f64)> = st
+            .per_iteration
+            .iter()
+            .map(|i| (i.iteration as f64, i.median_px.max(0.05)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+            .label(st.method.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+fn plot_curve(path: &std::path::Path, study: &Study) -> Result<()> {
+    let pts = curve_points(study);
+    let root = SVGBackend::new(path, (720, 440)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let ymax = pts
+        .iter()
+        .map(|c| c.median_px_open_loop.max(c.median_px_after_5))
+        .fold(1.0, f64::max)
+        * 1.5;
+    let xmax = pts.iter().map(|c| c.training_moves).max().unwrap_or(100) as f64 * 1.2;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "lwpr: median true image error against training moves",
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(55)
+        .build_cartesian_2d((80f64..xmax).log_scale(), (0.05f64..ymax).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("training moves")
+        .y_desc("median error (px)")
+        .draw()?;
+    for (name, c, f) in [
+        (
+            "open loop",
+            RED,
+            (|c: &CurvePoint| c.median_px_open_loop) as fn(&CurvePoint) -> f64,
+        ),
+        ("after 5 corrections", BLUE, |c: &CurvePoint| {
+            c.median_px_after_5
+        }),
+    ] {
+        let series: Vec<(f64, f64)> = pts
+            .iter()
+            .map(|c| (c.training_moves as f64, f(c).max(0.05)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(series.clone(), c.stroke_width(2)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(
+            series
+                .iter()
+                .map(|&(x, y)| Circle::new((x, y), 3, c.filled())),
+        )?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// A plant that also renders camera 0 after every move.
+struct Filming<'a> {
+    inner: &'a mut SimPlant,
+    frames: Vec<(image::GrayImage, [f64; 2])>,
+}
+
+impl Plant for Filming<'_> {
+    fn percept_dim(&self) -> usize {
+        self.inner.percept_dim()
+    }
+    fn command_dim(&self) -> usize {
+        self.inner.command_dim()
+    }
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        self.inner.command_range(j)
+    }
+    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.inner.act(y)
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        let o = self.inner.observe()?;
+        let img = self.inner.sim.capture().swap_remove(0);
+        let tip = self.inner.log.last().map_or([f64::NAN; 2], |t| t.px[0]);
+        self.frames.push((img, tip));
+        Ok(o)
+    }
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        self.inner.percept_bounds()
+    }
+}
+
+/// Crops of camera 0 around the target after iterations 0..=5 of one `lwpr` run, side by
+/// side (×2 zoom): target = red cross, reached true tip = green ring.
+pub fn servo_strip(
+    config: &SimConfig,
+    p: &Protocol,
+    model: &InverseModel,
+    target: &Target,
+) -> Result<RgbImage> {
+    let sim = ArmSim::new(config.clone())?;
+    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, p.seed ^ 0x5771);
+    let mut film = Filming {
+        inner: &mut plant,
+        frames: Vec::new(),
+    };
+    let mut model = model.clone();
+    let cfg = ServoConfig {
+        max_iterations: 5,
+        tolerance: 0.0,
+        ..servo_config(p)
+    };
+    let _ = servo_lwpr(&mut film, &mut model, &target.x_w, &cfg);
+    let (half, zoom) = (40i64, 2i64);
+    let tile = (2 * half * zoom) as u32;
+    let n = film.frames.len().max(1) as u32;
+    let mut out = RgbImage::from_pixel(tile * n + 4 * (n - 1), tile, Rgb([255, 255, 255]));
+    let (tu, tv) = (target.x_w[0], target.x_w[1]);
+    let (cu, cv) = (tu.round() as i64, tv.round() as i64);
+    for (i, (img, tip)) in film.frames.iter().enumerate() {
+        let ox = i as u32 * (tile + 4);
+        for y in 0..tile as i64 {
+            for x in 0..tile as i64 {
+                let (sx, sy) = (cu - half + x / zoom, cv - half + y / zoom);
+                let g = if sx >= 0
+                    && sy >= 0
+                    && (sx as u32) < img.width()
+                    && (sy as u32) < img.height()
+                {
+                    img.get_pixel(sx as u32, sy as u32)[0]
+                } else {
+                    0
+                };
+                out.put_pixel(ox + x as u32, y as u32, Rgb([g, g, g]));
+            }
+        }
+        let to_tile = |u: f64, v: f64| {
+            (
+                ((u - (cu - half) as f64 + 0.5) * zoom as f64),
+                ((v - (cv - half) as f64 + 0.5) * zoom as f64),
+            )
+        };
+        let mut put = |x: f64, y: f64, c: Rgb<u8>| {
+            if x >= 0.0 && y >= 0.0 && x < f64::from(tile) && y < f64::from(tile) {
+                out.put_pixel(ox + x as u32, y as u32, c);
+            }
+        };
+        let (ax, ay) = to_tile(tu, tv);
+        for d in -8..=8 {
+            put(ax + f64::from(d), ay, Rgb([255, 0, 0]));
+            put(ax, ay + f64::from(d), Rgb([255, 0, 0]));
+        }
+        if tip[0].is_finite() {
+            let (bx, by) = to_tile(tip[0], tip[1]);
+            for a in 0..64 {
+                let t = f64::from(a) / 64.0 * std::f64::consts::TAU;
+                put(bx + 6.0 * t.cos(), by + 6.0 * t.sin(), Rgb([0, 200, 0]));
+            }
+        }
+    }
+    Ok(out)
+}
+
+pub fn write_all(ctx: &EvalContext, study: &Study) -> Result<()> {
+    let p = &study.protocol;
+    for (m, r) in &study.per_method {
+        write_json(&ctx.out_dir, &format!("{m}.json"), &method_stats(m, r, p))?;
+    }
+    write_json(&ctx.out_dir, "training-curve.json", &curve_points(study))?;
+    write_json(&ctx.out_dir, "protocol.json", p)?;
+    if let Some(r) = &study.recognition {
+        write_json(&ctx.out_dir, "recognition.json", r)?;
+    }
+    std::fs::write(ctx.out_dir.join("summary.md"), summary(study))?;
+    plot_iterations(&ctx.out_dir.join("error-per-iteration.svg"), study)?;
+    plot_curve(&ctx.out_dir.join("error-vs-training.svg"), study)?;
+    if let Some(strip) = &study.strip {
+        strip.save(ctx.out_dir.join("servo-run.png"))?;
+    }
+    Ok(())
+}
