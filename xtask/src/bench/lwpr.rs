@@ -4,6 +4,8 @@
 //! papers.md §4.6, seeds 1–3) and its rotation into 25 dimensions, plus the learning curve and
 //! the largest prediction difference (faithfulness).
 
+// Included by both the bench and the eval module (it is also the tests' harness).
+#[allow(clippy::duplicate_mod)]
 #[path = "../../../crates/lwpr/peer/harness.rs"]
 mod harness;
 

@@ -7,6 +7,8 @@
 //! fixture (building C code is not part of `eval`); `cargo xtask bench lwpr` prints both curves
 //! side by side, and `crates/lwpr/tests/reference.rs` checks that ours is bit-identical to it.
 
+// Included by both the bench and the eval module (it is also the tests' harness).
+#[allow(clippy::duplicate_mod)]
 #[path = "../../../crates/lwpr/peer/harness.rs"]
 mod harness;
 
