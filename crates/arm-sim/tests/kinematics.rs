@@ -109,3 +109,29 @@ fn gravity_torques_of_horizontal_arm_by_hand() {
     assert!(t0.iter().all(|v| v.abs() < 1e-12));
     assert_eq!(apply_sag(&g, &sag, &[0.0; 6])[1..4], [0.0; 3]);
 }
+
+mod properties {
+    use arm_sim::{ArmGeometry, forward_kinematics};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+        /// Rigid links: joint distances are the link lengths for any angles, the hand frame is
+        /// orthonormal, and the tip's horizontal direction is the base yaw.
+        #[test]
+        fn links_are_rigid(q in prop::array::uniform6(-90.0f64..90.0)) {
+            let g = ArmGeometry::default();
+            let p = forward_kinematics(&g, &q);
+            prop_assert!(((p.elbow - p.shoulder).norm() - g.upper_arm_mm).abs() < 1e-9);
+            prop_assert!(((p.wrist - p.elbow).norm() - g.forearm_mm).abs() < 1e-9);
+            prop_assert!(((p.tip - p.wrist).norm() - g.hand_mm).abs() < 1e-9);
+            prop_assert!((p.approach.norm() - 1.0).abs() < 1e-12);
+            prop_assert!(p.approach.dot(&p.opening_axis).abs() < 1e-12);
+            // Everything lies in the vertical plane of the base yaw.
+            let n = p.pitch_axis;
+            for v in [p.elbow, p.wrist, p.tip] {
+                prop_assert!(v.dot(&n).abs() < 1e-9);
+            }
+        }
+    }
+}
