@@ -269,6 +269,21 @@ pub fn best_two_brute_force(
 
 /// `e_min` of eq. 18 for every descriptor: its smallest error against every *other* descriptor
 /// of the same set (∞ for a set of one). Feed to [`crate::preselect`] for any `T_err`.
+///
+/// ```
+/// use fd_match::{describe_all, min_errors_within, preselect, DescriptorConfig, Method, Sampling};
+/// let square = vec![(0, 0), (10, 0), (10, 10), (0, 10)];
+/// let big_square = vec![(0, 0), (20, 0), (20, 20), (0, 20)]; // same shape: ambiguous
+/// let triangle = vec![(0, 0), (12, 0), (3, 8)];
+/// let cfg = DescriptorConfig::with_sampling(Sampling::Canonical);
+/// let set = describe_all(cfg, &[square, big_square, triangle]).unwrap().set;
+/// let method = Method::FdCorr;
+/// let t_err = method.paper_preselection_threshold(Sampling::Canonical).unwrap(); // 1e-3
+/// let keep = preselect(&min_errors_within(&set, method).unwrap(), t_err);
+/// assert_eq!(keep, vec![2]); // both squares are removed as non-discriminative
+/// let reduced = set.select(&keep).unwrap();
+/// assert_eq!(reduced.source(0), 2);
+/// ```
 pub fn min_errors_within(set: &DescriptorSet, method: Method) -> Result<Vec<f64>, FdError> {
     let (r, _) = run(set, set, method, true, true, true)?;
     Ok(r.iter()
