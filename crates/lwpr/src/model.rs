@@ -289,30 +289,30 @@ impl Lwpr {
             let a = x[i] - self.mean_x[i];
             self.var_x[i] = (self.var_x[i] * nd + a * a) * inv;
         }
-        let mut ws = std::mem::take(&mut self.ws);
+        let Lwpr {
+            params, sub, ws, ..
+        } = self;
         for i in 0..n {
-            ws.xn[i] = x[i] / self.params.norm_in[i];
+            ws.xn[i] = x[i] / params.norm_in[i];
         }
         for i in 0..m {
-            ws.yn[i] = y[i] / self.params.norm_out[i];
+            ws.yn[i] = y[i] / params.norm_out[i];
         }
         for dim in 0..m {
             let yn = ws.yn[dim];
-            let act = self.update_sub(dim, yn, &mut ws);
+            let act = Self::update_sub(params, &mut sub[dim], yn, ws);
             let yp = if act.sum_w > 0.0 {
                 act.yp / act.sum_w
             } else {
                 0.0
             };
-            y_pred[dim] = yp * self.params.norm_out[dim];
-            self.add_or_prune(dim, &act, yn, &ws.xn);
+            y_pred[dim] = yp * params.norm_out[dim];
+            Self::add_or_prune(params, &mut sub[dim], &act, yn, &ws.xn);
         }
-        self.ws = ws;
         Ok(())
     }
 
-    fn update_sub(&mut self, dim: usize, yn: f64, ws: &mut Workspace) -> Activity {
-        let p = &self.params;
+    fn update_sub(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
         let n = p.n_in;
         let mut act = Activity {
             w_max: 0.0,
@@ -332,7 +332,7 @@ impl Lwpr {
             Kernel::Gaussian => -2.0 * threshold.ln() * (1.0 + 1e-9) + 1e-9,
             Kernel::BiSquare => f64::INFINITY,
         };
-        for (k, rf) in self.sub[dim].rfs.iter_mut().enumerate() {
+        for (k, rf) in sub.rfs.iter_mut().enumerate() {
             for i in 0..n {
                 ws.xc[i] = xn[i] - rf.c[i];
             }
@@ -376,9 +376,7 @@ impl Lwpr {
         act
     }
 
-    fn add_or_prune(&mut self, dim: usize, act: &Activity, yn: f64, xn: &[f64]) {
-        let p = &self.params;
-        let sub = &mut self.sub[dim];
+    fn add_or_prune(p: &Params, sub: &mut SubModel, act: &Activity, yn: f64, xn: &[f64]) {
         if act.w_max <= p.w_gen {
             let template = match act.ind_max {
                 Some(k) if act.w_max > 0.1 * p.w_gen && sub.rfs[k].trustworthy => Some(&sub.rfs[k]),
