@@ -76,3 +76,58 @@ pub(crate) fn affine_invariants(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::descriptor::fd_index;
+
+    fn fd(k: usize, coeffs: &[(isize, Complex64)]) -> Vec<Complex64> {
+        let mut v = vec![Complex64::new(0.0, 0.0); 2 * k];
+        for &(n, c) in coeffs {
+            v[fd_index(n, k)] = c;
+        }
+        v
+    }
+
+    #[test]
+    fn degenerate_first_harmonic_is_an_error() {
+        // C(1) = C(−1): the first harmonic is the line x = cos t, so Δ₁₁ = 0.
+        let k = 3;
+        let v = fd(
+            k,
+            &[
+                (1, Complex64::new(0.5, 0.0)),
+                (-1, Complex64::new(0.5, 0.0)),
+                (2, Complex64::new(0.0, 0.3)),
+            ],
+        );
+        let (mut a0, mut a1) = (
+            vec![0.0; 2 * k - 1],
+            vec![Complex64::new(0.0, 0.0); 2 * k - 1],
+        );
+        assert_eq!(
+            affine_invariants(&v, k, &mut a0, &mut a1),
+            Err(FdError::DegenerateFirstHarmonic)
+        );
+    }
+
+    #[test]
+    fn ellipses_map_to_the_zero_vector() {
+        let k = 3;
+        let v = fd(
+            k,
+            &[
+                (1, Complex64::new(0.8, 0.1)),
+                (-1, Complex64::new(0.2, -0.3)),
+            ],
+        );
+        let (mut a0, mut a1) = (
+            vec![1.0; 2 * k - 1],
+            vec![Complex64::new(1.0, 0.0); 2 * k - 1],
+        );
+        affine_invariants(&v, k, &mut a0, &mut a1).unwrap();
+        assert!(a0.iter().all(|&x| x == 0.0));
+        assert!(a1.iter().all(|x| x.norm_sqr() == 0.0));
+    }
+}

@@ -92,10 +92,9 @@ fn describe_all_collects_rejections_in_input_order() {
 }
 
 #[test]
-fn degenerate_first_harmonic_is_reported() {
-    // A contour whose first harmonic is a line: a thin symmetric "bow tie"-free shape is hard
-    // to build from pixels, so check the public guarantee instead: every accepted descriptor
-    // has finite AFDs.
+fn accepted_descriptors_have_finite_afds() {
+    // (The `DegenerateFirstHarmonic` error itself is unit-tested on an exact FD in `afd.rs`:
+    // resampled polygons practically never hit it exactly.)
     let d = ex().describe(&[(0, 0), (9, 0), (9, 1), (0, 1)]).unwrap();
     assert!(d.afd0.iter().all(|v| v.is_finite()));
     assert!(d.afd1.iter().all(|v| v.re.is_finite() && v.im.is_finite()));
