@@ -27,6 +27,32 @@ enum Solid {
     },
 }
 
+/// Bounding sphere `[x, y, z, r]` of a solid (a cheap, allocation-free reject test).
+fn bounding_sphere(solid: &Solid) -> [f64; 4] {
+    match solid {
+        Solid::Cuboid { centre, half, .. } => [centre.x, centre.y, centre.z, half.norm()],
+        Solid::Cylinder {
+            x,
+            y,
+            radius,
+            z0,
+            z1,
+        } => {
+            let h = 0.5 * (z1 - z0);
+            [*x, *y, 0.5 * (z0 + z1), radius.hypot(h)]
+        }
+    }
+}
+
+/// Whether the ray `o + t d` (unit `d`) passes within the sphere `s`.
+#[inline]
+fn ray_meets_sphere(o: &[f64; 3], d: &[f64; 3], s: &[f64; 4]) -> bool {
+    let w = [s[0] - o[0], s[1] - o[1], s[2] - o[2]];
+    let tca = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+    let w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    w2 - tca * tca <= s[3] * s[3] && (tca > 0.0 || w2 <= s[3] * s[3])
+}
+
 /// The ray's first hit on a solid: distance and outward unit normal.
 fn intersect(solid: &Solid, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
     match solid {
@@ -163,15 +189,15 @@ fn solids(scene: &SceneConfig, arm: &ArmGeometry) -> Vec<(Solid, f64)> {
 fn trace(
     scene: &SceneConfig,
     light: &Vector3<f64>,
-    solids: &[(Solid, f64)],
-    o: &Vector3<f64>,
-    d: &Vector3<f64>,
+    solids: &[(Solid, f64, [f64; 4])],
+    o: &[f64; 3],
+    d: &[f64; 3],
 ) -> (f64, f64) {
     let mut best = (scene.background_grey, f64::INFINITY);
     let t = &scene.table;
-    if d.z < 0.0 {
-        let tt = -o.z / d.z;
-        let (x, y) = (o.x + tt * d.x, o.y + tt * d.y);
+    if d[2] < 0.0 {
+        let tt = -o[2] / d[2];
+        let (x, y) = (o[0] + tt * d[0], o[1] + tt * d[1]);
         if x >= t.x_range_mm[0]
             && x <= t.x_range_mm[1]
             && y >= t.y_range_mm[0]
@@ -179,11 +205,16 @@ fn trace(
         {
             let albedo =
                 t.albedo * (1.0 + t.texture_contrast * table_pattern(x, y, t.texture_seed));
-            best = (lambert(scene, light, albedo, &Vector3::z()), tt);
+            let lit = scene.ambient + (1.0 - scene.ambient) * light.z.max(0.0);
+            best = (scene.exposure * albedo * lit, tt);
         }
     }
-    for (solid, albedo) in solids {
-        if let Some((tt, n)) = intersect(solid, o, d)
+    for (solid, albedo, sphere) in solids {
+        if !ray_meets_sphere(o, d, sphere) {
+            continue;
+        }
+        let (ov, dv) = (Vector3::from(*o), Vector3::from(*d));
+        if let Some((tt, n)) = intersect(solid, &ov, &dv)
             && tt < best.1
         {
             best = (lambert(scene, light, *albedo, &n), tt);
@@ -199,10 +230,16 @@ impl Background {
     pub fn render(camera: &Camera, scene: &SceneConfig, arm: &ArmGeometry) -> Self {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let light = Vector3::from(scene.light_direction).normalize();
-        let solids = solids(scene, arm);
-        let o = camera.centre;
+        let solids: Vec<(Solid, f64, [f64; 4])> = solids(scene, arm)
+            .into_iter()
+            .map(|(s, a)| {
+                let b = bounding_sphere(&s);
+                (s, a, b)
+            })
+            .collect();
+        let o = [camera.centre.x, camera.centre.y, camera.centre.z];
         let rt = camera.rotation.transpose();
-        let centre_rays: Vec<Vector3<f64>> = (0..h)
+        let centre_rays: Vec<[f64; 3]> = (0..h)
             .flat_map(|v| (0..w).map(move |u| (u as f64, v as f64)))
             .map(|(u, v)| {
                 // A validated camera undistorts every pixel; fall back to the distorted
@@ -210,7 +247,8 @@ impl Background {
                 let [x, y] = camera
                     .undistort(u, v)
                     .unwrap_or([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy]);
-                (rt * Vector3::new(x, y, 1.0)).normalize()
+                let r = (rt * Vector3::new(x, y, 1.0)).normalize();
+                [r.x, r.y, r.z]
             })
             .collect();
         let mut radiance = Vec::with_capacity(w * h);
@@ -219,15 +257,20 @@ impl Background {
         for v in 0..h {
             for u in 0..w {
                 let c = centre_rays[v * w + u];
-                rays.push([c.x as f32, c.y as f32, c.z as f32]);
+                rays.push([c[0] as f32, c[1] as f32, c[2] as f32]);
                 let (ul, ur) = (u.saturating_sub(1), (u + 1).min(w - 1));
                 let (vu, vd) = (v.saturating_sub(1), (v + 1).min(h - 1));
-                let du = (centre_rays[v * w + ur] - centre_rays[v * w + ul]) / (ur - ul) as f64;
-                let dv = (centre_rays[vd * w + u] - centre_rays[vu * w + u]) / (vd - vu) as f64;
+                let (cl, cr) = (centre_rays[v * w + ul], centre_rays[v * w + ur]);
+                let (cu, cd) = (centre_rays[vu * w + u], centre_rays[vd * w + u]);
+                let (nu, nv) = ((ur - ul) as f64, (vd - vu) as f64);
+                let du: [f64; 3] = std::array::from_fn(|k| (cr[k] - cl[k]) / nu);
+                let dv: [f64; 3] = std::array::from_fn(|k| (cd[k] - cu[k]) / nv);
                 let mut sum = 0.0;
                 let mut near = f64::INFINITY;
                 for (su, sv) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
-                    let d = (c + du * su + dv * sv).normalize();
+                    let mut d: [f64; 3] = std::array::from_fn(|k| c[k] + du[k] * su + dv[k] * sv);
+                    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    d.iter_mut().for_each(|x| *x /= n);
                     let (g, t) = trace(scene, &light, &solids, &o, &d);
                     sum += g;
                     near = near.min(t);
