@@ -3,9 +3,10 @@
 use crate::error::Result;
 use crate::image::GrayView;
 use crate::params::{MserParams, Polarities};
-use crate::region::{BoundingBox, Moments, Polarity, Region};
+use crate::region::{Polarity, Region};
 use crate::select::Selector;
-use crate::tree::{NONE, Tree, TreeBuilder};
+use crate::stats::{Summer, Sums};
+use crate::tree::{Tree, TreeBuilder};
 
 /// Buffers for one polarity, reused between images.
 #[derive(Debug, Default)]
@@ -13,7 +14,9 @@ struct Workspace {
     builder: TreeBuilder,
     tree: Tree,
     selector: Selector,
+    summer: Summer,
     picked: Vec<(u32, f64)>,
+    sums: Vec<Sums>,
 }
 
 impl Workspace {
@@ -25,44 +28,28 @@ impl Workspace {
         out: &mut Vec<Region>,
     ) {
         let invert = polarity == Polarity::Bright;
-        self.builder.build(
-            img,
-            invert,
-            params.min_area,
-            params.max_area,
-            &mut self.tree,
-        );
+        self.builder.build(img, invert, &mut self.tree);
         self.picked.clear();
         self.selector.select(&self.tree, params, &mut self.picked);
+        self.sums.clear();
+        self.summer.sums(
+            &self.tree,
+            self.picked.iter().map(|&(id, _)| id),
+            &mut self.sums,
+        );
         let t = &self.tree;
         let start = out.len();
-        for &(id, variation) in &self.picked {
-            let i = id as usize;
-            let s = t.stats[t.stat[i] as usize];
-            debug_assert!(t.stat[i] != NONE);
-            let n = t.area[i] as u64;
-            let level = if invert { 255 - t.level[i] } else { t.level[i] };
+        for (&(id, variation), s) in self.picked.iter().zip(&self.sums) {
+            let node = &t.nodes[id as usize];
+            let level = node.level as u8;
             out.push(Region {
                 polarity,
-                level,
-                seed: t.xy(t.seed[i]),
-                area: t.area[i],
+                level: if invert { 255 - level } else { level },
+                seed: t.xy(node.seed),
+                area: node.area,
                 variation,
-                bbox: BoundingBox {
-                    x_min: s.x0,
-                    y_min: s.y0 - 1,
-                    x_max: s.x1,
-                    y_max: s.y1 - 1,
-                },
-                // Undo the padding offset of y exactly: y = y_p − 1.
-                moments: Moments {
-                    n,
-                    sx: s.sx,
-                    sy: s.sy - n,
-                    sxx: s.sxx,
-                    sxy: s.sxy - s.sx,
-                    syy: s.syy + n - 2 * s.sy,
-                },
+                bbox: s.bbox(),
+                moments: s.moments(node.area),
             });
         }
         out[start..].sort_by_key(|r| (r.level_key(), r.seed.1, r.seed.0));

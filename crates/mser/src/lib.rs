@@ -83,10 +83,13 @@
 //! level or merged into the component below; each such event closes one tree node. There is no
 //! union-find over the image and no sorting. Time is O(pixels · 4) plus O(nodes · Δ) for the
 //! variation walks; memory is O(pixels) in flat arrays (padded grey levels, the boundary stacks,
-//! and a few integers per node), allocated once per [`Mser`] and reused. Moments are accumulated
-//! per pixel in exact integer sums; a node's moments are stored only when its area is in the
-//! reportable range. Pixel lists are not stored: [`Region::pixels`] refills them from the seed in
-//! O(area) and [`Region::contour`] follows the boundary in O(perimeter).
+//! the flood order, and six integers per node), allocated once per [`Mser`] and reused. Since
+//! open components only ever merge into the one directly below them, every node's pixels are one
+//! contiguous run of the flood order; so the flood accumulates no moments at all, and the exact
+//! integer moments and bounding boxes are summed afterwards over the runs of the selected regions
+//! only, each pixel read at most once (nested selected regions reuse their inner sums). Pixel
+//! lists are not stored: [`Region::pixels`] refills them from the seed in O(area) and
+//! [`Region::contour`] follows the boundary in O(perimeter).
 //!
 //! # Regions, ellipses and contours
 //!
@@ -169,6 +172,7 @@ mod params;
 mod pixels;
 mod region;
 mod select;
+mod stats;
 mod tree;
 
 pub use contour::trace_outer_contour;

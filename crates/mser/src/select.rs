@@ -14,30 +14,29 @@ pub struct Selector {
 }
 
 impl Selector {
-    /// Appends the ids of the selected nodes to `out` (in id order).
+    /// Appends the ids of the selected nodes and their variations to `out` (in id order).
     pub fn select(&mut self, tree: &Tree, p: &MserParams, out: &mut Vec<(u32, f64)>) {
-        let n = tree.len();
+        let nodes = &tree.nodes[..];
+        let n = nodes.len();
         let min_area = p.min_area.min(u32::MAX as usize) as u32;
         let max_area = p.max_area.min(u32::MAX as usize) as u32;
         let delta = p.delta as u32;
-        let (level, area, parent) = (&tree.level, &tree.area, &tree.parent);
 
         // Main (largest, then first in raster order) child, for the downward part of the measure.
         let main = &mut self.main_child;
         main.clear();
         main.resize(n, NONE);
         if p.variation == Variation::Symmetric {
-            for i in 0..n {
-                let q = parent[i];
-                if q == NONE {
+            for (i, c) in nodes.iter().enumerate() {
+                if c.parent == NONE {
                     continue;
                 }
-                let m = main[q as usize];
-                if m == NONE
-                    || area[i] > area[m as usize]
-                    || (area[i] == area[m as usize] && tree.seed[i] < tree.seed[m as usize])
-                {
-                    main[q as usize] = i as u32;
+                let m = main[c.parent as usize];
+                if m == NONE || {
+                    let mc = &nodes[m as usize];
+                    c.area > mc.area || (c.area == mc.area && c.seed < mc.seed)
+                } {
+                    main[c.parent as usize] = i as u32;
                 }
             }
         }
@@ -46,69 +45,63 @@ impl Selector {
         let var = &mut self.var;
         var.clear();
         var.resize(n, f64::NAN);
-        for i in 0..n {
-            if area[i] < min_area {
+        for (i, c) in nodes.iter().enumerate() {
+            if c.area < min_area {
                 continue;
             }
-            let g = level[i] as u32;
-            let mut up = i;
-            while parent[up] != NONE && level[parent[up] as usize] as u32 <= g + delta {
-                up = parent[up] as usize;
+            let g = c.level;
+            let mut up = c;
+            while up.parent != NONE && nodes[up.parent as usize].level <= g + delta {
+                up = &nodes[up.parent as usize];
             }
             let lower = match p.variation {
-                Variation::Upward => area[i],
+                Variation::Upward => c.area,
                 Variation::Symmetric => {
                     // The smallest region on the largest-child chain whose level is >= g − Δ.
                     let mut m = i;
                     loop {
-                        let c = main[m];
-                        if c == NONE || level[c as usize] as u32 + delta < g {
-                            break area[m];
+                        let ch = main[m];
+                        if ch == NONE || nodes[ch as usize].level + delta < g {
+                            break nodes[m].area;
                         }
-                        m = c as usize;
+                        m = ch as usize;
                     }
                 }
             };
-            var[i] = (area[up] - lower) as f64 / area[i] as f64;
+            var[i] = (up.area - lower) as f64 / c.area as f64;
         }
 
-        // Maximally stable and admissible candidates.
+        // Maximally stable and admissible candidates: no larger variation than the parent and
+        // than any child of at least `min_area` pixels.
         let cand = &mut self.cand;
         cand.clear();
-        cand.resize(n, false);
-        for i in 0..n {
-            let a = area[i];
-            let q = parent[i];
-            if q == NONE || a < min_area || a > max_area || var[i] > p.max_variation {
+        cand.resize(n, true); // until a child beats it; children come before their parent
+        for (i, c) in nodes.iter().enumerate() {
+            let q = c.parent;
+            if q == NONE || c.area < min_area {
+                cand[i] = false;
                 continue;
             }
-            if var[i] > var[q as usize] {
-                continue;
+            let q = q as usize;
+            if var[q] > var[i] {
+                cand[q] = false;
             }
-            let mut c = tree.first_child[i];
-            let mut ok = true;
-            while c != NONE {
-                if area[c as usize] >= min_area && var[i] > var[c as usize] {
-                    ok = false;
-                    break;
-                }
-                c = tree.next_sibling[c as usize];
-            }
-            cand[i] = ok;
+            cand[i] =
+                cand[i] && c.area <= max_area && var[i] <= p.max_variation && var[i] <= var[q];
         }
 
         // Diversity: drop a candidate that holds a smaller candidate covering most of it.
         let best = &mut self.best_desc;
         best.clear();
         best.resize(n, 0);
-        for i in 0..n {
-            let val = if cand[i] { area[i] } else { best[i] };
-            let q = parent[i];
+        for (i, c) in nodes.iter().enumerate() {
+            let val = if cand[i] { c.area } else { best[i] };
+            let q = c.parent;
             if q != NONE && best[q as usize] < val {
                 best[q as usize] = val;
             }
             if cand[i] {
-                let a = area[i];
+                let a = c.area;
                 let b = best[i];
                 let similar = b > 0 && ((a - b) as f64 / a as f64) < p.min_diversity;
                 if !similar {

@@ -1,0 +1,61 @@
+//! A fixed workload for instruction counting under callgrind, where wall-clock time is too noisy
+//! (a shared, loaded machine): one warm-up detection, then one measured detection in a function
+//! of its own, with ours or OpenCV's detector (feature `opencv`), both polarities, default
+//! parameters.
+//!
+//! ```text
+//! cargo build --release -p mser --features opencv --example instructions
+//! valgrind --tool=callgrind --toggle-collect='*instructions*measured*' \
+//!     target/release/examples/instructions ours|opencv IMAGE.png
+//! ```
+//!
+//! The `Collected` total of each run is the instruction count of one steady-state detection
+//! (buffers already allocated); the ratio of the two is the instruction-count ratio.
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(which), Some(path)) = (args.first(), args.get(1)) else {
+        eprintln!("usage: instructions ours|opencv IMAGE.png");
+        std::process::exit(2);
+    };
+    let gray = mser::load_gray(path)?;
+    let img = mser::GrayView::from_image(&gray)?;
+    let params = mser::MserParams::default();
+    let n = match which.as_str() {
+        "ours" => {
+            let mut det = mser::Mser::new(params)?;
+            det.detect(&img)?;
+            measured_ours(&mut det, &img)?
+        }
+        "opencv" => opencv(&img, &params)?,
+        other => return Err(format!("unknown detector {other}").into()),
+    };
+    println!("{which}: {n} regions");
+    Ok(())
+}
+
+#[inline(never)]
+fn measured_ours(det: &mut mser::Mser, img: &mser::GrayView) -> mser::Result<usize> {
+    Ok(det.detect(img)?.len())
+}
+
+#[cfg(feature = "opencv")]
+fn opencv(img: &mser::GrayView, params: &mser::MserParams) -> mser::Result<usize> {
+    #[inline(never)]
+    fn measured_opencv(cv: &mut mser::OpenCvMser, mat: &opencv::core::Mat) -> mser::Result<usize> {
+        cv.detect_mat(mat)
+    }
+    mser::set_opencv_threads(1)?;
+    let mut cv = mser::OpenCvMser::new(params)?;
+    let mat = mser::OpenCvMser::mat(img)?;
+    cv.detect_mat(&mat)?;
+    measured_opencv(&mut cv, &mat)
+}
+
+#[cfg(not(feature = "opencv"))]
+fn opencv(_: &mser::GrayView, _: &mser::MserParams) -> mser::Result<usize> {
+    Err(mser::MserError::InvalidParameter {
+        name: "detector",
+        reason: "build with --features opencv".into(),
+    })
+}
