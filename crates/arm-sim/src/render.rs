@@ -629,3 +629,46 @@ fn box_distance(p: &V3, half: &V3) -> f32 {
     );
     q.norm()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Brute-force distance from a 2-D point to the segment `p0 p1`.
+    fn segment_distance(p: [f64; 2], p0: [f64; 2], p1: [f64; 2]) -> f64 {
+        let (dx, dy) = (p1[0] - p0[0], p1[1] - p0[1]);
+        let l2 = dx * dx + dy * dy;
+        let s = if l2 > 0.0 {
+            (((p[0] - p0[0]) * dx + (p[1] - p0[1]) * dy) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p[0] - p0[0] - s * dx).hypot(p[1] - p0[1] - s * dy)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// The row span is exactly the set of row points within the radius of the segment.
+        #[test]
+        fn stadium_row_span_matches_brute_force(
+            x0 in 0.0f64..100.0, y0 in 0.0f64..100.0,
+            x1 in 0.0f64..100.0, y1 in 0.0f64..100.0,
+            radius in 0.5f64..20.0, y in -10.0f64..110.0,
+        ) {
+            let st = Stadium { p0: [x0, y0], p1: [x1, y1], radius };
+            let span = st.row_span(y);
+            for i in 0..=400 {
+                let x = -30.0 + i as f64 * 0.4;
+                let d = segment_distance([x, y], st.p0, st.p1);
+                let inside = span.is_some_and(|(lo, hi)| x >= lo - 1e-9 && x <= hi + 1e-9);
+                if d < radius - 1e-6 {
+                    prop_assert!(inside, "x {x}: distance {d} < {radius} but span {span:?}");
+                }
+                if d > radius + 1e-6 {
+                    prop_assert!(!inside, "x {x}: distance {d} > {radius} but span {span:?}");
+                }
+            }
+        }
+    }
+}
