@@ -29,6 +29,11 @@
 //! [`ArmSim::inspect`] ([`Inspection`]): true joint angles, 3-D pose, projection of any point,
 //! per-pixel part labels.
 //!
+//! ## Not modelled (by design or not yet)
+//! Collisions other than with the table (links with each other or with the base, the arm with
+//! clutter objects, which are scenery only); servo dynamics (a command returns the settled pose);
+//! cast shadows, colour, motion blur and rolling shutter; a TOML configuration (JSON only).
+//!
 //! ```
 //! use arm_sim::{ArmSim, SimConfig};
 //! // (Quarter-size images keep this example quick; the default is 640×480.)
