@@ -246,6 +246,12 @@ fn subtracting_the_background_removes_the_floor() {
         CbtModel::learn_sequences(space.clone(), cfg, &train).unwrap()
     };
     let (keep, sub) = (model(Clutter::Model), model(Clutter::Subtract));
+    // Clutter::Uniform learns the same background-free matrix (its clutter term is added
+    // at filtering time).
+    assert_eq!(
+        model(Clutter::Uniform).observation_matrix(0),
+        sub.observation_matrix(0)
+    );
     let n = space.axis_len(0);
     let far = |m: &CbtModel| {
         let o = m.observation_matrix(0).unwrap();
