@@ -6,14 +6,19 @@
 //! and then position it in closed loop. This crate is that method, for any [`Robot`] (send a
 //! command, capture images); it knows nothing about a particular arm or simulator.
 //!
-//! ## 1. Recognition learned from action ([`GripperModel`])
+//! ## 1. Recognition learned from action ([`GripperModel`], [`learn_recognition`])
 //! Action precedes perception: the learner opens and closes the gripper servo at random poses
 //! and takes the image difference; the pixels that change are the fingers, and the robust
 //! centroid of the change is the *gripper point*. Around it, a **channel-coded feature map**
-//! (spatial × orientation channels of image gradients, built with `chan-repr`; papers.md §1.4)
-//! is averaged over the training views. A new image is searched for the map (cosine
-//! similarity, coarse-to-fine, sub-pixel peak), giving the gripper point and a certainty.
-//!
+//! (spatial B-spline channels × cyclic cos² channels of the double-angle gradient orientation,
+//! plus grey-level channels, built with `chan-repr`; papers.md §1.4) is sampled in every
+//! training view; the samples are clustered into a few prototypes per camera, minus the mean
+//! background descriptor. A new image is searched for the prototypes (normalised
+//! cross-correlation, coarse-to-fine, sub-pixel peak), giving the gripper point and a
+//! certainty. **Status:** the change detection is reliable (tests), the localisation in a
+//! single new image is not yet (see `fixtures/paper-c/summary.md`: tens of pixels median error
+//! in the default scene, whose striped table and similar-looking arm parts confuse it).
+
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
 //! set-points, see [`ControlSpace`]), the percept `x` each produces (the gripper point in every
@@ -29,8 +34,10 @@
 //!
 //! ## Convergence (what the tests prove on an analytic plant)
 //! With `x = g(y)` smooth and `J` the exact inverse Jacobian at the current point, the update
-//! is Newton's method on `g(y) = x_w`: `e_{k+1} ≤ C e_k²`. With `J` fixed at the target (or
-//! approximate), it is a chord method: `e_{k+1} ≈ ‖I − J_img J‖ e_k`, linear.
+//! is Newton's method on `g(y) = x_w`: `e_{k+1} ≤ C e_k²`. With an approximate `J` it is a
+//! chord method: `e_{k+1} ≈ ‖I − J_img J‖ e_k`, linear. (The exact Jacobian *of the target*,
+//! held fixed, is exact at the solution, so it too converges superlinearly near it; the
+//! learned one is only approximate, hence linear in practice.)
 //!
 //! ## Errors
 //! Typed ([`ServoError`]): recognition failure, command outside the servo range, target

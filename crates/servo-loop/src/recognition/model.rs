@@ -8,8 +8,11 @@
 //! normalised to unit length and clustered (spherical k-means, deterministic farthest-point
 //! start) into a few prototypes per camera: the gripper looks different from different sides.
 //!
-//! **Localisation.** The score of a position is the largest cosine similarity between its
-//! descriptor and a prototype. A coarse search (every second spatial channel over the image,
+//! Each prototype then has the mean descriptor of background positions (a grid away from the
+//! gripper) subtracted, and is normalised to zero mean and unit length.
+//!
+//! **Localisation.** The score of a position is the largest normalised cross-correlation
+//! between its descriptor and a prototype. A coarse search (every second spatial channel over the image,
 //! or every channel within a radius of a hint), hill climbing on the channel grid from the best
 //! three coarse candidates, a 1-pixel grid over ±1 channel, and a parabola through the best
 //! score and its neighbours give a sub-pixel position; its score is the certainty.

@@ -1,0 +1,123 @@
+//! Recognition building blocks on synthetic images: the feature map is shift-equivariant by
+//! whole spatial channels, the change region of a moved bright square is its new-and-old
+//! area, and localisation finds a learned pattern at a shifted place.
+
+use image::{GrayImage, Luma};
+use proptest::prelude::*;
+use servo_loop::recognition::change::changed_region;
+use servo_loop::recognition::features::{FeatureMap, FeatureParams};
+use servo_loop::recognition::image::{full_to_half, half_resolution, half_to_full};
+use servo_loop::recognition::model::TrainingView;
+use servo_loop::{GripperModel, RecognitionConfig};
+
+fn scene(w: u32, h: u32, square: Option<(u32, u32, u32)>, seed: u32) -> GrayImage {
+    let mut img = GrayImage::from_fn(w, h, |x, y| {
+        // Deterministic low-contrast texture.
+        let v = 90 + ((x.wrapping_mul(7) ^ y.wrapping_mul(13) ^ seed) % 9) as u8;
+        Luma([v])
+    });
+    if let Some((sx, sy, s)) = square {
+        for y in sy..(sy + s).min(h) {
+            for x in sx..(sx + s / 3).min(w) {
+                img.put_pixel(x, y, Luma([220]));
+            }
+            for x in (sx + 2 * s / 3)..(sx + s).min(w) {
+                img.put_pixel(x, y, Luma([220]));
+            }
+        }
+    }
+    img
+}
+
+#[test]
+fn coordinates_round_trip() {
+    for f in [0.0, 0.5, 17.25, 639.0] {
+        assert!((half_to_full(full_to_half(f)) - f).abs() < 1e-12);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+    /// Shifting the image by a whole spatial channel (2·block full pixels) shifts the map by
+    /// one channel, away from the borders.
+    #[test]
+    fn feature_map_is_shift_equivariant(sx in 40u32..80, sy in 40u32..60, k in 1u32..3) {
+        let p = FeatureParams { block: 3, orientations: 8, magnitude_half: 40.0, intensities: 0 };
+        let shift = 6 * k;
+        let a = scene(240, 200, Some((sx, sy, 30)), 0);
+        // The same scene content moved right by `shift` (texture included).
+        let b = GrayImage::from_fn(240, 200, |x, y| if x >= shift { *a.get_pixel(x - shift, y) } else { Luma([90]) });
+        let ma = FeatureMap::compute(&half_resolution(&a), &p).unwrap();
+        let mb = FeatureMap::compute(&half_resolution(&b), &p).unwrap();
+        let (mut da, mut db) = (Vec::new(), Vec::new());
+        let (tx, ty) = (ma.to_channel(f64::from(sx + 15)), ma.to_channel(f64::from(sy + 15)));
+        ma.descriptor(tx.round(), ty.round(), 6, &mut da);
+        mb.descriptor(tx.round() + f64::from(k), ty.round(), 6, &mut db);
+        // Background normalisation divides by image-wide means, which the shift changes
+        // slightly (the filled strip): compare after normalising.
+        let na: f32 = da.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let nb: f32 = db.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let cos: f32 = da.iter().zip(&db).map(|(x, y)| x * y).sum::<f32>() / (na * nb);
+        prop_assert!(cos > 0.995, "cosine {}", cos);
+    }
+}
+
+#[test]
+fn change_region_is_where_the_object_moved() {
+    let a = scene(320, 240, Some((100, 80, 30)), 1);
+    let b = scene(320, 240, Some((110, 80, 30)), 1);
+    let r = changed_region(&half_resolution(&a), &half_resolution(&b), 5).expect("a change");
+    // The union of old and new position spans x ∈ [100, 140), y ∈ [80, 110).
+    assert!(
+        r.centroid[0] > 100.0 && r.centroid[0] < 140.0,
+        "{:?}",
+        r.centroid
+    );
+    assert!((r.centroid[1] - 95.0).abs() < 6.0, "{:?}", r.centroid);
+    // Identical images, or a global brightness change only: nothing.
+    assert!(changed_region(&half_resolution(&a), &half_resolution(&a), 5).is_none());
+    let brighter = GrayImage::from_fn(320, 240, |x, y| {
+        Luma([(f32::from(a.get_pixel(x, y)[0]) * 1.05) as u8])
+    });
+    assert!(changed_region(&half_resolution(&a), &half_resolution(&brighter), 5).is_none());
+}
+
+#[test]
+fn localisation_finds_a_learned_object_elsewhere() {
+    // Training views: the two-bar object "opens" (bars move apart) at several places.
+    let views: Vec<TrainingView> = [(60u32, 50u32), (180, 60), (100, 150), (220, 160)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| TrainingView {
+            before: vec![scene(320, 240, Some((x, y, 30)), i as u32)],
+            after: vec![scene(320, 240, Some((x - 2, y, 34)), i as u32)],
+        })
+        .collect();
+    let cfg = RecognitionConfig {
+        prototypes: 2,
+        ..RecognitionConfig::default()
+    };
+    let (model, report) = GripperModel::learn(&cfg, &views).unwrap();
+    assert_eq!(report.used, vec![4]);
+    let img = scene(320, 240, Some((140, 100, 30)), 9);
+    let loc = model.locate(0, &img, None).unwrap();
+    // The object's centre is at (155, 115). Measured: (141.6, 120.9), i.e. within about two
+    // spatial channels (12 px): the localisation is coarse, as the eval's recognition table
+    // shows for the arm too.
+    assert!(
+        (loc.position[0] - 155.0).abs() < 15.0 && (loc.position[1] - 115.0).abs() < 15.0,
+        "{loc:?}"
+    );
+    assert!(loc.certainty > 0.6);
+}
+
+#[test]
+fn learning_without_views_or_changes_fails() {
+    let cfg = RecognitionConfig::default();
+    assert!(GripperModel::learn(&cfg, &[]).is_err());
+    let still = TrainingView {
+        before: vec![scene(320, 240, Some((50, 50, 30)), 0)],
+        after: vec![scene(320, 240, Some((50, 50, 30)), 0)],
+    };
+    assert!(GripperModel::learn(&cfg, &[still]).is_err());
+}
