@@ -30,7 +30,8 @@ impl Workspace {
         let invert = polarity == Polarity::Bright;
         self.builder.build(img, invert, &mut self.tree);
         self.picked.clear();
-        self.selector.select(&self.tree, params, &mut self.picked);
+        self.selector
+            .select(&mut self.tree, params, &mut self.picked);
         self.sums.clear();
         self.summer.sums(
             &self.tree,
@@ -45,7 +46,7 @@ impl Workspace {
             out.push(Region {
                 polarity,
                 level: if invert { 255 - level } else { level },
-                seed: t.xy(node.seed),
+                seed: t.xy(s.seed),
                 area: node.area,
                 variation,
                 bbox: s.bbox(),

@@ -15,31 +15,34 @@ pub struct Selector {
 
 impl Selector {
     /// Appends the ids of the selected nodes and their variations to `out` (in id order).
-    pub fn select(&mut self, tree: &Tree, p: &MserParams, out: &mut Vec<(u32, f64)>) {
-        let nodes = &tree.nodes[..];
-        let n = nodes.len();
+    pub fn select(&mut self, tree: &mut Tree, p: &MserParams, out: &mut Vec<(u32, f64)>) {
+        let n = tree.nodes.len();
         let min_area = p.min_area.min(u32::MAX as usize) as u32;
         let max_area = p.max_area.min(u32::MAX as usize) as u32;
         let delta = p.delta as u32;
 
         // Main (largest, then first in raster order) child, for the downward part of the measure.
+        // Seeds are needed only to break ties in area, so they are computed only then.
         let main = &mut self.main_child;
         main.clear();
         main.resize(n, NONE);
         if p.variation == Variation::Symmetric {
-            for (i, c) in nodes.iter().enumerate() {
+            for i in 0..n {
+                let c = tree.nodes[i];
                 if c.parent == NONE {
                     continue;
                 }
                 let m = main[c.parent as usize];
-                if m == NONE || {
-                    let mc = &nodes[m as usize];
-                    c.area > mc.area || (c.area == mc.area && c.seed < mc.seed)
-                } {
+                let better = m == NONE || {
+                    let ma = tree.nodes[m as usize].area;
+                    c.area > ma || (c.area == ma && tree.seed(i as u32) < tree.seed(m))
+                };
+                if better {
                     main[c.parent as usize] = i as u32;
                 }
             }
         }
+        let nodes = &tree.nodes[..];
 
         // Variation of every node with area >= min_area.
         let var = &mut self.var;

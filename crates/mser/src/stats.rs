@@ -13,6 +13,8 @@ use crate::tree::Tree;
 /// Exact sums over a set of pixels, in image coordinates.
 #[derive(Debug, Clone, Copy)]
 pub struct Sums {
+    /// Smallest padded index (the first pixel in raster order).
+    pub seed: u32,
     sx: u64,
     sy: u64,
     sxx: u64,
@@ -26,6 +28,7 @@ pub struct Sums {
 
 impl Sums {
     const EMPTY: Sums = Sums {
+        seed: u32::MAX,
         sx: 0,
         sy: 0,
         sxx: 0,
@@ -45,6 +48,7 @@ impl Sums {
             let x = i & xmask;
             let y = (i >> shift) - 1;
             let (xl, yl) = (x as u64, y as u64);
+            s.seed = s.seed.min(i);
             s.sx += xl;
             s.sy += yl;
             s.sxx += xl * xl;
@@ -59,6 +63,7 @@ impl Sums {
     }
 
     fn absorb(&mut self, o: &Sums) {
+        self.seed = self.seed.min(o.seed);
         self.sx += o.sx;
         self.sy += o.sy;
         self.sxx += o.sxx;

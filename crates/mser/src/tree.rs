@@ -1,16 +1,20 @@
 //! The component tree of one polarity, built in linear time by the flood-fill algorithm of Nistér
 //! & Stewénius (ECCV 2008).
 //!
-//! The image is copied into a padded `u16` buffer (grey level in the low byte, a "reached" bit
-//! above it) whose row length is a power of two, so `x` and `y` of a pixel index are a mask and a
-//! shift, with a frame of pixels marked as reached, so the four neighbour steps never leave the
-//! buffer. The flood keeps one "boundary heap" per grey level: 256 stacks carved out of one array,
-//! sized by the grey-level histogram plus one spare slot each (so a push can write before it knows
-//! whether it counts). All waiting pixels lie at or above the current level, so when the current
-//! level's stack runs empty the next one is found by scanning upwards. A pixel reached for the
-//! first time reads its four neighbours at once and, when none is lower (the common case), marks
-//! them and pushes all four without branching: a neighbour reached before lands in a spare slot
-//! and is not counted.
+//! The image is copied into a padded `u16` buffer whose row length is a power of two, so `x` and
+//! `y` of a pixel index are a mask and a shift, with a frame of pixels marked as reached, so the
+//! four neighbour steps never leave the buffer. A cell holds its grey level until the pixel is
+//! reached, then the constant `REACHED` = 257, which is above every level (so a reached neighbour
+//! is never "lower") and is also the index of a *sink*. The flood keeps one "boundary heap" per
+//! grey level: 256 stacks carved out of one array and sized by the grey-level histogram (a pixel
+//! waits at most once at a time). All waiting pixels lie at or above the current level, so when
+//! the current level's stack runs empty the next one is found by scanning upwards. A pixel reached
+//! for the first time reads its four neighbours at once and, when none is lower (the common case),
+//! marks all four and pushes all four onto the stack of their cell value without any branch: the
+//! pushes of neighbours reached before land in the sink, a small stack that is emptied after every
+//! pixel and never read. Heap entries are bare pixel indices; a pixel pushed back when the flood
+//! descends carries the direction to resume at in its top bits, so a new pixel is recognised by
+//! one comparison.
 //!
 //! A stack of open components holds, for each, its grey level, the position in the flood order at
 //! which it was opened, its first pixel in raster order and its closed children; the top component
@@ -39,7 +43,8 @@ pub struct Node {
     pub parent: u32,
     /// Next sibling id or [`NONE`] (links the children while the parent is still open).
     pub next_sibling: u32,
-    /// Padded index of the node's first pixel in raster order.
+    /// Padded index of the node's first pixel in raster order, or [`NONE`] until
+    /// [`Tree::seed`] has computed it (the flood does not track it).
     pub seed: u32,
     /// Position of the node's first pixel in [`Tree::order`]; its pixels are
     /// `order[start .. start + area]`.
@@ -60,6 +65,17 @@ pub struct Tree {
 }
 
 impl Tree {
+    /// The padded index of node `id`'s first pixel in raster order (the smallest index in its
+    /// run), computed on first use in O(area) and remembered.
+    pub fn seed(&mut self, id: u32) -> u32 {
+        let n = &mut self.nodes[id as usize];
+        if n.seed == NONE {
+            let run = &self.order[n.start as usize..(n.start + n.area) as usize];
+            n.seed = run.iter().fold(NONE, |a, &b| a.min(b));
+        }
+        n.seed
+    }
+
     /// Image coordinates of a padded index.
     #[inline]
     pub fn xy(&self, idx: u32) -> (u32, u32) {
@@ -67,14 +83,13 @@ impl Tree {
     }
 }
 
-/// An open component on the flood's stack.
+/// An open component on the flood's stack (its grey level is the flood level while it is on top,
+/// and kept on the stack below).
 #[derive(Debug, Clone, Copy)]
 struct Comp {
     level: u32,
     /// Position in the flood order at which the component was opened.
     start: u32,
-    /// Smallest padded index among its pixels.
-    seed: u32,
     /// Closed children, linked through [`Node::next_sibling`].
     children: u32,
 }
@@ -89,8 +104,93 @@ pub struct TreeBuilder {
     stack: Vec<Comp>,
 }
 
-/// Bit of a cell marking it as reached.
-const SEEN: u16 = 0x100;
+/// The cell value of a reached pixel (and of the frame): above every grey level, so never lower
+/// than the flood, and the index of the sink "level" that swallows its pushes.
+const REACHED: u16 = SINK as u16;
+/// Index of the sink in the per-level stack tops (after the 256 levels and the sentinel).
+const SINK: usize = 257;
+/// Slots of the sink: it is reset after every added pixel, and in between the flood visits at
+/// most 256 pixels (each visit after the first is a descent to a strictly lower level) with at
+/// most four pushes each.
+const SINK_SLOTS: u32 = 4 * 257;
+/// Heap entries hold a padded index (< 2^28) and, above this bit, the direction at which to
+/// resume a pixel pushed back on a descent (0 for a new pixel).
+const DIR_SHIFT: u32 = 29;
+/// The index part of a heap entry.
+const INDEX_MASK: u32 = (1 << DIR_SHIFT) - 1;
+
+/// The open components and the closed nodes: the rare events of the flood, kept out of its hot
+/// loop.
+struct Components<'a> {
+    /// Open components below the top one.
+    stack: &'a mut Vec<Comp>,
+    /// The top (current) component.
+    top: Comp,
+    nodes: &'a mut Vec<Node>,
+}
+
+impl Components<'_> {
+    /// The flood descends to a lower `level` at flood position `pos`: open a component on top.
+    #[inline(never)]
+    fn open(&mut self, level: u32, pos: u32) {
+        self.stack.push(self.top);
+        self.top = Comp {
+            level,
+            start: pos,
+            children: NONE,
+        };
+    }
+
+    /// The flood rises to level `next` at flood position `pos`: raise the top component to it or
+    /// merge it into the ones below, closing one node for each.
+    #[inline(never)]
+    fn rise(&mut self, next: u32, pos: u32) {
+        loop {
+            let below = self.stack.last().map_or(u32::MAX, |c| c.level);
+            if next < below {
+                let id = self.close(pos);
+                self.top.children = id;
+                self.top.level = next;
+                return;
+            }
+            self.merge(pos);
+            if next <= self.top.level {
+                return;
+            }
+        }
+    }
+
+    /// Closes the top component and merges it into the one below, which becomes the top.
+    fn merge(&mut self, pos: u32) {
+        let mut b = self.stack.pop().expect("a component lies below");
+        let id = self.close(pos);
+        self.nodes[id as usize].next_sibling = b.children;
+        b.children = id;
+        self.top = b;
+    }
+
+    /// Closes the top component at flood position `pos` and returns the new node's id.
+    fn close(&mut self, pos: u32) -> u32 {
+        let c = &self.top;
+        let nodes = &mut *self.nodes;
+        let id = nodes.len() as u32;
+        let mut ch = c.children;
+        while ch != NONE {
+            let n = &mut nodes[ch as usize];
+            n.parent = id;
+            ch = n.next_sibling;
+        }
+        nodes.push(Node {
+            level: c.level,
+            area: pos - c.start,
+            parent: NONE,
+            next_sibling: NONE,
+            seed: NONE,
+            start: c.start,
+        });
+        id
+    }
+}
 
 impl TreeBuilder {
     /// Builds the component tree of `img` (of `255 − img` when `invert`) into `tree`.
@@ -112,11 +212,11 @@ impl TreeBuilder {
         // Padded copy with the frame marked as reached, and the grey-level histogram.
         if self.cells.len() != total {
             self.cells.clear();
-            self.cells.resize(total, SEEN);
+            self.cells.resize(total, REACHED);
         }
         let mut hist = [0u32; 256];
         let flip = if invert { 255u8 } else { 0 };
-        self.cells[..stride].fill(SEEN);
+        self.cells[..stride].fill(REACHED);
         for y in 0..h {
             let row = img.row(y);
             let base = (y + 1) * stride;
@@ -126,89 +226,90 @@ impl TreeBuilder {
                 *d = v as u16;
                 hist[v as usize] += 1;
             }
-            pad.fill(SEEN);
+            pad.fill(REACHED);
         }
-        self.cells[(h + 1) * stride..].fill(SEEN);
+        self.cells[(h + 1) * stride..].fill(REACHED);
 
-        // Boundary heap: one stack per level, carved from one array, each with one spare slot
-        // so that a push can write unconditionally and only count when it is real.
-        // `bottom[g]..top[g]` are level g's entries; a sentinel level 256 is never empty.
-        let mut bottom = [0u32; 257];
-        let mut top_of = [0u32; 257];
+        // Boundary heap: one stack per level, carved from one array (level g holds at most its
+        // hist[g] pixels, each at most once), then a never-empty sentinel level 256 that stops
+        // the upward scan, then the sink that takes the pushes of reached neighbours.
+        // `bottom[g]..top_of[g]` are level g's entries.
+        let mut bottom = [0u32; SINK + 1];
+        let mut top_of = [0u32; SINK + 1];
         let mut acc = 0u32;
         for g in 0..256 {
             bottom[g] = acc;
             top_of[g] = acc;
-            acc += hist[g] + 1;
+            acc += hist[g];
         }
         bottom[256] = acc;
         top_of[256] = acc + 1;
-        if self.heap.len() < acc as usize + 1 {
-            self.heap.resize(acc as usize + 1, 0);
+        let sink = acc + 1;
+        bottom[SINK] = sink;
+        top_of[SINK] = sink;
+        let heap_len = (sink + SINK_SLOTS) as usize;
+        if self.heap.len() < heap_len {
+            self.heap.resize(heap_len, 0);
         }
         let heap = &mut self.heap[..];
         let cells = &mut self.cells[..];
         let order = &mut tree.order[..];
-        let nodes = &mut tree.nodes;
-        let stack = &mut self.stack;
-        stack.clear();
+        self.stack.clear();
 
-        let offs: [u32; 4] = [1, (stride as u32).wrapping_neg(), u32::MAX, stride as u32];
+        let stride = stride as u32;
+        let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
 
-        let mut cur = stride as u32; // pixel (0, 0)
-        cells[cur as usize] |= SEEN;
-        let mut cur_level = (cells[cur as usize] & 0xff) as u32;
-        let mut top = Comp {
-            level: cur_level,
-            start: 0,
-            seed: u32::MAX,
-            children: NONE,
+        let mut cur = stride; // pixel (0, 0)
+        let mut cur_level = cells[cur as usize] as u32;
+        cells[cur as usize] = REACHED;
+        let mut comps = Components {
+            stack: &mut self.stack,
+            top: Comp {
+                level: cur_level,
+                start: 0,
+                children: NONE,
+            },
+            nodes: &mut tree.nodes,
         };
         let mut dir = 0u32;
         let mut pos = 0u32;
-        loop {
-            // Fast path for a pixel seen for the first time: read the four neighbours at once;
-            // if none is lower, mark them all and push them all (those reached before only
-            // write a spare slot).
-            if dir == 0 {
-                let ns = offs.map(|o| cur.wrapping_add(o));
-                // SAFETY: as below, every neighbour of an image pixel lies in the buffer.
-                let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
-                if vs[0].min(vs[1]).min(vs[2].min(vs[3])) >= cur_level {
-                    for i in 0..4 {
-                        // SAFETY: as above.
-                        unsafe { *cells.get_unchecked_mut(ns[i] as usize) = (vs[i] as u16) | SEEN };
-                        push(heap, &mut top_of, vs[i], ns[i] << 3, (vs[i] >> 8) ^ 1);
+        'flood: loop {
+            'visit: {
+                // Fast path for a pixel seen for the first time: read the four neighbours at
+                // once; if none is lower, mark them all and push them all (the reached ones go
+                // to the sink).
+                if dir == 0 {
+                    let ns = offs.map(|o| cur.wrapping_add(o));
+                    // SAFETY: as below, every neighbour of an image pixel lies in the buffer.
+                    let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
+                    if vs[0].min(vs[1]).min(vs[2].min(vs[3])) >= cur_level {
+                        for i in 0..4 {
+                            // SAFETY: as above.
+                            unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
+                            push(heap, &mut top_of, vs[i], ns[i]);
+                        }
+                        break 'visit;
                     }
-                    dir = 4;
                 }
-            }
-            // Explore the remaining neighbours of `cur`.
-            while dir < 4 {
-                // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the
-                // padding columns, which wrap to the next row's frame), so `n < total`.
-                let n = cur.wrapping_add(unsafe { *offs.get_unchecked(dir as usize) });
-                dir += 1;
-                let cell = unsafe { cells.get_unchecked_mut(n as usize) };
-                let v = *cell as u32;
-                *cell |= SEEN;
-                if v < cur_level {
-                    // Unreached and lower: push `cur` back and descend.
-                    push(heap, &mut top_of, cur_level, (cur << 3) | dir, 1);
-                    cur = n;
-                    cur_level = v;
-                    stack.push(top);
-                    top = Comp {
-                        level: v,
-                        start: pos,
-                        seed: u32::MAX,
-                        children: NONE,
-                    };
-                    dir = 0;
-                } else {
-                    // Unreached and not lower: a real push. Reached before (bit 8 set): the
-                    // write lands in the spare slot and is not counted.
-                    push(heap, &mut top_of, v, n << 3, (v >> 8) ^ 1);
+                // Explore the remaining neighbours of `cur` one by one.
+                while dir < 4 {
+                    // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the
+                    // padding columns, which wrap to the next row's frame), so `n < total`.
+                    let n = cur.wrapping_add(unsafe { *offs.get_unchecked(dir as usize) });
+                    dir += 1;
+                    let cell = unsafe { cells.get_unchecked_mut(n as usize) };
+                    let v = *cell as u32;
+                    *cell = REACHED;
+                    if v < cur_level {
+                        // Unreached and lower: push `cur` back (to resume at `dir`), descend.
+                        push(heap, &mut top_of, cur_level, cur | (dir << DIR_SHIFT));
+                        cur = n;
+                        cur_level = v;
+                        comps.open(v, pos);
+                        dir = 0;
+                        continue 'flood;
+                    }
+                    push(heap, &mut top_of, v, n);
                 }
             }
             // `cur` joins the top component.
@@ -216,7 +317,7 @@ impl TreeBuilder {
             // SAFETY: every image pixel is reached once and added once, so `pos < w * h`.
             unsafe { *order.get_unchecked_mut(pos as usize) = cur };
             pos += 1;
-            top.seed = top.seed.min(cur);
+            top_of[SINK] = sink;
 
             // Next pixel: from the current level's stack, else from the lowest non-empty one.
             let mut g = cur_level as usize;
@@ -234,77 +335,33 @@ impl TreeBuilder {
                     break;
                 }
                 top_of[g] -= 1;
-                let e = heap[top_of[g] as usize];
-                let next = g as u32;
-                // Process the component stack: raise the top or merge it into the next.
-                loop {
-                    let below = stack.last().map_or(u32::MAX, |c| c.level);
-                    if next < below {
-                        let id = close(nodes, &top, pos);
-                        top.children = id;
-                        top.level = next;
-                        break;
-                    }
-                    let mut b = stack.pop().expect("a component lies below");
-                    let id = close(nodes, &top, pos);
-                    nodes[id as usize].next_sibling = b.children;
-                    b.children = id;
-                    b.seed = b.seed.min(top.seed);
-                    top = b;
-                    if next <= top.level {
-                        break;
-                    }
-                }
-                cur_level = next;
-                e
+                cur_level = g as u32;
+                comps.rise(cur_level, pos);
+                heap[top_of[g] as usize]
             };
-            cur = e >> 3;
-            dir = e & 7;
+            cur = e & INDEX_MASK;
+            dir = e >> DIR_SHIFT;
         }
         debug_assert_eq!(pos as usize, npix);
         // Every pixel is in; close the remaining components into the root.
-        while let Some(mut b) = stack.pop() {
-            let id = close(nodes, &top, pos);
-            nodes[id as usize].next_sibling = b.children;
-            b.children = id;
-            b.seed = b.seed.min(top.seed);
-            top = b;
+        while !comps.stack.is_empty() {
+            comps.merge(pos);
         }
-        close(nodes, &top, pos);
+        comps.close(pos);
     }
 }
 
-/// Writes `e` on top of level `g`'s stack (low byte of `g`) and counts it when `real` is 1
-/// (0: no-op push).
+/// Pushes the padded index `e` (with the resume direction in its top bits) on top of level
+/// `g`'s stack; `g` is [`SINK`] for a reached pixel, whose entry is never read.
 #[inline(always)]
-fn push(heap: &mut [u32], top_of: &mut [u32; 257], g: u32, e: u32, real: u32) {
-    let g = (g & 0xff) as usize;
-    let slot = top_of[g] as usize;
-    debug_assert!(slot < heap.len());
-    // SAFETY: level g has hist[g] + 1 slots and at most hist[g] real entries, so the slot past
-    // the top is in bounds.
-    unsafe { *heap.get_unchecked_mut(slot) = e };
-    top_of[g] += real;
-}
-
-/// Closes the open component `c` at flood position `pos` (its children are linked through
-/// `c.children`) and returns the new node's id.
-#[inline]
-fn close(nodes: &mut Vec<Node>, c: &Comp, pos: u32) -> u32 {
-    let id = nodes.len() as u32;
-    let mut ch = c.children;
-    while ch != NONE {
-        let n = &mut nodes[ch as usize];
-        n.parent = id;
-        ch = n.next_sibling;
-    }
-    nodes.push(Node {
-        level: c.level,
-        area: pos - c.start,
-        parent: NONE,
-        next_sibling: NONE,
-        seed: c.seed,
-        start: c.start,
-    });
-    id
+fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
+    debug_assert!(g as usize <= SINK && g != 256);
+    // SAFETY: `g` is a level or the sink (cells hold nothing else).
+    let t = unsafe { top_of.get_unchecked_mut(g as usize) };
+    debug_assert!((*t as usize) < heap.len());
+    // SAFETY: level g's stack holds at most hist[g] entries, each a distinct pixel of level g
+    // waiting in the heap; the sink is reset for every added pixel and takes at most four
+    // pushes per visit of at most 256 visits in between (each a descent to a lower level).
+    unsafe { *heap.get_unchecked_mut(*t as usize) = e };
+    *t += 1;
 }
