@@ -4,8 +4,10 @@
 //!   fixtures under `fixtures/` (or checks that a fresh run reproduces them).
 //! - `cargo xtask bench NAME` measures one of our crates against its peer, prints a table and
 //!   writes `target/bench/NAME.json`.
+//! - `cargo xtask data fetch [--dir DIR]` downloads, unpacks and checks the Oxford affine benchmark.
 
 mod bench;
+mod data_fetch;
 mod eval;
 mod fixture_check;
 mod report;
@@ -32,6 +34,8 @@ enum Command {
     Eval(eval::EvalArgs),
     /// Measure a crate against its peer: prints a table, writes `target/bench/NAME.json`.
     Bench(bench::BenchArgs),
+    /// Benchmark data: `cargo xtask data fetch [--dir DIR]` downloads the Oxford affine set.
+    Data(data_fetch::DataArgs),
 }
 
 fn main() {
@@ -39,6 +43,7 @@ fn main() {
     let result = match cli.command {
         Command::Eval(args) => eval::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Data(args) => data_fetch::run(&args),
     };
     if let Err(e) = result {
         eprintln!("error: {e}");

@@ -11,6 +11,7 @@
 mod arm_sim;
 mod chan_repr;
 mod lwpr;
+pub(crate) mod paper_a;
 mod servo;
 pub(crate) mod tracking;
 
@@ -44,6 +45,8 @@ pub enum EvalTarget {
     ChanRepr,
     /// LWPR learning curves on the cross function (nMSE and receptive fields against samples).
     Lwpr,
+    /// Paper A's precision-recall study (Leuven, Boat, Graf; synthetic scenes without data).
+    PaperA(paper_a::PaperAArgs),
     /// Paper B: Channel Based Tracking against Kalman and particle filters (synthetic
     /// RC-car sequences, UNGM, or the user's CSV sequences); fixtures in `fixtures/paper-b/`.
     Tracking(tracking::TrackingArgs),
@@ -59,6 +62,7 @@ impl EvalTarget {
         vec![
             EvalTarget::ChanRepr,
             EvalTarget::Lwpr,
+            EvalTarget::PaperA(Default::default()),
             EvalTarget::Tracking(Default::default()),
             EvalTarget::ArmSim,
             EvalTarget::Servo(Default::default()),
@@ -70,9 +74,10 @@ impl EvalTarget {
         match self {
             EvalTarget::ChanRepr => "chan-repr",
             EvalTarget::Lwpr => "lwpr",
+            EvalTarget::Tracking(_) => "paper-b",
+            EvalTarget::PaperA(_) => "paper-a",
             EvalTarget::ArmSim => "arm-sim",
             EvalTarget::Servo(_) => "paper-c",
-            EvalTarget::Tracking(_) => "paper-b",
         }
     }
 
@@ -80,9 +85,10 @@ impl EvalTarget {
         match self {
             EvalTarget::ChanRepr => chan_repr::run(ctx),
             EvalTarget::Lwpr => lwpr::run(ctx),
+            EvalTarget::Tracking(args) => tracking::run(ctx, args),
+            EvalTarget::PaperA(args) => paper_a::run(ctx, args),
             EvalTarget::ArmSim => arm_sim::run(ctx),
             EvalTarget::Servo(args) => servo::run(ctx, args),
-            EvalTarget::Tracking(args) => tracking::run(ctx, args),
         }
     }
 }

@@ -1,0 +1,211 @@
+//! Ground-truth homographies of the Oxford affine benchmark (`H1toNp` files).
+//!
+//! A file holds a 3×3 matrix as three rows of three whitespace-separated numbers in any float
+//! notation (`8.7976964e-01`, `4.08E-6`, `1`). It maps 0-based pixel coordinates of img1 to imgN:
+//! `[s, t, w]ᵀ = H [x, y, 1]ᵀ`, then `(s/w, t/w)`. The matrices are NOT normalised: leuven's
+//! have h33 ≈ 0.58 and `leuven/H1to5p` is negated (h33 ≈ −0.576), so nothing here assumes
+//! h33 = 1 or w > 0; every quantity computed is invariant to the scale (and sign) of H.
+
+use nalgebra::{Matrix2, Matrix3};
+
+use super::error::PaperAError;
+
+/// A plane projective transformation, kept exactly as read (no normalisation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Homography {
+    m: Matrix3<f64>,
+}
+
+/// Relative size of `|det H|` (against the product of the row norms) below which H counts as
+/// singular.
+const SINGULAR_EPS: f64 = 1e-12;
+
+/// Homogeneous weights with `|w|` below this (relative to the row norm) map to infinity.
+const HORIZON_EPS: f64 = 1e-12;
+
+impl Homography {
+    /// Parses the text of an `H1toNp` file: exactly nine finite numbers separated by whitespace.
+    pub fn parse(text: &str) -> Result<Self, PaperAError> {
+        let mut v = Vec::with_capacity(9);
+        for tok in text.split_whitespace() {
+            let x: f64 = tok.parse().map_err(|_| PaperAError::Homography {
+                reason: format!("`{tok}` is not a number"),
+            })?;
+            if !x.is_finite() {
+                return Err(PaperAError::Homography {
+                    reason: format!("`{tok}` is not finite"),
+                });
+            }
+            v.push(x);
+        }
+        if v.len() != 9 {
+            return Err(PaperAError::Homography {
+                reason: format!("expected 9 numbers, found {}", v.len()),
+            });
+        }
+        Self::from_row_major(&v)
+    }
+
+    /// A homography from its nine entries in row-major order; fails if any is non-finite or
+    /// the matrix is (numerically) singular.
+    pub fn from_row_major(v: &[f64]) -> Result<Self, PaperAError> {
+        if v.len() != 9 || v.iter().any(|x| !x.is_finite()) {
+            return Err(PaperAError::Homography {
+                reason: "need nine finite entries".into(),
+            });
+        }
+        let m = Matrix3::from_row_slice(v);
+        let scale: f64 = (0..3).map(|r| m.row(r).norm()).product();
+        if scale == 0.0 || m.determinant().abs() <= SINGULAR_EPS * scale {
+            return Err(PaperAError::Homography {
+                reason: "the matrix is singular".into(),
+            });
+        }
+        Ok(Homography { m })
+    }
+
+    /// The matrix as read.
+    #[cfg(test)]
+    pub fn matrix(&self) -> &Matrix3<f64> {
+        &self.m
+    }
+
+    /// The matrix inverse (maps imgN back to img1).
+    pub fn inverse(&self) -> Homography {
+        Homography {
+            m: self
+                .m
+                .try_inverse()
+                .expect("checked non-singular at construction"),
+        }
+    }
+
+    /// `(s, t, w)` of a point.
+    fn homogeneous(&self, x: f64, y: f64) -> (f64, f64, f64) {
+        let m = &self.m;
+        (
+            m[(0, 0)] * x + m[(0, 1)] * y + m[(0, 2)],
+            m[(1, 0)] * x + m[(1, 1)] * y + m[(1, 2)],
+            m[(2, 0)] * x + m[(2, 1)] * y + m[(2, 2)],
+        )
+    }
+
+    fn at_horizon(&self, x: f64, y: f64, w: f64) -> bool {
+        let row = self.m.row(2);
+        let size = row[0].abs() * x.abs() + row[1].abs() * y.abs() + row[2].abs();
+        !(w.abs() > HORIZON_EPS * size)
+    }
+
+    /// The image of `(x, y)`, or `None` when it maps to (or near) the line at infinity.
+    pub fn map(&self, x: f64, y: f64) -> Option<(f64, f64)> {
+        let (s, t, w) = self.homogeneous(x, y);
+        if self.at_horizon(x, y, w) {
+            return None;
+        }
+        let p = (s / w, t / w);
+        (p.0.is_finite() && p.1.is_finite()).then_some(p)
+    }
+
+    /// The Jacobian of the map at `(x, y)` (OVERLAP.md §2):
+    /// `J = 1/w² [[h11 w − s h31, h12 w − s h32], [h21 w − t h31, h22 w − t h32]]`.
+    /// `None` at the line at infinity.
+    pub fn jacobian(&self, x: f64, y: f64) -> Option<Matrix2<f64>> {
+        let (s, t, w) = self.homogeneous(x, y);
+        if self.at_horizon(x, y, w) {
+            return None;
+        }
+        let m = &self.m;
+        let w2 = w * w;
+        let j = Matrix2::new(
+            (m[(0, 0)] * w - s * m[(2, 0)]) / w2,
+            (m[(0, 1)] * w - s * m[(2, 1)]) / w2,
+            (m[(1, 0)] * w - t * m[(2, 0)]) / w2,
+            (m[(1, 1)] * w - t * m[(2, 1)]) / w2,
+        );
+        j.iter().all(|v| v.is_finite()).then_some(j)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SAMPLE: &str =
+        "   8.5e-01   2.1E-01  9.9\n  -2.1e-01   8.6e-01  1.3e+02\n 2.0e-06   1.2e-06   1.0\n";
+
+    #[test]
+    fn parses_mixed_float_notation() {
+        let h = Homography::parse(SAMPLE).unwrap();
+        assert_eq!(h.matrix()[(0, 1)], 0.21);
+        assert_eq!(h.matrix()[(1, 2)], 130.0);
+        assert_eq!(h.matrix()[(2, 0)], 2.0e-6);
+        assert_eq!(
+            Homography::parse("1 0 0 0 1 0 0 0 1")
+                .unwrap()
+                .map(3.0, 4.0),
+            Some((3.0, 4.0))
+        );
+    }
+
+    #[test]
+    fn rejects_malformed_text() {
+        for bad in [
+            "",
+            "1 0 0 0 1 0 0 0",
+            "1 0 0 0 1 0 0 0 1 5",
+            "1 0 0 0 x 0 0 0 1",
+            "1 0 0 0 NaN 0 0 0 1",
+            "1 0 0 0 inf 0 0 0 1",
+            "1 2 3 2 4 6 0 0 1",
+            "0 0 0 0 0 0 0 0 0",
+        ] {
+            assert!(
+                matches!(Homography::parse(bad), Err(PaperAError::Homography { .. })),
+                "{bad:?} accepted"
+            );
+        }
+    }
+
+    #[test]
+    fn scale_and_sign_do_not_change_the_map_or_jacobian() {
+        let h = Homography::parse(SAMPLE).unwrap();
+        let v: Vec<f64> = h.matrix().transpose().iter().map(|x| -0.576 * x).collect();
+        let g = Homography::from_row_major(&v).unwrap();
+        for &(x, y) in &[(0.0, 0.0), (400.0, 300.0), (899.0, 599.0)] {
+            let (p, q) = (h.map(x, y).unwrap(), g.map(x, y).unwrap());
+            assert!((p.0 - q.0).abs() < 1e-9 && (p.1 - q.1).abs() < 1e-9);
+            let (jh, jg) = (h.jacobian(x, y).unwrap(), g.jacobian(x, y).unwrap());
+            assert!((jh - jg).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let h = Homography::parse(SAMPLE).unwrap();
+        let (x, y, e) = (250.0, 410.0, 1e-4);
+        let j = h.jacobian(x, y).unwrap();
+        let d = |dx: f64, dy: f64| {
+            let (p, q) = (
+                h.map(x + dx, y + dy).unwrap(),
+                h.map(x - dx, y - dy).unwrap(),
+            );
+            ((p.0 - q.0) / (2.0 * e), (p.1 - q.1) / (2.0 * e))
+        };
+        let (cx, cy) = (d(e, 0.0), d(0.0, e));
+        assert!((j[(0, 0)] - cx.0).abs() < 1e-7 && (j[(1, 0)] - cx.1).abs() < 1e-7);
+        assert!((j[(0, 1)] - cy.0).abs() < 1e-7 && (j[(1, 1)] - cy.1).abs() < 1e-7);
+    }
+
+    #[test]
+    fn inverse_round_trips_and_horizon_is_none() {
+        let h = Homography::parse(SAMPLE).unwrap();
+        let (p, q) = h.map(123.0, 456.0).unwrap();
+        let back = h.inverse().map(p, q).unwrap();
+        assert!((back.0 - 123.0).abs() < 1e-9 && (back.1 - 456.0).abs() < 1e-9);
+        // w = x/1000 + 1 vanishes on x = −1000.
+        let g =
+            Homography::from_row_major(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1e-3, 0.0, 1.0]).unwrap();
+        assert_eq!(g.map(-1000.0, 5.0), None);
+        assert_eq!(g.jacobian(-1000.0, 5.0), None);
+    }
+}

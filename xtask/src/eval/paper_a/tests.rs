@@ -1,0 +1,75 @@
+//! End-to-end tests: the whole study on a synthetic sequence (always) and on the benchmark
+//! (when `VISGUIDE_DATA` is set), with insta snapshots of the summaries.
+
+use super::progress::Progress;
+use super::synthetic::{SyntheticSpec, generate};
+use super::*;
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("visguide-paper-a-{tag}-{}", std::process::id()));
+    if d.exists() {
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn synthetic_study_summary_snapshot() {
+    let out = temp_dir("synthetic");
+    let seq = generate(&SyntheticSpec::default());
+    let text = run_study(&[seq], &out, &out.join("unused"), true, Progress::hidden()).unwrap();
+    assert!(text.contains("**Data: SYNTHETIC scenes**"));
+    for f in [
+        "summary.md",
+        "synthetic.json",
+        "sensitivity.json",
+        "synthetic-img1-vs-img2-4-pr.svg",
+        "synthetic-img1-vs-img2-4-preselection.svg",
+        "matches/synthetic-img1-vs-img2.png",
+        "matches/synthetic-img1-vs-img4.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // The pipeline must find real correspondences on a scene it generated itself.
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("synthetic.json")).unwrap())
+            .unwrap();
+    let existing = report["groups"][0]["existing"].as_u64().unwrap();
+    assert!(existing > 50, "only {existing} existing matches");
+    let fd_corr_affine = report["groups"][0]["curves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["combination"] == "FD Corr/Affine")
+        .unwrap();
+    let p = fd_corr_affine["curve"]["summary"]["at_paper_threshold"]["precision"]
+        .as_f64()
+        .unwrap();
+    assert!(p > 0.5, "FD Corr/Affine precision at T_r = 0.5 is {p}");
+    insta::assert_snapshot!("synthetic_summary", text);
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn oxford_study_summary_snapshot() {
+    let Some(dir) = test_data::oxford_dir() else {
+        return;
+    };
+    let sequences: Vec<Sequence> = PAPER_SEQUENCES
+        .iter()
+        .map(|n| Sequence::load(n, &dir.join(n)).unwrap())
+        .collect();
+    let out = temp_dir("oxford");
+    let text = run_study(
+        &sequences,
+        &out,
+        &out.join("matches"),
+        true,
+        Progress::hidden(),
+    )
+    .unwrap();
+    assert!(text.contains("**Data: image folders** (leuven, boat, graf)"));
+    insta::assert_snapshot!("oxford_summary", text);
+    std::fs::remove_dir_all(&out).unwrap();
+}
