@@ -176,7 +176,9 @@ impl<R: Robot> VisualPlant<R> {
     }
 
     /// With tracking on (the default), each observation first searches near the previous
-    /// gripper point and falls back to the whole image when that fails; off: whole image.
+    /// gripper point. Without a hint, or when that fails, it searches where the image changed
+    /// since the previous observation ([`GripperModel::locate_after_move`]), or the whole
+    /// image for the first observation.
     pub fn set_tracking(&mut self, on: bool) {
         self.tracking = on;
         if !on {
@@ -252,9 +254,10 @@ impl<R: Robot> Plant for VisualPlant<R> {
                 (true, Some(h)) => self.model.locate(cam, img, Some(h)).ok(),
                 _ => None,
             };
-            let loc = match hinted {
-                Some(l) => l,
-                None => self.model.locate(cam, img, None)?,
+            let loc = match (hinted, self.last_images.get(cam)) {
+                (Some(l), _) => l,
+                (None, Some(prev)) => self.model.locate_after_move(cam, img, prev)?,
+                (None, None) => self.model.locate(cam, img, None)?,
             };
             locs.push(loc);
         }

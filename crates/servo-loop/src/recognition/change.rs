@@ -32,30 +32,7 @@ pub fn changed_region(a: &FloatImage, b: &FloatImage, min_pixels: usize) -> Opti
         return None;
     }
     let (w, h) = (a.width, a.height);
-    let sa: f64 = a.data.iter().map(|&v| f64::from(v)).sum();
-    let sb: f64 = b.data.iter().map(|&v| f64::from(v)).sum();
-    let gain = if sa > 0.0 { (sb / sa) as f32 } else { 1.0 };
-    let diff: Vec<f32> = a
-        .data
-        .iter()
-        .zip(&b.data)
-        .map(|(&x, &y)| (y - gain * x).abs())
-        .collect();
-    let mut smooth = vec![0.0f32; w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let mut s = 0.0;
-            for dy in 0..3 {
-                let r = &diff[(y + dy - 1) * w + x - 1..][..3];
-                s += r[0] + r[1] + r[2];
-            }
-            smooth[y * w + x] = s / 9.0;
-        }
-    }
-    let mut sorted = smooth.clone();
-    let mid = sorted.len() / 2;
-    let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let threshold = (NOISE_MULTIPLE * 1.4826 * median).max(MIN_THRESHOLD);
+    let (smooth, threshold) = smoothed_difference(a, b);
     let mask: Vec<bool> = smooth.iter().map(|&v| v > threshold).collect();
     // Largest 8-connected component.
     let mut label = vec![0u32; w * h];
@@ -104,4 +81,44 @@ pub fn changed_region(a: &FloatImage, b: &FloatImage, min_pixels: usize) -> Opti
         pixels: n,
         threshold,
     })
+}
+
+/// The pixels that changed between `a` and `b` (same rule as [`changed_region`], every
+/// component), or `None` when the sizes differ or the images are smaller than 3×3.
+pub fn changed_mask(a: &FloatImage, b: &FloatImage) -> Option<Vec<bool>> {
+    if a.width != b.width || a.height != b.height || a.width < 3 || a.height < 3 {
+        return None;
+    }
+    let (smooth, threshold) = smoothed_difference(a, b);
+    Some(smooth.iter().map(|&v| v > threshold).collect())
+}
+
+/// Gain-compensated, 3×3-smoothed absolute difference and its robust threshold.
+fn smoothed_difference(a: &FloatImage, b: &FloatImage) -> (Vec<f32>, f32) {
+    let (w, h) = (a.width, a.height);
+    let sa: f64 = a.data.iter().map(|&v| f64::from(v)).sum();
+    let sb: f64 = b.data.iter().map(|&v| f64::from(v)).sum();
+    let gain = if sa > 0.0 { (sb / sa) as f32 } else { 1.0 };
+    let diff: Vec<f32> = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(&x, &y)| (y - gain * x).abs())
+        .collect();
+    let mut smooth = vec![0.0f32; w * h];
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let mut s = 0.0;
+            for dy in 0..3 {
+                let r = &diff[(y + dy - 1) * w + x - 1..][..3];
+                s += r[0] + r[1] + r[2];
+            }
+            smooth[y * w + x] = s / 9.0;
+        }
+    }
+    let mut sorted = smooth.clone();
+    let mid = sorted.len() / 2;
+    let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let threshold = (NOISE_MULTIPLE * 1.4826 * median).max(MIN_THRESHOLD);
+    (smooth, threshold)
 }

@@ -21,7 +21,7 @@ use image::GrayImage;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError};
-use crate::recognition::change::changed_region;
+use crate::recognition::change::{changed_mask, changed_region};
 use crate::recognition::features::{FeatureMap, FeatureParams};
 use crate::recognition::image::{FloatImage, half_resolution};
 
@@ -308,7 +308,53 @@ impl GripperModel {
             });
         }
         let map = FeatureMap::compute(&half_resolution(img), &self.config.feature_params())?;
-        let loc = self.search(&map, &self.prototypes[cam], hint);
+        let loc = self.search(&map, &self.prototypes[cam], hint, None);
+        self.checked(cam, loc)
+    }
+
+    /// Finds the gripper in camera `cam`'s image `img`, taken after the arm moved from where
+    /// it was in `previous` (action precedes perception once more): only positions within one
+    /// spatial channel of a changed pixel are candidates, which rules out the static scene
+    /// (clutter, table). Falls back to the whole image when nothing changed.
+    pub fn locate_after_move(
+        &self,
+        cam: usize,
+        img: &GrayImage,
+        previous: &GrayImage,
+    ) -> Result<Localisation> {
+        if [previous.width(), previous.height()] != [img.width(), img.height()] {
+            return Err(ServoError::InvalidParameter {
+                name: "previous",
+                reason: "the previous image has a different size".into(),
+            });
+        }
+        // Size and camera checks as in `locate`.
+        if cam >= self.prototypes.len() || [img.width(), img.height()] != self.image_size {
+            return self.locate(cam, img, None);
+        }
+        let (a, b) = (half_resolution(previous), half_resolution(img));
+        let map = FeatureMap::compute(&b, &self.config.feature_params())?;
+        let allowed = changed_mask(&a, &b).and_then(|mask| {
+            let (bx, by) = (map.blocks_x, map.blocks_y);
+            let mut allowed = vec![false; bx * by];
+            let blk = self.config.block;
+            let mut any = false;
+            for (i, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+                let (x, y) = (i % a.width / blk, i / a.width / blk);
+                for j in y.saturating_sub(1)..=(y + 1).min(by - 1) {
+                    for k in x.saturating_sub(1)..=(x + 1).min(bx - 1) {
+                        allowed[j * bx + k] = true;
+                    }
+                }
+                any = true;
+            }
+            any.then_some(allowed)
+        });
+        let loc = self.search(&map, &self.prototypes[cam], None, allowed.as_deref());
+        self.checked(cam, loc)
+    }
+
+    fn checked(&self, cam: usize, loc: Localisation) -> Result<Localisation> {
         if loc.certainty < self.config.min_certainty || !loc.certainty.is_finite() {
             return Err(ServoError::RecognitionFailed {
                 camera: cam,
@@ -331,7 +377,7 @@ impl GripperModel {
         hint: Option<[f64; 2]>,
     ) -> Result<Localisation> {
         let map = FeatureMap::compute(img, &self.config.feature_params())?;
-        Ok(self.search(&map, &self.prototypes[cam], hint))
+        Ok(self.search(&map, &self.prototypes[cam], hint, None))
     }
 
     fn search(
@@ -339,6 +385,7 @@ impl GripperModel {
         map: &FeatureMap,
         protos: &[Vec<f32>],
         hint: Option<[f64; 2]>,
+        allowed: Option<&[bool]>,
     ) -> Localisation {
         let cells = self.config.cells;
         let mut buf = Vec::new();
@@ -372,6 +419,7 @@ impl GripperModel {
                     1,
                 )
             }
+            _ if allowed.is_some() => (0, bx - 1, 0, by - 1, 1),
             _ => (0, bx - 1, 0, by - 1, 2),
         };
         let mut coarse: Vec<(f64, i64, i64)> = Vec::new();
@@ -379,7 +427,9 @@ impl GripperModel {
         while y <= y1 {
             let mut x = x0;
             while x <= x1 {
-                coarse.push((score(x as f64, y as f64), x, y));
+                if allowed.is_none_or(|a| a[(y * bx + x) as usize]) {
+                    coarse.push((score(x as f64, y as f64), x, y));
+                }
                 x += step;
             }
             y += step;

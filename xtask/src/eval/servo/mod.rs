@@ -335,28 +335,25 @@ pub fn evaluate_recognition(config: &SimConfig, p: &Protocol) -> Result<Recognit
         &rc,
     )?;
     let cams = model.num_cameras().min(2);
+    // Localise exactly as learning to control does: random moves, each observation searched
+    // where the image changed since the previous one (no tracking hint).
+    let mut plant = servo_loop::VisualPlant::new(robot, space, model)?;
+    plant.set_tracking(false);
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
     let mut offsets: Vec<Vec<[f64; 2]>> = vec![Vec::new(); cams];
     let mut found = 0;
     let mut certs = Vec::new();
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
-        let c = space.full_command(&y);
-        robot.0.command(&c)?;
-        let images = robot.0.capture();
-        let t = truth(&robot.0);
-        let mut all = true;
-        for cam in 0..cams {
-            match model.locate(cam, &images[cam], None) {
-                Ok(l) => {
-                    offsets[cam].push([l.position[0] - t.px[cam][0], l.position[1] - t.px[cam][1]]);
-                    certs.push(l.certainty);
-                }
-                Err(_) => all = false,
-            }
-        }
-        if all {
+        servo_loop::Plant::act(&mut plant, &y)?;
+        let obs = servo_loop::Plant::observe(&mut plant);
+        let t = truth(&plant.robot().0);
+        if obs.is_ok() {
             found += 1;
+            for (cam, l) in plant.last_localisations().iter().enumerate().take(cams) {
+                offsets[cam].push([l.position[0] - t.px[cam][0], l.position[1] - t.px[cam][1]]);
+                certs.push(l.certainty);
+            }
         }
     }
     let median = |mut v: Vec<f64>| -> f64 {
