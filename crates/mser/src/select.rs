@@ -9,9 +9,11 @@ use crate::tree::{NONE, Tree};
 pub struct Selector {
     main_child: Vec<u32>,
     var: Vec<f64>,
-    cand: Vec<bool>,
     best_desc: Vec<u32>,
 }
+
+/// Flag in `best_desc`: a child of at least `min_area` pixels has a smaller variation.
+const BEATEN: u32 = 1 << 31;
 
 impl Selector {
     /// Appends the ids of the selected nodes and their variations to `out` (in id order).
@@ -20,18 +22,46 @@ impl Selector {
         let min_area = p.min_area.min(u32::MAX as usize) as u32;
         let max_area = p.max_area.min(u32::MAX as usize) as u32;
         let delta = p.delta as u32;
+        let symmetric = p.variation == Variation::Symmetric;
 
-        // Main (largest, then first in raster order) child, for the downward part of the measure.
-        // Seeds are needed only to break ties in area, so they are computed only then.
         let main = &mut self.main_child;
         main.clear();
         main.resize(n, NONE);
-        if p.variation == Variation::Symmetric {
-            for i in 0..n {
-                let c = tree.nodes[i];
-                if c.parent == NONE {
-                    continue;
+        // Only entries of nodes with at least `min_area` pixels are written and read.
+        let var = &mut self.var;
+        if var.len() < n {
+            var.resize(n, f64::NAN);
+        }
+
+        // Pass 1, children before parents: when node i is reached its main (largest, then first
+        // in raster order) child is final, so its variation can be computed; then it competes
+        // for its parent's main child. Seeds are needed only to break ties in area, so they are
+        // computed only then.
+        for i in 0..n {
+            let c = tree.nodes[i];
+            if c.area >= min_area {
+                let g = c.level;
+                let nodes = &tree.nodes[..];
+                let mut up = c;
+                while up.parent != NONE && nodes[up.parent as usize].level <= g + delta {
+                    up = nodes[up.parent as usize];
                 }
+                let lower = if symmetric {
+                    // The smallest region on the largest-child chain whose level is >= g − Δ.
+                    let mut m = i;
+                    loop {
+                        let ch = main[m];
+                        if ch == NONE || nodes[ch as usize].level + delta < g {
+                            break nodes[m].area;
+                        }
+                        m = ch as usize;
+                    }
+                } else {
+                    c.area
+                };
+                var[i] = (up.area - lower) as f64 / c.area as f64;
+            }
+            if symmetric && c.parent != NONE {
                 let m = main[c.parent as usize];
                 let better = m == NONE || {
                     let ma = tree.nodes[m as usize].area;
@@ -42,71 +72,34 @@ impl Selector {
                 }
             }
         }
-        let nodes = &tree.nodes[..];
 
-        // Variation of every node with area >= min_area.
-        let var = &mut self.var;
-        var.clear();
-        var.resize(n, f64::NAN);
-        for (i, c) in nodes.iter().enumerate() {
-            if c.area < min_area {
-                continue;
-            }
-            let g = c.level;
-            let mut up = c;
-            while up.parent != NONE && nodes[up.parent as usize].level <= g + delta {
-                up = &nodes[up.parent as usize];
-            }
-            let lower = match p.variation {
-                Variation::Upward => c.area,
-                Variation::Symmetric => {
-                    // The smallest region on the largest-child chain whose level is >= g − Δ.
-                    let mut m = i;
-                    loop {
-                        let ch = main[m];
-                        if ch == NONE || nodes[ch as usize].level + delta < g {
-                            break nodes[m].area;
-                        }
-                        m = ch as usize;
-                    }
-                }
-            };
-            var[i] = (up.area - lower) as f64 / c.area as f64;
-        }
-
-        // Maximally stable and admissible candidates: no larger variation than the parent and
-        // than any child of at least `min_area` pixels.
-        let cand = &mut self.cand;
-        cand.clear();
-        cand.resize(n, true); // until a child beats it; children come before their parent
-        for (i, c) in nodes.iter().enumerate() {
-            let q = c.parent;
-            if q == NONE || c.area < min_area {
-                cand[i] = false;
-                continue;
-            }
-            let q = q as usize;
-            if var[q] > var[i] {
-                cand[q] = false;
-            }
-            cand[i] =
-                cand[i] && c.area <= max_area && var[i] <= p.max_variation && var[i] <= var[q];
-        }
-
-        // Diversity: drop a candidate that holds a smaller candidate covering most of it.
+        // Pass 2, children before parents: a node is a candidate when its area is admissible,
+        // its variation at most `max_variation`, at most its parent's and at most that of every
+        // child of at least `min_area` pixels (children mark their parent BEATEN otherwise).
+        // Diversity: `best_desc` carries the largest candidate below each node, and a candidate
+        // holding a smaller candidate that covers most of it is dropped.
         let best = &mut self.best_desc;
         best.clear();
         best.resize(n, 0);
-        for (i, c) in nodes.iter().enumerate() {
-            let val = if cand[i] { c.area } else { best[i] };
+        for (i, c) in tree.nodes.iter().enumerate() {
             let q = c.parent;
-            if q != NONE && best[q as usize] < val {
-                best[q as usize] = val;
+            let b = best[i];
+            let mut cand = false;
+            if q != NONE && c.area >= min_area {
+                let (vi, vq) = (var[i], var[q as usize]);
+                if vi < vq {
+                    best[q as usize] |= BEATEN;
+                }
+                cand = b & BEATEN == 0 && c.area <= max_area && vi <= p.max_variation && vi <= vq;
             }
-            if cand[i] {
+            let below = b & !BEATEN;
+            let val = if cand { c.area } else { below };
+            if q != NONE && best[q as usize] & !BEATEN < val {
+                best[q as usize] = (best[q as usize] & BEATEN) | val;
+            }
+            if cand {
                 let a = c.area;
-                let b = best[i];
-                let similar = b > 0 && ((a - b) as f64 / a as f64) < p.min_diversity;
+                let similar = below > 0 && ((a - below) as f64 / a as f64) < p.min_diversity;
                 if !similar {
                     out.push((i as u32, var[i]));
                 }

@@ -95,13 +95,29 @@ struct Comp {
 }
 
 /// Reusable buffers for building trees of images of any size.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct TreeBuilder {
     /// Padded image: grey level in the low byte, bit 8 set once the pixel has been reached
     /// (the frame is set from the start).
     cells: Vec<u16>,
     heap: Vec<u32>,
-    stack: Vec<Comp>,
+    stack: Box<[Comp; STACK_SLOTS]>,
+}
+
+impl Default for TreeBuilder {
+    fn default() -> Self {
+        TreeBuilder {
+            cells: Vec::new(),
+            heap: Vec::new(),
+            stack: Box::new(
+                [Comp {
+                    level: u32::MAX,
+                    start: 0,
+                    children: NONE,
+                }; STACK_SLOTS],
+            ),
+        }
+    }
 }
 
 /// The cell value of a reached pixel (and of the frame): above every grey level, so never lower
@@ -119,11 +135,17 @@ const DIR_SHIFT: u32 = 29;
 /// The index part of a heap entry.
 const INDEX_MASK: u32 = (1 << DIR_SHIFT) - 1;
 
+/// Slots of the component stack: open components have strictly decreasing levels from the
+/// bottom up, so at most 256 are open, plus the sentinel in slot 0.
+const STACK_SLOTS: usize = 258;
+
 /// The open components and the closed nodes: the rare events of the flood, kept out of its hot
 /// loop.
 struct Components<'a> {
-    /// Open components below the top one.
-    stack: &'a mut Vec<Comp>,
+    /// `stack[1..=depth]` are the open components below the top one; `stack[0]` is a sentinel
+    /// whose level is above every level, so it is never merged into.
+    stack: &'a mut [Comp; STACK_SLOTS],
+    depth: usize,
     /// The top (current) component.
     top: Comp,
     nodes: &'a mut Vec<Node>,
@@ -133,7 +155,10 @@ impl Components<'_> {
     /// The flood descends to a lower `level` at flood position `pos`: open a component on top.
     #[inline(never)]
     fn open(&mut self, level: u32, pos: u32) {
-        self.stack.push(self.top);
+        debug_assert!(level < self.top.level);
+        self.depth += 1;
+        // Levels strictly decrease up the stack, so depth <= 256 (the assert holds always).
+        self.stack[self.depth.min(STACK_SLOTS - 1)] = self.top;
         self.top = Comp {
             level,
             start: pos,
@@ -146,9 +171,8 @@ impl Components<'_> {
     #[inline(never)]
     fn rise(&mut self, next: u32, pos: u32) {
         loop {
-            let below = self.stack.last().map_or(u32::MAX, |c| c.level);
-            if next < below {
-                let id = self.close(pos);
+            if next < self.stack[self.depth].level {
+                let id = self.close(pos, NONE);
                 self.top.children = id;
                 self.top.level = next;
                 return;
@@ -162,15 +186,16 @@ impl Components<'_> {
 
     /// Closes the top component and merges it into the one below, which becomes the top.
     fn merge(&mut self, pos: u32) {
-        let mut b = self.stack.pop().expect("a component lies below");
-        let id = self.close(pos);
-        self.nodes[id as usize].next_sibling = b.children;
-        b.children = id;
+        debug_assert!(self.depth > 0);
+        let mut b = self.stack[self.depth];
+        self.depth -= 1;
+        b.children = self.close(pos, b.children);
         self.top = b;
     }
 
-    /// Closes the top component at flood position `pos` and returns the new node's id.
-    fn close(&mut self, pos: u32) -> u32 {
+    /// Closes the top component at flood position `pos` as a node whose next sibling is
+    /// `sibling`, and returns the new node's id.
+    fn close(&mut self, pos: u32, sibling: u32) -> u32 {
         let c = &self.top;
         let nodes = &mut *self.nodes;
         let id = nodes.len() as u32;
@@ -184,7 +209,7 @@ impl Components<'_> {
             level: c.level,
             area: pos - c.start,
             parent: NONE,
-            next_sibling: NONE,
+            next_sibling: sibling,
             seed: NONE,
             start: c.start,
         });
@@ -230,13 +255,13 @@ impl TreeBuilder {
         }
         self.cells[(h + 1) * stride..].fill(REACHED);
 
-        // Boundary heap: one stack per level, carved from one array (level g holds at most its
-        // hist[g] pixels, each at most once), then a never-empty sentinel level 256 that stops
-        // the upward scan, then the sink that takes the pushes of reached neighbours.
+        // Boundary heap: the sink first (slots 0..SINK_SLOTS, taking the pushes of reached
+        // neighbours), then one stack per level (level g holds at most its hist[g] pixels, each
+        // at most once), then a never-empty sentinel level 256 that stops the upward scan.
         // `bottom[g]..top_of[g]` are level g's entries.
         let mut bottom = [0u32; SINK + 1];
         let mut top_of = [0u32; SINK + 1];
-        let mut acc = 0u32;
+        let mut acc = SINK_SLOTS;
         for g in 0..256 {
             bottom[g] = acc;
             top_of[g] = acc;
@@ -244,17 +269,13 @@ impl TreeBuilder {
         }
         bottom[256] = acc;
         top_of[256] = acc + 1;
-        let sink = acc + 1;
-        bottom[SINK] = sink;
-        top_of[SINK] = sink;
-        let heap_len = (sink + SINK_SLOTS) as usize;
+        let heap_len = acc as usize;
         if self.heap.len() < heap_len {
             self.heap.resize(heap_len, 0);
         }
         let heap = &mut self.heap[..];
         let cells = &mut self.cells[..];
         let order = &mut tree.order[..];
-        self.stack.clear();
 
         let stride = stride as u32;
         let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
@@ -264,6 +285,7 @@ impl TreeBuilder {
         cells[cur as usize] = REACHED;
         let mut comps = Components {
             stack: &mut self.stack,
+            depth: 0,
             top: Comp {
                 level: cur_level,
                 start: 0,
@@ -317,14 +339,18 @@ impl TreeBuilder {
             // SAFETY: every image pixel is reached once and added once, so `pos < w * h`.
             unsafe { *order.get_unchecked_mut(pos as usize) = cur };
             pos += 1;
-            top_of[SINK] = sink;
+            top_of[SINK] = 0;
 
             // Next pixel: from the current level's stack, else from the lowest non-empty one.
             let mut g = cur_level as usize;
-            let e = if top_of[g] != bottom[g] {
-                top_of[g] -= 1;
+            debug_assert!(g < 256);
+            // SAFETY: `cur_level` is a grey level.
+            let t = unsafe { top_of.get_unchecked_mut(g) };
+            let e = if *t != bottom[g] {
+                *t -= 1;
+                debug_assert!((*t as usize) < heap.len());
                 // SAFETY: bottom[g] <= top_of[g] < bottom[g + 1] <= heap.len().
-                unsafe { *heap.get_unchecked(top_of[g] as usize) }
+                unsafe { *heap.get_unchecked(*t as usize) }
             } else {
                 // Every entry lies at or above the current level: scan upwards.
                 g += 1;
@@ -339,15 +365,20 @@ impl TreeBuilder {
                 comps.rise(cur_level, pos);
                 heap[top_of[g] as usize]
             };
-            cur = e & INDEX_MASK;
-            dir = e >> DIR_SHIFT;
+            if e <= INDEX_MASK {
+                cur = e;
+                dir = 0;
+            } else {
+                cur = e & INDEX_MASK;
+                dir = e >> DIR_SHIFT;
+            }
         }
         debug_assert_eq!(pos as usize, npix);
         // Every pixel is in; close the remaining components into the root.
-        while !comps.stack.is_empty() {
+        while comps.depth > 0 {
             comps.merge(pos);
         }
-        comps.close(pos);
+        comps.close(pos, NONE);
     }
 }
 
