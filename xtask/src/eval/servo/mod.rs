@@ -15,7 +15,9 @@
 //! **Percept.** The servo percept is the simulator's true tip projection plus Gaussian
 //! detection noise (σ = 0.5 px, papers.md §3.4), not `servo-loop`'s learned recognition: the
 //! recognition is evaluated separately (`recognition.json`, on rendered images) and does not
-//! yet meet its goal, see the summary.
+//! yet meet its goal, see the summary. `--percept recognised` runs the complete pipeline
+//! (training, targets and servoing through the learned recognition on rendered images); it
+//! takes minutes and is not part of the committed fixtures.
 
 mod plant;
 mod report;
@@ -36,7 +38,7 @@ use servo_loop::{
 
 use super::{EvalContext, write_json};
 use crate::Result;
-use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
+use plant::{Recogniser, SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
 
 /// Options of `cargo xtask eval servo`.
 #[derive(Args, Clone, Debug)]
@@ -48,6 +50,21 @@ pub struct ServoArgs {
     /// unknown keys and impossible values are errors naming the key. Default: the default arm.
     #[arg(long, value_name = "FILE")]
     pub arm: Option<PathBuf>,
+    /// The servo percept: `simulated` (true tip projection + 0.5 px noise; fast, the default
+    /// fixtures) or `recognised` (the learned gripper recognition on rendered images: the
+    /// complete Paper C pipeline; several minutes, not part of the fixtures).
+    #[arg(long, value_enum, default_value_t = PerceptMode::Simulated)]
+    pub percept: PerceptMode,
+}
+
+/// Where the servo percept comes from.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PerceptMode {
+    /// The simulator's true tip projection plus Gaussian detection noise.
+    Simulated,
+    /// `servo-loop`'s learned gripper recognition on rendered images.
+    Recognised,
 }
 
 impl Default for ServoArgs {
@@ -55,6 +72,7 @@ impl Default for ServoArgs {
         ServoArgs {
             seed: 2009,
             arm: None,
+            percept: PerceptMode::Simulated,
         }
     }
 }
@@ -63,6 +81,9 @@ impl Default for ServoArgs {
 #[derive(Debug, Clone, Serialize)]
 pub struct Protocol {
     pub seed: u64,
+    pub percept: PerceptMode,
+    #[serde(skip)]
+    pub recogniser: Option<servo_loop::GripperModel>,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -83,6 +104,8 @@ impl Protocol {
     pub fn default_for(seed: u64) -> Self {
         Protocol {
             seed,
+            percept: PerceptMode::Simulated,
+            recogniser: None,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -145,6 +168,16 @@ fn servo_config(p: &Protocol) -> ServoConfig {
     }
 }
 
+/// The evaluation plant of the protocol's percept mode.
+fn make_plant(config: &SimConfig, p: &Protocol, seed: u64, tracking: bool) -> Result<SimPlant> {
+    let sim = ArmSim::new(config.clone())?;
+    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
+    if let Some(m) = &p.recogniser {
+        plant.recogniser = Some(Recogniser::new(m.clone(), tracking));
+    }
+    Ok(plant)
+}
+
 /// Runs one method on every target, sequentially on its own simulator.
 pub fn run_method(
     method: &str,
@@ -154,8 +187,7 @@ pub fn run_method(
     targets: &[Target],
     iterations: usize,
 ) -> Result<Vec<TargetResult>> {
-    let sim = ArmSim::new(config.clone())?;
-    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, p.seed ^ 0x5E4F);
+    let mut plant = make_plant(config, p, p.seed ^ 0x5E4F, true)?;
     let mut model = model.clone();
     let cfg = ServoConfig {
         max_iterations: iterations,
@@ -231,9 +263,9 @@ pub fn make_targets(
     count: usize,
     seed: u64,
 ) -> Result<Vec<Target>> {
-    let mut sim = ArmSim::new(config.clone())?;
+    let mut plant = make_plant(config, p, seed ^ 0x0B5E, false)?;
     let mut commands = RandomCommands::new(&p.explore_us, seed)?;
-    let cams = sim.num_cameras().min(2);
+    let cams = plant.cameras;
     let [w, h] = [
         f64::from(config.cameras[0].width),
         f64::from(config.cameras[0].height),
@@ -250,11 +282,11 @@ pub fn make_targets(
         for (&i, &v) in p.controlled.iter().zip(&y) {
             c[i] = v;
         }
-        sim.command(&c)?;
-        if sim.inspect().last_move().table_contact {
+        plant.sim.command(&c)?;
+        if plant.sim.inspect().last_move().table_contact {
             continue;
         }
-        let t = truth(&sim);
+        let t = truth(&plant.sim);
         let inside = (0..cams).all(|k| {
             t.px[k][0] >= 10.0
                 && t.px[k][1] >= 10.0
@@ -264,7 +296,16 @@ pub fn make_targets(
         if !inside {
             continue;
         }
-        let x_w = (0..cams).flat_map(|k| t.px[k]).collect();
+        // The target is what the learner would see at that pose: the true projection, or
+        // with `--percept recognised` the recognised gripper point.
+        let x_w = if p.recogniser.is_some() {
+            match servo_loop::Plant::observe(&mut plant) {
+                Ok(o) => o.x,
+                Err(_) => continue,
+            }
+        } else {
+            (0..cams).flat_map(|k| t.px[k]).collect()
+        };
         out.push(Target { x_w, truth: t });
     }
     Ok(out)
@@ -276,8 +317,7 @@ pub fn train(
     p: &Protocol,
     progress: bool,
 ) -> Result<(Vec<(usize, InverseModel)>, servo_loop::LearnReport)> {
-    let sim = ArmSim::new(config.clone())?;
-    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, p.seed ^ 0x7EA1);
+    let mut plant = make_plant(config, p, p.seed ^ 0x7EA1, false)?;
     let n_in = 2 * plant.cameras;
     let mut model = InverseModel::new(n_in, p.controlled.len(), &InverseModelConfig::default())?;
     let total = p
@@ -448,7 +488,25 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
         Some(path) => SimConfig::read_file(path)?,
         None => SimConfig::default(),
     };
-    let p = Protocol::default_for(args.seed);
+    let mut p = Protocol::default_for(args.seed);
+    p.percept = args.percept;
+    if args.percept == PerceptMode::Recognised {
+        let mut robot = SimRobot(ArmSim::new(config.clone())?);
+        let space = ControlSpace {
+            controlled: p.controlled.clone(),
+            rest: p.rest_us.to_vec(),
+            gripper: Some((5, [2100.0, 1000.0])),
+        };
+        let (model, _) = learn_recognition(
+            &mut robot,
+            &space,
+            &p.explore_us,
+            p.recognition_views,
+            p.seed ^ 0xBEEF,
+            &RecognitionConfig::default(),
+        )?;
+        p.recogniser = Some(model);
+    }
     let study = run_study(&config, &p, true, true)?;
     report::write_all(ctx, &study)?;
     Ok(())

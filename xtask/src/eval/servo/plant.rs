@@ -8,7 +8,55 @@ use nalgebra::{DMatrix, Vector3};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
-use servo_loop::{Observation, Plant, Robot, ServoError};
+use servo_loop::{GripperModel, Observation, Plant, Robot, ServoError};
+
+/// The learned recognition as the percept of a [`SimPlant`] (`--percept recognised`).
+pub struct Recogniser {
+    pub model: GripperModel,
+    /// Search near the previous percept first (servoing); off: search where the image changed
+    /// since the previous capture (random moves).
+    pub tracking: bool,
+    prev: Vec<GrayImage>,
+    hints: Vec<Option<[f64; 2]>>,
+}
+
+impl Recogniser {
+    pub fn new(model: GripperModel, tracking: bool) -> Self {
+        let cams = model.num_cameras();
+        Recogniser {
+            model,
+            tracking,
+            prev: Vec::new(),
+            hints: vec![None; cams],
+        }
+    }
+
+    fn observe(&mut self, images: Vec<GrayImage>, cameras: usize) -> servo_loop::Result<Vec<f64>> {
+        let mut out = Ok(Vec::with_capacity(2 * cameras));
+        for cam in 0..cameras {
+            let hinted = if self.tracking {
+                self.hints[cam].and_then(|h| self.model.locate(cam, &images[cam], Some(h)).ok())
+            } else {
+                None
+            };
+            let loc = match (hinted, self.prev.get(cam)) {
+                (Some(l), _) => Ok(l),
+                (None, Some(p)) => self.model.locate_after_move(cam, &images[cam], p),
+                (None, None) => self.model.locate(cam, &images[cam], None),
+            };
+            match (loc, &mut out) {
+                (Ok(l), Ok(x)) => {
+                    x.extend(l.position);
+                    self.hints[cam] = Some(l.position);
+                }
+                (Err(e), Ok(_)) => out = Err(e),
+                _ => {}
+            }
+        }
+        self.prev = images;
+        out
+    }
+}
 
 /// `ArmSim` as a [`Robot`] (a newtype: both the trait and the type are foreign here).
 pub struct SimRobot(pub ArmSim);
@@ -64,6 +112,8 @@ pub struct SimPlant {
     noise: Normal<f64>,
     rng: Xoshiro256PlusPlus,
     pub log: Vec<Truth>,
+    /// With a recogniser the percept comes from rendered images, not from the projection.
+    pub recogniser: Option<Recogniser>,
 }
 
 impl SimPlant {
@@ -86,6 +136,7 @@ impl SimPlant {
             noise: Normal::new(0.0, noise_px.max(0.0)).expect("valid σ"),
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             log: Vec::new(),
+            recogniser: None,
         }
     }
 
@@ -120,6 +171,13 @@ impl Plant for SimPlant {
     fn observe(&mut self) -> servo_loop::Result<Observation> {
         let t = truth(&self.sim);
         self.log.push(t);
+        if self.recogniser.is_some() {
+            let images = self.sim.capture();
+            let cams = self.cameras;
+            let r = self.recogniser.as_mut().expect("checked");
+            let x = r.observe(images, cams)?;
+            return Ok(Observation { x, certainty: 1.0 });
+        }
         let mut x = Vec::with_capacity(2 * self.cameras);
         for (cam, p) in t.px.iter().take(self.cameras).enumerate() {
             let inside = p[0] >= 0.0

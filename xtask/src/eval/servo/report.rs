@@ -1,6 +1,6 @@
 //! Statistics, JSON, summary.md, SVG plots and the PNG strip of `eval servo`.
 
-use arm_sim::{ArmSim, SimConfig};
+use arm_sim::SimConfig;
 use image::{Rgb, RgbImage};
 use plotters::prelude::*;
 use serde::Serialize;
@@ -136,12 +136,18 @@ pub fn summary(study: &Study) -> String {
         p.tolerance_px,
         p.success_px
     );
-    s += &format!(
-        "**Percept:** the simulator's true tip projection + Gaussian detection noise σ = {} px (papers.md §3.4), \
-         NOT the learned gripper recognition (evaluated separately below; it misses its goal). Errors are measured on ground truth \
-         (image error = RMS over both cameras of the true tip's pixel distance to the target; 3-D = tip distance in mm).\n\n",
-        p.noise_px
-    );
+    if p.recogniser.is_some() {
+        s += "**Percept:** servo-loop's learned gripper recognition on rendered images (`--percept recognised`: the complete Paper C pipeline); \
+              targets are the recognised gripper point at reachable poses. Errors are measured on ground truth \
+              (image error = RMS over both cameras of the true tip's pixel distance to the target pose's; 3-D = tip distance in mm).\n\n";
+    } else {
+        s += &format!(
+            "**Percept:** the simulator's true tip projection + Gaussian detection noise σ = {} px (papers.md §3.4), \
+             NOT the learned gripper recognition (evaluated separately below; it misses its goal; `--percept recognised` runs the complete pipeline). \
+             Errors are measured on ground truth (image error = RMS over both cameras of the true tip's pixel distance to the target; 3-D = tip distance in mm).\n\n",
+            p.noise_px
+        );
+    }
     s += "## Error per iteration (median / p90 px, median mm, success rate)\n\n";
     s += "| iteration |";
     for st in &stats {
@@ -416,8 +422,7 @@ pub fn servo_strip(
     model: &InverseModel,
     target: &Target,
 ) -> Result<RgbImage> {
-    let sim = ArmSim::new(config.clone())?;
-    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, p.seed ^ 0x5771);
+    let mut plant = super::make_plant(config, p, p.seed ^ 0x5771, true)?;
     let mut film = Filming {
         inner: &mut plant,
         frames: Vec::new(),
