@@ -93,7 +93,8 @@ impl Homography {
     fn at_horizon(&self, x: f64, y: f64, w: f64) -> bool {
         let row = self.m.row(2);
         let size = row[0].abs() * x.abs() + row[1].abs() * y.abs() + row[2].abs();
-        !(w.abs() > HORIZON_EPS * size)
+        let limit = HORIZON_EPS * size;
+        w.is_nan() || limit.is_nan() || w.abs() <= limit
     }
 
     /// The image of `(x, y)`, or `None` when it maps to (or near) the line at infinity.

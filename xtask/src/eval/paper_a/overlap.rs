@@ -164,7 +164,7 @@ pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offs
     let y_min = (-hy_a).min(dy - hy_b).floor();
     let y_max = hy_a.max(dy + hy_b).ceil();
     let step = ((x_max - x_min).min(y_max - y_min) / 50.0) as f32;
-    if !(step > 0.0) {
+    if step.is_nan() || step <= 0.0 {
         return 1.0;
     }
     let (mut inter, mut union) = (0u64, 0u64);
