@@ -46,10 +46,10 @@ impl Workspace {
             out.push(Region {
                 polarity,
                 level: if invert { 255 - level } else { level },
-                seed: t.xy(s.seed),
+                seed: t.xy(s.seed()),
                 area: node.area,
                 variation,
-                bbox: s.bbox(),
+                bbox: s.bbox(t.shift),
                 moments: s.moments(node.area),
             });
         }

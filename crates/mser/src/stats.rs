@@ -10,34 +10,35 @@
 use crate::region::{BoundingBox, Moments};
 use crate::tree::Tree;
 
-/// Exact sums over a set of pixels, in image coordinates.
+/// Exact sums over a set of pixels in padded coordinates (`x`, and `y + 1` for image row `y`).
+///
+/// Extremes are kept as `i32` (padded indices are below 2^28), which vectorises better than
+/// unsigned comparisons; the first and last pixel in raster order give the seed and the rows of
+/// the bounding box, so only `x` needs its own minimum and maximum.
 #[derive(Debug, Clone, Copy)]
 pub struct Sums {
-    /// Smallest padded index (the first pixel in raster order).
-    pub seed: u32,
     sx: u64,
     sy: u64,
     sxx: u64,
     sxy: u64,
     syy: u64,
-    x0: u32,
-    x1: u32,
-    y0: u32,
-    y1: u32,
+    first: i32,
+    last: i32,
+    x0: i32,
+    x1: i32,
 }
 
 impl Sums {
     const EMPTY: Sums = Sums {
-        seed: u32::MAX,
         sx: 0,
         sy: 0,
         sxx: 0,
         sxy: 0,
         syy: 0,
-        x0: u32::MAX,
-        x1: 0,
-        y0: u32::MAX,
-        y1: 0,
+        first: i32::MAX,
+        last: -1,
+        x0: i32::MAX,
+        x1: -1,
     };
 
     /// Adds the pixels with padded indices `idx`.
@@ -45,55 +46,59 @@ impl Sums {
         let xmask = (1u32 << shift) - 1;
         let mut s = *self;
         for &i in idx {
-            let x = i & xmask;
-            let y = (i >> shift) - 1;
+            let (x, y) = (i & xmask, i >> shift);
             let (xl, yl) = (x as u64, y as u64);
-            s.seed = s.seed.min(i);
             s.sx += xl;
             s.sy += yl;
             s.sxx += xl * xl;
             s.sxy += xl * yl;
             s.syy += yl * yl;
-            s.x0 = s.x0.min(x);
-            s.x1 = s.x1.max(x);
-            s.y0 = s.y0.min(y);
-            s.y1 = s.y1.max(y);
+            s.first = s.first.min(i as i32);
+            s.last = s.last.max(i as i32);
+            s.x0 = s.x0.min(x as i32);
+            s.x1 = s.x1.max(x as i32);
         }
         *self = s;
     }
 
     fn absorb(&mut self, o: &Sums) {
-        self.seed = self.seed.min(o.seed);
         self.sx += o.sx;
         self.sy += o.sy;
         self.sxx += o.sxx;
         self.sxy += o.sxy;
         self.syy += o.syy;
+        self.first = self.first.min(o.first);
+        self.last = self.last.max(o.last);
         self.x0 = self.x0.min(o.x0);
         self.x1 = self.x1.max(o.x1);
-        self.y0 = self.y0.min(o.y0);
-        self.y1 = self.y1.max(o.y1);
     }
 
-    /// The raw moments of `n` pixels with these sums.
+    /// The padded index of the first pixel in raster order.
+    pub fn seed(&self) -> u32 {
+        self.first as u32
+    }
+
+    /// The raw moments of these `n` pixels in image coordinates (`y` one less than padded).
     pub fn moments(&self, n: u32) -> Moments {
+        let n = n as u64;
         Moments {
-            n: n as u64,
+            n,
             sx: self.sx,
-            sy: self.sy,
+            sy: self.sy - n,
             sxx: self.sxx,
-            sxy: self.sxy,
-            syy: self.syy,
+            sxy: self.sxy - self.sx,
+            // Σ(y−1)² = Σy² − 2Σy + n, which is ≥ 0, so the sum first cannot underflow.
+            syy: self.syy + n - 2 * self.sy,
         }
     }
 
-    /// The inclusive bounding box.
-    pub fn bbox(&self) -> BoundingBox {
+    /// The inclusive bounding box in image coordinates, for a padded row length of `2^shift`.
+    pub fn bbox(&self, shift: u32) -> BoundingBox {
         BoundingBox {
-            x_min: self.x0,
-            y_min: self.y0,
-            x_max: self.x1,
-            y_max: self.y1,
+            x_min: self.x0 as u32,
+            y_min: (self.first as u32 >> shift) - 1,
+            x_max: self.x1 as u32,
+            y_max: (self.last as u32 >> shift) - 1,
         }
     }
 }
