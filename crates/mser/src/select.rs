@@ -37,7 +37,7 @@ impl Selector {
         // in raster order) child is final, so its variation can be computed; then it competes
         // for its parent's main child. Seeds are needed only to break ties in area, so they are
         // computed only then.
-        for i in 0..n {
+        for (i, var_i) in var[..n].iter_mut().enumerate() {
             let c = tree.nodes[i];
             if c.area >= min_area {
                 let g = c.level;
@@ -59,7 +59,7 @@ impl Selector {
                 } else {
                     c.area
                 };
-                var[i] = (up.area - lower) as f64 / c.area as f64;
+                *var_i = (up.area - lower) as f64 / c.area as f64;
             }
             if symmetric && c.parent != NONE {
                 let m = main[c.parent as usize];
