@@ -80,3 +80,60 @@ fn oxford_study_summary_snapshot() {
     insta::assert_snapshot!("oxford_summary", text);
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// `--sequences NAME` on a user's own folder in the Oxford layout (written here from a small
+/// synthetic sequence, with a homography file in another number format), and the errors for a
+/// missing sequence or a missing data folder.
+#[test]
+fn user_sequences_from_a_data_folder() {
+    let data = temp_dir("user-data");
+    let seq = generate(&SyntheticSpec {
+        size: (200, 150),
+        shapes: 14,
+        images: 3,
+        ..SyntheticSpec::default()
+    });
+    let dir = data.join("mine");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (k, img) in seq.images.iter().enumerate() {
+        img.save(dir.join(format!("img{}.png", k + 1))).unwrap();
+    }
+    for (k, h) in seq.homographies.iter().enumerate() {
+        let m = h.matrix();
+        let text: String = (0..3)
+            .map(|r| format!("{:E} {:E} {:E}\n", m[(r, 0)], m[(r, 1)], m[(r, 2)]))
+            .collect();
+        std::fs::write(dir.join(format!("H1to{}p", k + 2)), text).unwrap();
+    }
+    let out = temp_dir("user-out");
+    let ctx = EvalContext {
+        out_dir: out.clone(),
+        data_dir: Some(data.clone()),
+    };
+    let args = PaperAArgs {
+        sequences: vec!["mine".into()],
+        matches_dir: Some(out.join("pictures")),
+        no_sensitivity: true,
+    };
+    run(&ctx, &args).unwrap();
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("**Data: image folders** (mine)"),
+        "{summary}"
+    );
+    assert!(out.join("mine.json").is_file());
+    assert!(out.join("pictures/mine-img1-vs-img3.png").is_file());
+    let missing = PaperAArgs {
+        sequences: vec!["mine".into(), "absent".into()],
+        ..args.clone()
+    };
+    let e = run(&ctx, &missing).unwrap_err().to_string();
+    assert!(e.contains("absent"), "{e}");
+    let no_data = EvalContext {
+        out_dir: out.clone(),
+        data_dir: None,
+    };
+    assert!(run(&no_data, &args).is_err());
+    std::fs::remove_dir_all(&data).unwrap();
+    std::fs::remove_dir_all(&out).unwrap();
+}
