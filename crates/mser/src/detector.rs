@@ -6,7 +6,7 @@ use crate::params::{MserParams, Polarities};
 use crate::region::{Polarity, Region};
 use crate::select::Selector;
 use crate::stats::{Summer, Sums};
-use crate::tree::{Tree, TreeBuilder};
+use crate::tree::{Tree, TreeBuilder, histogram};
 
 /// Buffers for one polarity, reused between images.
 #[derive(Debug, Default)]
@@ -23,12 +23,13 @@ impl Workspace {
     fn run(
         &mut self,
         img: &GrayView,
+        hist: &[u32; 256],
         params: &MserParams,
         polarity: Polarity,
         out: &mut Vec<Region>,
     ) {
         let invert = polarity == Polarity::Bright;
-        self.builder.build(img, invert, &mut self.tree);
+        self.builder.build(img, hist, invert, &mut self.tree);
         self.picked.clear();
         self.selector
             .select(&mut self.tree, params, &mut self.picked);
@@ -115,11 +116,12 @@ impl Mser {
     pub fn detect(&mut self, img: &GrayView) -> Result<Vec<Region>> {
         let mut out = Vec::new();
         let p = &self.params;
+        let hist = histogram(img);
         if matches!(p.polarities, Polarities::Dark | Polarities::Both) {
-            self.dark.run(img, p, Polarity::Dark, &mut out);
+            self.dark.run(img, &hist, p, Polarity::Dark, &mut out);
         }
         if matches!(p.polarities, Polarities::Bright | Polarities::Both) {
-            self.bright.run(img, p, Polarity::Bright, &mut out);
+            self.bright.run(img, &hist, p, Polarity::Bright, &mut out);
         }
         Ok(out)
     }
@@ -131,16 +133,17 @@ impl Mser {
             return self.detect(img);
         }
         let p = &self.params;
+        let hist = histogram(img);
         let (dark, bright) = (&mut self.dark, &mut self.bright);
         let (mut a, b) = rayon::join(
             || {
                 let mut v = Vec::new();
-                dark.run(img, p, Polarity::Dark, &mut v);
+                dark.run(img, &hist, p, Polarity::Dark, &mut v);
                 v
             },
             || {
                 let mut v = Vec::new();
-                bright.run(img, p, Polarity::Bright, &mut v);
+                bright.run(img, &hist, p, Polarity::Bright, &mut v);
                 v
             },
         );
