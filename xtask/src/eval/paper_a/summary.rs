@@ -140,6 +140,14 @@ pub fn render(reports: &[SequenceReport], table: Option<&Table>, synthetic: bool
             names.join(", ")
         );
     }
+    out.push_str(if synthetic {
+        "Match pictures (correct matches green, wrong ones red; FD Corr/Affine at T_r = 0.5): \
+         `matches/` beside this file.\n\n"
+    } else {
+        "Match pictures (correct matches green, wrong ones red; FD Corr/Affine at T_r = 0.5) show \
+         the benchmark's images, which this repository does not hold, so they are written to \
+         `target/paper-a-matches/` (or `--matches-dir DIR`), not beside this file.\n\n"
+    });
     if let Some(r) = reports.first() {
         let m = &r.mser;
         let _ = writeln!(
