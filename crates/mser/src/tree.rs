@@ -16,16 +16,18 @@
 //! descends carries the direction to resume at in its top bits, so a new pixel is recognised by
 //! one comparison.
 //!
-//! A stack of open components holds, for each, its grey level, the position in the flood order at
-//! which it was opened, its first pixel in raster order and its closed children; the top component
-//! lives in a local variable. Per pixel the flood only appends the pixel to the flood order and
-//! updates the top component's first pixel. Raising a component to a higher level or merging it
-//! into the one below closes the node: one record of six integers. Because components on the stack
-//! only ever merge into the one directly below, **the pixels of every node are one contiguous run
-//! of the flood order** (`order[start .. start + area]`), so moments and bounding boxes are not
-//! accumulated during the flood at all: they are summed afterwards over the runs of the few
-//! selected nodes (module `stats`). No per-region heap allocation happens in the loop, and memory
-//! is O(pixels).
+//! A fixed stack of open components (at most 256, as their levels strictly decrease upwards, over
+//! a sentinel) holds, for each, its grey level, the position in the flood order at which it was
+//! opened and its closed children. Per pixel the flood only appends the pixel to the flood order;
+//! opening, raising and merging components are rare events handled out of line. Raising a
+//! component to a higher level or merging it into the one below closes the node: one record of six
+//! integers. Because components on the stack only ever merge into the one directly below, **the
+//! pixels of every node are one contiguous run of the flood order** (`order[start .. start +
+//! area]`), so neither moments, bounding boxes nor first pixels are accumulated during the flood:
+//! moments and boxes are summed afterwards over the runs of the few selected nodes (module
+//! `stats`), and a first pixel is computed from the run only where the selection needs one to
+//! break a tie in area ([`Tree::seed`]). No per-region heap allocation happens in the loop, and
+//! memory is O(pixels).
 
 use crate::image::GrayView;
 
