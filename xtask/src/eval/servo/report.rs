@@ -262,8 +262,13 @@ pub fn summary(study: &Study) -> String {
                 check(worst <= 1.0),
                 if worst > 1.0 {
                     format!(
-                        " by {:.1} px; the servo results above therefore use the noisy true percept",
-                        worst - 1.0
+                        " by {:.1} px{}",
+                        worst - 1.0,
+                        if p.recogniser.is_some() {
+                            ""
+                        } else {
+                            "; the servo results above therefore use the noisy true percept"
+                        }
                     )
                 } else {
                     String::new()
