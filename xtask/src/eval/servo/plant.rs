@@ -33,16 +33,16 @@ impl Recogniser {
 
     fn observe(&mut self, images: Vec<GrayImage>, cameras: usize) -> servo_loop::Result<Vec<f64>> {
         let mut out = Ok(Vec::with_capacity(2 * cameras));
-        for cam in 0..cameras {
+        for (cam, image) in images.iter().enumerate().take(cameras) {
             let hinted = if self.tracking {
-                self.hints[cam].and_then(|h| self.model.locate(cam, &images[cam], Some(h)).ok())
+                self.hints[cam].and_then(|h| self.model.locate(cam, image, Some(h)).ok())
             } else {
                 None
             };
             let loc = match (hinted, self.prev.get(cam)) {
                 (Some(l), _) => Ok(l),
-                (None, Some(p)) => self.model.locate_after_move(cam, &images[cam], p),
-                (None, None) => self.model.locate(cam, &images[cam], None),
+                (None, Some(p)) => self.model.locate_after_move(cam, image, p),
+                (None, None) => self.model.locate(cam, image, None),
             };
             match (loc, &mut out) {
                 (Ok(l), Ok(x)) => {
@@ -171,10 +171,9 @@ impl Plant for SimPlant {
     fn observe(&mut self) -> servo_loop::Result<Observation> {
         let t = truth(&self.sim);
         self.log.push(t);
-        if self.recogniser.is_some() {
+        let cams = self.cameras;
+        if let Some(r) = self.recogniser.as_mut() {
             let images = self.sim.capture();
-            let cams = self.cameras;
-            let r = self.recogniser.as_mut().expect("checked");
             let x = r.observe(images, cams)?;
             return Ok(Observation { x, certainty: 1.0 });
         }
