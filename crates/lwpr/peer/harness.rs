@@ -149,13 +149,19 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
             "no C compiler (`{cc}`) to build the reference LWPR"
         ));
     }
-    let out = workspace.join("target/peers/lwpr");
-    let driver = out.join("lwpr_peer");
+    // Tests in several threads and processes may get here at once: build in a private
+    // staging folder and move the finished driver into place with an atomic rename, so that
+    // nobody ever executes a half-written binary.
+    static BUILDING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = BUILDING.lock().unwrap_or_else(|e| e.into_inner());
+    let peers = workspace.join("target/peers");
+    let driver = peers.join("lwpr").join("lwpr_peer");
     let driver_src = workspace.join("crates/lwpr/peer/lwpr_peer.c");
     let fresh = |p: &Path| p.metadata().and_then(|m| m.modified()).ok();
     if driver.exists() && fresh(&driver) >= fresh(&driver_src) {
         return Ok(driver);
     }
+    let out = peers.join(format!("lwpr.staging-{}", std::process::id()));
     let st = Command::new("bash")
         .arg(src.join("build.sh"))
         .arg(&out)
@@ -167,9 +173,10 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
             String::from_utf8_lossy(&st.stderr)
         ));
     }
+    let staged = out.join("lwpr_peer");
     let st = Command::new(&cc)
         .args(["-O2", "-o"])
-        .arg(&driver)
+        .arg(&staged)
         .arg(format!("-I{}", out.display()))
         .arg(format!("-I{}", src.join("include").display()))
         .arg(&driver_src)
@@ -183,6 +190,10 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
             String::from_utf8_lossy(&st.stderr)
         ));
     }
+    let place = |e: std::io::Error| format!("cannot move the driver into place: {e}");
+    std::fs::create_dir_all(driver.parent().expect("driver has a folder")).map_err(place)?;
+    std::fs::rename(&staged, &driver).map_err(place)?;
+    std::fs::remove_dir_all(&out).ok();
     Ok(driver)
 }
 
