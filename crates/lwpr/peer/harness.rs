@@ -220,6 +220,34 @@ pub struct PeerSettings<'a> {
     pub norm_out: &'a [f64],
 }
 
+impl<'a> PeerSettings<'a> {
+    /// The settings of `model`'s parameters, for the reference to start from the same state.
+    pub fn of(model: &'a lwpr::Lwpr) -> Self {
+        let p = model.params();
+        PeerSettings {
+            n_in: p.n_in,
+            n_out: p.n_out,
+            diag_only: p.diag_only,
+            meta: p.meta,
+            update_d: p.update_d,
+            bisquare: p.kernel == lwpr::Kernel::BiSquare,
+            meta_rate: p.meta_rate,
+            penalty: p.penalty,
+            init_alpha: p.init_alpha[0],
+            w_gen: p.w_gen,
+            w_prune: p.w_prune,
+            init_lambda: p.init_lambda,
+            final_lambda: p.final_lambda,
+            tau_lambda: p.tau_lambda,
+            init_s2: p.init_s2,
+            add_threshold: p.add_threshold,
+            init_d: &p.init_d,
+            norm_in: &p.norm_in,
+            norm_out: &p.norm_out,
+        }
+    }
+}
+
 /// What the reference produced.
 pub struct PeerRun {
     /// Per checkpoint: receptive fields per output and test predictions.

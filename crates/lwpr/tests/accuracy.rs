@@ -79,27 +79,7 @@ fn reference_nmse(m: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> Opt
         .map_err(|r| eprintln!("reference comparison skipped: {r}"))
         .ok()?;
     let p = m.params();
-    let s = PeerSettings {
-        n_in: p.n_in,
-        n_out: p.n_out,
-        diag_only: p.diag_only,
-        meta: p.meta,
-        update_d: p.update_d,
-        bisquare: false,
-        meta_rate: p.meta_rate,
-        penalty: p.penalty,
-        init_alpha: p.init_alpha[0],
-        w_gen: p.w_gen,
-        w_prune: p.w_prune,
-        init_lambda: p.init_lambda,
-        final_lambda: p.final_lambda,
-        tau_lambda: p.tau_lambda,
-        init_s2: p.init_s2,
-        add_threshold: p.add_threshold,
-        init_d: &p.init_d,
-        norm_in: &p.norm_in,
-        norm_out: &p.norm_out,
-    };
+    let s = PeerSettings::of(m);
     let run = run_peer(&driver, &s, x, y, tx, &[x.len() / p.n_in]).expect("reference run");
     Some(nmse(&run.checkpoints[0].1, ty))
 }

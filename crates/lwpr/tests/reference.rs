@@ -9,31 +9,6 @@ use harness::*;
 use lwpr::{Lwpr, LwprBuilder};
 use std::path::Path;
 
-fn settings(m: &Lwpr) -> PeerSettings<'_> {
-    let p = m.params();
-    PeerSettings {
-        n_in: p.n_in,
-        n_out: p.n_out,
-        diag_only: p.diag_only,
-        meta: p.meta,
-        update_d: p.update_d,
-        bisquare: p.kernel == lwpr::Kernel::BiSquare,
-        meta_rate: p.meta_rate,
-        penalty: p.penalty,
-        init_alpha: p.init_alpha[0],
-        w_gen: p.w_gen,
-        w_prune: p.w_prune,
-        init_lambda: p.init_lambda,
-        final_lambda: p.final_lambda,
-        tau_lambda: p.tau_lambda,
-        init_s2: p.init_s2,
-        add_threshold: p.add_threshold,
-        init_d: &p.init_d,
-        norm_in: &p.norm_in,
-        norm_out: &p.norm_out,
-    }
-}
-
 fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let driver = match build_peer(&root) {
@@ -50,8 +25,15 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     } else {
         embed(&gx, &random_rotation(n, 7), n)
     };
-    let peer =
-        run_peer(&driver, &settings(&model), x, y, &gx, &[x.len() / n]).expect("reference run");
+    let peer = run_peer(
+        &driver,
+        &PeerSettings::of(&model),
+        x,
+        y,
+        &gx,
+        &[x.len() / n],
+    )
+    .expect("reference run");
     let m = model.n_out();
     let mut first_divergence = None;
     for (t, (xs, ys)) in x.chunks(n).zip(y.chunks(m)).enumerate() {

@@ -20,31 +20,6 @@ use crate::{Result, workspace_root};
 
 const RUNS: usize = 5;
 
-fn settings(m: &Lwpr) -> PeerSettings<'_> {
-    let p = m.params();
-    PeerSettings {
-        n_in: p.n_in,
-        n_out: p.n_out,
-        diag_only: p.diag_only,
-        meta: p.meta,
-        update_d: p.update_d,
-        bisquare: p.kernel == lwpr::Kernel::BiSquare,
-        meta_rate: p.meta_rate,
-        penalty: p.penalty,
-        init_alpha: p.init_alpha[0],
-        w_gen: p.w_gen,
-        w_prune: p.w_prune,
-        init_lambda: p.init_lambda,
-        final_lambda: p.final_lambda,
-        tau_lambda: p.tau_lambda,
-        init_s2: p.init_s2,
-        add_threshold: p.add_threshold,
-        init_d: &p.init_d,
-        norm_in: &p.norm_in,
-        norm_out: &p.norm_out,
-    }
-}
-
 struct Measured {
     updates_per_s: f64,
     predictions_per_s: f64,
@@ -100,7 +75,7 @@ fn measure(
         let (u, p, model) = run_ours(fresh, x, y, tx, ty);
         ou.push(u);
         op.push(p);
-        let run = run_peer(driver, &settings(fresh), x, y, tx, &[y.len()])?;
+        let run = run_peer(driver, &PeerSettings::of(fresh), x, y, tx, &[y.len()])?;
         pu.push(y.len() as f64 / run.update_seconds);
         pp.push(run.predictions_per_second);
         last = Some((model, run));
@@ -194,7 +169,14 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
         .init_alpha(250.0)
         .w_gen(0.2)
         .build()?;
-    let run = run_peer(&driver, &settings(&model), &x, &y, &gx, &checkpoints)?;
+    let run = run_peer(
+        &driver,
+        &PeerSettings::of(&model),
+        &x,
+        &y,
+        &gx,
+        &checkpoints,
+    )?;
     println!("learning curve, cross 2-D seed 1 (samples: RFs ours/ref, nMSE ours/ref)");
     let mut done = 0;
     for (k, &c) in checkpoints.iter().enumerate() {
