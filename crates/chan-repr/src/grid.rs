@@ -157,18 +157,8 @@ impl ChannelGrid {
                 v *= vd;
             }
             f(flat, v);
-            // Odometer over the per-dimension active lists.
-            let mut d = dims;
-            loop {
-                if d == 0 {
-                    return;
-                }
-                d -= 1;
-                pos[d] += 1;
-                if pos[d] < scratch[d].len() {
-                    break;
-                }
-                pos[d] = 0;
+            if !advance(&mut pos, |d| scratch[d].len()) {
+                return;
             }
         }
     }
@@ -217,7 +207,7 @@ impl ChannelGrid {
             if let Some(m) = self.decode_window(&start, |i| c[i], &mut scratch) {
                 modes.push(m);
             }
-            if !advance(&mut start, &counts) {
+            if !advance(&mut start, |d| counts[d]) {
                 break;
             }
         }
@@ -254,19 +244,7 @@ impl ChannelGrid {
                     s.marginals[d][s.pos[d]] += v;
                 }
             }
-            let mut d = dims;
-            let more = loop {
-                if d == 0 {
-                    break false;
-                }
-                d -= 1;
-                s.pos[d] += 1;
-                if s.pos[d] < s.marginals[d].len() {
-                    break true;
-                }
-                s.pos[d] = 0;
-            };
-            if !more {
+            if !advance(&mut s.pos, |d| s.marginals[d].len()) {
                 break;
             }
         }
@@ -308,11 +286,12 @@ impl WindowScratch {
     }
 }
 
-/// Odometer step over `0..counts[d]` per dimension; false after the last index.
-pub(crate) fn advance(idx: &mut [usize], counts: &[usize]) -> bool {
+/// Odometer step over `0..count(d)` per dimension (last dimension fastest); false after the
+/// last index, which leaves `idx` all zero.
+pub(crate) fn advance(idx: &mut [usize], count: impl Fn(usize) -> usize) -> bool {
     for d in (0..idx.len()).rev() {
         idx[d] += 1;
-        if idx[d] < counts[d] {
+        if idx[d] < count(d) {
             return true;
         }
         idx[d] = 0;

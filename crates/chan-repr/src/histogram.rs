@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::basis::check_weight;
 use crate::decode::check_coefficient;
-use crate::grid::{WindowScratch, finish_modes};
+use crate::grid::{WindowScratch, advance, finish_modes};
 use crate::{ChanError, ChannelBasis, ChannelGrid, ModeNd};
 
 /// A dense soft histogram over an n-D channel grid.
@@ -274,22 +274,10 @@ impl SparseHistogram {
             if (0..dims).any(|d| lo[d] > hi[d]) {
                 continue;
             }
-            let mut s = lo.clone();
+            let mut off = vec![0usize; dims];
             loop {
-                starts.insert(s.clone());
-                let mut d = dims;
-                let more = loop {
-                    if d == 0 {
-                        break false;
-                    }
-                    d -= 1;
-                    s[d] += 1;
-                    if s[d] <= hi[d] {
-                        break true;
-                    }
-                    s[d] = lo[d];
-                };
-                if !more {
+                starts.insert(lo.iter().zip(&off).map(|(l, o)| l + o).collect());
+                if !advance(&mut off, |d| hi[d] - lo[d] + 1) {
                     break;
                 }
             }
