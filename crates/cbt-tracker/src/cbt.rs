@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
 use crate::model::{History, ObservationModel, SystemModel};
+use crate::window::{Patch, WindowState};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
 use crate::{CbtModel, Detection, Point, TrackError};
 
@@ -37,6 +38,9 @@ pub struct CbtTracker {
     marg_prev: Vec<Vec<f64>>,
     /// Learn from every step's own estimate.
     self_learning: bool,
+    /// The windowed posterior of the stationary layout (`post`, `prev`, `marg*` unused).
+    #[serde(default)]
+    win: WindowState,
     #[serde(skip)]
     history: History,
     #[serde(skip)]
@@ -61,16 +65,32 @@ impl CbtTracker {
             (Order::First, Layout::Separable) => "CBT 1st order",
             (Order::Second, Layout::SparseJoint) => "CBT 2nd order (joint)",
             (Order::First, Layout::SparseJoint) => "CBT 1st order (joint)",
+            (Order::Second, Layout::Stationary) => "CBT 2nd order",
+            (Order::First, Layout::Stationary) => "CBT 1st order",
         };
+        let stationary = model.config().layout == Layout::Stationary;
+        let g = if stationary { 0 } else { g };
         let marg: Vec<Vec<f64>> = (0..dims)
             .map(|d| vec![1.0 / model.space().axis_len(d) as f64; model.space().axis_len(d)])
             .collect();
+        let mut win = WindowState::default();
+        if stationary {
+            let (nx, ny) = (model.space().axis_len(0), model.space().axis_len(1));
+            win.start(Patch {
+                i0: 0,
+                j0: 0,
+                h: nx,
+                w: ny,
+                v: vec![1.0; nx * ny],
+            });
+        }
         CbtTracker {
             name: name.to_string(),
             post: vec![1.0 / g as f64; g],
             prev: vec![1.0 / g as f64; g],
             marg_prev: marg.clone(),
             marg,
+            win,
             model,
             self_learning: false,
             history: History::default(),
@@ -98,9 +118,28 @@ impl CbtTracker {
         &self.model
     }
 
-    /// The posterior `q_k⁺` over the joint grid (sums to 1).
+    /// The posterior `q_k⁺` over the joint grid (sums to 1). For the stationary layout, the
+    /// posterior on its window only (see [`posterior_window`](Self::posterior_window)).
     pub fn posterior(&self) -> &[f64] {
-        &self.post
+        if self.is_stationary() {
+            &self.win.post.v
+        } else {
+            &self.post
+        }
+    }
+
+    /// The stationary layout's window: first cell `(i0, j0)` and size `(rows, cols)` of the
+    /// rectangle [`posterior`](Self::posterior) covers (row-major, rows along axis 0); outside
+    /// it the posterior is below `support × max` and taken as 0. `None` for other layouts.
+    pub fn posterior_window(&self) -> Option<([usize; 2], [usize; 2])> {
+        self.is_stationary().then(|| {
+            let p = &self.win.post;
+            ([p.i0, p.j0], [p.h, p.w])
+        })
+    }
+
+    fn is_stationary(&self) -> bool {
+        self.model.config().layout == Layout::Stationary
     }
 
     /// Starts from a given joint density (normalised here; must be non-negative, finite, of
@@ -133,6 +172,32 @@ impl CbtTracker {
                 reason: "must have positive mass",
             });
         }
+        if self.is_stationary() {
+            let ny = self.model.space().axis_len(1);
+            let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
+            for (k, &v) in density.iter().enumerate() {
+                if v > 0.0 {
+                    let (i, j) = (k / ny, k % ny);
+                    a0 = a0.min(i);
+                    a1 = a1.max(i + 1);
+                    b0 = b0.min(j);
+                    b1 = b1.max(j + 1);
+                }
+            }
+            let mut v = Vec::with_capacity((a1 - a0) * (b1 - b0));
+            for i in a0..a1 {
+                v.extend_from_slice(&density[i * ny + b0..i * ny + b1]);
+            }
+            self.win.start(Patch {
+                i0: a0,
+                j0: b0,
+                h: a1 - a0,
+                w: b1 - b0,
+                v,
+            });
+            self.history = History::default();
+            return Ok(());
+        }
         self.post = density.iter().map(|v| v / s).collect();
         self.prev = self.post.clone();
         self.update_marginals();
@@ -144,6 +209,12 @@ impl CbtTracker {
     /// The prior `q_k⁻` of the next step (prediction and lost-track mixing), without
     /// changing the tracker.
     pub fn predict(&self) -> Vec<f64> {
+        if let SystemModel::Stationary(sys) = &self.model.sys {
+            return self
+                .win
+                .clone()
+                .dense_prior(self.model.space(), self.model.config(), sys);
+        }
         let mut prior = Vec::new();
         let mut axis = Vec::new();
         self.predict_into(&mut prior, &mut axis);
@@ -182,6 +253,7 @@ impl CbtTracker {
                 Order::Second => s.predict2(space, &self.post, &self.prev, &cfg, prior),
                 Order::First => s.predict1(space, &self.post, &cfg, prior),
             },
+            SystemModel::Stationary(_) => unreachable!("the stationary layout predicts in window"),
         }
         let total: f64 = prior.iter().sum();
         let gamma = cfg.mixing;
@@ -260,6 +332,9 @@ impl CbtTracker {
                     s.lik.iter_mut().for_each(|l| *l += umass);
                 }
             }
+            ObservationModel::Stationary(_) => {
+                unreachable!("the stationary layout updates in window")
+            }
             ObservationModel::Joint(o) => {
                 // `z.joint` holds every detection's weighted joint encoding; the likelihood
                 // is linear in it, so one pass gives the mixture.
@@ -278,6 +353,17 @@ impl CbtTracker {
     /// Prediction and update with `detections`; on error (non-finite or off-grid
     /// detection) the tracker is unchanged.
     pub fn filter(&mut self, detections: &[Detection]) -> Result<(), TrackError> {
+        if let (ObservationModel::Stationary(obs), SystemModel::Stationary(sys)) =
+            (&self.model.obs, &self.model.sys)
+        {
+            return self.win.step(
+                self.model.space(),
+                self.model.config(),
+                obs,
+                sys,
+                detections,
+            );
+        }
         let joint = self.model.config().layout == Layout::SparseJoint;
         // Validate (and, for the joint layout, encode) everything before changing state.
         let z = encode_detections(self.model.space(), detections, 1.0, joint)?;
@@ -355,6 +441,10 @@ impl CbtTracker {
     /// Decodes the posterior: best mode, its certainty, and runner-ups.
     pub fn decode(&self) -> Estimate {
         let space = self.model.space();
+        if self.is_stationary() {
+            let cfg = self.model.config();
+            return self.win.decode(space, cfg.decode_radius, cfg.runner_ups);
+        }
         let modes =
             crate::decode::decode_posterior(space, &self.post, self.model.config().runner_ups + 1);
         let to_point = |v: &[f64]| -> Point {

@@ -26,6 +26,14 @@ pub enum Layout {
     /// One model over the joint 2-D grid of `G = N_x·N_y` cells, stored sparsely (only cells
     /// the training data touched): captures couplings between the axes at a higher cost.
     SparseJoint,
+    /// Shift-invariant models (they depend on displacements only, [`crate::CbtModel`] pools
+    /// the soft counts of every grid position), per axis for the system model and jointly over
+    /// `(δx, δy)` for the observation model, with the posterior held jointly on a window of
+    /// the 2-D grid around its support. Storage does not grow with the channel count, so the
+    /// grid can be as fine as the detection noise needs; the step costs what the posterior's
+    /// support costs, not what the grid does. Needs a 2-D space whose state and measurement
+    /// channels are the same (image tracking).
+    Stationary,
 }
 
 /// What the observation model does with the clutter background of correspondence-free learning.
@@ -117,6 +125,32 @@ pub struct CbtConfig {
     pub online_weight: f64,
     /// Number of runner-up modes reported by the estimate. Default 3.
     pub runner_ups: usize,
+    /// [`Layout::Stationary`]: radius (channels, per axis) of the learned observation kernel;
+    /// a ring of 4 more channels measures the clutter floor. Default 10 (with the spacing of
+    /// [`Scales::fine_spacing`](crate::Scales::fine_spacing), half the detection noise σ, this
+    /// is 5σ).
+    #[serde(default = "default_obs_radius")]
+    pub obs_radius: usize,
+    /// [`Layout::Stationary`]: parts of the update (the floor part, each detection's bump)
+    /// holding less than this share of the posterior mass are dropped. Default 1e-2.
+    #[serde(default = "default_support")]
+    pub support: f64,
+    /// [`Layout::Stationary`]: half-width (channels) of the window around the best cell whose
+    /// first moment is the estimate. Default 4.
+    #[serde(default = "default_decode_radius")]
+    pub decode_radius: usize,
+}
+
+fn default_obs_radius() -> usize {
+    10
+}
+
+fn default_support() -> f64 {
+    1e-2
+}
+
+fn default_decode_radius() -> usize {
+    4
 }
 
 impl Default for CbtConfig {
@@ -134,6 +168,9 @@ impl Default for CbtConfig {
             prune: 0.01,
             online_weight: 1.0,
             runner_ups: 3,
+            obs_radius: default_obs_radius(),
+            support: default_support(),
+            decode_radius: default_decode_radius(),
         }
     }
 }
@@ -147,6 +184,14 @@ impl CbtConfig {
         unit("mixing", self.mixing, true)?;
         unit("prune", self.prune, true)?;
         positive("online_weight", self.online_weight)?;
+        unit("support", self.support, true)?;
+        if self.obs_radius == 0 || self.obs_radius > 64 {
+            return Err(TrackError::InvalidParameter {
+                name: "obs_radius",
+                value: self.obs_radius as f64,
+                reason: "must lie in 1..=64 channels",
+            });
+        }
         Ok(())
     }
 }

@@ -13,6 +13,9 @@ pub(crate) struct Encoded {
     pub joint: Vec<(usize, f64)>,
     /// Number of elements (states) or total weight (detections).
     pub count: f64,
+    /// End offsets into `axes[0]` and `axes[1]` after each encoded element (its channels
+    /// are the run since the previous element's end).
+    pub ends: Vec<[usize; 2]>,
 }
 
 impl Encoded {
@@ -61,6 +64,7 @@ pub(crate) fn encode_set(
             b.for_each_active(t[d], |k, v| per_axis[d].push((k, v)));
             e.axes[d].extend(per_axis[d].iter().map(|&(k, v)| (k, w * v)));
         }
+        e.ends.push([e.axes[0].len(), e.axes[1].len()]);
         if joint {
             if dims == 1 {
                 e.joint.extend(per_axis[0].iter().map(|&(k, v)| (k, w * v)));

@@ -71,8 +71,10 @@ mod observation;
 mod particle;
 pub mod sim;
 mod space;
+mod stationary;
 mod system;
 mod tracker;
+mod window;
 
 pub use calibrate::Calibration;
 pub use cbt::CbtTracker;

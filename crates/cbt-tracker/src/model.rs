@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Layout, Order, SystemFallback};
 use crate::encode::{Encoded, encode_detections, encode_states};
 use crate::observation::{AxisObservation, JointObservation};
+use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
 use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
 use crate::{Sequence, Space, TrackError, TrainingFrame};
 
@@ -14,6 +15,7 @@ use crate::{Sequence, Space, TrackError, TrainingFrame};
 pub(crate) enum ObservationModel {
     Separable(Vec<AxisObservation>),
     Joint(JointObservation),
+    Stationary(StatObservation),
 }
 
 /// The system model in one of the two layouts (first order always learned: it is the
@@ -25,6 +27,7 @@ pub(crate) enum SystemModel {
         second: Option<Vec<AxisSystem2>>,
     },
     Joint(JointSystem),
+    Stationary(Vec<StatSystem>),
 }
 
 /// What learning has counted, for reporting.
@@ -73,6 +76,16 @@ pub(crate) struct History {
 impl CbtModel {
     /// An untrained model: every column is its fallback prior.
     pub fn untrained(space: Space, config: CbtConfig) -> Result<Self, TrackError> {
+        let r = (3.0 * config.fallback_sigma).ceil() as usize + 1;
+        CbtModel::untrained_with_radius(space, config, r)
+    }
+
+    /// [`CbtModel::untrained`] with the stationary layout's displacement radius `r`.
+    fn untrained_with_radius(
+        space: Space,
+        config: CbtConfig,
+        r: usize,
+    ) -> Result<Self, TrackError> {
         config.validate()?;
         let dims = space.dims();
         let (obs, sys) = match config.layout {
@@ -91,6 +104,15 @@ impl CbtModel {
                 (
                     ObservationModel::Separable(obs),
                     SystemModel::Separable { first, second },
+                )
+            }
+            Layout::Stationary => {
+                check_space(&space)?;
+                (
+                    ObservationModel::Stationary(StatObservation::new(&space, &config)),
+                    SystemModel::Stationary(
+                        (0..dims).map(|_| StatSystem::new(r, &config)).collect(),
+                    ),
                 )
             }
             Layout::SparseJoint => (
@@ -119,7 +141,14 @@ impl CbtModel {
         config: CbtConfig,
         sequences: &[Vec<TrainingFrame>],
     ) -> Result<Self, TrackError> {
-        let mut model = CbtModel::untrained(space, config)?;
+        let mut model = if config.layout == Layout::Stationary {
+            config.validate()?;
+            check_space(&space)?;
+            let r = motion_radius(&space, sequences, &config);
+            CbtModel::untrained_with_radius(space, config, r)?
+        } else {
+            CbtModel::untrained(space, config)?
+        };
         for seq in sequences {
             let mut h = History::default();
             for f in seq {
@@ -203,6 +232,12 @@ impl CbtModel {
                         o.normalise(&self.config);
                     }
                 }
+                ObservationModel::Stationary(o) => {
+                    o.add(&z, &x);
+                    if renormalise {
+                        o.normalise(&self.config);
+                    }
+                }
             }
         }
         let prev = h.prev.take().filter(|p| !p.is_empty());
@@ -246,6 +281,14 @@ impl CbtModel {
                 SystemModel::Joint(s) => {
                     s.add(&x.joint, &p1.joint, p2.map(|p| &p.joint[..]));
                 }
+                SystemModel::Stationary(s) => {
+                    for (d, s) in s.iter_mut().enumerate() {
+                        s.add(&x.axes[d], &p1.axes[d], p2.map(|p| &p.axes[d][..]));
+                        if renormalise {
+                            s.normalise(&cfg);
+                        }
+                    }
+                }
             }
         }
         h.prev2 = prev;
@@ -261,6 +304,7 @@ impl CbtModel {
                 axes.iter_mut().for_each(|o| o.normalise_all(&cfg))
             }
             ObservationModel::Joint(o) => o.normalise(&cfg),
+            ObservationModel::Stationary(o) => o.normalise(&cfg),
         }
         match &mut self.sys {
             SystemModel::Separable { first, second } => {
@@ -273,6 +317,7 @@ impl CbtModel {
                 }
             }
             SystemModel::Joint(s) => s.prepare(&self.space, &cfg),
+            SystemModel::Stationary(s) => s.iter_mut().for_each(|s| s.normalise(&cfg)),
         }
     }
 
@@ -281,7 +326,7 @@ impl CbtModel {
     pub fn observation_matrix(&self, d: usize) -> Option<&[f64]> {
         match &self.obs {
             ObservationModel::Separable(axes) => axes.get(d).map(|o| o.model()),
-            ObservationModel::Joint(_) => None,
+            ObservationModel::Joint(_) | ObservationModel::Stationary(_) => None,
         }
     }
 
@@ -289,7 +334,7 @@ impl CbtModel {
     pub fn observation_counts(&self, d: usize) -> Option<&[f64]> {
         match &self.obs {
             ObservationModel::Separable(axes) => axes.get(d).map(|o| o.counts()),
-            ObservationModel::Joint(_) => None,
+            ObservationModel::Joint(_) | ObservationModel::Stationary(_) => None,
         }
     }
 
@@ -298,7 +343,7 @@ impl CbtModel {
     pub fn first_order_matrix(&self, d: usize) -> Option<&[f64]> {
         match &self.sys {
             SystemModel::Separable { first, .. } => first.get(d).map(|s| s.model()),
-            SystemModel::Joint(_) => None,
+            SystemModel::Joint(_) | SystemModel::Stationary(_) => None,
         }
     }
 
@@ -309,7 +354,27 @@ impl CbtModel {
             SystemModel::Separable { second, .. } => {
                 second.as_ref().and_then(|s| s.get(d)).map(|s| s.model())
             }
-            SystemModel::Joint(_) => None,
+            SystemModel::Joint(_) | SystemModel::Stationary(_) => None,
+        }
+    }
+
+    /// The stationary layout's learned observation statistics: `(P̂_D, clutter per cell and
+    /// frame B, kernel radius)`; `None` for the other layouts.
+    pub fn stationary_observation(&self) -> Option<(f64, f64, usize)> {
+        match &self.obs {
+            ObservationModel::Stationary(o) => {
+                Some((o.p_detect(), o.background(), o.kernel_radius()))
+            }
+            _ => None,
+        }
+    }
+
+    /// The stationary layout's per-axis displacement models `(S[δ], T[δ | v])` of axis `d`
+    /// (`δ, v ∈ [−r, r]`, `T` as `[(v + r)·(2r + 1) + δ + r]`); `None` for other layouts.
+    pub fn stationary_system(&self, d: usize) -> Option<(&[f64], &[f64])> {
+        match &self.sys {
+            SystemModel::Stationary(s) => s.get(d).map(|s| (s.first(), s.second())),
+            _ => None,
         }
     }
 

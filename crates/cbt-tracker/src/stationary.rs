@@ -1,0 +1,372 @@
+//! Shift-invariant ("stationary") CBT models ([`Layout::Stationary`](crate::Layout)): the same
+//! correspondence-free soft counts as the dense models (papers.md §2.2 steps 1–2), pooled
+//! over the grid by displacement, so that a model depends on `m − n` (and `n − o`) only:
+//!
+//! ```text
+//! observation:   C_o[δ]     = Σ_t Σ_{i,j} Σ_{m − n = δ} b_m(z_t^i) b_n(x_t^j)          (δ ∈ ℤ², joint)
+//! first order:   C_1[δ]     = Σ_t Σ_{m − n = δ} a_t[m] a_{t−1}[n]                     (per axis)
+//! second order:  C_2[δ, v]  = Σ_t Σ_{m − n = δ, n − o = v} a_t[m] a_{t−1}[n] a_{t−2}[o]  (per axis)
+//! ```
+//!
+//! Pooling uses every training frame for every grid position, so the grid can be as fine as
+//! the detection noise asks for (the dense `N × N × N` tensor grows with the cube of the
+//! channel count; these models do not grow with it at all).
+//!
+//! **Observation model.** Wrong within-frame pairs (clutter) spread uniformly over all
+//! displacements; the true pairs pile up near `δ = 0`. With `C_o` normalised per state and
+//! unit detection mass, the mean `B` over a ring of displacements beyond the peak
+//! (`obs_radius < |δ|∞ ≤ obs_radius + 4`) is the learned clutter density per measurement cell
+//! and frame, and `A[δ] = max(C_o[δ] − B, 0)` (`|δ|∞ ≤ obs_radius`) is the detection
+//! kernel, whose sum is the learned detection probability `P̂_D`. The likelihood of a frame's
+//! detection set `Z` is then the clutter-aware mixture (one target, Poisson clutter):
+//!
+//! ```text
+//! p(Z | x = x̃_n) ∝ (1 − P̂_D)·B + ε/G_z + Σ_i w_i Σ_m (b_m(z_i)/|b(z_i)|) A[m − n]
+//! ```
+//!
+//! with the floor `ε` ([`CbtConfig::observation_floor`](crate::CbtConfig)).
+//!
+//! **System model.** Per axis, `S[δ] = (C_1[δ] + α·F[δ]) / (Σ C_1 + α)` with a Gaussian `F`
+//! of `fallback_sigma` channels, and `T[·, v]` the same with the fallback column `S`
+//! ([`SystemFallback::FirstOrder`]) or a Gaussian around `δ = v`
+//! ([`SystemFallback::ConstantVelocity`]). Displacements are bounded by the radius `r` the
+//! batch training data need (largest step + kernel support).
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{CbtConfig, SystemFallback};
+use crate::encode::Encoded;
+use crate::{Space, TrackError};
+
+/// Width (channels) of the ring beyond the observation kernel that measures the clutter floor.
+pub(crate) const RING: usize = 4;
+
+/// Checks that a space suits the stationary layout: two axes whose state and measurement
+/// bases are the same (detections and states share units and channels).
+pub(crate) fn check_space(space: &Space) -> Result<(), TrackError> {
+    if space.dims() != 2 {
+        return Err(TrackError::Mismatch(
+            "the stationary layout needs a 2-D space (image tracking)".into(),
+        ));
+    }
+    for d in 0..2 {
+        if space.state_basis(d) != space.meas_basis(d) {
+            return Err(TrackError::Mismatch(format!(
+                "the stationary layout needs the same state and measurement channels on axis {d}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The joint 2-D observation displacement model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct StatObservation {
+    /// Kernel radius `R` (channels); counts cover `|δ|∞ ≤ R + RING`.
+    radius: usize,
+    /// Soft counts `C_o`, `[(δx + R')·(2R' + 1) + δy + R']` with `R' = R + RING`.
+    counts: Vec<f64>,
+    /// Normaliser: Σ over frames of (state mass × unit detection mass).
+    norm: f64,
+    /// Measurement cells `G_z`.
+    cells: usize,
+    /// Learned kernel `A`, truncated to radius `ra` (≤ R): `[(δx + ra)·(2ra + 1) + δy + ra]`.
+    kernel: Vec<f64>,
+    ra: usize,
+    /// Learned clutter density per cell and frame `B`.
+    background: f64,
+    /// Learned detection probability `P̂_D = Σ A` (clamped to `[0, 1]`).
+    p_detect: f64,
+    /// Likelihood floor `(1 − P̂_D)·B + ε/G_z`.
+    floor: f64,
+}
+
+impl StatObservation {
+    pub fn new(space: &Space, cfg: &CbtConfig) -> Self {
+        let r = cfg.obs_radius + RING;
+        let mut o = StatObservation {
+            radius: cfg.obs_radius,
+            counts: vec![0.0; (2 * r + 1) * (2 * r + 1)],
+            norm: 0.0,
+            cells: space.cells(),
+            kernel: Vec::new(),
+            ra: 0,
+            background: 0.0,
+            p_detect: 0.0,
+            floor: 0.0,
+        };
+        o.normalise(cfg);
+        o
+    }
+
+    /// Adds every (detection, state) pair of one frame.
+    pub fn add(&mut self, z: &Encoded, x: &Encoded) {
+        let r = (self.radius + RING) as i64;
+        let w = 2 * r + 1;
+        // Per-element encodings: `Encoded` keeps the per-axis lists of all elements in order,
+        // each element contributing a run of consecutive channels; split them back.
+        let zs = elements(z);
+        let xs = elements(x);
+        for (zx, zy) in &zs {
+            for (xx, xy) in &xs {
+                for &(mx, vmx) in *zx {
+                    for &(nx, vnx) in *xx {
+                        let dx = mx as i64 - nx as i64;
+                        if dx.abs() > r {
+                            continue;
+                        }
+                        let row = (dx + r) * w + r;
+                        let vx = vmx * vnx;
+                        for &(my, vmy) in *zy {
+                            for &(ny, vny) in *xy {
+                                let dy = my as i64 - ny as i64;
+                                if dy.abs() <= r {
+                                    self.counts[(row + dy) as usize] += vx * vmy * vny;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let xmass: f64 = xs
+            .iter()
+            .map(|(a, b)| a.iter().map(|e| e.1).sum::<f64>() * b.iter().map(|e| e.1).sum::<f64>())
+            .sum();
+        // Per state and unit detection (mass 1.5 per axis of a cos² vector with m = 3).
+        self.norm += xmass * UNIT_MASS * UNIT_MASS;
+    }
+
+    /// Recomputes `A`, `B`, `P̂_D` and the floor from the counts.
+    pub fn normalise(&mut self, cfg: &CbtConfig) {
+        let r = self.radius;
+        let ro = r + RING;
+        let w = 2 * ro + 1;
+        let inv = if self.norm > 0.0 { 1.0 / self.norm } else { 0.0 };
+        let (mut ring, mut n_ring) = (0.0, 0usize);
+        for i in 0..w {
+            for j in 0..w {
+                let d = (i as i64 - ro as i64).abs().max((j as i64 - ro as i64).abs()) as usize;
+                if d > r {
+                    ring += self.counts[i * w + j];
+                    n_ring += 1;
+                }
+            }
+        }
+        self.background = ring * inv / n_ring.max(1) as f64;
+        let kw = 2 * r + 1;
+        let mut a = vec![0.0; kw * kw];
+        for i in 0..kw {
+            for j in 0..kw {
+                let c = self.counts[(i + RING) * w + j + RING] * inv;
+                a[i * kw + j] = (c - self.background).max(0.0);
+            }
+        }
+        let total: f64 = a.iter().sum();
+        if total <= 0.0 {
+            // Untrained: an ideal sensor (the autocorrelation of the cos² kernel at δ = 0 is
+            // approximated by a unit spike) detecting with probability 1 − ε.
+            a.iter_mut().for_each(|v| *v = 0.0);
+            a[r * kw + r] = 1.0 - cfg.observation_floor;
+        }
+        // Truncate to the smallest radius holding all but 1e-4 of the kernel's mass.
+        let total: f64 = a.iter().sum();
+        let mut ra = r;
+        while ra > 0 {
+            let inner: f64 = (r + 1 - ra..r + ra)
+                .flat_map(|i| (r + 1 - ra..r + ra).map(move |j| (i, j)))
+                .map(|(i, j)| a[i * kw + j])
+                .sum();
+            if inner < (1.0 - 1e-4) * total {
+                break;
+            }
+            ra -= 1;
+        }
+        let aw = 2 * ra + 1;
+        self.kernel = (0..aw)
+            .flat_map(|i| (0..aw).map(move |j| (i, j)))
+            .map(|(i, j)| a[(i + r - ra) * kw + j + r - ra])
+            .collect();
+        self.ra = ra;
+        self.p_detect = total.clamp(0.0, 1.0);
+        self.floor = (1.0 - self.p_detect) * self.background
+            + cfg.observation_floor / self.cells as f64;
+    }
+
+    /// The learned kernel `A` (radius [`Self::kernel_radius`]), row-major over `(δx, δy)`.
+    pub fn kernel(&self) -> &[f64] {
+        &self.kernel
+    }
+
+    /// Radius of the truncated kernel.
+    pub fn kernel_radius(&self) -> usize {
+        self.ra
+    }
+
+    /// The likelihood floor `(1 − P̂_D)·B + ε/G_z`.
+    pub fn floor(&self) -> f64 {
+        self.floor
+    }
+
+    /// Learned detection probability.
+    pub fn p_detect(&self) -> f64 {
+        self.p_detect
+    }
+
+    /// Learned clutter density per measurement cell and frame.
+    pub fn background(&self) -> f64 {
+        self.background
+    }
+}
+
+/// Mass of one unit cos² (`m = 3`) channel vector on one axis away from the grid ends.
+pub(crate) const UNIT_MASS: f64 = 1.5;
+
+/// One encoded element's per-axis channel runs.
+type Element<'a> = (&'a [(usize, f64)], &'a [(usize, f64)]);
+
+/// Splits an encoded set back into its elements' per-axis channel runs.
+fn elements(e: &Encoded) -> Vec<Element<'_>> {
+    let mut start = [0usize; 2];
+    e.ends
+        .iter()
+        .map(|end| {
+            let el = (&e.axes[0][start[0]..end[0]], &e.axes[1][start[1]..end[1]]);
+            start = *end;
+            el
+        })
+        .collect()
+}
+
+/// The per-axis system model: first-order displacement distribution `S[δ]` and second-order
+/// `T[δ | v]` for `δ, v ∈ [−r, r]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct StatSystem {
+    r: usize,
+    c1: Vec<f64>,
+    /// `[(v + r)·(2r + 1) + δ + r]`.
+    c2: Vec<f64>,
+    s1: Vec<f64>,
+    t: Vec<f64>,
+}
+
+impl StatSystem {
+    pub fn new(r: usize, cfg: &CbtConfig) -> Self {
+        let w = 2 * r + 1;
+        let mut s = StatSystem {
+            r,
+            c1: vec![0.0; w],
+            c2: vec![0.0; w * w],
+            s1: vec![0.0; w],
+            t: vec![0.0; w * w],
+        };
+        s.normalise(cfg);
+        s
+    }
+
+    /// Radius `r`.
+    pub fn radius(&self) -> usize {
+        self.r
+    }
+
+    /// Adds `a_t ⊗ a_{t−1}` (and `⊗ a_{t−2}`) by displacement.
+    pub fn add(
+        &mut self,
+        now: &[(usize, f64)],
+        prev: &[(usize, f64)],
+        prev2: Option<&[(usize, f64)]>,
+    ) {
+        let r = self.r as i64;
+        let w = 2 * r + 1;
+        for &(n, vn) in prev {
+            for &(m, vm) in now {
+                let d = m as i64 - n as i64;
+                if d.abs() > r {
+                    continue;
+                }
+                self.c1[(d + r) as usize] += vm * vn;
+                if let Some(p2) = prev2 {
+                    for &(o, vo) in p2 {
+                        let v = n as i64 - o as i64;
+                        if v.abs() <= r {
+                            self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Recomputes the normalised `S` and `T` with their Dirichlet fallbacks.
+    pub fn normalise(&mut self, cfg: &CbtConfig) {
+        let (r, alpha) = (self.r, cfg.prior_weight);
+        let w = 2 * r + 1;
+        let gauss = |centre: i64| -> Vec<f64> {
+            let mut g: Vec<f64> = (0..w as i64)
+                .map(|i| {
+                    let d = (i - r as i64 - centre) as f64;
+                    (-d * d / (2.0 * cfg.fallback_sigma * cfg.fallback_sigma)).exp()
+                })
+                .collect();
+            let s: f64 = g.iter().sum();
+            g.iter_mut().for_each(|v| *v /= s);
+            g
+        };
+        let g0 = gauss(0);
+        let m1: f64 = self.c1.iter().sum();
+        for i in 0..w {
+            self.s1[i] = (self.c1[i] + alpha * g0[i]) / (m1 + alpha);
+        }
+        for v in 0..w {
+            let col = &self.c2[v * w..(v + 1) * w];
+            let mass: f64 = col.iter().sum();
+            let f = match cfg.system_fallback {
+                SystemFallback::FirstOrder => self.s1.clone(),
+                SystemFallback::ConstantVelocity => gauss(v as i64 - r as i64),
+            };
+            for i in 0..w {
+                self.t[v * w + i] = (col[i] + alpha * f[i]) / (mass + alpha);
+            }
+        }
+    }
+
+    /// `S[δ]`, `δ = i − r`.
+    pub fn first(&self) -> &[f64] {
+        &self.s1
+    }
+
+    /// `T[δ | v]`, `[(v + r)·(2r + 1) + δ + r]`.
+    pub fn second(&self) -> &[f64] {
+        &self.t
+    }
+}
+
+/// Displacement radius (channels) the training data need: the largest step of a state to the
+/// nearest state of the previous frame, plus the kernel support and one channel of margin.
+pub(crate) fn motion_radius(
+    space: &Space,
+    sequences: &[Vec<crate::TrainingFrame>],
+    cfg: &CbtConfig,
+) -> usize {
+    let mut max = 0.0f64;
+    for seq in sequences {
+        for w in seq.windows(2) {
+            for s in &w[1].states {
+                let near = w[0]
+                    .states
+                    .iter()
+                    .map(|p| {
+                        (0..2)
+                            .map(|d| ((s[d] - p[d]) / space.state_basis(d).spacing()).abs())
+                            .fold(0.0, f64::max)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                if near.is_finite() {
+                    max = max.max(near);
+                }
+            }
+        }
+    }
+    let r = max.ceil() as usize + 3;
+    r.max((3.0 * cfg.fallback_sigma).ceil() as usize + 1).min(96)
+}

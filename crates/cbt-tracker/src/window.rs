@@ -1,0 +1,552 @@
+//! Filtering with the stationary models on the posterior's support only
+//! ([`Layout::Stationary`](crate::Layout)).
+//!
+//! The posterior `q_k⁺` is held jointly on the 2-D grid, but only on a window (a rectangle of
+//! cells) outside which it is below `support × max` (dropped). One step:
+//!
+//! 1. **Displacement kernel.** Per axis `d`, the velocity distribution between the last two
+//!    posteriors under the marginal approximation, `c_d[v] = Σ_n q_{k−1,d}[n] q_{k−2,d}[n − v]`
+//!    (per-axis marginals), gives the predicted displacement
+//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]` (mass of `|v| > r` goes through `S_d`); first order:
+//!    `D_d = S_d`. This decouples the displacement from `x_{k−1}` (the exact marginal
+//!    approximation `Σ_{n,o} T[m − n | n − o] q₁[n] q₂[o]` correlates them, which doubles the
+//!    posterior's spread into the prediction: `2x_{k−1} − x_{k−2}`).
+//! 2. **Prediction** `q⁻ = (1 − γ)·q_{k−1}⁺ ⊛ (D_x ⊗ D_y) + γ/G`: a separable convolution of
+//!    the joint posterior (no ghost combinations of one mode's x with another's y), evaluated
+//!    lazily only on the cells the update needs.
+//! 3. **Update** with the mixture likelihood of [`crate::stationary`]: the floor part
+//!    `floor·q⁻` (kept only when it holds more than `support` of the posterior mass, i.e. when
+//!    no detection explains the prediction) and one bump per detection `q⁻ ⊙ (b(z_i) ⋆ A)` on
+//!    the `(2 r_A + 3)²` cells around it (kept when it holds more than `support` of the mass).
+//!    A detection far from the track meets the uniform `γ/G` of the prior: that is the
+//!    lost-track recovery.
+//! 4. **Estimate**: the best mode is the highest cell's neighbourhood (`decode_radius`
+//!    channels), decoded by the first moment of the cos² channel coefficients (exact for any
+//!    density inside the window: `Σ_n x̃_n K(x − x̃_n) = 1.5·x`, `Σ_n K(x − x̃_n) = 1.5`),
+//!    certainty its posterior mass; runner-ups the next local maxima outside it.
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{CbtConfig, Order};
+use crate::stationary::{StatObservation, StatSystem};
+use crate::tracker::{Estimate, Hypothesis};
+use crate::{Detection, Space, TrackError};
+
+/// Cells below this share of the posterior's maximum are cropped from the window.
+const CROP: f64 = 1e-4;
+
+/// A dense rectangle of the joint grid: rows `i0..i0 + h` (axis 0), columns `j0..j0 + w`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Patch {
+    pub i0: usize,
+    pub j0: usize,
+    pub h: usize,
+    pub w: usize,
+    pub v: Vec<f64>,
+}
+
+/// A kernel over offsets `lo..lo + v.len()`.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Kernel1 {
+    lo: i64,
+    v: Vec<f64>,
+}
+
+impl Kernel1 {
+    fn hi(&self) -> i64 {
+        self.lo + self.v.len() as i64 - 1
+    }
+}
+
+/// Half-open rectangle of cells `[a0, a1) × [b0, b1)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rect {
+    a0: usize,
+    a1: usize,
+    b0: usize,
+    b1: usize,
+}
+
+impl Rect {
+    fn union(self, o: Rect) -> Rect {
+        Rect {
+            a0: self.a0.min(o.a0),
+            a1: self.a1.max(o.a1),
+            b0: self.b0.min(o.b0),
+            b1: self.b1.max(o.b1),
+        }
+    }
+    fn rows(&self) -> usize {
+        self.a1 - self.a0
+    }
+    fn cols(&self) -> usize {
+        self.b1 - self.b0
+    }
+}
+
+/// The windowed posterior and the marginals of the previous one.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub(crate) struct WindowState {
+    pub post: Patch,
+    /// Marginals of `q_{k−1}⁺`: `(origin, values)` per axis.
+    prev: [(usize, Vec<f64>); 2],
+    #[serde(skip)]
+    scratch: Scratch,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Scratch {
+    rows: Vec<f64>,
+    prior: Vec<f64>,
+    bump: Vec<f64>,
+    parts: Vec<(Rect, Vec<f64>)>,
+}
+
+/// One detection in channel-index coordinates, its active channels per axis and its weight.
+struct Det {
+    ax: Vec<(usize, f64)>,
+    ay: Vec<(usize, f64)>,
+    w: f64,
+}
+
+fn marginals(p: &Patch) -> [(usize, Vec<f64>); 2] {
+    let mut mx = vec![0.0; p.h];
+    let mut my = vec![0.0; p.w];
+    for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
+        let mut s = 0.0;
+        for (j, &v) in row.iter().enumerate() {
+            s += v;
+            my[j] += v;
+        }
+        mx[i] = s;
+    }
+    [(p.i0, mx), (p.j0, my)]
+}
+
+impl WindowState {
+    /// Starts from a joint density given on a patch (normalised, cropped here).
+    pub fn start(&mut self, mut p: Patch) {
+        let s: f64 = p.v.iter().sum();
+        p.v.iter_mut().for_each(|v| *v /= s);
+        self.post = p;
+        self.prev = marginals(&self.post);
+    }
+
+    /// Displacement kernel of axis `d` (step 1 of the module doc).
+    fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
+        let r = sys.radius() as i64;
+        let w = (2 * r + 1) as usize;
+        let mut out = vec![0.0; w];
+        match order {
+            Order::First => out.copy_from_slice(sys.first()),
+            Order::Second => {
+                let cur = marginals_axis(&self.post, d);
+                let (o2, m2) = (&self.prev[d].0, &self.prev[d].1);
+                let (o1, m1) = (cur.0, &cur.1);
+                let t = sys.second();
+                let mut inside = 0.0;
+                for v in -r..=r {
+                    // c[v] = Σ_n m1[n] m2[n − v]
+                    let mut c = 0.0;
+                    for (a, &q1) in m1.iter().enumerate() {
+                        let o = (o1 + a) as i64 - v - *o2 as i64;
+                        if o >= 0 && (o as usize) < m2.len() {
+                            c += q1 * m2[o as usize];
+                        }
+                    }
+                    if c == 0.0 {
+                        continue;
+                    }
+                    inside += c;
+                    let col = &t[(v + r) as usize * w..(v + r + 1) as usize * w];
+                    for (dst, &s) in out.iter_mut().zip(col) {
+                        *dst += c * s;
+                    }
+                }
+                let total: f64 = m1.iter().sum::<f64>() * m2.iter().sum::<f64>();
+                let rest = (total - inside).max(0.0);
+                for (dst, &s) in out.iter_mut().zip(sys.first()) {
+                    *dst += rest * s;
+                }
+            }
+        }
+        // Trim negligible tails.
+        let max = out.iter().fold(0.0f64, |a, &b| a.max(b));
+        let keep = |v: &f64| *v > 1e-9 * max;
+        let lo = out.iter().position(keep).unwrap_or(0);
+        let hi = out.iter().rposition(keep).map_or(0, |h| h + 1);
+        let v = out[lo..hi.max(lo + 1)].to_vec();
+        let s: f64 = v.iter().sum();
+        Kernel1 {
+            lo: lo as i64 - r,
+            v: if s > 0.0 {
+                v.iter().map(|x| x / s).collect()
+            } else {
+                v
+            },
+        }
+    }
+
+    /// `(1 − γ)·(q ⊛ D)` on `rect`, plus `γ/G`, into `out` (row-major over the rect).
+    fn prior(&mut self, kx: &Kernel1, ky: &Kernel1, keep: f64, u: f64, rect: Rect) -> Vec<f64> {
+        let p = &self.post;
+        let mut out = std::mem::take(&mut self.scratch.prior);
+        out.clear();
+        out.resize(rect.rows() * rect.cols(), u);
+        // Rows a of the posterior reaching rect: i = a + δ, δ ∈ [kx.lo, kx.hi].
+        let a_lo = (rect.a0 as i64 - kx.hi()).max(p.i0 as i64);
+        let a_hi = (rect.a1 as i64 - kx.lo).min((p.i0 + p.h) as i64);
+        if a_lo >= a_hi {
+            self.scratch.prior = Vec::new();
+            return out;
+        }
+        let (a_lo, a_hi) = (a_lo as usize, a_hi as usize);
+        let nc = rect.cols();
+        let rows = &mut self.scratch.rows;
+        rows.clear();
+        rows.resize((a_hi - a_lo) * nc, 0.0);
+        // Along y: rows[a][j] = Σ_b q[a, b] D_y[j − b].
+        for a in a_lo..a_hi {
+            let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
+            let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
+            for (b, &q) in src.iter().enumerate() {
+                if q == 0.0 {
+                    continue;
+                }
+                let bb = (p.j0 + b) as i64;
+                // j = bb + δ for δ in ky; restricted to [b0, b1).
+                let j_lo = (bb + ky.lo).max(rect.b0 as i64);
+                let j_hi = (bb + ky.hi() + 1).min(rect.b1 as i64);
+                if j_lo >= j_hi {
+                    continue;
+                }
+                let k0 = (j_lo - bb - ky.lo) as usize;
+                let n = (j_hi - j_lo) as usize;
+                let kv = &ky.v[k0..k0 + n];
+                let d = &mut dst[(j_lo - rect.b0 as i64) as usize..][..n];
+                for (x, &k) in d.iter_mut().zip(kv) {
+                    *x += q * k;
+                }
+            }
+        }
+        // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j].
+        for a in a_lo..a_hi {
+            let src = &rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
+            let i_lo = (a as i64 + kx.lo).max(rect.a0 as i64);
+            let i_hi = (a as i64 + kx.hi() + 1).min(rect.a1 as i64);
+            for i in i_lo..i_hi {
+                let k = keep * kx.v[(i - a as i64 - kx.lo) as usize];
+                let dst = &mut out[(i as usize - rect.a0) * nc..(i as usize - rect.a0 + 1) * nc];
+                for (x, &s) in dst.iter_mut().zip(src) {
+                    *x += k * s;
+                }
+            }
+        }
+        out
+    }
+
+    /// One predict + update step. Validates and encodes every detection first: on error the
+    /// state is unchanged.
+    pub fn step(
+        &mut self,
+        space: &Space,
+        cfg: &CbtConfig,
+        obs: &StatObservation,
+        sys: &[StatSystem],
+        dets: &[Detection],
+    ) -> Result<(), TrackError> {
+        let mut enc = Vec::with_capacity(dets.len());
+        for det in dets {
+            let t = space.detection_index(det)?;
+            if det.weight == 0.0 {
+                continue;
+            }
+            let mut ax = Vec::with_capacity(3);
+            let mut ay = Vec::with_capacity(3);
+            space.meas_basis(0).for_each_active(t[0], |k, v| ax.push((k, v)));
+            space.meas_basis(1).for_each_active(t[1], |k, v| ay.push((k, v)));
+            let mass: f64 = ax.iter().map(|e| e.1).sum::<f64>() * ay.iter().map(|e| e.1).sum::<f64>();
+            if mass > 0.0 {
+                enc.push(Det {
+                    ax,
+                    ay,
+                    w: det.weight / mass,
+                });
+            }
+        }
+        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+        let kx = self.displacement(&sys[0], 0, cfg.order);
+        let ky = self.displacement(&sys[1], 1, cfg.order);
+        let gamma = cfg.mixing;
+        let keep = 1.0 - gamma;
+        let u = gamma / space.cells() as f64;
+        let p = &self.post;
+        // The prediction's support (the posterior's window grown by the kernels).
+        let full = Rect {
+            a0: (p.i0 as i64 + kx.lo).max(0) as usize,
+            a1: ((p.i0 + p.h) as i64 + kx.hi()).clamp(1, nx as i64) as usize,
+            b0: (p.j0 as i64 + ky.lo).max(0) as usize,
+            b1: ((p.j0 + p.w) as i64 + ky.hi()).clamp(1, ny as i64) as usize,
+        };
+        let full = Rect {
+            a1: full.a1.max(full.a0 + 1),
+            b1: full.b1.max(full.b0 + 1),
+            ..full
+        };
+        let mut parts = std::mem::take(&mut self.scratch.parts);
+        parts.clear();
+        let mut total = 0.0;
+        let ra = obs.kernel_radius();
+        let kern = obs.kernel();
+        let kw = 2 * ra + 1;
+        for det in &enc {
+            let rect = Rect {
+                a0: det.ax[0].0.saturating_sub(ra),
+                a1: (det.ax[det.ax.len() - 1].0 + ra + 1).min(nx),
+                b0: det.ay[0].0.saturating_sub(ra),
+                b1: (det.ay[det.ay.len() - 1].0 + ra + 1).min(ny),
+            };
+            let mut val = self.prior(&kx, &ky, keep, u, rect);
+            // bump[n] = w Σ_m b_m(z) A[m − n]
+            let nc = rect.cols();
+            let bump = &mut self.scratch.bump;
+            bump.clear();
+            bump.resize(rect.rows() * nc, 0.0);
+            for &(mx, vx) in &det.ax {
+                for &(my, vy) in &det.ay {
+                    let c = det.w * vx * vy;
+                    // n = m − δ, δ ∈ [−ra, ra] → n ∈ [m − ra, m + ra]
+                    for di in 0..kw {
+                        let i = mx as i64 + ra as i64 - di as i64;
+                        if i < rect.a0 as i64 || i >= rect.a1 as i64 {
+                            continue;
+                        }
+                        let krow = &kern[di * kw..(di + 1) * kw];
+                        let brow = &mut bump[(i as usize - rect.a0) * nc..][..nc];
+                        for (dj, &k) in krow.iter().enumerate() {
+                            let j = my as i64 + ra as i64 - dj as i64;
+                            if j >= rect.b0 as i64 && j < rect.b1 as i64 {
+                                brow[j as usize - rect.b0] += c * k;
+                            }
+                        }
+                    }
+                }
+            }
+            let mut mass = 0.0;
+            for (v, &b) in val.iter_mut().zip(bump.iter()) {
+                *v *= b;
+                mass += *v;
+            }
+            total += mass;
+            parts.push((rect, val));
+        }
+        let floor_mass = obs.floor();
+        total += floor_mass;
+        let eps = cfg.support;
+        let mut rect: Option<Rect> = None;
+        let use_floor = enc.is_empty() || !(total > 0.0) || floor_mass > eps * total;
+        if use_floor {
+            rect = Some(full);
+        }
+        let sig = |m: f64| total > 0.0 && m > eps * total;
+        for (r, v) in &parts {
+            if sig(v.iter().sum()) {
+                rect = Some(rect.map_or(*r, |x| x.union(*r)));
+            }
+        }
+        let Some(rect) = rect else {
+            // Nothing significant (cannot happen with a positive floor): keep the prior.
+            self.scratch.parts = parts;
+            return Ok(());
+        };
+        let mut out = Patch {
+            i0: rect.a0,
+            j0: rect.b0,
+            h: rect.rows(),
+            w: rect.cols(),
+            v: vec![0.0; rect.rows() * rect.cols()],
+        };
+        if use_floor {
+            let f = if enc.is_empty() { 1.0 } else { floor_mass };
+            let pr = self.prior(&kx, &ky, keep, 0.0, full);
+            for a in full.a0..full.a1 {
+                let src = &pr[(a - full.a0) * full.cols()..][..full.cols()];
+                let dst = &mut out.v[(a - rect.a0) * out.w + full.b0 - rect.b0..][..full.cols()];
+                for (d, &s) in dst.iter_mut().zip(src) {
+                    *d += f * s;
+                }
+            }
+            self.scratch.prior = pr;
+        }
+        if !enc.is_empty() {
+            for (r, v) in &parts {
+                if !sig(v.iter().sum()) {
+                    continue;
+                }
+                for a in r.a0..r.a1 {
+                    let src = &v[(a - r.a0) * r.cols()..][..r.cols()];
+                    let dst = &mut out.v[(a - rect.a0) * out.w + r.b0 - rect.b0..][..r.cols()];
+                    for (d, &s) in dst.iter_mut().zip(src) {
+                        *d += s;
+                    }
+                }
+            }
+        }
+        self.scratch.parts = parts;
+        let s: f64 = out.v.iter().sum();
+        if !(s > 0.0 && s.is_finite()) {
+            return Ok(());
+        }
+        out.v.iter_mut().for_each(|v| *v /= s);
+        let out = crop(out, CROP);
+        self.prev = marginals(&self.post);
+        self.post = out;
+        Ok(())
+    }
+
+    /// Best mode and runner-ups (step 4 of the module doc).
+    pub fn decode(&self, space: &Space, radius: usize, runner_ups: usize) -> Estimate {
+        let p = &self.post;
+        let r = radius as i64;
+        let mut chosen: Vec<(usize, usize)> = Vec::new();
+        let mut hyps: Vec<Hypothesis> = Vec::new();
+        let window = |ci: usize, cj: usize| -> Hypothesis {
+            let (mut m, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            let i_lo = (ci as i64 - r).max(0) as usize;
+            let i_hi = ((ci as i64 + r + 1) as usize).min(p.h);
+            let j_lo = (cj as i64 - r).max(0) as usize;
+            let j_hi = ((cj as i64 + r + 1) as usize).min(p.w);
+            for i in i_lo..i_hi {
+                let x = space.state_basis(0).centre(p.i0 + i);
+                for j in j_lo..j_hi {
+                    let v = p.v[i * p.w + j];
+                    m += v;
+                    sx += v * x;
+                    sy += v * space.state_basis(1).centre(p.j0 + j);
+                }
+            }
+            let pos = if m > 0.0 {
+                [sx / m, sy / m]
+            } else {
+                [
+                    space.state_basis(0).centre(p.i0 + ci),
+                    space.state_basis(1).centre(p.j0 + cj),
+                ]
+            };
+            Hypothesis {
+                position: pos,
+                certainty: m,
+            }
+        };
+        // Local maxima by decreasing value.
+        let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
+        for i in 0..p.h {
+            for j in 0..p.w {
+                let v = p.v[i * p.w + j];
+                if v <= 0.0 {
+                    continue;
+                }
+                let mut is_max = true;
+                'n: for di in -1i64..=1 {
+                    for dj in -1i64..=1 {
+                        let (a, b) = (i as i64 + di, j as i64 + dj);
+                        if (di, dj) == (0, 0) || a < 0 || b < 0 || a >= p.h as i64 || b >= p.w as i64
+                        {
+                            continue;
+                        }
+                        let o = p.v[a as usize * p.w + b as usize];
+                        if o > v || (o == v && (a, b) < (i as i64, j as i64)) {
+                            is_max = false;
+                            break 'n;
+                        }
+                    }
+                }
+                if is_max {
+                    peaks.push((v, i, j));
+                }
+            }
+        }
+        peaks.sort_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+        for &(_, i, j) in &peaks {
+            if hyps.len() > runner_ups {
+                break;
+            }
+            let far = chosen.iter().all(|&(a, b)| {
+                (a as i64 - i as i64).abs() > r || (b as i64 - j as i64).abs() > r
+            });
+            if far {
+                chosen.push((i, j));
+                hyps.push(window(i, j));
+            }
+        }
+        let best = hyps.first().copied().unwrap_or(Hypothesis {
+            position: [
+                space.state_basis(0).centre(p.i0),
+                space.state_basis(1).centre(p.j0),
+            ],
+            certainty: 0.0,
+        });
+        Estimate {
+            position: best.position,
+            certainty: Some(best.certainty),
+            runner_ups: hyps.into_iter().skip(1).collect(),
+        }
+    }
+
+    /// The full-grid prior of the next step (for inspection; allocates `G` cells).
+    pub fn dense_prior(&mut self, space: &Space, cfg: &CbtConfig, sys: &[StatSystem]) -> Vec<f64> {
+        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+        let kx = self.displacement(&sys[0], 0, cfg.order);
+        let ky = self.displacement(&sys[1], 1, cfg.order);
+        let u = cfg.mixing / space.cells() as f64;
+        let rect = Rect {
+            a0: 0,
+            a1: nx,
+            b0: 0,
+            b1: ny,
+        };
+        let mut v = self.prior(&kx, &ky, 1.0 - cfg.mixing, u, rect);
+        let s: f64 = v.iter().sum();
+        v.iter_mut().for_each(|x| *x /= s);
+        v
+    }
+}
+
+fn marginals_axis(p: &Patch, d: usize) -> (usize, Vec<f64>) {
+    let [x, y] = marginals(p);
+    if d == 0 { x } else { y }
+}
+
+/// Crops a normalised patch to the bounding box of its cells `≥ eps · max`.
+fn crop(p: Patch, eps: f64) -> Patch {
+    let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
+    let cut = eps * max;
+    let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
+    for i in 0..p.h {
+        for j in 0..p.w {
+            if p.v[i * p.w + j] >= cut && p.v[i * p.w + j] > 0.0 {
+                a0 = a0.min(i);
+                a1 = a1.max(i + 1);
+                b0 = b0.min(j);
+                b1 = b1.max(j + 1);
+            }
+        }
+    }
+    if a0 == usize::MAX || (a0 == 0 && b0 == 0 && a1 == p.h && b1 == p.w) {
+        return p;
+    }
+    let (h, w) = (a1 - a0, b1 - b0);
+    let mut v = Vec::with_capacity(h * w);
+    for i in a0..a1 {
+        v.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
+    }
+    let s: f64 = v.iter().sum();
+    v.iter_mut().for_each(|x| *x /= s);
+    Patch {
+        i0: p.i0 + a0,
+        j0: p.j0 + b0,
+        h,
+        w,
+        v,
+    }
+}
