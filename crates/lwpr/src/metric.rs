@@ -14,6 +14,7 @@ use crate::workspace::Workspace;
 /// First (and for meta learning second) derivatives of the activation `w` and of the penalty
 /// `J₂ = γ' Σ D_ij²` with respect to the elements of `M` on the upper triangle (or diagonal).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn dist_derivatives(
     n: usize,
     ws: &mut Workspace,
@@ -142,7 +143,9 @@ fn idbd(
 /// update. `e_cv` is the CV residual, `e` the training residual, `xn` the normalised input.
 /// Returns the transient multiplier (0 if the field is still too young).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub(crate) fn update_distance_metric(
+    n: usize,
     rf: &mut ReceptiveField,
     p: &Params,
     w: f64,
@@ -153,7 +156,6 @@ pub(crate) fn update_distance_metric(
     xn: &[f64],
     ws: &mut Workspace,
 ) -> f64 {
-    let n = p.n_in;
     let nr = rf.n_reg;
     let penalty = p.penalty / n as f64;
     for i in 0..nr {

@@ -300,7 +300,16 @@ impl Lwpr {
         }
         for dim in 0..m {
             let yn = ws.yn[dim];
-            let act = Self::update_sub(params, &mut sub[dim], yn, ws);
+            // The update compiled for the common small input dimensions (loops of known
+            // length unroll and lose their bounds checks; same operations, same results).
+            let s = &mut sub[dim];
+            let act = match params.n_in {
+                1 => Self::update_sub::<1>(params, s, yn, ws),
+                2 => Self::update_sub::<2>(params, s, yn, ws),
+                3 => Self::update_sub::<3>(params, s, yn, ws),
+                4 => Self::update_sub::<4>(params, s, yn, ws),
+                _ => Self::update_sub::<0>(params, s, yn, ws),
+            };
             let yp = if act.sum_w > 0.0 {
                 act.yp / act.sum_w
             } else {
@@ -312,8 +321,15 @@ impl Lwpr {
         Ok(())
     }
 
-    fn update_sub(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
-        let n = p.n_in;
+    /// One sub-model's update; `N` is the input dimension if it is known at compile time
+    /// (else 0).
+    fn update_sub<const N: usize>(
+        p: &Params,
+        sub: &mut SubModel,
+        yn: f64,
+        ws: &mut Workspace,
+    ) -> Activity {
+        let n = if N == 0 { p.n_in } else { N };
         let mut act = Activity {
             w_max: 0.0,
             ind_max: None,
@@ -336,7 +352,7 @@ impl Lwpr {
             for i in 0..n {
                 ws.xc[i] = xn[i] - rf.c[i];
             }
-            let q = distance(&rf.d, &ws.xc, p.diag_only);
+            let q = distance(&rf.d, &ws.xc[..n], p.diag_only);
             if q > q_skip {
                 rf.w = 0.0;
                 continue;
@@ -355,14 +371,14 @@ impl Lwpr {
             }
             if w > UPDATE_ACTIVATION {
                 rf.w = w;
-                let ymz = rf.update_means(&xn, yn, w, &mut xmz);
-                let (yp_k, e_cv, e) = rf.update_regression(n, &xmz, ymz, w, ws);
+                let ymz = rf.update_means(&xn[..n], yn, w, &mut xmz[..n]);
+                let (yp_k, e_cv, e) = rf.update_regression(n, &xmz[..n], ymz, w, ws);
                 if rf.trustworthy {
                     act.yp += w * yp_k;
                     act.sum_w += w;
                 }
                 if p.update_d {
-                    update_distance_metric(rf, p, w, dwdq, ddwdqdq, e_cv, e, &xn, ws);
+                    update_distance_metric(n, rf, p, w, dwdq, ddwdqdq, e_cv, e, &xn[..n], ws);
                 }
                 rf.check_add_projection(p);
                 rf.anneal(p);

@@ -207,6 +207,7 @@ impl ReceptiveField {
     }
 
     /// Weighted means with forgetting (§4.3 a); writes `x − x̄` to `xmz`, returns `y − β₀`.
+    #[inline(always)]
     pub(crate) fn update_means(&mut self, x: &[f64], y: f64, w: f64, xmz: &mut [f64]) -> f64 {
         let swl = self.sum_w[0] * self.lambda[0];
         let inv_fac = 1.0 / (swl + w);
@@ -247,6 +248,7 @@ impl ReceptiveField {
 
     /// Incremental PLS step (§4.3 b–f). `x` is `x − x̄`, `y` is `y − β₀`.
     /// Returns `(ŷ_k, e_cv_R, e)`.
+    #[inline(always)]
     pub(crate) fn update_regression(
         &mut self,
         n: usize,
@@ -360,6 +362,7 @@ impl ReceptiveField {
     }
 
     /// Data counts and forgetting-factor annealing (§4.3 i).
+    #[inline(always)]
     pub(crate) fn anneal(&mut self, p: &Params) {
         for i in 0..self.n_reg {
             self.n_data[i] = self.n_data[i] * self.lambda[i] + 1.0;
@@ -370,6 +373,7 @@ impl ReceptiveField {
     /// Recomputes the cached slope `∂ŷ_k/∂z` of the local model over the directions used for
     /// prediction, by reverse accumulation through the deflation
     /// (`g ← g + u_r (β_r − p_rᵀ g)`, from the last direction to the first).
+    #[inline(always)]
     pub(crate) fn refresh_slope(&mut self, n: usize) {
         let nr = self.n_reg_pred(n);
         self.slope.iter_mut().for_each(|v| *v = 0.0);
