@@ -348,11 +348,25 @@ impl Lwpr {
             Kernel::Gaussian => -2.0 * threshold.ln() * (1.0 + 1e-9) + 1e-9,
             Kernel::BiSquare => f64::INFINITY,
         };
+        let xn_n = &xn[..n];
         for (k, rf) in sub.rfs.iter_mut().enumerate() {
-            for i in 0..n {
-                ws.xc[i] = xn[i] - rf.c[i];
-            }
-            let q = distance(&rf.d, &ws.xc[..n], p.diag_only);
+            let c = &rf.c[..n];
+            let q = if p.diag_only {
+                // `distance` for a diagonal metric, with `x − c` formed on the fly.
+                let d = &rf.d[..n * n];
+                let mut dist = 0.0;
+                for j in 0..n {
+                    let z = xn_n[j] - c[j];
+                    dist += z * (d[j + j * n] * z);
+                }
+                dist
+            } else {
+                let xc = &mut ws.xc[..n];
+                for i in 0..n {
+                    xc[i] = xn_n[i] - c[i];
+                }
+                distance(&rf.d, xc, false)
+            };
             if q > q_skip {
                 rf.w = 0.0;
                 continue;

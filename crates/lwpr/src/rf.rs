@@ -211,12 +211,14 @@ impl ReceptiveField {
     pub(crate) fn update_means(&mut self, x: &[f64], y: f64, w: f64, xmz: &mut [f64]) -> f64 {
         let swl = self.sum_w[0] * self.lambda[0];
         let inv_fac = 1.0 / (swl + w);
-        for i in 0..x.len() {
-            let mx = (swl * self.mean_x[i] + w * x[i]) * inv_fac;
-            self.mean_x[i] = mx;
+        let n = x.len();
+        let (mean_x, var_x, xmz) = (&mut self.mean_x[..n], &mut self.var_x[..n], &mut xmz[..n]);
+        for i in 0..n {
+            let mx = (swl * mean_x[i] + w * x[i]) * inv_fac;
+            mean_x[i] = mx;
             let z = x[i] - mx;
             xmz[i] = z;
-            self.var_x[i] = (swl * self.var_x[i] + w * z * z) * inv_fac;
+            var_x[i] = (swl * var_x[i] + w * z * z) * inv_fac;
         }
         self.beta0 = (swl * self.beta0 + w * y) * inv_fac;
         y - self.beta0
@@ -233,9 +235,10 @@ impl ReceptiveField {
         p: &[f64],
         xu: &mut [f64],
     ) {
-        xu[..n].copy_from_slice(&x[..n]);
+        let xu = &mut xu[..n];
+        xu.copy_from_slice(&x[..n]);
         for j in 0..nr {
-            let sj = dot(&u[j * n..j * n + n], &xu[..n]);
+            let sj = dot(&u[j * n..j * n + n], xu);
             s[j] = sj;
             if j + 1 < nr {
                 let pj = &p[j * n..j * n + n];
@@ -258,82 +261,107 @@ impl ReceptiveField {
         ws: &mut Workspace,
     ) -> (f64, f64, f64) {
         let nr = self.n_reg;
+        let nrn = nr * n;
+        // Every array sliced once to its exact length: the loops below then need no bounds
+        // checks and no reloading of the vectors' headers after each store.
+        let x = &x[..n];
+        let (u, p) = (&mut self.u[..nrn], &mut self.p[..nrn]);
+        let (sxy, ssx) = (&mut self.sxy[..nrn], &mut self.ssx[..nrn]);
+        let s = &mut self.s[..nr];
+        let beta = &mut self.beta[..nr];
+        let lambda = &self.lambda[..nr];
+        let sum_w = &mut self.sum_w[..nr];
+        let ss_s2 = &mut self.ss_s2[..nr];
+        let ss_y = &mut self.ss_y[..nr];
+        let n_data = &self.n_data[..nr];
+        let sum_e_cv2 = &mut self.sum_e_cv2[..nr];
         // Projections with the old U, P, keeping every residual input.
-        let xres = &mut ws.xres;
+        let xres = &mut ws.xres[..nrn];
         xres[..n].copy_from_slice(x);
         for j in 0..nr {
-            let sj = dot(&self.u[j * n..j * n + n], &xres[j * n..j * n + n]);
-            self.s[j] = sj;
+            let (done, rest) = xres.split_at_mut((j + 1) * n);
+            let xj = &done[j * n..];
+            let sj = dot(&u[j * n..j * n + n], xj);
+            s[j] = sj;
             if j + 1 < nr {
+                let (next, pj) = (&mut rest[..n], &p[j * n..j * n + n]);
                 for i in 0..n {
-                    xres[i + (j + 1) * n] = xres[i + j * n] - self.p[i + j * n] * sj;
+                    next[i] = xj[i] - pj[i] * sj;
                 }
             }
         }
-        let (yres, e_cv, ytarget) = (&mut ws.yres, &mut ws.e_cv, &mut ws.ytarget);
-        yres[0] = self.beta[0] * self.s[0];
+        let xres = &ws.xres[..nrn];
+        let (yres, e_cv, ytarget) = (
+            &mut ws.yres[..nr],
+            &mut ws.e_cv[..nr],
+            &mut ws.ytarget[..nr],
+        );
+        yres[0] = beta[0] * s[0];
         for i in 1..nr {
-            yres[i] = self.beta[i] * self.s[i] + yres[i - 1];
+            yres[i] = beta[i] * s[i] + yres[i - 1];
         }
         for i in 0..nr {
-            self.sum_w[i] = self.sum_w[i] * self.lambda[i] + w;
+            sum_w[i] = sum_w[i] * lambda[i] + w;
             e_cv[i] = y - yres[i];
         }
         ytarget[0] = y;
-        ytarget[1..nr].copy_from_slice(&e_cv[..nr - 1]);
+        ytarget[1..].copy_from_slice(&e_cv[..nr - 1]);
         let mut ws2_ss_s2 = 0.0;
         for j in 0..nr {
             let jn = j * n;
-            let lambda = self.lambda[j];
-            let lambda_slow = 0.9 + 0.1 * lambda;
+            let (sxy_j, u_j) = (&mut sxy[jn..jn + n], &mut u[jn..jn + n]);
+            let (ssx_j, p_j) = (&mut ssx[jn..jn + n], &mut p[jn..jn + n]);
+            let xres_j = &xres[jn..jn + n];
+            let lam = lambda[j];
+            let lambda_slow = 0.9 + 0.1 * lam;
             let wytar = w * ytarget[j];
-            let wsj = w * self.s[j];
+            let wsj = w * s[j];
             let mut unorm = 0.0;
             for i in 0..n {
-                let v = self.sxy[i + jn] * lambda_slow + wytar * xres[i + jn];
-                self.sxy[i + jn] = v;
+                let v = sxy_j[i] * lambda_slow + wytar * xres_j[i];
+                sxy_j[i] = v;
                 unorm += v * v;
             }
             if unorm > 1e-24 {
                 let inv = 1.0 / unorm.sqrt();
                 for i in 0..n {
-                    self.u[i + jn] = inv * self.sxy[i + jn];
+                    u_j[i] = inv * sxy_j[i];
                 }
             }
-            self.ss_s2[j] = lambda * self.ss_s2[j] + self.s[j] * wsj;
-            self.ss_y[j] = lambda * self.ss_y[j] + ytarget[j] * wsj;
+            ss_s2[j] = lam * ss_s2[j] + s[j] * wsj;
+            ss_y[j] = lam * ss_y[j] + ytarget[j] * wsj;
             for i in 0..n {
-                self.ssx[i + jn] = lambda * self.ssx[i + jn] + wsj * xres[i + jn];
+                ssx_j[i] = lam * ssx_j[i] + wsj * xres_j[i];
             }
-            let inv_ss_s2 = 1.0 / self.ss_s2[j];
-            self.beta[j] = self.ss_y[j] * inv_ss_s2;
+            let inv_ss_s2 = 1.0 / ss_s2[j];
+            beta[j] = ss_y[j] * inv_ss_s2;
             for i in 0..n {
-                self.p[i + jn] = inv_ss_s2 * self.ssx[i + jn];
+                p_j[i] = inv_ss_s2 * ssx_j[i];
             }
             ws2_ss_s2 += wsj * wsj * inv_ss_s2;
         }
-        self.ssp = self.lambda[nr - 1] * self.ssp + ws2_ss_s2;
+        self.ssp = lambda[nr - 1] * self.ssp + ws2_ss_s2;
 
         // Projections with the new U, P.
-        Self::project(n, nr, &mut self.s, x, &self.u, &self.p, &mut ws.xu);
+        Self::project(n, nr, s, x, u, p, &mut ws.xu);
 
-        let mature = self.n_data[nr - 1] > 2.0 * n as f64;
+        let mature = n_data[nr - 1] > 2.0 * n as f64;
         let used = if mature { nr } else { nr - 1 };
         let mut ypred = 0.0;
         for j in 0..used {
-            ypred += self.beta[j] * self.s[j];
+            ypred += beta[j] * s[j];
         }
         // With a single immature direction the reference reads e_cv[-1]; that value is never
         // used (the metric update needs far more data first), we hand on the first residual.
         let e_cv_r = if used == 0 { e_cv[0] } else { e_cv[used - 1] };
         let e = y - ypred;
-        if self.n_data[0] * (1.0 - self.lambda[0]) > 0.1 {
-            self.sum_e2 = self.sum_e2 * self.lambda[nr - 1] + w * e * e;
+        if n_data[0] * (1.0 - lambda[0]) > 0.1 {
+            self.sum_e2 = self.sum_e2 * lambda[nr - 1] + w * e * e;
             for i in 0..nr {
-                self.sum_e_cv2[i] = self.sum_e_cv2[i] * self.lambda[i] + w * e_cv[i] * e_cv[i];
+                sum_e_cv2[i] = sum_e_cv2[i] * lambda[i] + w * e_cv[i] * e_cv[i];
             }
         }
-        if self.n_data[0] > 2.0 * n as f64 {
+        if n_data[0] > 2.0 * n as f64 {
             self.trustworthy = true;
         }
         (ypred + self.beta0, e_cv_r, e)
@@ -364,9 +392,11 @@ impl ReceptiveField {
     /// Data counts and forgetting-factor annealing (§4.3 i).
     #[inline(always)]
     pub(crate) fn anneal(&mut self, p: &Params) {
-        for i in 0..self.n_reg {
-            self.n_data[i] = self.n_data[i] * self.lambda[i] + 1.0;
-            self.lambda[i] = p.tau_lambda * self.lambda[i] + p.final_lambda * (1.0 - p.tau_lambda);
+        let nr = self.n_reg;
+        let (n_data, lambda) = (&mut self.n_data[..nr], &mut self.lambda[..nr]);
+        for i in 0..nr {
+            n_data[i] = n_data[i] * lambda[i] + 1.0;
+            lambda[i] = p.tau_lambda * lambda[i] + p.final_lambda * (1.0 - p.tau_lambda);
         }
     }
 
@@ -376,14 +406,20 @@ impl ReceptiveField {
     #[inline(always)]
     pub(crate) fn refresh_slope(&mut self, n: usize) {
         let nr = self.n_reg_pred(n);
-        self.slope.iter_mut().for_each(|v| *v = 0.0);
+        let slope = &mut self.slope[..n];
+        for v in slope.iter_mut() {
+            *v = 0.0;
+        }
         for r in (0..nr).rev() {
             let u = &self.u[r * n..r * n + n];
             let p = &self.p[r * n..r * n + n];
-            let pg: f64 = p.iter().zip(&self.slope).map(|(a, b)| a * b).sum();
+            let mut pg = 0.0;
+            for i in 0..n {
+                pg += p[i] * slope[i];
+            }
             let coef = self.beta[r] - pg;
             for i in 0..n {
-                self.slope[i] += coef * u[i];
+                slope[i] += coef * u[i];
             }
         }
     }
