@@ -117,26 +117,27 @@ fn dist_derivatives(
     }
 }
 
-/// One IDBD step on element `off` (log rate `b`, rate `alpha`, trace `h`).
+/// One IDBD step on one element (log rate `b`, rate `alpha`, trace `h`).
 #[inline(always)]
 fn idbd(
-    rf: &mut ReceptiveField,
-    off: usize,
+    b: &mut f64,
+    alpha: &mut f64,
+    h: &mut f64,
     djdm: f64,
     ddjdmdm: f64,
     meta_rate: f64,
     trans_mul: f64,
 ) {
-    let aux = (meta_rate * trans_mul * djdm * rf.h[off]).clamp(-0.1, 0.1);
-    let b = (rf.b[off] - aux).clamp(-10.0, 10.0);
-    rf.b[off] = b;
-    let alpha = b.exp();
-    rf.alpha[off] = alpha;
-    let mut aux = 1.0 - alpha * ddjdmdm * trans_mul;
+    let aux = (meta_rate * trans_mul * djdm * *h).clamp(-0.1, 0.1);
+    let bv = (*b - aux).clamp(-10.0, 10.0);
+    *b = bv;
+    let a = bv.exp();
+    *alpha = a;
+    let mut aux = 1.0 - a * ddjdmdm * trans_mul;
     if aux < 0.0 {
         aux = 0.0;
     }
-    rf.h[off] = rf.h[off] * aux - alpha * trans_mul * djdm;
+    *h = *h * aux - a * trans_mul * djdm;
 }
 
 /// Updates `M`, `D` (and with meta learning the rates) of an active field after its regression
@@ -158,28 +159,34 @@ pub(crate) fn update_distance_metric(
 ) -> f64 {
     let nr = rf.n_reg;
     let penalty = p.penalty / n as f64;
+    let nn = n * n;
+    // Arrays sliced once to their exact lengths (no bounds checks in the loops below).
+    let (s, ss_s2) = (&rf.s[..nr], &rf.ss_s2[..nr]);
+    let (tr_h, tr_r) = (&rf.tr_h[..nr], &rf.tr_r[..nr]);
+    let (n_data, lambda, sum_e_cv2) = (&rf.n_data[..nr], &rf.lambda[..nr], &rf.sum_e_cv2[..nr]);
+    let (deriv_ok, ps, pse) = (&mut ws.deriv_ok[..nr], &mut ws.ps[..nr], &mut ws.pse[..nr]);
     for i in 0..nr {
-        ws.deriv_ok[i] = rf.n_data[i] * (1.0 - rf.lambda[0]) > 0.1;
+        deriv_ok[i] = n_data[i] * (1.0 - lambda[0]) > 0.1;
     }
-    if !ws.deriv_ok[0] {
+    if !deriv_ok[0] {
         return 0.0;
     }
     let e2 = e * e;
     let e_cv2 = e_cv * e_cv;
     let mut h = 0.0;
     for i in 0..nr {
-        if ws.deriv_ok[i] {
-            h += rf.s[i] * rf.s[i] / rf.ss_s2[i];
+        if deriv_ok[i] {
+            h += s[i] * s[i] / ss_s2[i];
         }
     }
     h *= w;
     let big_w = rf.sum_w[0];
     let big_e = if nr == 1 {
-        rf.sum_e_cv2[0]
-    } else if rf.n_data[nr - 1] > (2 * n) as f64 {
-        rf.sum_e_cv2[nr - 1]
+        sum_e_cv2[0]
+    } else if n_data[nr - 1] > (2 * n) as f64 {
+        sum_e_cv2[nr - 1]
     } else {
-        rf.sum_e_cv2[nr - 2]
+        sum_e_cv2[nr - 2]
     };
     let mut trans_mul = rf.sum_e2 / (big_e + 1e-10);
     trans_mul *= trans_mul;
@@ -189,22 +196,36 @@ pub(crate) fn update_distance_metric(
     }
     let mut dj1dw = -big_e / big_w + e_cv2;
     for i in 0..nr {
-        if ws.deriv_ok[i] {
-            let ps = rf.s[i] / rf.ss_s2[i];
-            let pse = e * ps;
-            ws.ps[i] = ps;
-            ws.pse[i] = pse;
-            dj1dw -= 2.0 * pse * rf.tr_h[i] + 2.0 * ps * ps * rf.tr_r[i];
+        if deriv_ok[i] {
+            let psi = s[i] / ss_s2[i];
+            let psei = e * psi;
+            ps[i] = psi;
+            pse[i] = psei;
+            dj1dw -= 2.0 * psei * tr_h[i] + 2.0 * psi * psi * tr_r[i];
         } else {
-            ws.ps[i] = 0.0;
-            ws.pse[i] = 0.0;
+            ps[i] = 0.0;
+            pse[i] = 0.0;
         }
     }
     dj1dw /= big_w;
     let w_w = w / big_w;
+    let (dx, c) = (&mut ws.dx[..n], &rf.c[..n]);
     for i in 0..n {
-        ws.dx[i] = xn[i] - rf.c[i];
+        dx[i] = xn[i] - c[i];
     }
+    let ddj1dwdw = if p.meta {
+        let mut s_pse = 0.0;
+        for i in 0..nr {
+            s_pse += s[i] * pse[i];
+        }
+        let mut v = 2.0 * (e2 * h / w - e_cv2 / big_w) + big_e / (big_w * big_w);
+        for i in 0..nr {
+            v += 4.0 * (pse[i] / big_w + ps[i] * s_pse) * tr_h[i];
+        }
+        v / big_w
+    } else {
+        0.0
+    };
     dist_derivatives(
         n,
         ws,
@@ -217,115 +238,126 @@ pub(crate) fn update_distance_metric(
         p.meta,
     );
 
-    let ddj1dwdw = if p.meta {
-        let mut s_pse = 0.0;
-        for i in 0..nr {
-            s_pse += rf.s[i] * ws.pse[i];
-        }
-        let mut v = 2.0 * (e2 * h / w - e_cv2 / big_w) + big_e / (big_w * big_w);
-        for i in 0..nr {
-            v += 4.0 * (ws.pse[i] / big_w + ws.ps[i] * s_pse) * rf.tr_h[i];
-        }
-        v / big_w
-    } else {
-        0.0
-    };
-
+    let (m, d) = (&mut rf.m[..nn], &mut rf.d[..nn]);
+    let (alpha, b, hh) = (&mut rf.alpha[..nn], &mut rf.b[..nn], &mut rf.h[..nn]);
+    let (dj2dm, dwdm) = (&mut ws.dj2dm[..nn], &ws.dwdm[..nn]);
+    let (ddj2dmdm, ddwdmdm) = (&ws.ddj2dmdm[..nn], &ws.ddwdmdm[..nn]);
     if p.diag_only {
         let mut max_m: f64 = 0.0;
         for j in 0..n {
-            let v = rf.m[j + j * n].abs();
+            let v = m[j + j * n].abs();
             if v > max_m {
                 max_m = v;
             }
         }
         for j in 0..n {
             let off = j + j * n;
-            ws.dj2dm[off] = w_w * ws.dj2dm[off] + ws.dwdm[off] * dj1dw;
+            dj2dm[off] = w_w * dj2dm[off] + dwdm[off] * dj1dw;
         }
         if p.meta {
             for j in 0..n {
                 let off = j + j * n;
-                let dd = w_w * ws.ddj2dmdm[off]
-                    + ws.ddwdmdm[off] * dj1dw
-                    + ws.dwdm[off] * ws.dwdm[off] * ddj1dwdw;
-                idbd(rf, off, ws.dj2dm[off], dd, p.meta_rate, trans_mul);
+                let dd =
+                    w_w * ddj2dmdm[off] + ddwdmdm[off] * dj1dw + dwdm[off] * dwdm[off] * ddj1dwdw;
+                idbd(
+                    &mut b[off],
+                    &mut alpha[off],
+                    &mut hh[off],
+                    dj2dm[off],
+                    dd,
+                    p.meta_rate,
+                    trans_mul,
+                );
             }
         }
         for j in 0..n {
             let off = j + j * n;
-            let delta = rf.alpha[off] * trans_mul * ws.dj2dm[off];
+            let delta = alpha[off] * trans_mul * dj2dm[off];
             if delta > 0.1 * max_m {
-                rf.alpha[off] *= 0.5;
+                alpha[off] *= 0.5;
             } else {
-                rf.m[off] -= delta;
+                m[off] -= delta;
             }
         }
         for j in 0..n {
-            rf.d[j + j * n] = rf.m[j + j * n] * rf.m[j + j * n];
+            d[j + j * n] = m[j + j * n] * m[j + j * n];
         }
     } else {
+        // The upper triangle column by column: rows 0..=j of column j are contiguous.
         let mut max_m: f64 = 0.0;
         for j in 0..n {
-            for i in 0..=j {
-                let v = rf.m[i + j * n].abs();
+            for &v in &m[j * n..j * n + j + 1] {
+                let v = v.abs();
                 if v > max_m {
                     max_m = v;
                 }
             }
         }
         for j in 0..n {
+            let col = j * n..j * n + j + 1;
+            let (g, dw) = (&mut dj2dm[col.clone()], &dwdm[col]);
             for i in 0..=j {
-                let off = i + j * n;
-                ws.dj2dm[off] = w_w * ws.dj2dm[off] + dj1dw * ws.dwdm[off];
+                g[i] = w_w * g[i] + dj1dw * dw[i];
             }
         }
         if p.meta {
             for j in 0..n {
+                let col = j * n..j * n + j + 1;
+                let (g, dw) = (&dj2dm[col.clone()], &dwdm[col.clone()]);
+                let (ddj2, ddw) = (&ddj2dmdm[col.clone()], &ddwdmdm[col.clone()]);
+                let (bc, ac, hc) = (&mut b[col.clone()], &mut alpha[col.clone()], &mut hh[col]);
                 for i in 0..=j {
-                    let off = i + j * n;
-                    let dwdm = ws.dwdm[off];
-                    let dd =
-                        w_w * ws.ddj2dmdm[off] + ws.ddwdmdm[off] * dj1dw + dwdm * dwdm * ddj1dwdw;
-                    idbd(rf, off, ws.dj2dm[off], dd, p.meta_rate, trans_mul);
+                    let dd = w_w * ddj2[i] + ddw[i] * dj1dw + dw[i] * dw[i] * ddj1dwdw;
+                    idbd(
+                        &mut bc[i],
+                        &mut ac[i],
+                        &mut hc[i],
+                        g[i],
+                        dd,
+                        p.meta_rate,
+                        trans_mul,
+                    );
                 }
             }
         }
         for j in 0..n {
+            let col = j * n..j * n + j + 1;
+            let (g, ac, mc) = (&dj2dm[col.clone()], &mut alpha[col.clone()], &mut m[col]);
             for i in 0..=j {
-                let off = i + j * n;
-                let delta = rf.alpha[off] * trans_mul * ws.dj2dm[off];
+                let delta = ac[i] * trans_mul * g[i];
                 if delta > 0.1 * max_m {
-                    rf.alpha[off] *= 0.5;
+                    ac[i] *= 0.5;
                 } else {
-                    rf.m[off] -= delta;
+                    mc[i] -= delta;
                 }
             }
         }
         for j in 0..n {
             for i in 0..j {
-                rf.d[i + j * n] = rf.d[j + i * n];
+                d[i + j * n] = d[j + i * n];
             }
-            let mj = &rf.m[j * n..j * n + j + 1];
+            let mj = &m[j * n..j * n + j + 1];
             let mut i = j;
             while i + 4 <= n {
-                let col = |k: usize| &rf.m[k * n..k * n + j + 1];
+                let col = |k: usize| &m[k * n..k * n + j + 1];
                 let s = dot4([col(i), col(i + 1), col(i + 2), col(i + 3)], mj);
-                rf.d[i + j * n..i + j * n + 4].copy_from_slice(&s);
+                d[i + j * n..i + j * n + 4].copy_from_slice(&s);
                 i += 4;
             }
             for i in i..n {
-                rf.d[i + j * n] = dot(&rf.m[i * n..i * n + j + 1], mj);
+                d[i + j * n] = dot(&m[i * n..i * n + j + 1], mj);
             }
         }
     }
 
+    let (s, lambda) = (&rf.s[..nr], &rf.lambda[..nr]);
+    let (tr_h, tr_r) = (&mut rf.tr_h[..nr], &mut rf.tr_r[..nr]);
+    let deriv_ok = &ws.deriv_ok[..nr];
     for i in 0..nr {
-        if ws.deriv_ok[i] {
-            let lam = rf.lambda[i];
-            rf.tr_h[i] = lam * rf.tr_h[i] + (w / (1.0 - h)) * rf.s[i] * e_cv * trans_mul;
-            rf.tr_r[i] =
-                lam * rf.tr_r[i] + (w * w * e_cv2 / (1.0 - h)) * rf.s[i] * rf.s[i] * trans_mul;
+        if deriv_ok[i] {
+            let lam = lambda[i];
+            tr_h[i] = lam * tr_h[i] + (w / (1.0 - h)) * s[i] * e_cv * trans_mul;
+            tr_r[i] = lam * tr_r[i] + (w * w * e_cv2 / (1.0 - h)) * s[i] * s[i] * trans_mul;
         }
     }
     trans_mul
