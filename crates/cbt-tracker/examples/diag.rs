@@ -4,6 +4,9 @@
 
 use std::time::Instant;
 
+/// RMSE and seconds per frame of CBT 2nd order, CBT 1st order and PF 1000 on one sequence.
+type Row = ((f64, f64), (f64, f64), (f64, f64));
+
 use cbt_tracker::metrics::score;
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
@@ -29,8 +32,15 @@ fn run(t: &mut dyn Tracker, s: &Sequence) -> (f64, f64) {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let levels = if args.is_empty() { vec![0, 1, 2, 3, 4] } else { args };
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let levels = if args.is_empty() {
+        vec![0, 1, 2, 3, 4]
+    } else {
+        args
+    };
     let sc = Scenario::default();
     let extent = sc.width.min(sc.height);
     for &i in &levels {
@@ -38,33 +48,78 @@ fn main() {
         let train = generate(&sc, &lv, 4, 300, 1000 + i as u64);
         let val = generate(&sc, &lv, 8, 150, 7000 + i as u64);
         let scales = Scales::estimate(&train, extent).unwrap();
-        let sp = scales.fine_spacing(extent);
+        let f: f64 = std::env::var("SPF")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(1.0);
+        let sp = scales.fine_spacing(extent) * f;
         let k = cbt_tracker::DEFAULT_KERNEL;
-        let (bx, by) = (axis(0.0, sc.width, sp, k).unwrap(), axis(0.0, sc.height, sp, k).unwrap());
+        let (bx, by) = (
+            axis(0.0, sc.width, sp, k).unwrap(),
+            axis(0.0, sc.height, sp, k).unwrap(),
+        );
         let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by]).unwrap();
-        let cfg = CbtConfig { layout: Layout::Stationary, ..CbtConfig::default() };
+        let cfg = CbtConfig {
+            layout: Layout::Stationary,
+            ..CbtConfig::default()
+        };
         let m2 = CbtModel::learn_sequences(space.clone(), cfg, &train).unwrap();
-        let m1 = CbtModel::learn_sequences(space.clone(), CbtConfig { order: Order::First, ..cfg }, &train).unwrap();
-        println!("L{i}: spacing {sp:.2}, stat obs {:?}", m2.stationary_observation());
+        let m1 = CbtModel::learn_sequences(
+            space.clone(),
+            CbtConfig {
+                order: Order::First,
+                ..cfg
+            },
+            &train,
+        )
+        .unwrap();
+        println!(
+            "L{i}: spacing {sp:.2}, stat obs {:?}",
+            m2.stationary_observation()
+        );
         let cal = Calibration::estimate(&train, extent / 10.0).unwrap();
         let pfm = PfModel::from_calibration(&cal, sc.width * sc.height);
         let mut rows = vec![];
+        let only = std::env::var("ONLY").unwrap_or_default();
+        if only == "learn" {
+            continue;
+        }
         for (si, s) in val.iter().enumerate() {
-            let a = run(&mut CbtTracker::new(m2.clone()), s);
-            let b = run(&mut CbtTracker::new(m1.clone()), s);
-            let c = run(&mut ParticleFilter::new(pfm, 1000, 5000 + si as u64).unwrap(), s);
+            let a = if only.is_empty() || only == "cbt" {
+                run(&mut CbtTracker::new(m2.clone()), s)
+            } else {
+                (0.0, 0.0)
+            };
+            let b = if only.is_empty() {
+                run(&mut CbtTracker::new(m1.clone()), s)
+            } else {
+                (0.0, 0.0)
+            };
+            let c = if only.is_empty() || only == "pf" {
+                run(
+                    &mut ParticleFilter::new(pfm, 1000, 5000 + si as u64).unwrap(),
+                    s,
+                )
+            } else {
+                (0.0, 0.0)
+            };
             rows.push((a, b, c));
         }
         let n = rows.len() as f64;
-        let mean = |f: &dyn Fn(&((f64, f64), (f64, f64), (f64, f64))) -> f64| rows.iter().map(f).sum::<f64>() / n;
+        let mean = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).sum::<f64>() / n;
         let wins = rows.iter().filter(|r| r.0.0 <= r.2.0).count();
-        for r in &rows {
+        for r in rows.iter().filter(|_| std::env::var("ROWS").is_ok()) {
             println!("   cbt2 {:6.2} cbt1 {:6.2} pf {:6.2}", r.0.0, r.1.0, r.2.0);
         }
         println!(
             "  mean RMSE cbt2 {:.2} cbt1 {:.2} pf1000 {:.2}; cbt2 wins {wins}/{}; time µs cbt2 {:.1} cbt1 {:.1} pf {:.1}",
-            mean(&|r| r.0.0), mean(&|r| r.1.0), mean(&|r| r.2.0), rows.len(),
-            mean(&|r| r.0.1) * 1e6, mean(&|r| r.1.1) * 1e6, mean(&|r| r.2.1) * 1e6
+            mean(&|r| r.0.0),
+            mean(&|r| r.1.0),
+            mean(&|r| r.2.0),
+            rows.len(),
+            mean(&|r| r.0.1) * 1e6,
+            mean(&|r| r.1.1) * 1e6,
+            mean(&|r| r.2.1) * 1e6
         );
     }
 }

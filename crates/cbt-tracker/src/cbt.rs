@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
 use crate::model::{History, ObservationModel, SystemModel};
-use crate::window::{Patch, WindowState};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
+use crate::window::{Patch, WindowState};
 use crate::{CbtModel, Detection, Point, TrackError};
 
 /// A CBT tracker: a learned [`CbtModel`] and the posterior over the joint state grid.
@@ -75,14 +75,14 @@ impl CbtTracker {
             .collect();
         let mut win = WindowState::default();
         if stationary {
-            let (nx, ny) = (model.space().axis_len(0), model.space().axis_len(1));
-            win.start(Patch {
-                i0: 0,
-                j0: 0,
-                h: nx,
-                w: ny,
-                v: vec![1.0; nx * ny],
-            });
+            // Started at the centre of the grid (a sharp prior; `reset` places it).
+            let c: Vec<f64> = (0..2)
+                .map(|d| {
+                    let (lo, hi) = model.space().state_basis(d).representable_range();
+                    0.5 * (lo + hi)
+                })
+                .collect();
+            win.start(point_patch(model.space(), [c[0], c[1]]));
         }
         CbtTracker {
             name: name.to_string(),
@@ -492,6 +492,11 @@ impl Tracker for CbtTracker {
     fn reset(&mut self, start: Point) -> Result<(), TrackError> {
         let space = self.model.space();
         space.state_index(&start)?;
+        if self.is_stationary() {
+            self.win.start(point_patch(space, start));
+            self.history = History::default();
+            return Ok(());
+        }
         let dims = space.dims();
         let c = space.grid().encode(&start[..dims])?;
         self.reset_to(&c)
@@ -524,4 +529,22 @@ impl CbtTracker {
         }
         q
     }
+}
+
+/// The channel encoding of a (validated, on-grid) point as a window patch.
+fn point_patch(space: &crate::Space, p: Point) -> Patch {
+    let mut ax: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
+    for (d, a) in ax.iter_mut().enumerate() {
+        let b = space.state_basis(d);
+        b.for_each_active(b.to_index(p[d]), |k, v| a.push((k, v)));
+    }
+    let (i0, j0) = (ax[0][0].0, ax[1][0].0);
+    let (h, w) = (ax[0].len(), ax[1].len());
+    let mut v = vec![0.0; h * w];
+    for &(i, a) in &ax[0] {
+        for &(j, b) in &ax[1] {
+            v[(i - i0) * w + j - j0] = a * b;
+        }
+    }
+    Patch { i0, j0, h, w, v }
 }

@@ -125,10 +125,11 @@ pub struct CbtConfig {
     pub online_weight: f64,
     /// Number of runner-up modes reported by the estimate. Default 3.
     pub runner_ups: usize,
-    /// [`Layout::Stationary`]: radius (channels, per axis) of the learned observation kernel;
-    /// a ring of 4 more channels measures the clutter floor. Default 10 (with the spacing of
-    /// [`Scales::fine_spacing`](crate::Scales::fine_spacing), half the detection noise σ, this
-    /// is 5σ).
+    /// [`Layout::Stationary`]: largest radius (channels, per axis) of the learned observation
+    /// kernel; a ring of 4 more channels measures the clutter floor, and the kernel is then
+    /// truncated to 3 of its standard deviations. Default 10 (with the spacing of
+    /// [`Scales::fine_spacing`](crate::Scales::fine_spacing), 0.75 detection noise σ, this is
+    /// 7.5σ).
     #[serde(default = "default_obs_radius")]
     pub obs_radius: usize,
     /// [`Layout::Stationary`]: parts of the update (the floor part, each detection's bump)

@@ -369,6 +369,15 @@ impl CbtModel {
         }
     }
 
+    /// The stationary layout's learned observation kernel `A[δ]` over `|δ|∞ ≤ r_A`, row-major
+    /// `[(δx + r_A)·(2r_A + 1) + δy + r_A]`, with `r_A`; `None` for the other layouts.
+    pub fn stationary_kernel(&self) -> Option<(&[f64], usize)> {
+        match &self.obs {
+            ObservationModel::Stationary(o) => Some((o.kernel(), o.kernel_radius())),
+            _ => None,
+        }
+    }
+
     /// The stationary layout's per-axis displacement models `(S[δ], T[δ | v])` of axis `d`
     /// (`δ, v ∈ [−r, r]`, `T` as `[(v + r)·(2r + 1) + δ + r]`); `None` for other layouts.
     pub fn stationary_system(&self, d: usize) -> Option<(&[f64], &[f64])> {

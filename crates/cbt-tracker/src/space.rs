@@ -268,13 +268,15 @@ impl Scales {
         (1.5 * self.noise.max(self.accel)).clamp(extent / 48.0, extent / 12.0)
     }
 
-    /// Spacing for the stationary layout ([`Layout::Stationary`](crate::Layout)), whose cost
-    /// does not grow with the channel count: `clamp(noise/2, extent/1000, extent/12)`. Half a
-    /// noise σ keeps the blur the cos² channels add to the likelihood (three encodings of
-    /// variance 0.29 spacing² each) at a fifth of the noise variance, so the update is as
-    /// sharp as the detector.
+    /// Spacing for the stationary layout ([`Layout::Stationary`](crate::Layout)), whose
+    /// storage does not grow with the channel count: `clamp(0.75·noise, extent/1000,
+    /// extent/12)`. The cos² channels (`a = π/3`, variance 0.29 spacing² each) blur the
+    /// likelihood three times (state and detection encodings in learning, detection encoding
+    /// in filtering): at 0.75 σ that adds half the noise variance, so the update stays about as
+    /// sharp as the detector (its width is 1.22 σ), while the step's cost, which follows the
+    /// number of cells the posterior and prediction cover, stays small.
     pub fn fine_spacing(&self, extent: f64) -> f64 {
-        (0.5 * self.noise).clamp(extent / 1000.0, extent / 12.0)
+        (0.75 * self.noise).clamp(extent / 1000.0, extent / 12.0)
     }
 }
 

@@ -66,12 +66,22 @@ pub(crate) struct StatObservation {
     radius: usize,
     /// Soft counts `C_o`, `[(δx + R')·(2R' + 1) + δy + R']` with `R' = R + RING`.
     counts: Vec<f64>,
+    /// Exposure `E[δ]`: Σ over frames and states of (state mass × unit detection mass) ×
+    /// [`x + δ` lies on the measurement grid]; clutter uniform over the grid gives counts
+    /// `λ·E[δ]` (fewer pairs at displacements that leave the image from where targets are).
+    #[serde(default)]
+    exposure: Vec<f64>,
     /// Normaliser: Σ over frames of (state mass × unit detection mass).
     norm: f64,
     /// Measurement cells `G_z`.
     cells: usize,
+    /// Measurement channels per axis.
+    #[serde(default)]
+    len: [usize; 2],
     /// Learned kernel `A`, truncated to radius `ra` (≤ R): `[(δx + ra)·(2ra + 1) + δy + ra]`.
     kernel: Vec<f64>,
+    /// `A` point-reflected (reversed), for the filter's contiguous inner loop.
+    flipped: Vec<f64>,
     ra: usize,
     /// Learned clutter density per cell and frame `B`.
     background: f64,
@@ -87,9 +97,12 @@ impl StatObservation {
         let mut o = StatObservation {
             radius: cfg.obs_radius,
             counts: vec![0.0; (2 * r + 1) * (2 * r + 1)],
+            exposure: vec![0.0; (2 * r + 1) * (2 * r + 1)],
             norm: 0.0,
             cells: space.cells(),
+            len: [space.meas_len(0), space.meas_len(1)],
             kernel: Vec::new(),
+            flipped: Vec::new(),
             ra: 0,
             background: 0.0,
             p_detect: 0.0,
@@ -129,10 +142,34 @@ impl StatObservation {
                 }
             }
         }
-        let xmass: f64 = xs
-            .iter()
-            .map(|(a, b)| a.iter().map(|e| e.1).sum::<f64>() * b.iter().map(|e| e.1).sum::<f64>())
-            .sum();
+        let mut xmass = 0.0;
+        for (a, b) in &xs {
+            let (ma, mb) = (
+                a.iter().map(|e| e.1).sum::<f64>(),
+                b.iter().map(|e| e.1).sum::<f64>(),
+            );
+            xmass += ma * mb;
+            if ma <= 0.0 || mb <= 0.0 {
+                continue;
+            }
+            // The state's channel coordinates (first moment of its run) and the box of
+            // displacements that stay on the grid from there.
+            let c = [
+                a.iter().map(|e| e.0 as f64 * e.1).sum::<f64>() / ma,
+                b.iter().map(|e| e.0 as f64 * e.1).sum::<f64>() / mb,
+            ];
+            let e = ma * mb * UNIT_MASS * UNIT_MASS;
+            let lo: Vec<i64> = (0..2).map(|d| (-c[d].round() as i64).max(-r)).collect();
+            let hi: Vec<i64> = (0..2)
+                .map(|d| ((self.len[d] as f64 - 1.0 - c[d]).round() as i64).min(r))
+                .collect();
+            for dx in lo[0]..=hi[0] {
+                let row = &mut self.exposure[((dx + r) * w) as usize..((dx + r + 1) * w) as usize];
+                for v in &mut row[(lo[1] + r) as usize..=(hi[1] + r) as usize] {
+                    *v += e;
+                }
+            }
+        }
         // Per state and unit detection (mass 1.5 per axis of a cos² vector with m = 3).
         self.norm += xmass * UNIT_MASS * UNIT_MASS;
     }
@@ -142,60 +179,95 @@ impl StatObservation {
         let r = self.radius;
         let ro = r + RING;
         let w = 2 * ro + 1;
-        let inv = if self.norm > 0.0 { 1.0 / self.norm } else { 0.0 };
-        let (mut ring, mut n_ring) = (0.0, 0usize);
+        let inv = if self.norm > 0.0 {
+            1.0 / self.norm
+        } else {
+            0.0
+        };
+        // λ (clutter per cell and frame) from the ring: counts over exposure.
+        let (mut ring, mut ring_e) = (0.0, 0.0);
         for i in 0..w {
             for j in 0..w {
-                let d = (i as i64 - ro as i64).abs().max((j as i64 - ro as i64).abs()) as usize;
+                let d = (i as i64 - ro as i64)
+                    .abs()
+                    .max((j as i64 - ro as i64).abs()) as usize;
                 if d > r {
                     ring += self.counts[i * w + j];
-                    n_ring += 1;
+                    ring_e += self.exposure.get(i * w + j).copied().unwrap_or(0.0);
                 }
             }
         }
-        self.background = ring * inv / n_ring.max(1) as f64;
+        self.background = if ring_e > 0.0 { ring / ring_e } else { 0.0 };
         let kw = 2 * r + 1;
         let mut a = vec![0.0; kw * kw];
         for i in 0..kw {
             for j in 0..kw {
-                let c = self.counts[(i + RING) * w + j + RING] * inv;
-                a[i * kw + j] = (c - self.background).max(0.0);
+                let k = (i + RING) * w + j + RING;
+                let e = self.exposure.get(k).copied().unwrap_or(0.0);
+                a[i * kw + j] = (self.counts[k] - self.background * e) * inv;
             }
         }
-        let total: f64 = a.iter().sum();
+        let total: f64 = a.iter().map(|v| v.max(0.0)).sum();
         if total <= 0.0 {
             // Untrained: an ideal sensor (the autocorrelation of the cos² kernel at δ = 0 is
             // approximated by a unit spike) detecting with probability 1 − ε.
             a.iter_mut().for_each(|v| *v = 0.0);
             a[r * kw + r] = 1.0 - cfg.observation_floor;
         }
-        // Truncate to the smallest radius holding all but 1e-4 of the kernel's mass.
-        let total: f64 = a.iter().sum();
-        let mut ra = r;
-        while ra > 0 {
-            let inner: f64 = (r + 1 - ra..r + ra)
-                .flat_map(|i| (r + 1 - ra..r + ra).map(move |j| (i, j)))
-                .map(|(i, j)| a[i * kw + j])
-                .sum();
-            if inner < (1.0 - 1e-4) * total {
+        // Truncate to 3 standard deviations of the kernel (and one channel): beyond the
+        // detection noise, `max(C − B, 0)` would keep only the positive half of the clutter
+        // counts' noise, widening the kernel and inflating `P̂_D`. The spread is measured on
+        // `C − B` (noise of both signs, averaging out) within the current radius, starting
+        // small and growing while the truncated spread asks for more.
+        let mut ra = r.min(3);
+        for _ in 0..8 {
+            let (mut m, mut sx, mut sy, mut sxx, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for i in r - ra..=r + ra {
+                for j in r - ra..=r + ra {
+                    let v = a[i * kw + j];
+                    let (x, y) = (i as f64 - r as f64, j as f64 - r as f64);
+                    m += v;
+                    sx += v * x;
+                    sy += v * y;
+                    sxx += v * x * x;
+                    syy += v * y * y;
+                }
+            }
+            if m <= 0.0 {
                 break;
             }
-            ra -= 1;
+            let var = (sxx / m - (sx / m).powi(2)).max(syy / m - (sy / m).powi(2));
+            let next = ((3.0 * var.max(0.0).sqrt()).ceil() as usize + 1).min(r);
+            if next == ra {
+                break;
+            }
+            ra = next;
         }
+        a.iter_mut().for_each(|v| *v = v.max(0.0));
+        let total: f64 = (r - ra..=r + ra)
+            .flat_map(|i| (r - ra..=r + ra).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * kw + j])
+            .sum();
         let aw = 2 * ra + 1;
         self.kernel = (0..aw)
             .flat_map(|i| (0..aw).map(move |j| (i, j)))
             .map(|(i, j)| a[(i + r - ra) * kw + j + r - ra])
             .collect();
         self.ra = ra;
+        self.flipped = self.kernel.iter().rev().copied().collect();
         self.p_detect = total.clamp(0.0, 1.0);
-        self.floor = (1.0 - self.p_detect) * self.background
-            + cfg.observation_floor / self.cells as f64;
+        self.floor =
+            (1.0 - self.p_detect) * self.background + cfg.observation_floor / self.cells as f64;
     }
 
     /// The learned kernel `A` (radius [`Self::kernel_radius`]), row-major over `(δx, δy)`.
     pub fn kernel(&self) -> &[f64] {
         &self.kernel
+    }
+
+    /// `A` point-reflected: `F[p·(2ra + 1) + q] = A[(2ra − p)·(2ra + 1) + 2ra − q]`.
+    pub fn flipped_kernel(&self) -> &[f64] {
+        &self.flipped
     }
 
     /// Radius of the truncated kernel.
@@ -314,8 +386,8 @@ impl StatSystem {
         };
         let g0 = gauss(0);
         let m1: f64 = self.c1.iter().sum();
-        for i in 0..w {
-            self.s1[i] = (self.c1[i] + alpha * g0[i]) / (m1 + alpha);
+        for ((s1, &c), &g) in self.s1.iter_mut().zip(&self.c1).zip(&g0) {
+            *s1 = (c + alpha * g) / (m1 + alpha);
         }
         for v in 0..w {
             let col = &self.c2[v * w..(v + 1) * w];
@@ -368,5 +440,6 @@ pub(crate) fn motion_radius(
         }
     }
     let r = max.ceil() as usize + 3;
-    r.max((3.0 * cfg.fallback_sigma).ceil() as usize + 1).min(96)
+    r.max((3.0 * cfg.fallback_sigma).ceil() as usize + 1)
+        .min(96)
 }

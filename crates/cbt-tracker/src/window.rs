@@ -59,7 +59,7 @@ impl Kernel1 {
 }
 
 /// Half-open rectangle of cells `[a0, a1) × [b0, b1)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct Rect {
     a0: usize,
     a1: usize,
@@ -90,6 +90,9 @@ pub(crate) struct WindowState {
     pub post: Patch,
     /// Marginals of `q_{k−1}⁺`: `(origin, values)` per axis.
     prev: [(usize, Vec<f64>); 2],
+    /// Marginals of `q_k⁺`.
+    #[serde(default)]
+    cur: [(usize, Vec<f64>); 2],
     #[serde(skip)]
     scratch: Scratch,
 }
@@ -100,15 +103,26 @@ struct Scratch {
     prior: Vec<f64>,
     bump: Vec<f64>,
     parts: Vec<(Rect, Vec<f64>)>,
+    far: Vec<(usize, f64)>,
+    nears: Vec<(usize, Rect)>,
+    shared: Vec<f64>,
 }
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
 struct Det {
     ax: Vec<(usize, f64)>,
     ay: Vec<(usize, f64)>,
+    /// Detection weight over its encoding's mass.
     w: f64,
+    /// Detection weight.
+    weight: f64,
 }
 
+fn dets_weight(d: &Det) -> f64 {
+    d.weight
+}
+
+#[inline(never)]
 fn marginals(p: &Patch) -> [(usize, Vec<f64>); 2] {
     let mut mx = vec![0.0; p.h];
     let mut my = vec![0.0; p.w];
@@ -129,10 +143,12 @@ impl WindowState {
         let s: f64 = p.v.iter().sum();
         p.v.iter_mut().for_each(|v| *v /= s);
         self.post = p;
-        self.prev = marginals(&self.post);
+        self.cur = marginals(&self.post);
+        self.prev = self.cur.clone();
     }
 
     /// Displacement kernel of axis `d` (step 1 of the module doc).
+    #[inline(never)]
     fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
         let r = sys.radius() as i64;
         let w = (2 * r + 1) as usize;
@@ -140,19 +156,20 @@ impl WindowState {
         match order {
             Order::First => out.copy_from_slice(sys.first()),
             Order::Second => {
-                let cur = marginals_axis(&self.post, d);
-                let (o2, m2) = (&self.prev[d].0, &self.prev[d].1);
-                let (o1, m1) = (cur.0, &cur.1);
+                let (o2, m2) = (self.prev[d].0 as i64, &self.prev[d].1);
+                let (o1, m1) = (self.cur[d].0 as i64, &self.cur[d].1);
                 let t = sys.second();
                 let mut inside = 0.0;
-                for v in -r..=r {
-                    // c[v] = Σ_n m1[n] m2[n − v]
+                // v = n − o with n ∈ [o1, o1 + |m1|), o ∈ [o2, o2 + |m2|).
+                let v_lo = (o1 - o2 - m2.len() as i64 + 1).max(-r);
+                let v_hi = (o1 + m1.len() as i64 - 1 - o2).min(r);
+                for v in v_lo..=v_hi {
+                    // c[v] = Σ_n m1[n] m2[n − v] over the overlap.
+                    let a_lo = (o2 + v - o1).max(0);
+                    let a_hi = (o2 + v + m2.len() as i64 - o1).min(m1.len() as i64);
                     let mut c = 0.0;
-                    for (a, &q1) in m1.iter().enumerate() {
-                        let o = (o1 + a) as i64 - v - *o2 as i64;
-                        if o >= 0 && (o as usize) < m2.len() {
-                            c += q1 * m2[o as usize];
-                        }
+                    for a in a_lo..a_hi {
+                        c += m1[a as usize] * m2[(o1 + a - v - o2) as usize];
                     }
                     if c == 0.0 {
                         continue;
@@ -172,7 +189,7 @@ impl WindowState {
         }
         // Trim negligible tails.
         let max = out.iter().fold(0.0f64, |a, &b| a.max(b));
-        let keep = |v: &f64| *v > 1e-9 * max;
+        let keep = |v: &f64| *v > 1e-7 * max;
         let lo = out.iter().position(keep).unwrap_or(0);
         let hi = out.iter().rposition(keep).map_or(0, |h| h + 1);
         let v = out[lo..hi.max(lo + 1)].to_vec();
@@ -189,16 +206,30 @@ impl WindowState {
 
     /// `(1 − γ)·(q ⊛ D)` on `rect`, plus `γ/G`, into `out` (row-major over the rect).
     fn prior(&mut self, kx: &Kernel1, ky: &Kernel1, keep: f64, u: f64, rect: Rect) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.prior_into(kx, ky, keep, u, rect, &mut out);
+        out
+    }
+
+    /// [`Self::prior`] into a reused buffer.
+    #[inline(never)]
+    fn prior_into(
+        &mut self,
+        kx: &Kernel1,
+        ky: &Kernel1,
+        keep: f64,
+        u: f64,
+        rect: Rect,
+        out: &mut Vec<f64>,
+    ) {
         let p = &self.post;
-        let mut out = std::mem::take(&mut self.scratch.prior);
         out.clear();
         out.resize(rect.rows() * rect.cols(), u);
         // Rows a of the posterior reaching rect: i = a + δ, δ ∈ [kx.lo, kx.hi].
         let a_lo = (rect.a0 as i64 - kx.hi()).max(p.i0 as i64);
         let a_hi = (rect.a1 as i64 - kx.lo).min((p.i0 + p.h) as i64);
         if a_lo >= a_hi {
-            self.scratch.prior = Vec::new();
-            return out;
+            return;
         }
         let (a_lo, a_hi) = (a_lo as usize, a_hi as usize);
         let nc = rect.cols();
@@ -242,7 +273,71 @@ impl WindowState {
                 }
             }
         }
-        out
+    }
+
+    /// Part `q⁻ ⊙ (b(z) ⋆ A)` of one detection on `rect` into `out`; returns its mass.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn bump_part(
+        &mut self,
+        det: &Det,
+        obs: &StatObservation,
+        kx: &Kernel1,
+        ky: &Kernel1,
+        keep: f64,
+        u: f64,
+        rect: Rect,
+        shared: Option<(Rect, &[f64])>,
+        out: &mut Vec<f64>,
+    ) -> f64 {
+        match shared {
+            // The prior was computed once on a rectangle holding `rect`.
+            Some((big, pr)) => {
+                out.clear();
+                for a in rect.a0..rect.a1 {
+                    let row = (a - big.a0) * big.cols() + rect.b0 - big.b0;
+                    out.extend_from_slice(&pr[row..row + rect.cols()]);
+                }
+            }
+            None => self.prior_into(kx, ky, keep, u, rect, out),
+        }
+        let ra = obs.kernel_radius() as i64;
+        // The point-reflected kernel F[p][q] = A[−(p − ra)][−(q − ra)]:
+        // bump[i][j] += c · F[i − m_x + ra][j − m_y + ra], contiguous in j.
+        let kern = obs.flipped_kernel();
+        let kw = (2 * ra + 1) as usize;
+        let nc = rect.cols();
+        let bump = &mut self.scratch.bump;
+        bump.clear();
+        bump.resize(rect.rows() * nc, 0.0);
+        for &(mx, vx) in &det.ax {
+            let i_lo = (mx as i64 - ra).max(rect.a0 as i64);
+            let i_hi = (mx as i64 + ra + 1).min(rect.a1 as i64);
+            for &(my, vy) in &det.ay {
+                let c = det.w * vx * vy;
+                let j_lo = (my as i64 - ra).max(rect.b0 as i64);
+                let j_hi = (my as i64 + ra + 1).min(rect.b1 as i64);
+                if j_lo >= j_hi {
+                    continue;
+                }
+                let q0 = (j_lo - my as i64 + ra) as usize;
+                let n = (j_hi - j_lo) as usize;
+                for i in i_lo..i_hi {
+                    let p = (i - mx as i64 + ra) as usize;
+                    let krow = &kern[p * kw + q0..p * kw + q0 + n];
+                    let row = (i as usize - rect.a0) * nc + (j_lo as usize - rect.b0);
+                    for (b, &k) in bump[row..row + n].iter_mut().zip(krow) {
+                        *b += c * k;
+                    }
+                }
+            }
+        }
+        let mut mass = 0.0;
+        for (v, &b) in out.iter_mut().zip(bump.iter()) {
+            *v *= b;
+            mass += *v;
+        }
+        mass
     }
 
     /// One predict + update step. Validates and encodes every detection first: on error the
@@ -263,14 +358,20 @@ impl WindowState {
             }
             let mut ax = Vec::with_capacity(3);
             let mut ay = Vec::with_capacity(3);
-            space.meas_basis(0).for_each_active(t[0], |k, v| ax.push((k, v)));
-            space.meas_basis(1).for_each_active(t[1], |k, v| ay.push((k, v)));
-            let mass: f64 = ax.iter().map(|e| e.1).sum::<f64>() * ay.iter().map(|e| e.1).sum::<f64>();
+            space
+                .meas_basis(0)
+                .for_each_active(t[0], |k, v| ax.push((k, v)));
+            space
+                .meas_basis(1)
+                .for_each_active(t[1], |k, v| ay.push((k, v)));
+            let mass: f64 =
+                ax.iter().map(|e| e.1).sum::<f64>() * ay.iter().map(|e| e.1).sum::<f64>();
             if mass > 0.0 {
                 enc.push(Det {
                     ax,
                     ay,
                     w: det.weight / mass,
+                    weight: det.weight,
                 });
             }
         }
@@ -294,62 +395,95 @@ impl WindowState {
             ..full
         };
         let mut parts = std::mem::take(&mut self.scratch.parts);
-        parts.clear();
+        let mut n_parts = 0;
         let mut total = 0.0;
         let ra = obs.kernel_radius();
-        let kern = obs.kernel();
-        let kw = 2 * ra + 1;
-        for det in &enc {
-            let rect = Rect {
-                a0: det.ax[0].0.saturating_sub(ra),
-                a1: (det.ax[det.ax.len() - 1].0 + ra + 1).min(nx),
-                b0: det.ay[0].0.saturating_sub(ra),
-                b1: (det.ay[det.ay.len() - 1].0 + ra + 1).min(ny),
+        let bump_rect = |det: &Det| Rect {
+            a0: det.ax[0].0.saturating_sub(ra),
+            a1: (det.ax[det.ax.len() - 1].0 + ra + 1).min(nx),
+            b0: det.ay[0].0.saturating_sub(ra),
+            b1: (det.ay[det.ay.len() - 1].0 + ra + 1).min(ny),
+        };
+        // Near detections (their bump meets the prediction's support): computed on the
+        // intersection (outside it the prior is the uniform γ/G only). Far ones meet only
+        // the uniform part: their mass is γ/G · w · P̂_D, computed below when significant.
+        let mut far_mass = 0.0;
+        let mut far = std::mem::take(&mut self.scratch.far);
+        far.clear();
+        let mut nears = std::mem::take(&mut self.scratch.nears);
+        nears.clear();
+        let mut span: Option<Rect> = None;
+        for (k, det) in enc.iter().enumerate() {
+            let r = bump_rect(det);
+            let near = Rect {
+                a0: r.a0.max(full.a0),
+                a1: r.a1.min(full.a1),
+                b0: r.b0.max(full.b0),
+                b1: r.b1.min(full.b1),
             };
-            let mut val = self.prior(&kx, &ky, keep, u, rect);
-            // bump[n] = w Σ_m b_m(z) A[m − n]
-            let nc = rect.cols();
-            let bump = &mut self.scratch.bump;
-            bump.clear();
-            bump.resize(rect.rows() * nc, 0.0);
-            for &(mx, vx) in &det.ax {
-                for &(my, vy) in &det.ay {
-                    let c = det.w * vx * vy;
-                    // n = m − δ, δ ∈ [−ra, ra] → n ∈ [m − ra, m + ra]
-                    for di in 0..kw {
-                        let i = mx as i64 + ra as i64 - di as i64;
-                        if i < rect.a0 as i64 || i >= rect.a1 as i64 {
-                            continue;
-                        }
-                        let krow = &kern[di * kw..(di + 1) * kw];
-                        let brow = &mut bump[(i as usize - rect.a0) * nc..][..nc];
-                        for (dj, &k) in krow.iter().enumerate() {
-                            let j = my as i64 + ra as i64 - dj as i64;
-                            if j >= rect.b0 as i64 && j < rect.b1 as i64 {
-                                brow[j as usize - rect.b0] += c * k;
-                            }
-                        }
-                    }
-                }
+            if near.a0 >= near.a1 || near.b0 >= near.b1 {
+                let m = u * dets_weight(det) * obs.p_detect();
+                far_mass += m;
+                far.push((k, m));
+            } else {
+                span = Some(span.map_or(near, |s| s.union(near)));
+                nears.push((k, near));
             }
-            let mut mass = 0.0;
-            for (v, &b) in val.iter_mut().zip(bump.iter()) {
-                *v *= b;
-                mass += *v;
-            }
-            total += mass;
-            parts.push((rect, val));
         }
+        // The prior once on the span of the near bumps.
+        // The prior once: on the whole prediction support when the bumps cover much of it
+        // (it then also serves the floor part), else on the bumps' span.
+        let area = |r: &Rect| r.rows() * r.cols();
+        let span = span.map(|sp| {
+            if 2 * area(&sp) > area(&full) {
+                full
+            } else {
+                sp
+            }
+        });
+        let mut shared = std::mem::take(&mut self.scratch.shared);
+        if let Some(sp) = span {
+            self.prior_into(&kx, &ky, keep, u, sp, &mut shared);
+        }
+        for &(k, near) in &nears {
+            if parts.len() <= n_parts {
+                parts.push((near, Vec::new()));
+            }
+            let mut buf = std::mem::take(&mut parts[n_parts].1);
+            let sh = span.map(|sp| (sp, &shared[..]));
+            let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, near, sh, &mut buf);
+            parts[n_parts] = (near, buf);
+            n_parts += 1;
+            total += mass;
+        }
+        self.scratch.shared = shared;
+        self.scratch.nears = nears;
+        total += far_mass;
+        for &(k, m) in &far {
+            if m > cfg.support * (total + obs.floor()) {
+                let r = bump_rect(&enc[k]);
+                if parts.len() <= n_parts {
+                    parts.push((r, Vec::new()));
+                }
+                let mut buf = std::mem::take(&mut parts[n_parts].1);
+                self.bump_part(&enc[k], obs, &kx, &ky, keep, u, r, None, &mut buf);
+                parts[n_parts] = (r, buf);
+                n_parts += 1;
+            }
+        }
+        self.scratch.far = far;
         let floor_mass = obs.floor();
         total += floor_mass;
         let eps = cfg.support;
         let mut rect: Option<Rect> = None;
-        let use_floor = enc.is_empty() || !(total > 0.0) || floor_mass > eps * total;
+        let use_floor = enc.is_empty()
+            || total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            || floor_mass > eps * total;
         if use_floor {
             rect = Some(full);
         }
         let sig = |m: f64| total > 0.0 && m > eps * total;
-        for (r, v) in &parts {
+        for (r, v) in &parts[..n_parts] {
             if sig(v.iter().sum()) {
                 rect = Some(rect.map_or(*r, |x| x.union(*r)));
             }
@@ -368,7 +502,11 @@ impl WindowState {
         };
         if use_floor {
             let f = if enc.is_empty() { 1.0 } else { floor_mass };
-            let pr = self.prior(&kx, &ky, keep, 0.0, full);
+            let pr = if span == Some(full) {
+                std::mem::take(&mut self.scratch.shared)
+            } else {
+                self.prior(&kx, &ky, keep, 0.0, full)
+            };
             for a in full.a0..full.a1 {
                 let src = &pr[(a - full.a0) * full.cols()..][..full.cols()];
                 let dst = &mut out.v[(a - rect.a0) * out.w + full.b0 - rect.b0..][..full.cols()];
@@ -376,10 +514,12 @@ impl WindowState {
                     *d += f * s;
                 }
             }
-            self.scratch.prior = pr;
+            if span == Some(full) {
+                self.scratch.shared = pr;
+            }
         }
         if !enc.is_empty() {
-            for (r, v) in &parts {
+            for (r, v) in &parts[..n_parts] {
                 if !sig(v.iter().sum()) {
                     continue;
                 }
@@ -399,12 +539,14 @@ impl WindowState {
         }
         out.v.iter_mut().for_each(|v| *v /= s);
         let out = crop(out, CROP);
-        self.prev = marginals(&self.post);
         self.post = out;
+        let cur = marginals(&self.post);
+        self.prev = std::mem::replace(&mut self.cur, cur);
         Ok(())
     }
 
     /// Best mode and runner-ups (step 4 of the module doc).
+    #[inline(never)]
     pub fn decode(&self, space: &Space, radius: usize, runner_ups: usize) -> Estimate {
         let p = &self.post;
         let r = radius as i64;
@@ -438,19 +580,25 @@ impl WindowState {
                 certainty: m,
             }
         };
-        // Local maxima by decreasing value.
+        // Local maxima holding at least MIN_SHARE of the largest cell, by decreasing value.
+        let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
+        let cut = crate::decode::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
         for i in 0..p.h {
             for j in 0..p.w {
                 let v = p.v[i * p.w + j];
-                if v <= 0.0 {
+                if v <= 0.0 || v < cut {
                     continue;
                 }
                 let mut is_max = true;
                 'n: for di in -1i64..=1 {
                     for dj in -1i64..=1 {
                         let (a, b) = (i as i64 + di, j as i64 + dj);
-                        if (di, dj) == (0, 0) || a < 0 || b < 0 || a >= p.h as i64 || b >= p.w as i64
+                        if (di, dj) == (0, 0)
+                            || a < 0
+                            || b < 0
+                            || a >= p.h as i64
+                            || b >= p.w as i64
                         {
                             continue;
                         }
@@ -471,9 +619,9 @@ impl WindowState {
             if hyps.len() > runner_ups {
                 break;
             }
-            let far = chosen.iter().all(|&(a, b)| {
-                (a as i64 - i as i64).abs() > r || (b as i64 - j as i64).abs() > r
-            });
+            let far = chosen
+                .iter()
+                .all(|&(a, b)| (a as i64 - i as i64).abs() > r || (b as i64 - j as i64).abs() > r);
             if far {
                 chosen.push((i, j));
                 hyps.push(window(i, j));
@@ -512,12 +660,8 @@ impl WindowState {
     }
 }
 
-fn marginals_axis(p: &Patch, d: usize) -> (usize, Vec<f64>) {
-    let [x, y] = marginals(p);
-    if d == 0 { x } else { y }
-}
-
 /// Crops a normalised patch to the bounding box of its cells `≥ eps · max`.
+#[inline(never)]
 fn crop(p: Patch, eps: f64) -> Patch {
     let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
     let cut = eps * max;

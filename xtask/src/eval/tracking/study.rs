@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use cbt_tracker::metrics::{Score, score};
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ObservationFallback,
-    Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis,
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, Layout,
+    ObservationFallback, Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space,
+    TrackError, Tracker, axis,
 };
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -156,14 +157,20 @@ impl Trackers {
                 y_hi,
             } => {
                 let extent = (x_hi - x_lo).min(y_hi - y_lo);
-                let spacing = Scales::estimate(&spec.train, extent)?.spacing(extent);
+                // The stationary layout: shift-invariant models and the posterior on its
+                // support, on a grid as fine as the detection noise asks for.
+                let spacing = Scales::estimate(&spec.train, extent)?.fine_spacing(extent);
                 let kernel = cbt_tracker::DEFAULT_KERNEL;
                 let (bx, by) = (
                     axis(x_lo, x_hi, spacing, kernel)?,
                     axis(y_lo, y_hi, spacing, kernel)?,
                 );
                 let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by])?;
-                let (second, first) = cbt_models(&space, CbtConfig::default(), &spec.train)?;
+                let cfg = CbtConfig {
+                    layout: Layout::Stationary,
+                    ..CbtConfig::default()
+                };
+                let (second, first) = cbt_models(&space, cfg, &spec.train)?;
                 let cal = Calibration::estimate(&spec.train, extent / 10.0)?;
                 let area = (x_hi - x_lo) * (y_hi - y_lo);
                 let mut makers = cbt_makers(second, first);
