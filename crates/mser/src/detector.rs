@@ -50,7 +50,7 @@ impl Workspace {
                 seed: t.xy(s.seed()),
                 area: node.area,
                 variation,
-                bbox: s.bbox(t.shift),
+                bbox: s.bbox(t.div),
                 moments: s.moments(node.area),
             });
         }

@@ -39,8 +39,8 @@ impl<'a> GrayView<'a> {
                 needed,
             });
         }
-        // Padded size used by the detector: (height + 2) rows of a power of two >= width + 1.
-        let padded_w = (width + 1).next_power_of_two();
+        // Padded size used by the detector (module `layout`): (height + 2) padded rows.
+        let padded_w = crate::layout::padded_stride(width);
         let fits = padded_w
             .checked_mul(height + 2)
             .is_some_and(|n| n <= 1 << 28);

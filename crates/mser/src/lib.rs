@@ -167,6 +167,7 @@ mod contour;
 mod detector;
 mod error;
 mod image;
+mod layout;
 mod oxford;
 mod params;
 mod pixels;

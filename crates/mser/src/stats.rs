@@ -7,6 +7,7 @@
 //! their runs are read. Every pixel is therefore read at most once, whatever the nesting, and the
 //! cost is O(pixels in selected nodes), at most O(pixels).
 
+use crate::layout::RowDiv;
 use crate::region::{BoundingBox, Moments};
 use crate::tree::Tree;
 
@@ -42,11 +43,10 @@ impl Sums {
     };
 
     /// Adds the pixels with padded indices `idx`.
-    fn add_run(&mut self, idx: &[u32], shift: u32) {
-        let xmask = (1u32 << shift) - 1;
+    fn add_run(&mut self, idx: &[u32], div: RowDiv) {
         let mut s = *self;
         for &i in idx {
-            let (x, y) = (i & xmask, i >> shift);
+            let (x, y) = div.col_row(i);
             let (xl, yl) = (x as u64, y as u64);
             s.sx += xl;
             s.sy += yl;
@@ -92,13 +92,13 @@ impl Sums {
         }
     }
 
-    /// The inclusive bounding box in image coordinates, for a padded row length of `2^shift`.
-    pub fn bbox(&self, shift: u32) -> BoundingBox {
+    /// The inclusive bounding box in image coordinates.
+    pub fn bbox(&self, div: RowDiv) -> BoundingBox {
         BoundingBox {
             x_min: self.x0 as u32,
-            y_min: (self.first as u32 >> shift) - 1,
+            y_min: div.row(self.first as u32) - 1,
             x_max: self.x1 as u32,
-            y_max: (self.last as u32 >> shift) - 1,
+            y_max: div.row(self.last as u32) - 1,
         }
     }
 }
@@ -132,11 +132,11 @@ impl Summer {
             let mut sums = Sums::EMPTY;
             let mut at = start;
             for &(s, e, inner) in self.inner.iter().rev() {
-                sums.add_run(&tree.order[at as usize..s as usize], tree.shift);
+                sums.add_run(&tree.order[at as usize..s as usize], tree.div);
                 sums.absorb(&inner);
                 at = e;
             }
-            sums.add_run(&tree.order[at as usize..end as usize], tree.shift);
+            sums.add_run(&tree.order[at as usize..end as usize], tree.div);
             self.open.push((start, end, sums));
             out.push(sums);
         }

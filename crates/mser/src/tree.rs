@@ -1,20 +1,27 @@
 //! The component tree of one polarity, built in linear time by the flood-fill algorithm of Nistér
 //! & Stewénius (ECCV 2008).
 //!
-//! The image is copied into a padded `u16` buffer whose row length is a power of two, so `x` and
-//! `y` of a pixel index are a mask and a shift, with a frame of pixels marked as reached, so the
-//! four neighbour steps never leave the buffer. A cell holds its grey level until the pixel is
-//! reached, then the constant `REACHED` = 257, which is above every level (so a reached neighbour
-//! is never "lower") and is also the index of a *sink*. The flood keeps one "boundary heap" per
-//! grey level: 256 stacks carved out of one array and sized by the grey-level histogram (a pixel
-//! waits at most once at a time). All waiting pixels lie at or above the current level, so when
-//! the current level's stack runs empty the next one is found by scanning upwards. A pixel reached
-//! for the first time reads its four neighbours at once and, when none is lower (the common case),
-//! marks all four and pushes all four onto the stack of their cell value without any branch: the
-//! pushes of neighbours reached before land in the sink, a small stack that is emptied after every
-//! pixel and never read. Heap entries are bare pixel indices; a pixel pushed back when the flood
-//! descends carries the direction to resume at in its top bits, so a new pixel is recognised by
-//! one comparison.
+//! The image is copied into a padded `u16` buffer with a frame of pixels marked as reached, so
+//! the four neighbour steps never leave the buffer (module `layout`: row length an odd multiple
+//! of 16, not a power of two, which keeps the rows of a column in different cache sets). A cell
+//! holds its grey level until the pixel is reached, then the constant `REACHED` = 257, which is
+//! above every level (so a reached neighbour is never "lower") and is also the index of a *sink*.
+//! The flood keeps one "boundary heap" per grey level: 256 stacks carved out of one array and
+//! sized by the grey-level histogram (a pixel waits at most once at a time). All waiting pixels
+//! lie at or above the current level, so when the current level's stack runs empty the next one
+//! is found by scanning upwards.
+//!
+//! A visit reads the four neighbours at once and takes their minimum, the only branch on the
+//! pixel's surroundings:
+//! - a lower neighbour: the flood descends into the lowest one (the others stay unreached) and
+//!   pushes the pixel back on its own level, to be visited again when the flood returns to it
+//!   (heap entries are bare pixel indices, with no "resume here" state);
+//! - otherwise the pixel joins the component, and all four neighbours are marked and pushed onto
+//!   the stack of their cell value without a branch: the pushes of neighbours reached before
+//!   land in the sink, four slots reset after every visit and never read. If a neighbour has the
+//!   current level, the last one pushed, the top of the current stack, is taken back at once and
+//!   visited next from a register instead of a store and reload; which neighbour that is, is
+//!   chosen with conditional moves (`select_unpredictable`), as it follows no pattern.
 //!
 //! A fixed stack of open components (at most 256, as their levels strictly decrease upwards, over
 //! a sentinel) holds, for each, its grey level, the position in the flood order at which it was
@@ -30,6 +37,7 @@
 //! memory is O(pixels).
 
 use crate::image::GrayView;
+use crate::layout::{RowDiv, padded_stride};
 
 /// Marks "no node".
 pub const NONE: u32 = u32::MAX;
@@ -62,8 +70,8 @@ pub struct Tree {
     pub nodes: Vec<Node>,
     /// Padded pixel indices in flood order (every pixel once).
     pub order: Vec<u32>,
-    /// log2 of the padded row length.
-    pub shift: u32,
+    /// Row and column of a padded index (module `layout`).
+    pub div: RowDiv,
 }
 
 impl Tree {
@@ -81,7 +89,8 @@ impl Tree {
     /// Image coordinates of a padded index.
     #[inline]
     pub fn xy(&self, idx: u32) -> (u32, u32) {
-        (idx & ((1 << self.shift) - 1), (idx >> self.shift) - 1)
+        let (x, y) = self.div.col_row(idx);
+        (x, y - 1)
     }
 }
 
@@ -127,16 +136,8 @@ impl Default for TreeBuilder {
 const REACHED: u16 = SINK as u16;
 /// Index of the sink in the per-level stack tops (after the 256 levels and the sentinel).
 const SINK: usize = 257;
-/// Slots of the sink: it is reset after every added pixel, and in between the flood visits at
-/// most 256 pixels (each visit after the first is a descent to a strictly lower level) with at
-/// most four pushes each.
-const SINK_SLOTS: u32 = 4 * 257;
-/// Heap entries hold a padded index (< 2^28) and, above this bit, the direction at which to
-/// resume a pixel pushed back on a descent (0 for a new pixel).
-const DIR_SHIFT: u32 = 29;
-/// The index part of a heap entry.
-const INDEX_MASK: u32 = (1 << DIR_SHIFT) - 1;
-
+/// Slots of the sink: it is reset after the four pushes of every visited pixel.
+const SINK_SLOTS: u32 = 4;
 /// Slots of the component stack: open components have strictly decreasing levels from the
 /// bottom up, so at most 256 are open, plus the sentinel in slot 0.
 const STACK_SLOTS: usize = 258;
@@ -224,11 +225,10 @@ impl TreeBuilder {
     /// the grey-level histogram of `img` (see [`histogram`]), shared by the two polarities.
     pub fn build(&mut self, img: &GrayView, hist: &[u32; 256], invert: bool, tree: &mut Tree) {
         let (w, h) = (img.width(), img.height());
-        let stride = (w + 1).next_power_of_two();
-        let shift = stride.trailing_zeros();
+        let stride = padded_stride(w);
         let total = stride * (h + 2);
         let npix = w * h;
-        tree.shift = shift;
+        tree.div = RowDiv::new(stride as u32);
         tree.nodes.clear();
         tree.nodes.reserve(npix);
         // Every slot is written before it is read, so old contents need no clearing.
@@ -278,6 +278,8 @@ impl TreeBuilder {
         let order = &mut tree.order[..];
 
         let stride = stride as u32;
+        // Push order, and so the preference among equal neighbours: the last one pushed is
+        // visited next.
         let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
 
         let mut cur = stride; // pixel (0, 0)
@@ -293,60 +295,57 @@ impl TreeBuilder {
             },
             nodes: &mut tree.nodes,
         };
-        let mut dir = 0u32;
         let mut pos = 0u32;
-        'flood: loop {
-            'visit: {
-                // Fast path for a pixel seen for the first time: read the four neighbours at
-                // once; if none is lower, mark them all and push them all (the reached ones go
-                // to the sink).
-                if dir == 0 {
-                    let ns = offs.map(|o| cur.wrapping_add(o));
-                    // SAFETY: as below, every neighbour of an image pixel lies in the buffer.
-                    let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
-                    if vs[0].min(vs[1]).min(vs[2].min(vs[3])) >= cur_level {
-                        for i in 0..4 {
-                            // SAFETY: as above.
-                            unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
-                            push(heap, &mut top_of, vs[i], ns[i]);
-                        }
-                        break 'visit;
-                    }
-                }
-                // Explore the remaining neighbours of `cur` one by one.
-                while dir < 4 {
-                    // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the
-                    // padding columns, which wrap to the next row's frame), so `n < total`.
-                    let n = cur.wrapping_add(unsafe { *offs.get_unchecked(dir as usize) });
-                    dir += 1;
-                    let cell = unsafe { cells.get_unchecked_mut(n as usize) };
-                    let v = *cell as u32;
-                    *cell = REACHED;
-                    if v < cur_level {
-                        // Unreached and lower: push `cur` back (to resume at `dir`), descend.
-                        push(heap, &mut top_of, cur_level, cur | (dir << DIR_SHIFT));
-                        cur = n;
-                        cur_level = v;
-                        comps.open(v, pos);
-                        dir = 0;
-                        continue 'flood;
-                    }
-                    push(heap, &mut top_of, v, n);
-                }
+        loop {
+            // `cur` is a pixel at `cur_level`, the level of the top component, either seen for
+            // the first time or pushed back when the flood descended from it.
+            let ns = offs.map(|o| cur.wrapping_add(o));
+            // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the padding
+            // columns, which wrap to the next row's frame), so every neighbour is `< total`.
+            let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
+            let low = vs[0].min(vs[1]).min(vs[2].min(vs[3]));
+            // The last neighbour at the lowest level `low` (if `low` is a grey level).
+            // Conditional moves, not branches: which neighbour it is does not follow a pattern.
+            let mut next = ns[0];
+            for i in 1..4 {
+                next = std::hint::select_unpredictable(vs[i] == low, ns[i], next);
             }
-            // `cur` joins the top component.
-            debug_assert!((pos as usize) < order.len());
-            // SAFETY: every image pixel is reached once and added once, so `pos < w * h`.
-            unsafe { *order.get_unchecked_mut(pos as usize) = cur };
-            pos += 1;
+            if low < cur_level {
+                // Descend into a lower neighbour. The others stay unreached: `cur` waits at its
+                // level and is visited again when the flood comes back to it.
+                // SAFETY: as above.
+                unsafe { *cells.get_unchecked_mut(next as usize) = REACHED };
+                push(heap, &mut top_of, cur_level, cur);
+                comps.open(low, pos);
+                cur_level = low;
+                cur = next;
+                continue;
+            }
+            // No lower neighbour: mark and push all four without a branch (the reached ones go
+            // to the sink), and `cur` joins the top component.
+            for i in 0..4 {
+                // SAFETY: as above.
+                unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
+                push(heap, &mut top_of, vs[i], ns[i]);
+            }
             top_of[SINK] = 0;
+            add(order, &mut pos, cur);
+            if low == cur_level {
+                // A neighbour at the same level is the next pixel: the last one pushed there,
+                // i.e. the top of the current stack. Take it back and keep it in a register
+                // instead of reloading it from the heap.
+                top_of[low as usize] -= 1;
+                cur = next;
+                continue;
+            }
 
-            // Next pixel: from the current level's stack, else from the lowest non-empty one.
+            // Dead end: the next pixel comes from the current level's stack, else from the
+            // lowest non-empty one.
             let mut g = cur_level as usize;
             debug_assert!(g < 256);
             // SAFETY: `cur_level` is a grey level.
             let t = unsafe { top_of.get_unchecked_mut(g) };
-            let e = if *t != bottom[g] {
+            cur = if *t != bottom[g] {
                 *t -= 1;
                 debug_assert!((*t as usize) < heap.len());
                 // SAFETY: bottom[g] <= top_of[g] < bottom[g + 1] <= heap.len().
@@ -365,13 +364,6 @@ impl TreeBuilder {
                 comps.rise(cur_level, pos);
                 heap[top_of[g] as usize]
             };
-            if e <= INDEX_MASK {
-                cur = e;
-                dir = 0;
-            } else {
-                cur = e & INDEX_MASK;
-                dir = e >> DIR_SHIFT;
-            }
         }
         debug_assert_eq!(pos as usize, npix);
         // Every pixel is in; close the remaining components into the root.
@@ -393,7 +385,16 @@ pub fn histogram(img: &GrayView) -> [u32; 256] {
     hist
 }
 
-/// Pushes the padded index `e` (with the resume direction in its top bits) on top of level
+/// Appends pixel `idx` to the flood order (it joins the top component).
+#[inline(always)]
+fn add(order: &mut [u32], pos: &mut u32, idx: u32) {
+    debug_assert!((*pos as usize) < order.len());
+    // SAFETY: every image pixel is reached once and added once, so `pos < w * h`.
+    unsafe { *order.get_unchecked_mut(*pos as usize) = idx };
+    *pos += 1;
+}
+
+/// Pushes the padded index `e` on top of level
 /// `g`'s stack; `g` is [`SINK`] for a reached pixel, whose entry is never read.
 #[inline(always)]
 fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
@@ -402,8 +403,8 @@ fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
     let t = unsafe { top_of.get_unchecked_mut(g as usize) };
     debug_assert!((*t as usize) < heap.len());
     // SAFETY: level g's stack holds at most hist[g] entries, each a distinct pixel of level g
-    // waiting in the heap; the sink is reset for every added pixel and takes at most four
-    // pushes per visit of at most 256 visits in between (each a descent to a lower level).
+    // waiting in the heap; the sink takes at most the four pushes of one visit before it is
+    // reset.
     unsafe { *heap.get_unchecked_mut(*t as usize) = e };
     *t += 1;
 }
