@@ -32,7 +32,7 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-use crate::descriptor::{fd_frequency, fd_index};
+use crate::descriptor::fd_frequency;
 
 /// The rigid part of a correlation match: `c₂(l) ≈ e^{iφ} c₁(l − Δl)` after normalisation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -200,6 +200,11 @@ impl Correlator {
         // unless an earlier refinement already converged within half a step of it.
         let (mut best_theta, mut best_f, mut best_r) =
             refine(&self.prod, k, &self.pow, first, h, self.buf[first]);
+        if max_error.is_finite()
+            && self.cannot_reach(max_error, best_theta, best_f, first, slack, h)
+        {
+            return None;
+        }
         let mut peaks = [best_theta; 8];
         let mut npeaks = 1;
         let pow = &self.pow;
@@ -240,11 +245,48 @@ impl Correlator {
             },
         })
     }
+
+    /// After the best grid sample `first` has been refined to `best_f` at `best_theta`: true if
+    /// the error provably exceeds `max_error`, i.e. the refined peak is below the `|r|²` that
+    /// `max_error` needs and so is every other lobe the remaining refinements could find (each
+    /// lies within half a step of a grid sample outside the refined lobe, whose value plus the
+    /// slack bounds it; samples within 1.5 steps of `best_theta` belong to the refined lobe, the
+    /// same rule the refinement loop applies). The remaining refinements, which decide nothing
+    /// for such a pair, are then skipped.
+    fn cannot_reach(
+        &self,
+        max_error: f64,
+        best_theta: f64,
+        best_f: f64,
+        first: usize,
+        slack: f64,
+        h: f64,
+    ) -> bool {
+        let root = 0.5 * (2.0 - max_error - ROUNDING_MARGIN);
+        if root <= 0.0 {
+            return false;
+        }
+        let need = root * root;
+        if best_f >= need {
+            return false;
+        }
+        self.pow.iter().enumerate().all(|(j, &v)| {
+            if j == first || v + slack < need {
+                return true;
+            }
+            let d = (best_theta - j as f64 * h).rem_euclid(2.0 * PI);
+            d.min(2.0 * PI - d) < 1.5 * h
+        })
+    }
 }
 
-/// `r(θ)`, `r'(θ)`, `r''(θ)` of `r(θ) = Σ p_n e^{inθ}` (layout of [`fd_index`]).
+/// `r(θ)`, `r'(θ)`, `r''(θ)` of `r(θ) = Σ p_n e^{inθ}` (layout of `fd_index`: `p[..K]` holds
+/// `n = −K..−1`, `p[K..]` holds `n = 1..K`), pairing `n` with `−n` so one power `e^{inθ}` serves
+/// both.
 #[inline]
 fn eval(p: &[Complex64], k: usize, theta: f64) -> (Complex64, Complex64, Complex64) {
+    debug_assert_eq!(p.len(), 2 * k);
+    let (neg, pos) = p.split_at(k);
     let z = Complex64::from_polar(1.0, theta);
     let mut w = z;
     let (mut r, mut r1, mut r2) = (
@@ -252,10 +294,11 @@ fn eval(p: &[Complex64], k: usize, theta: f64) -> (Complex64, Complex64, Complex
         Complex64::new(0.0, 0.0),
         Complex64::new(0.0, 0.0),
     );
-    for n in 1..=k {
-        let pp = p[fd_index(n as isize, k)] * w;
-        let pn = p[fd_index(-(n as isize), k)] * w.conj();
-        let nf = n as f64;
+    let mut nf = 0.0;
+    for (a, b) in pos.iter().zip(neg.iter().rev()) {
+        nf += 1.0;
+        let pp = a * w;
+        let pn = b * w.conj();
         let sum = pp + pn;
         let diff = pp - pn;
         r += sum;
@@ -288,12 +331,13 @@ fn refine(
     };
     let theta0 = j as f64 * h;
     let mut theta = theta0 + start * h;
-    let mut r = Complex64::new(0.0, 0.0);
-    let mut fresh = false;
+    let zero = Complex64::new(0.0, 0.0);
+    let (mut r, mut r1, mut r2) = (zero, zero, zero);
+    // Step applied after the last evaluation (0: `r` is fresh at `theta`).
+    let mut pending = 0.0;
     for _ in 0..16 {
-        let (rv, r1, r2) = eval(p, k, theta);
-        r = rv;
-        fresh = true;
+        (r, r1, r2) = eval(p, k, theta);
+        pending = 0.0;
         let g = 2.0 * (r.conj() * r1).re;
         let c = 2.0 * (r1.norm_sqr() + (r.conj() * r2).re);
         let step = if c < 0.0 {
@@ -306,13 +350,19 @@ fn refine(
             break;
         }
         theta += step;
-        fresh = false;
+        pending = step;
         if step.abs() < 1e-7 {
             break;
         }
     }
-    if !fresh {
-        r = eval(p, k, theta).0;
+    if pending != 0.0 {
+        r = if pending.abs() < 1e-7 {
+            // Second-order Taylor step: its remainder `|r'''|·s³/6 < S₃·2e-22` is far below
+            // rounding, so this equals a fresh evaluation without its cost.
+            r + r1 * pending + r2 * (0.5 * pending * pending)
+        } else {
+            eval(p, k, theta).0
+        };
     }
     if r.norm_sqr() >= r0.norm_sqr() {
         (theta, r.norm_sqr(), r)
@@ -387,7 +437,9 @@ mod tests {
             let a = pseudo_fd(seed, k, 1.0);
             let b = pseudo_fd(seed + 77, k, 1.0);
             let full = cor.correlate(&a, &b);
-            for t in [0.0, 0.5 * full.error, full.error, full.error + 1e-3, 3.0] {
+            // Thresholds just below the error reach the refinement stage before exiting.
+            let e = full.error;
+            for t in [0.0, 0.5 * e, e - 1e-3, e - 1e-5, e, e + 1e-3, 3.0] {
                 match cor.correlate_below(&a, &b, t) {
                     None => {
                         exits += 1;

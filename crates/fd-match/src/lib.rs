@@ -79,6 +79,7 @@
 #![deny(missing_docs)]
 
 mod afd;
+mod bound;
 mod contour;
 mod correlation;
 mod descriptor;

@@ -21,9 +21,9 @@ use serde::{Deserialize, Serialize};
 use crate::correlation::Alignment;
 use crate::descriptor::DescriptorSet;
 use crate::error::FdError;
-use crate::method::{Method, PairError, dot};
+use crate::method::{Method, PairError};
 
-use crate::correlation::ROUNDING_MARGIN as BOUND_MARGIN;
+use crate::bound::{BoundTable, bound_slack};
 
 /// A target and its error against a query.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -107,6 +107,9 @@ fn check(a: &DescriptorSet, b: &DescriptorSet) -> Result<(), FdError> {
     Ok(())
 }
 
+/// Candidates ordered per step of the visit by increasing bound (see [`search_one`]).
+const VISIT_BATCH: usize = 64;
+
 /// Per-thread scratch of a search.
 #[derive(Clone)]
 struct Work {
@@ -114,35 +117,39 @@ struct Work {
     cand: Vec<(f64, usize)>,
 }
 
-/// One query against all targets, pruned by the magnitude bound when the method is FD Corr.
+/// The `f32` magnitude tables of the query and target sets, and the slack of their bound.
+struct Bounds {
+    queries: BoundTable,
+    targets: BoundTable,
+    slack: f64,
+}
+
 /// What a search looks for.
 #[derive(Clone, Copy)]
 struct Mode {
-    method: Method,
     /// Query and target sets are the same; skip `j == i`.
     skip_self: bool,
     /// Only the best target matters (eq. 18), so prune against it rather than the second.
     only_best: bool,
-    /// Use the magnitude bound (false: brute force).
-    prune: bool,
 }
 
+/// One query against all targets, pruned by the magnitude bound when `bounds` are given (FD
+/// Corr only), exhaustive otherwise.
 fn search_one(
     w: &mut Work,
     q: &DescriptorSet,
     i: usize,
     t: &DescriptorSet,
     mode: Mode,
+    bounds: Option<&Bounds>,
 ) -> (BestTwo, u64) {
     let Mode {
-        method,
         skip_self,
         only_best,
-        prune,
     } = mode;
     let mut out = BestTwo::default();
     let mut evaluated = 0u64;
-    if method != Method::FdCorr || !prune {
+    let Some(bounds) = bounds else {
         for j in 0..t.len() {
             if skip_self && j == i {
                 continue;
@@ -156,14 +163,13 @@ fn search_one(
             });
         }
         return (out, evaluated);
-    }
-    let mq = q.magnitudes(i);
+    };
     w.cand.clear();
-    for j in 0..t.len() {
-        if !(skip_self && j == i) {
-            w.cand.push((2.0 - 2.0 * dot(mq, t.magnitudes(j)), j));
-        }
-    }
+    let skip = skip_self.then_some(i);
+    bounds
+        .targets
+        .bounds_into(bounds.queries.row(i), skip, &mut w.cand);
+    let margin = bounds.slack;
     // Seed the result with the smallest bounds (one linear pass), then keep only the targets
     // whose bound can still beat the threshold and visit those by increasing bound.
     let seeds = if only_best { 1 } else { 2 };
@@ -185,24 +191,36 @@ fn search_one(
         });
     }
     let threshold = out.threshold(only_best);
-    w.cand.retain(|c| c.0 - BOUND_MARGIN <= threshold);
-    w.cand
-        .sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-    for &(lb, j) in &w.cand {
-        let threshold = out.threshold(only_best);
-        if lb - BOUND_MARGIN > threshold {
-            break;
+    w.cand.retain(|c| c.0 - margin <= threshold);
+    // Visit by increasing bound. The visit usually stops after a few dozen targets, so the
+    // candidates are ordered a batch at a time (the smallest `VISIT_BATCH` selected, then
+    // sorted) instead of sorting them all; the visiting order is the same.
+    let order = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+    let mut rest = &mut w.cand[..];
+    'visit: while !rest.is_empty() {
+        let take = VISIT_BATCH.min(rest.len());
+        if take < rest.len() {
+            rest.select_nth_unstable_by(take - 1, order);
         }
-        evaluated += 1;
-        // The correlator may stop after its FFT when its own bound already exceeds the
-        // threshold; such a pair cannot enter the result.
-        if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
-            out.offer(Candidate {
-                index: j,
-                error,
-                alignment,
-            });
+        let (batch, tail) = std::mem::take(&mut rest).split_at_mut(take);
+        batch.sort_unstable_by(order);
+        for &(lb, j) in batch.iter() {
+            let threshold = out.threshold(only_best);
+            if lb - margin > threshold {
+                break 'visit;
+            }
+            evaluated += 1;
+            // The correlator may stop after its FFT when its own bound already exceeds the
+            // threshold; such a pair cannot enter the result.
+            if let Some((error, alignment)) = w.pair.eval_below(q, i, t, j, threshold) {
+                out.offer(Candidate {
+                    index: j,
+                    error,
+                    alignment,
+                });
+            }
         }
+        rest = tail;
     }
     (out, evaluated)
 }
@@ -216,19 +234,25 @@ fn run(
     prune: bool,
 ) -> Result<(Vec<BestTwo>, SearchStats), FdError> {
     let mode = Mode {
-        method,
         skip_self,
         only_best,
-        prune,
     };
     check(q, t)?;
     let proto = Work {
         pair: PairError::new(method, q),
         cand: Vec::with_capacity(t.len()),
     };
+    let bounds = (method == Method::FdCorr && prune).then(|| Bounds {
+        queries: BoundTable::new(q),
+        targets: BoundTable::new(t),
+        slack: bound_slack(q.config().coefficients),
+    });
     let res: Vec<(BestTwo, u64)> = (0..q.len())
         .into_par_iter()
-        .map_init(|| proto.clone(), |w, i| search_one(w, q, i, t, mode))
+        .map_init(
+            || proto.clone(),
+            |w, i| search_one(w, q, i, t, mode, bounds.as_ref()),
+        )
         .collect();
     let per_query = t.len() as u64 - u64::from(skip_self && !t.is_empty());
     let stats = SearchStats {
