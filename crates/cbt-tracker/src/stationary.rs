@@ -50,6 +50,11 @@ pub(crate) fn check_space(space: &Space) -> Result<(), TrackError> {
         ));
     }
     for d in 0..2 {
+        if space.state_basis(d).kernel() != crate::DEFAULT_KERNEL {
+            return Err(TrackError::Mismatch(
+                "the stationary layout needs the cos² kernel with a = π/3 (DEFAULT_KERNEL)".into(),
+            ));
+        }
         if space.state_basis(d) != space.meas_basis(d) {
             return Err(TrackError::Mismatch(format!(
                 "the stationary layout needs the same state and measurement channels on axis {d}"

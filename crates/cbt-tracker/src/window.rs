@@ -110,8 +110,8 @@ struct Scratch {
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
 struct Det {
-    ax: Vec<(usize, f64)>,
-    ay: Vec<(usize, f64)>,
+    ax: Active,
+    ay: Active,
     /// Detection weight over its encoding's mass.
     w: f64,
     /// Detection weight.
@@ -120,6 +120,50 @@ struct Det {
 
 fn dets_weight(d: &Det) -> f64 {
     d.weight
+}
+
+/// The active channels of one coordinate (consecutive, at most 3 for the cos² kernel with
+/// `a = π/3` the stationary layout requires).
+#[derive(Clone, Copy)]
+struct Active {
+    k0: usize,
+    n: usize,
+    v: [f64; 3],
+}
+
+impl Active {
+    fn of(basis: &chan_repr::ChannelBasis, t: f64) -> Active {
+        let mut a = Active {
+            k0: 0,
+            n: 0,
+            v: [0.0; 3],
+        };
+        basis.for_each_active(t, |k, v| {
+            if a.n == 0 {
+                a.k0 = k;
+            }
+            if a.n < 3 {
+                a.v[a.n] = v;
+                a.n += 1;
+            }
+        });
+        a
+    }
+    fn iter(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.v[..self.n]
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| (self.k0 + i, v))
+    }
+    fn first(&self) -> usize {
+        self.k0
+    }
+    fn last(&self) -> usize {
+        self.k0 + self.n - 1
+    }
+    fn mass(&self) -> f64 {
+        self.v[..self.n].iter().sum()
+    }
 }
 
 #[inline(never)]
@@ -310,10 +354,10 @@ impl WindowState {
         let bump = &mut self.scratch.bump;
         bump.clear();
         bump.resize(rect.rows() * nc, 0.0);
-        for &(mx, vx) in &det.ax {
+        for (mx, vx) in det.ax.iter() {
             let i_lo = (mx as i64 - ra).max(rect.a0 as i64);
             let i_hi = (mx as i64 + ra + 1).min(rect.a1 as i64);
-            for &(my, vy) in &det.ay {
+            for (my, vy) in det.ay.iter() {
                 let c = det.w * vx * vy;
                 let j_lo = (my as i64 - ra).max(rect.b0 as i64);
                 let j_hi = (my as i64 + ra + 1).min(rect.b1 as i64);
@@ -356,16 +400,9 @@ impl WindowState {
             if det.weight == 0.0 {
                 continue;
             }
-            let mut ax = Vec::with_capacity(3);
-            let mut ay = Vec::with_capacity(3);
-            space
-                .meas_basis(0)
-                .for_each_active(t[0], |k, v| ax.push((k, v)));
-            space
-                .meas_basis(1)
-                .for_each_active(t[1], |k, v| ay.push((k, v)));
-            let mass: f64 =
-                ax.iter().map(|e| e.1).sum::<f64>() * ay.iter().map(|e| e.1).sum::<f64>();
+            let ax = Active::of(space.meas_basis(0), t[0]);
+            let ay = Active::of(space.meas_basis(1), t[1]);
+            let mass = ax.mass() * ay.mass();
             if mass > 0.0 {
                 enc.push(Det {
                     ax,
@@ -399,10 +436,10 @@ impl WindowState {
         let mut total = 0.0;
         let ra = obs.kernel_radius();
         let bump_rect = |det: &Det| Rect {
-            a0: det.ax[0].0.saturating_sub(ra),
-            a1: (det.ax[det.ax.len() - 1].0 + ra + 1).min(nx),
-            b0: det.ay[0].0.saturating_sub(ra),
-            b1: (det.ay[det.ay.len() - 1].0 + ra + 1).min(ny),
+            a0: det.ax.first().saturating_sub(ra),
+            a1: (det.ax.last() + ra + 1).min(nx),
+            b0: det.ay.first().saturating_sub(ra),
+            b1: (det.ay.last() + ra + 1).min(ny),
         };
         // Near detections (their bump meets the prediction's support): computed on the
         // intersection (outside it the prior is the uniform γ/G only). Far ones meet only
