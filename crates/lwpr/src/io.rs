@@ -479,6 +479,11 @@ impl Lwpr {
                 {
                     return Err(bad("non-finite value"));
                 }
+                // Training relies on D being exactly symmetric (it is, as MᵀM with the upper
+                // triangle copied from the lower one).
+                if (0..n).any(|j| (0..j).any(|i| rf.d[i + j * n] != rf.d[j + i * n])) {
+                    return Err(bad("distance metric is not symmetric"));
+                }
                 if rf.ss_s2.iter().any(|&v| v <= 0.0) || rf.sum_w.iter().any(|&v| v <= 0.0) {
                     return Err(bad("non-positive PLS statistics"));
                 }

@@ -28,44 +28,43 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
-/// Four dot products `a_t · b` at once, each summed in exactly the order of [`dot`]; the four
-/// independent accumulation chains run interleaved, so the CPU overlaps their latencies.
+/// `acc_t += a · x_t` for four adjacent lanes: one multiply and one add per lane (no fused
+/// multiply-add), so each lane rounds exactly as the scalar statement; the lanes vectorise.
+/// Summing lane `t` over the terms of a dot product in that product's order gives its exact
+/// bits, four products at a time from contiguous rows instead of four strided columns.
 #[inline(always)]
-pub(crate) fn dot4(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
-    let n = b.len();
-    let a = [&a[0][..n], &a[1][..n], &a[2][..n], &a[3][..n]];
-    let mut s = [0.0; 4];
-    let full = 4 * (n / 4);
-    for i in 0..full {
-        let bi = b[i];
-        for t in 0..4 {
-            s[t] += bi * a[t][i];
-        }
+pub(crate) fn madd4(acc: &mut [f64; 4], a: f64, x: &[f64]) {
+    let x: &[f64; 4] = x[..4].try_into().expect("four lanes");
+    for t in 0..4 {
+        acc[t] += a * x[t];
     }
-    let mut r = n;
-    while r > full {
-        r -= 1;
-        let bi = b[r];
-        for t in 0..4 {
-            s[t] += bi * a[t][r];
-        }
-    }
-    s
 }
 
-/// Four sums `Σ_i a_t[i]·b[i]` in plain ascending order, interleaved like [`dot4`].
+/// Four sums at once: `acc_t = Σ_k coef_k · rows[k·stride + off + t]` (`t < 4`), the terms
+/// taken in the order of a length-`coef.len()` [`dot`] (or, with `dot_order = false`, plain
+/// ascending `k`). Each lane has exactly the bits of that scalar sum.
 #[inline(always)]
-pub(crate) fn seq_dot4(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
-    let n = b.len();
-    let a = [&a[0][..n], &a[1][..n], &a[2][..n], &a[3][..n]];
-    let mut s = [0.0; 4];
-    for i in 0..n {
-        let bi = b[i];
-        for t in 0..4 {
-            s[t] += a[t][i] * bi;
-        }
+pub(crate) fn sum4_rows(
+    rows: &[f64],
+    stride: usize,
+    coef: &[f64],
+    off: usize,
+    dot_order: bool,
+) -> [f64; 4] {
+    let len = coef.len();
+    let base = if dot_order { 4 * (len / 4) } else { len };
+    let mut acc = [0.0; 4];
+    for (row, &a) in rows.chunks_exact(stride).zip(&coef[..base]) {
+        madd4(&mut acc, a, &row[off..off + 4]);
     }
-    s
+    for k in (base..len).rev() {
+        madd4(
+            &mut acc,
+            coef[k],
+            &rows[k * stride + off..k * stride + off + 4],
+        );
+    }
+    acc
 }
 
 /// Upper-triangular `M` with `MᵀM = A` for a symmetric positive definite `n × n` matrix `A`
@@ -110,23 +109,33 @@ mod tests {
     }
 
     #[test]
-    fn interleaved_sums_are_bit_identical_to_single_ones() {
-        for n in [1usize, 2, 3, 5, 8, 11, 25] {
+    fn four_lane_row_sums_are_bit_identical_to_scalar_sums() {
+        for n in [1usize, 2, 3, 4, 5, 8, 11, 25] {
             let v = |k: usize| -> Vec<f64> {
                 (0..n)
                     .map(|i| ((i * 7 + k * 13) % 17) as f64 / 3.0 - 2.7 + 1e-9 * i as f64)
                     .collect()
             };
-            let (a0, a1, a2, a3, b) = (v(1), v(2), v(3), v(4), v(5));
-            let d = dot4([&a0, &a1, &a2, &a3], &b);
-            let s = seq_dot4([&a0, &a1, &a2, &a3], &b);
-            for (t, a) in [&a0, &a1, &a2, &a3].iter().enumerate() {
-                assert_eq!(d[t].to_bits(), dot(a, &b).to_bits());
-                let mut q = 0.0;
-                for i in 0..n {
-                    q += a[i] * b[i];
+            let a = v(1);
+            let cols: Vec<Vec<f64>> = (0..4).map(|j| v(j + 2)).collect();
+            // Row k holds one junk value, then the four columns' k-th elements.
+            let stride = 6;
+            let mut rows = vec![0.0; n * stride];
+            for k in 0..n {
+                rows[k * stride] = 1e300;
+                for t in 0..4 {
+                    rows[k * stride + 1 + t] = cols[t][k];
                 }
-                assert_eq!(s[t].to_bits(), q.to_bits());
+            }
+            let in_dot_order = sum4_rows(&rows, stride, &a, 1, true);
+            let ascending = sum4_rows(&rows, stride, &a, 1, false);
+            for t in 0..4 {
+                assert_eq!(in_dot_order[t].to_bits(), dot(&cols[t], &a).to_bits());
+                let mut q = 0.0;
+                for k in 0..n {
+                    q += cols[t][k] * a[k];
+                }
+                assert_eq!(ascending[t].to_bits(), q.to_bits());
             }
         }
     }

@@ -6,7 +6,7 @@
 //!
 //! The arithmetic follows the reference operation by operation so results stay bit-identical.
 
-use crate::linalg::{dot, dot4, seq_dot4};
+use crate::linalg::{dot, sum4_rows};
 use crate::params::Params;
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
@@ -56,13 +56,20 @@ fn dist_derivatives(
         }
         let mrow = &ws.mrow[..n - r];
         // sum_aux for four columns at a time (independent chains, each in ascending order).
+        // sum_aux_c = Σ_{i≥r} D_ic M_ri (ascending i) for four columns at a time: D is exactly
+        // symmetric, so D_ic..D_i(c+3) is a contiguous piece of column i.
         let mut c = r;
-        while c < n {
-            let k = (n - c).min(4);
-            let col = |t: usize| &d[(c + t.min(k - 1)) * n + r..(c + t.min(k - 1)) * n + n];
-            let sums = seq_dot4([col(0), col(1), col(2), col(3)], mrow);
-            ws.sum_aux[c..c + k].copy_from_slice(&sums[..k]);
-            c += k;
+        while c + 4 <= n {
+            let acc = sum4_rows(&d[r * n..n * n], n, mrow, c, false);
+            ws.sum_aux[c..c + 4].copy_from_slice(&acc);
+            c += 4;
+        }
+        for c in c..n {
+            let mut acc = 0.0;
+            for (i, &mv) in mrow.iter().enumerate() {
+                acc += d[(r + i) * n + c] * mv;
+            }
+            ws.sum_aux[c] = acc;
         }
         if meta {
             // Σ_i M_ri² with the term i = c doubled, per column c. The reference sums from
@@ -332,6 +339,14 @@ pub(crate) fn update_distance_metric(
                 }
             }
         }
+        // D = MᵀM: D_ij (i ≥ j) is `dot(M_:i, M_:j)`, four rows i at a time from the rows
+        // of M (copied transposed, so M_k,i..M_k,i+3 are contiguous), in `dot`'s order.
+        let mt = &mut ws.mt[..nn];
+        for i in 0..n {
+            for k in 0..=i {
+                mt[k * n + i] = m[k + i * n];
+            }
+        }
         for j in 0..n {
             for i in 0..j {
                 d[i + j * n] = d[j + i * n];
@@ -339,9 +354,8 @@ pub(crate) fn update_distance_metric(
             let mj = &m[j * n..j * n + j + 1];
             let mut i = j;
             while i + 4 <= n {
-                let col = |k: usize| &m[k * n..k * n + j + 1];
-                let s = dot4([col(i), col(i + 1), col(i + 2), col(i + 3)], mj);
-                d[i + j * n..i + j * n + 4].copy_from_slice(&s);
+                let acc = sum4_rows(mt, n, mj, i, true);
+                d[i + j * n..i + j * n + 4].copy_from_slice(&acc);
                 i += 4;
             }
             for i in i..n {

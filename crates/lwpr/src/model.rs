@@ -308,7 +308,7 @@ impl Lwpr {
                 2 => Self::update_sub::<2>(params, s, yn, ws),
                 3 => Self::update_sub::<3>(params, s, yn, ws),
                 4 => Self::update_sub::<4>(params, s, yn, ws),
-                _ => Self::update_sub::<0>(params, s, yn, ws),
+                _ => Self::update_sub_any_n(params, s, yn, ws),
             };
             let yp = if act.sum_w > 0.0 {
                 act.yp / act.sum_w
@@ -321,8 +321,28 @@ impl Lwpr {
         Ok(())
     }
 
+    /// [`Self::update_sub`] for any input dimension; on x86-64 CPUs with AVX compiled for
+    /// them, so that the four-lane sums of the metric update and the activations run four
+    /// lanes per instruction. Multiplies and adds stay separate instructions (no fused
+    /// multiply-add), so the results are the same bits either way.
+    fn update_sub_any_n(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU supports AVX (checked just above).
+            return unsafe { Self::update_sub_avx(p, sub, yn, ws) };
+        }
+        Self::update_sub::<0>(p, sub, yn, ws)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn update_sub_avx(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
+        Self::update_sub::<0>(p, sub, yn, ws)
+    }
+
     /// One sub-model's update; `N` is the input dimension if it is known at compile time
     /// (else 0).
+    #[inline(always)]
     fn update_sub<const N: usize>(
         p: &Params,
         sub: &mut SubModel,

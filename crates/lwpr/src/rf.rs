@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::linalg::{dot, dot4};
+use crate::linalg::{dot, sum4_rows};
 use crate::params::{Kernel, Params};
 use crate::workspace::Workspace;
 
@@ -80,10 +80,10 @@ pub(crate) fn distance(d: &[f64], xc: &[f64], diag_only: bool) -> f64 {
     } else {
         // The column dot products are independent: four at a time, each in the reference's
         // order, then accumulated in the reference's order.
+        // D is exactly symmetric, so D_kj..D_k(j+3) is a contiguous piece of column k.
         let mut j = 0;
         while j + 4 <= n {
-            let col = |k: usize| &d[k * n..k * n + n];
-            let s = dot4([col(j), col(j + 1), col(j + 2), col(j + 3)], xc);
+            let s = sum4_rows(&d[..n * n], n, xc, j, true);
             for t in 0..4 {
                 dist += xc[j + t] * s[t];
             }

@@ -47,6 +47,8 @@ pub(crate) struct Workspace {
     pub sum_aux1: Vec<f64>,
     /// Prefix sums of squared `M` row elements.
     pub prefix: Vec<f64>,
+    /// `M` transposed (rows of `M` contiguous) for `D = MᵀM`.
+    pub mt: Vec<f64>,
 }
 
 impl Workspace {
@@ -74,6 +76,7 @@ impl Workspace {
             sum_aux: vec![0.0; n],
             sum_aux1: vec![0.0; n],
             prefix: vec![0.0; n + 1],
+            mt: vec![0.0; n * n],
         }
     }
 }
