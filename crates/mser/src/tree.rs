@@ -1,15 +1,22 @@
 //! The component tree of one polarity, built in linear time by the flood-fill algorithm of Nistér
 //! & Stewénius (ECCV 2008).
 //!
-//! The image is copied into a padded `u16` buffer with a frame of pixels marked as reached, so
+//! The image is copied into a padded byte buffer with a frame of pixels marked as reached, so
 //! the four neighbour steps never leave the buffer (module `layout`: row length an odd multiple
 //! of 16, not a power of two, which keeps the rows of a column in different cache sets). A cell
-//! holds its grey level until the pixel is reached, then the constant `REACHED` = 257, which is
-//! above every level (so a reached neighbour is never "lower") and is also the index of a *sink*.
-//! The flood keeps one "boundary heap" per grey level: 256 stacks carved out of one array and
+//! holds its grey level until the pixel is reached, then the constant `REACHED` = 255, which is
+//! never below the flood's level and is also the index of a *sink*. Bytes rather than wider cells
+//! halve the flood's most randomly accessed memory (graf img1: 0.5 MB, within the L2 cache). The
+//! price: pixels of grey level 255 look reached from the start and are never flooded. They are
+//! not needed there: at level 255 the whole image is one component, the root. So the pixels
+//! below 255 are flooded part by part (each 4-connected part of them from its first pixel in
+//! raster order; one part when no pixel is 255), the roots of the parts become the children of
+//! a root at level 255, and the level-255 pixels are appended to the flood order at the end.
+//!
+//! The flood keeps one "boundary heap" per grey level: 255 stacks carved out of one array and
 //! sized by the grey-level histogram (a pixel waits at most once at a time). All waiting pixels
 //! lie at or above the current level, so when the current level's stack runs empty the next one
-//! is found by scanning upwards.
+//! is found by scanning upwards; the sink in place of level 255 stops the scan and ends a part.
 //!
 //! A visit reads the four neighbours at once and takes their minimum, the only branch on the
 //! pixel's surroundings:
@@ -23,7 +30,7 @@
 //!   visited next from a register instead of a store and reload; which neighbour that is, is
 //!   chosen with conditional moves (`select_unpredictable`), as it follows no pattern.
 //!
-//! A fixed stack of open components (at most 256, as their levels strictly decrease upwards, over
+//! A fixed stack of open components (at most 255, as their levels strictly decrease upwards, over
 //! a sentinel) holds, for each, its grey level, the position in the flood order at which it was
 //! opened and its closed children. Per pixel the flood only appends the pixel to the flood order;
 //! opening, raising and merging components are rare events handled out of line. Raising a
@@ -108,9 +115,9 @@ struct Comp {
 /// Reusable buffers for building trees of images of any size.
 #[derive(Debug)]
 pub struct TreeBuilder {
-    /// Padded image: grey level in the low byte, bit 8 set once the pixel has been reached
-    /// (the frame is set from the start).
-    cells: Vec<u16>,
+    /// Padded image: the grey level, or [`REACHED`] once the pixel has been reached (the frame
+    /// from the start).
+    cells: Vec<u8>,
     heap: Vec<u32>,
     stack: Box<[Comp; STACK_SLOTS]>,
 }
@@ -131,11 +138,13 @@ impl Default for TreeBuilder {
     }
 }
 
-/// The cell value of a reached pixel (and of the frame): above every grey level, so never lower
-/// than the flood, and the index of the sink "level" that swallows its pushes.
-const REACHED: u16 = SINK as u16;
-/// Index of the sink in the per-level stack tops (after the 256 levels and the sentinel).
-const SINK: usize = 257;
+/// The cell value of a reached pixel (and of the frame): 255, never below the flood (which
+/// handles levels 0..=254), and the index of the sink "level" that swallows its pushes. Pixels of
+/// grey level 255 look reached from the start; they are never flooded and join the root at the
+/// end.
+const REACHED: u8 = SINK as u8;
+/// Index of the sink in the per-level stack tops (in place of level 255).
+const SINK: usize = 255;
 /// Slots of the sink: it is reset after the four pushes of every visited pixel.
 const SINK_SLOTS: u32 = 4;
 /// Slots of the component stack: open components have strictly decreasing levels from the
@@ -237,7 +246,7 @@ impl TreeBuilder {
             tree.order.resize(npix, 0);
         }
 
-        // Padded copy with the frame marked as reached, and the grey-level histogram.
+        // Padded copy with the frame marked as reached.
         if self.cells.len() != total {
             self.cells.clear();
             self.cells.resize(total, REACHED);
@@ -247,28 +256,27 @@ impl TreeBuilder {
         for y in 0..h {
             let base = (y + 1) * stride;
             let (px, pad) = self.cells[base..base + stride].split_at_mut(w);
-            // A plain widening copy, which the compiler vectorises.
+            // A plain copy, which the compiler vectorises.
             for (d, &g) in px.iter_mut().zip(img.row(y)) {
-                *d = (g ^ flip) as u16;
+                *d = g ^ flip;
             }
             pad.fill(REACHED);
         }
         self.cells[(h + 1) * stride..].fill(REACHED);
 
         // Boundary heap: the sink first (slots 0..SINK_SLOTS, taking the pushes of reached
-        // neighbours), then one stack per level (level g holds at most its hist[g] pixels, each
-        // at most once), then a never-empty sentinel level 256 that stops the upward scan.
-        // `bottom[g]..top_of[g]` are level g's entries.
+        // neighbours), then one stack per level below 255 (level g holds at most its hist[g]
+        // pixels, each at most once). `bottom[g]..top_of[g]` are level g's entries; the sink's
+        // `bottom` never equals its top, so it stops the upward scan.
         let mut bottom = [0u32; SINK + 1];
         let mut top_of = [0u32; SINK + 1];
         let mut acc = SINK_SLOTS;
-        for g in 0..256 {
+        for g in 0..SINK {
             bottom[g] = acc;
             top_of[g] = acc;
             acc += hist[g ^ flip as usize];
         }
-        bottom[256] = acc;
-        top_of[256] = acc + 1;
+        bottom[SINK] = u32::MAX;
         let heap_len = acc as usize;
         if self.heap.len() < heap_len {
             self.heap.resize(heap_len, 0);
@@ -282,95 +290,140 @@ impl TreeBuilder {
         // visited next.
         let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
 
-        let mut cur = stride; // pixel (0, 0)
-        let mut cur_level = cells[cur as usize] as u32;
-        cells[cur as usize] = REACHED;
-        let mut comps = Components {
-            stack: &mut self.stack,
-            depth: 0,
-            top: Comp {
-                level: cur_level,
-                start: 0,
-                children: NONE,
-            },
-            nodes: &mut tree.nodes,
-        };
         let mut pos = 0u32;
-        loop {
-            // `cur` is a pixel at `cur_level`, the level of the top component, either seen for
-            // the first time or pushed back when the flood descended from it.
-            let ns = offs.map(|o| cur.wrapping_add(o));
-            // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the padding
-            // columns, which wrap to the next row's frame), so every neighbour is `< total`.
-            let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
-            let low = vs[0].min(vs[1]).min(vs[2].min(vs[3]));
-            // The last neighbour at the lowest level `low` (if `low` is a grey level).
-            // Conditional moves, not branches: which neighbour it is does not follow a pattern.
-            let mut next = ns[0];
-            for i in 1..4 {
-                next = std::hint::select_unpredictable(vs[i] == low, ns[i], next);
-            }
-            if low < cur_level {
-                // Descend into a lower neighbour. The others stay unreached: `cur` waits at its
-                // level and is visited again when the flood comes back to it.
-                // SAFETY: as above.
-                unsafe { *cells.get_unchecked_mut(next as usize) = REACHED };
-                push(heap, &mut top_of, cur_level, cur);
-                comps.open(low, pos);
-                cur_level = low;
-                cur = next;
-                continue;
-            }
-            // No lower neighbour: mark and push all four without a branch (the reached ones go
-            // to the sink), and `cur` joins the top component.
-            for i in 0..4 {
-                // SAFETY: as above.
-                unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
-                push(heap, &mut top_of, vs[i], ns[i]);
-            }
-            top_of[SINK] = 0;
-            add(order, &mut pos, cur);
-            if low == cur_level {
-                // A neighbour at the same level is the next pixel: the last one pushed there,
-                // i.e. the top of the current stack. Take it back and keep it in a register
-                // instead of reloading it from the heap.
-                top_of[low as usize] -= 1;
-                cur = next;
-                continue;
-            }
-
-            // Dead end: the next pixel comes from the current level's stack, else from the
-            // lowest non-empty one.
-            let mut g = cur_level as usize;
-            debug_assert!(g < 256);
-            // SAFETY: `cur_level` is a grey level.
-            let t = unsafe { top_of.get_unchecked_mut(g) };
-            cur = if *t != bottom[g] {
-                *t -= 1;
-                debug_assert!((*t as usize) < heap.len());
-                // SAFETY: bottom[g] <= top_of[g] < bottom[g + 1] <= heap.len().
-                unsafe { *heap.get_unchecked(*t as usize) }
-            } else {
-                // Every entry lies at or above the current level: scan upwards.
-                g += 1;
-                while top_of[g] == bottom[g] {
-                    g += 1;
-                }
-                if g == 256 {
-                    break;
-                }
-                top_of[g] -= 1;
-                cur_level = g as u32;
-                comps.rise(cur_level, pos);
-                heap[top_of[g] as usize]
+        // Roots of the finished floods, linked as siblings.
+        let mut roots = NONE;
+        let mut scan_from = stride as usize;
+        let below_255 = (npix as u32) - hist[255 ^ flip as usize];
+        // One flood per connected part of the pixels below 255, each from its first pixel in
+        // raster order (the cells below 255 are exactly the unreached pixels of those parts),
+        // until all of them are in.
+        while pos < below_255 {
+            let Some(skip) = cells[scan_from..].iter().position(|&c| c != REACHED) else {
+                debug_assert!(false, "{} pixels below 255 not flooded", below_255 - pos);
+                break;
             };
+            let mut cur = (scan_from + skip) as u32;
+            scan_from += skip + 1;
+            let mut cur_level = cells[cur as usize] as u32;
+            cells[cur as usize] = REACHED;
+            let mut comps = Components {
+                stack: &mut self.stack,
+                depth: 0,
+                top: Comp {
+                    level: cur_level,
+                    start: pos,
+                    children: NONE,
+                },
+                nodes: &mut tree.nodes,
+            };
+            loop {
+                // `cur` is a pixel at `cur_level`, the level of the top component, either seen
+                // for the first time or pushed back when the flood descended from it.
+                let ns = offs.map(|o| cur.wrapping_add(o));
+                // SAFETY: `cur` is an image pixel and the frame is one pixel wide (plus the
+                // padding columns, which wrap to the next row's frame), so every neighbour is
+                // `< total`.
+                let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
+                let low = vs[0].min(vs[1]).min(vs[2].min(vs[3]));
+                // The last neighbour at the lowest level `low` (if `low` is a grey level).
+                // Conditional moves, not branches: which neighbour it is follows no pattern.
+                let mut next = ns[0];
+                for i in 1..4 {
+                    next = std::hint::select_unpredictable(vs[i] == low, ns[i], next);
+                }
+                if low < cur_level {
+                    // Descend into a lower neighbour. The others stay unreached: `cur` waits
+                    // at its level and is visited again when the flood comes back to it.
+                    // SAFETY: as above.
+                    unsafe { *cells.get_unchecked_mut(next as usize) = REACHED };
+                    push(heap, &mut top_of, cur_level, cur);
+                    comps.open(low, pos);
+                    cur_level = low;
+                    cur = next;
+                    continue;
+                }
+                // No lower neighbour: mark and push all four without a branch (the reached
+                // ones, and those of level 255, go to the sink), and `cur` joins the top
+                // component.
+                for i in 0..4 {
+                    // SAFETY: as above.
+                    unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
+                    push(heap, &mut top_of, vs[i], ns[i]);
+                }
+                top_of[SINK] = 0;
+                add(order, &mut pos, cur);
+                if low == cur_level {
+                    // A neighbour at the same level is the next pixel: the last one pushed
+                    // there, i.e. the top of the current stack. Take it back and keep it in a
+                    // register instead of reloading it from the heap.
+                    top_of[low as usize] -= 1;
+                    cur = next;
+                    continue;
+                }
+
+                // Dead end: the next pixel comes from the current level's stack, else from the
+                // lowest non-empty one.
+                let mut g = cur_level as usize;
+                debug_assert!(g < SINK);
+                // SAFETY: `cur_level` is a grey level.
+                let t = unsafe { top_of.get_unchecked_mut(g) };
+                cur = if *t != bottom[g] {
+                    *t -= 1;
+                    debug_assert!((*t as usize) < heap.len());
+                    // SAFETY: bottom[g] <= top_of[g] < bottom[g + 1] <= heap.len().
+                    unsafe { *heap.get_unchecked(*t as usize) }
+                } else {
+                    // Every entry lies at or above the current level: scan upwards.
+                    g += 1;
+                    while top_of[g] == bottom[g] {
+                        g += 1;
+                    }
+                    if g == SINK {
+                        break;
+                    }
+                    top_of[g] -= 1;
+                    cur_level = g as u32;
+                    comps.rise(cur_level, pos);
+                    heap[top_of[g] as usize]
+                };
+            }
+            // The part is flooded; close its remaining components into its root.
+            while comps.depth > 0 {
+                comps.merge(pos);
+            }
+            roots = comps.close(pos, roots);
         }
+
+        if hist[255 ^ flip as usize] > 0 {
+            // The pixels of level 255 were never flooded: they join the root, the whole image
+            // at level 255, whose children are the roots of the floods.
+            for y in 0..h {
+                let base = ((y + 1) * stride as usize) as u32;
+                for (x, _) in img
+                    .row(y)
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &g)| g ^ flip == 255)
+                {
+                    add(order, &mut pos, base + x as u32);
+                }
+            }
+            let mut comps = Components {
+                stack: &mut self.stack,
+                depth: 0,
+                top: Comp {
+                    level: 255,
+                    start: 0,
+                    children: roots,
+                },
+                nodes: &mut tree.nodes,
+            };
+            comps.close(pos, NONE);
+        }
+        // Otherwise the pixels below 255 are one 4-connected part, and its flood's root is
+        // the tree's root.
         debug_assert_eq!(pos as usize, npix);
-        // Every pixel is in; close the remaining components into the root.
-        while comps.depth > 0 {
-            comps.merge(pos);
-        }
-        comps.close(pos, NONE);
     }
 }
 
@@ -398,7 +451,7 @@ fn add(order: &mut [u32], pos: &mut u32, idx: u32) {
 /// `g`'s stack; `g` is [`SINK`] for a reached pixel, whose entry is never read.
 #[inline(always)]
 fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
-    debug_assert!(g as usize <= SINK && g != 256);
+    debug_assert!(g as usize <= SINK);
     // SAFETY: `g` is a level or the sink (cells hold nothing else).
     let t = unsafe { top_of.get_unchecked_mut(g as usize) };
     debug_assert!((*t as usize) < heap.len());
