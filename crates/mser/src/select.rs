@@ -7,7 +7,8 @@ use crate::tree::{NONE, Tree};
 /// Scratch arrays of the selection, reused between images.
 #[derive(Debug, Default)]
 pub struct Selector {
-    main_child: Vec<u32>,
+    /// Per node: its main child so far and that child's area (`(NONE, 0)` before the first).
+    main_child: Vec<(u32, u32)>,
     var: Vec<f64>,
     best_desc: Vec<u32>,
 }
@@ -26,7 +27,7 @@ impl Selector {
 
         let main = &mut self.main_child;
         main.clear();
-        main.resize(n, NONE);
+        main.resize(n, (NONE, 0));
         // Only entries of nodes with at least `min_area` pixels are written and read.
         let var = &mut self.var;
         if var.len() < n {
@@ -50,7 +51,7 @@ impl Selector {
                     // The smallest region on the largest-child chain whose level is >= g − Δ.
                     let mut m = i;
                     loop {
-                        let ch = main[m];
+                        let ch = main[m].0;
                         if ch == NONE || nodes[ch as usize].level + delta < g {
                             break nodes[m].area;
                         }
@@ -62,13 +63,15 @@ impl Selector {
                 *var_i = (up.area - lower) as f64 / c.area as f64;
             }
             if symmetric && c.parent != NONE {
-                let m = main[c.parent as usize];
-                let better = m == NONE || {
-                    let ma = tree.nodes[m as usize].area;
-                    c.area > ma || (c.area == ma && tree.seed(i as u32) < tree.seed(m))
-                };
-                if better {
-                    main[c.parent as usize] = i as u32;
+                // Every area is at least 1, so the first child always takes the empty slot; a
+                // larger child takes it without a branch (conditional moves), and only a tie in
+                // area branches to compare first pixels.
+                let q = c.parent as usize;
+                let (m, ma) = main[q];
+                let mine = (i as u32, c.area);
+                main[q] = std::hint::select_unpredictable(c.area > ma, mine, (m, ma));
+                if c.area == ma && tree.seed(i as u32) < tree.seed(m) {
+                    main[q] = mine;
                 }
             }
         }
