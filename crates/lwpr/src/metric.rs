@@ -343,13 +343,14 @@ pub(crate) fn update_distance_metric(
         // of M (copied transposed, so M_k,i..M_k,i+3 are contiguous), in `dot`'s order.
         let mt = &mut ws.mt[..nn];
         for i in 0..n {
-            for k in 0..=i {
-                mt[k * n + i] = m[k + i * n];
+            for (row, &v) in mt.chunks_exact_mut(n).zip(&m[i * n..i * n + i + 1]) {
+                row[i] = v;
             }
         }
         for j in 0..n {
-            for i in 0..j {
-                d[i + j * n] = d[j + i * n];
+            let (done, col) = d.split_at_mut(j * n);
+            for (dv, row) in col[..j].iter_mut().zip(done.chunks_exact(n)) {
+                *dv = row[j];
             }
             let mj = &m[j * n..j * n + j + 1];
             let mut i = j;
