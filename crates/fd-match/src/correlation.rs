@@ -66,6 +66,8 @@ pub struct Correlator {
     buf: Vec<Complex64>,
     scratch: Vec<Complex64>,
     prod: Vec<Complex64>,
+    /// Scratch for the magnitudes of [`Self::correlate_below`].
+    mags: Vec<f64>,
     pow: Vec<f64>,
     /// FFT bin of each stored coefficient (`n mod M`).
     pos: Vec<usize>,
@@ -110,6 +112,7 @@ impl Correlator {
                     .max(coarse_ifft.get_inplace_scratch_len())
             ],
             prod: vec![z; 2 * k],
+            mags: Vec::with_capacity(4 * k),
             pow: vec![0.0; m],
             pos: bins(m),
             freq: (0..2 * k)
@@ -136,24 +139,40 @@ impl Correlator {
     /// As [`Self::correlate`], but returns `None` early when the error provably exceeds
     /// `max_error`: a grid maximum plus its slack bounds the true peak from above. The bound is
     /// tried first on the smallest grid `M₀ ≥ 2K + 1` (64 for K = 25, a quarter of the cost),
-    /// then on the fine grid before refinement. A `Some` result is bit-identical to
-    /// [`Self::correlate`].
+    /// then on the fine grid before refinement, and after the refinement of the best sample
+    /// the remaining lobes are refined only if one could still beat `max_error`. A `Some`
+    /// result is bit-identical to [`Self::correlate`].
     pub fn correlate_below(
         &mut self,
         a: &[Complex64],
         b: &[Complex64],
         max_error: f64,
     ) -> Option<Correlation> {
+        let mut mags = std::mem::take(&mut self.mags);
+        mags.clear();
+        // `|C(n)|` exactly as the extractor stores it in a `DescriptorSet`.
+        mags.extend(a.iter().chain(b).map(|c| c.norm_sqr().sqrt()));
+        let (ma, mb) = mags.split_at(a.len());
+        let out = self.correlate_known(a, b, ma, mb, max_error);
+        self.mags = mags;
+        out
+    }
+
+    /// [`Self::correlate_below`] with the magnitudes `ma = |a(n)|`, `mb = |b(n)|` given (as a
+    /// [`crate::DescriptorSet`] stores them), which saves their square roots.
+    pub(crate) fn correlate_known(
+        &mut self,
+        a: &[Complex64],
+        b: &[Complex64],
+        ma: &[f64],
+        mb: &[f64],
+        max_error: f64,
+    ) -> Option<Correlation> {
         let (k, m) = (self.k, self.buf.len());
-        let (mut s0, mut s1, mut s2) = (0.0, 0.0, 0.0);
-        for (i, ((x, y), &nf)) in a.iter().zip(b).zip(&self.freq).enumerate() {
-            let p = x.conj() * y;
-            self.prod[i] = p;
-            let w = p.norm_sqr().sqrt(); // not `norm()`: hypot is several times slower
-            s0 += w;
-            s1 += nf * w;
-            s2 += nf * nf * w;
+        for ((slot, x), y) in self.prod.iter_mut().zip(a).zip(b) {
+            *slot = x.conj() * y;
         }
+        let (s0, s1, s2) = spectral_sums(ma, mb, &self.freq);
         let curvature = s1 * s1 + s0 * s2;
         // Stage 1 (screening): the smallest grid M₀ ≥ 2K + 1 bounds the peak from above by its
         // maximum plus the slack of its spacing.
@@ -278,6 +297,34 @@ impl Correlator {
             d.min(2.0 * PI - d) < 1.5 * h
         })
     }
+}
+
+/// `S_j = Σ |n|^j |C₁(n)||C₂(n)|` for `j = 0, 1, 2` (the terms of the curvature bound), in four
+/// independent lanes so the sums do not form one serial chain.
+#[inline]
+fn spectral_sums(ma: &[f64], mb: &[f64], freq: &[f64]) -> (f64, f64, f64) {
+    let mut acc = [[0.0f64; 4]; 3];
+    let lanes = ma
+        .chunks_exact(4)
+        .zip(mb.chunks_exact(4))
+        .zip(freq.chunks_exact(4));
+    for ((x, y), f) in lanes {
+        for l in 0..4 {
+            let w = x[l] * y[l];
+            acc[0][l] += w;
+            acc[1][l] += f[l] * w;
+            acc[2][l] += f[l] * f[l] * w;
+        }
+    }
+    let mut s = acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]));
+    let tail = ma.len().min(mb.len()).min(freq.len()) / 4 * 4;
+    for ((x, y), f) in ma[tail..].iter().zip(&mb[tail..]).zip(&freq[tail..]) {
+        let w = x * y;
+        s[0] += w;
+        s[1] += f * w;
+        s[2] += f * f * w;
+    }
+    (s[0], s[1], s[2])
 }
 
 /// `r(θ)`, `r'(θ)`, `r''(θ)` of `r(θ) = Σ p_n e^{inθ}` (layout of `fd_index`: `p[..K]` holds

@@ -241,7 +241,8 @@ impl DescriptorSet {
             });
         }
         self.fd.extend_from_slice(&d.fd);
-        self.mag.extend(d.fd.iter().map(|c| c.norm()));
+        // As the extractor computes them (and `Correlator::correlate_below`).
+        self.mag.extend(d.fd.iter().map(|c| c.norm_sqr().sqrt()));
         self.afd0.extend_from_slice(&d.afd0);
         self.afd1.extend_from_slice(&d.afd1);
         self.source.push(source);

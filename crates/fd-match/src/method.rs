@@ -108,7 +108,13 @@ impl PairError {
         max_error: f64,
     ) -> Option<(f64, Option<Alignment>)> {
         if self.method == Method::FdCorr {
-            let c = self.corr.correlate_below(a.fd(i), b.fd(j), max_error)?;
+            let c = self.corr.correlate_known(
+                a.fd(i),
+                b.fd(j),
+                a.magnitudes(i),
+                b.magnitudes(j),
+                max_error,
+            )?;
             return Some((c.error, Some(c.alignment)));
         }
         Some(self.eval(a, i, b, j))
@@ -125,7 +131,16 @@ impl PairError {
     ) -> (f64, Option<Alignment>) {
         match self.method {
             Method::FdCorr => {
-                let c = self.corr.correlate(a.fd(i), b.fd(j));
+                let c = self
+                    .corr
+                    .correlate_known(
+                        a.fd(i),
+                        b.fd(j),
+                        a.magnitudes(i),
+                        b.magnitudes(j),
+                        f64::INFINITY,
+                    )
+                    .expect("every error is below infinity");
                 (c.error, Some(c.alignment))
             }
             Method::AbsFdSsd => (ssd_real(a.magnitudes(i), b.magnitudes(j)), None),
