@@ -77,6 +77,29 @@ fn fast_search_is_identical_to_brute_force() {
 }
 
 #[test]
+fn search_results_equal_the_public_correlator_bit_for_bit() {
+    // The search feeds the sets' stored magnitudes to the correlator; `Correlator::correlate`
+    // recomputes them. Both must give the same bits, also for a set built from owned
+    // descriptors (`DescriptorSet::push`).
+    let (a, b, _) = sets(Sampling::Canonical, 4);
+    let mut pushed = DescriptorSet::new(*b.config()).unwrap();
+    for j in 0..b.len() {
+        pushed.push(&b.get(j).unwrap(), b.source(j)).unwrap();
+    }
+    let k = a.config().max_frequency();
+    let mut cor = Correlator::new(k, a.config().samples);
+    for t in [&b, &pushed] {
+        for (i, r) in best_two(&a, t, Method::FdCorr).unwrap().iter().enumerate() {
+            for c in [r.best, r.second].into_iter().flatten() {
+                let direct = cor.correlate(a.fd(i), t.fd(c.index));
+                assert_eq!(c.error, direct.error);
+                assert_eq!(c.alignment, Some(direct.alignment));
+            }
+        }
+    }
+}
+
+#[test]
 fn ties_are_broken_by_the_lower_index() {
     let (a, b, truth) = sets(Sampling::ArcLength, 4);
     // b[40] duplicates b[3]; their query in A finds both with identical errors.
