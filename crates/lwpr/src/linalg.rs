@@ -28,43 +28,51 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
-/// `acc_t += a · x_t` for four adjacent lanes: one multiply and one add per lane (no fused
+/// `acc_t += a · x_t` for `L` adjacent lanes: one multiply and one add per lane (no fused
 /// multiply-add), so each lane rounds exactly as the scalar statement; the lanes vectorise.
-/// Summing lane `t` over the terms of a dot product in that product's order gives its exact
-/// bits, four products at a time from contiguous rows instead of four strided columns.
 #[inline(always)]
-pub(crate) fn madd4(acc: &mut [f64; 4], a: f64, x: &[f64]) {
-    let x: &[f64; 4] = x[..4].try_into().expect("four lanes");
-    for t in 0..4 {
+pub(crate) fn madd<const L: usize>(acc: &mut [f64; L], a: f64, x: &[f64]) {
+    let x: &[f64; L] = x[..L].try_into().expect("L lanes");
+    for t in 0..L {
         acc[t] += a * x[t];
     }
 }
 
-/// Four sums at once: `acc_t = Σ_k coef_k · rows[k·stride + off + t]` (`t < 4`), the terms
-/// taken in the order of a length-`coef.len()` [`dot`] (or, with `dot_order = false`, plain
-/// ascending `k`). Each lane has exactly the bits of that scalar sum.
+/// `L` sums at once: `acc_t = Σ_k coef_k · rows[k·stride + off + t]` (`t < L`), the terms taken
+/// in the order of a length-`coef.len()` [`dot`] (or, with `dot_order = false`, plain
+/// ascending `k`). Each lane has exactly the bits of that scalar sum; summing from contiguous
+/// rows replaces `L` strided scalar chains by vector operations.
 #[inline(always)]
-pub(crate) fn sum4_rows(
+pub(crate) fn sum_rows<const L: usize>(
     rows: &[f64],
     stride: usize,
     coef: &[f64],
     off: usize,
     dot_order: bool,
-) -> [f64; 4] {
+) -> [f64; L] {
     let len = coef.len();
     let base = if dot_order { 4 * (len / 4) } else { len };
-    let mut acc = [0.0; 4];
+    let mut acc = [0.0; L];
     for (row, &a) in rows.chunks_exact(stride).zip(&coef[..base]) {
-        madd4(&mut acc, a, &row[off..off + 4]);
+        madd(&mut acc, a, &row[off..off + L]);
     }
     for k in (base..len).rev() {
-        madd4(
+        madd(
             &mut acc,
             coef[k],
-            &rows[k * stride + off..k * stride + off + 4],
+            &rows[k * stride + off..k * stride + off + L],
         );
     }
     acc
+}
+
+/// Lane blocks for `sum_rows` over `count` columns: `(first column, width)` with widths 8 and 4
+/// (a remainder of fewer than four columns is left to the caller).
+#[inline(always)]
+pub(crate) fn lane_blocks(start: usize, end: usize) -> (usize, usize) {
+    let wide = start + 8 * ((end - start) / 8);
+    let four = if end - wide >= 4 { wide + 4 } else { wide };
+    (wide, four)
 }
 
 /// Upper-triangular `M` with `MᵀM = A` for a symmetric positive definite `n × n` matrix `A`
@@ -127,8 +135,8 @@ mod tests {
                     rows[k * stride + 1 + t] = cols[t][k];
                 }
             }
-            let in_dot_order = sum4_rows(&rows, stride, &a, 1, true);
-            let ascending = sum4_rows(&rows, stride, &a, 1, false);
+            let in_dot_order: [f64; 4] = sum_rows(&rows, stride, &a, 1, true);
+            let ascending: [f64; 4] = sum_rows(&rows, stride, &a, 1, false);
             for t in 0..4 {
                 assert_eq!(in_dot_order[t].to_bits(), dot(&cols[t], &a).to_bits());
                 let mut q = 0.0;

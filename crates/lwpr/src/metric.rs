@@ -6,7 +6,7 @@
 //!
 //! The arithmetic follows the reference operation by operation so results stay bit-identical.
 
-use crate::linalg::{dot, sum4_rows};
+use crate::linalg::{dot, lane_blocks, sum_rows};
 use crate::params::Params;
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
@@ -56,14 +56,18 @@ fn dist_derivatives(
         }
         let mrow = &ws.mrow[..n - r];
         // sum_aux for four columns at a time (independent chains, each in ascending order).
-        // sum_aux_c = Σ_{i≥r} D_ic M_ri (ascending i) for four columns at a time: D is exactly
-        // symmetric, so D_ic..D_i(c+3) is a contiguous piece of column i.
-        let mut c = r;
-        while c + 4 <= n {
-            let acc = sum4_rows(&d[r * n..n * n], n, mrow, c, false);
-            ws.sum_aux[c..c + 4].copy_from_slice(&acc);
-            c += 4;
+        // sum_aux_c = Σ_{i≥r} D_ic M_ri (ascending i) for eight or four columns at a time: D
+        // is exactly symmetric, so D_ic..D_i(c+7) is a contiguous piece of column i.
+        let (wide, four) = lane_blocks(r, n);
+        for c in (r..wide).step_by(8) {
+            let acc: [f64; 8] = sum_rows(&d[r * n..n * n], n, mrow, c, false);
+            ws.sum_aux[c..c + 8].copy_from_slice(&acc);
         }
+        if four > wide {
+            let acc: [f64; 4] = sum_rows(&d[r * n..n * n], n, mrow, wide, false);
+            ws.sum_aux[wide..four].copy_from_slice(&acc);
+        }
+        let c = four;
         for c in c..n {
             let mut acc = 0.0;
             for (i, &mv) in mrow.iter().enumerate() {
@@ -339,8 +343,8 @@ pub(crate) fn update_distance_metric(
                 }
             }
         }
-        // D = MᵀM: D_ij (i ≥ j) is `dot(M_:i, M_:j)`, four rows i at a time from the rows
-        // of M (copied transposed, so M_k,i..M_k,i+3 are contiguous), in `dot`'s order.
+        // D = MᵀM: D_ij (i ≥ j) is `dot(M_:i, M_:j)`, eight or four rows i at a time from the
+        // rows of M (copied transposed, so M_k,i..M_k,i+7 are contiguous), in `dot`'s order.
         let mt = &mut ws.mt[..nn];
         for i in 0..n {
             for (row, &v) in mt.chunks_exact_mut(n).zip(&m[i * n..i * n + i + 1]) {
@@ -353,12 +357,16 @@ pub(crate) fn update_distance_metric(
                 *dv = row[j];
             }
             let mj = &m[j * n..j * n + j + 1];
-            let mut i = j;
-            while i + 4 <= n {
-                let acc = sum4_rows(mt, n, mj, i, true);
-                d[i + j * n..i + j * n + 4].copy_from_slice(&acc);
-                i += 4;
+            let (wide, four) = lane_blocks(j, n);
+            for i in (j..wide).step_by(8) {
+                let acc: [f64; 8] = sum_rows(mt, n, mj, i, true);
+                d[i + j * n..i + j * n + 8].copy_from_slice(&acc);
             }
+            if four > wide {
+                let acc: [f64; 4] = sum_rows(mt, n, mj, wide, true);
+                d[wide + j * n..four + j * n].copy_from_slice(&acc);
+            }
+            let i = four;
             for i in i..n {
                 d[i + j * n] = dot(&m[i * n..i * n + j + 1], mj);
             }

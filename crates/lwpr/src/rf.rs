@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::linalg::{dot, sum4_rows};
+use crate::linalg::{dot, lane_blocks, sum_rows};
 use crate::params::{Kernel, Params};
 use crate::workspace::Workspace;
 
@@ -78,17 +78,23 @@ pub(crate) fn distance(d: &[f64], xc: &[f64], diag_only: bool) -> f64 {
             dist += xc[j] * (d[j + j * n] * xc[j]);
         }
     } else {
-        // The column dot products are independent: four at a time, each in the reference's
-        // order, then accumulated in the reference's order.
-        // D is exactly symmetric, so D_kj..D_k(j+3) is a contiguous piece of column k.
-        let mut j = 0;
-        while j + 4 <= n {
-            let s = sum4_rows(&d[..n * n], n, xc, j, true);
-            for t in 0..4 {
+        // The column dot products `D_:jᵀ xc` are independent: eight or four at a time, each
+        // in the reference's order (D is exactly symmetric, so D_kj..D_k(j+7) is a contiguous
+        // piece of column k), then accumulated in the reference's order.
+        let (wide, four) = lane_blocks(0, n);
+        for j in (0..wide).step_by(8) {
+            let s: [f64; 8] = sum_rows(&d[..n * n], n, xc, j, true);
+            for t in 0..8 {
                 dist += xc[j + t] * s[t];
             }
-            j += 4;
         }
+        if four > wide {
+            let s: [f64; 4] = sum_rows(&d[..n * n], n, xc, wide, true);
+            for t in 0..4 {
+                dist += xc[wide + t] * s[t];
+            }
+        }
+        let j = four;
         for j in j..n {
             dist += xc[j] * dot(&d[j * n..j * n + n], xc);
         }
