@@ -76,14 +76,17 @@
 //!
 //! # Algorithm and cost
 //!
-//! [Nistér & Stewénius](https://doi.org/10.1007/978-3-540-88693-8_14): flood the image from one
+//! [Nistér & Stewénius](https://doi.org/10.1007/978-3-540-88693-8_14): flood the image from a
 //! pixel, always continuing at the lowest grey level reachable; the not yet flooded boundary pixels
 //! wait in one stack per grey level, and a stack of open components tracks the nested extremal
 //! regions. When the flood moves up to a higher level the top component is either raised to that
 //! level or merged into the component below; each such event closes one tree node. There is no
 //! union-find over the image and no sorting. Time is O(pixels · 4) plus O(nodes · Δ) for the
-//! variation walks; memory is O(pixels) in flat arrays (padded grey levels, the boundary stacks,
-//! the flood order, and six integers per node), allocated once per [`Mser`] and reused. Since
+//! variation walks; memory is O(pixels) in flat arrays (padded grey levels, one byte per pixel,
+//! the boundary stacks, the flood order, and six integers per node), allocated once per [`Mser`]
+//! and reused. (With one byte per cell "reached" is the value 255, so pixels of level 255, which
+//! all belong to the root, are never flooded: the pixels below 255 are flooded part by part and
+//! their roots joined under the root; module `tree` has the details of the flood.) Since
 //! open components only ever merge into the one directly below them, every node's pixels are one
 //! contiguous run of the flood order; so the flood accumulates no moments at all, and the exact
 //! integer moments and bounding boxes are summed afterwards over the runs of the selected regions
