@@ -1,10 +1,12 @@
 //! Criterion bench of one CBT step (predict + update + estimate) against the particle filter
-//! with 1,000 particles and the Kalman filter, on the same frames of a synthetic L2 sequence.
+//! with 1,000 particles and the Kalman filter, on the same frames of a synthetic L2 sequence:
+//! CBT in the stationary layout (the evaluation's image-tracking configuration) and in the
+//! dense separable layout.
 
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ParticleFilter,
-    PfModel, Scales, Space, Tracker,
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, Layout,
+    ParticleFilter, PfModel, Scales, Space, Tracker, axis,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -17,9 +19,26 @@ fn bench(c: &mut Criterion) {
     let spacing = scales.spacing(sc.height);
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
+    let fine = scales.fine_spacing(sc.height);
+    let k = cbt_tracker::DEFAULT_KERNEL;
+    let (bx, by) = (
+        axis(0.0, sc.width, fine, k).unwrap(),
+        axis(0.0, sc.height, fine, k).unwrap(),
+    );
+    let cfg = CbtConfig {
+        layout: Layout::Stationary,
+        ..CbtConfig::default()
+    };
+    let stat = CbtModel::learn_sequences(
+        Space::new(vec![bx.clone(), by.clone()], vec![bx, by]).unwrap(),
+        cfg,
+        &train,
+    )
+    .unwrap();
     let cal = Calibration::estimate(&train, sc.width / 10.0).unwrap();
     let mut trackers: Vec<(&str, Box<dyn Tracker>)> = vec![
-        ("cbt-2nd-separable", Box::new(CbtTracker::new(model))),
+        ("cbt-2nd-stationary", Box::new(CbtTracker::new(stat))),
+        ("cbt-2nd-separable-dense", Box::new(CbtTracker::new(model))),
         (
             "pf-1000",
             Box::new(

@@ -26,8 +26,24 @@
 //! Dirichlet fallback for cells without training data (see [`CbtConfig`]). Clutter pairs spread
 //! into a broad floor of `O` ([`Clutter::Model`]), are subtracted ([`Clutter::Subtract`]), or
 //! are subtracted and replaced by a learned uniform clutter share ([`Clutter::Uniform`]).
-//! Models are per axis by default ([`Layout::Separable`]) or sparse over the joint 2-D grid
-//! ([`Layout::SparseJoint`]). [`CbtTracker::learn_online`] adds frames incrementally.
+//! Models are per axis by default ([`Layout::Separable`]), sparse over the joint 2-D grid
+//! ([`Layout::SparseJoint`]), or shift-invariant ([`Layout::Stationary`], below).
+//! [`CbtTracker::learn_online`] adds frames incrementally.
+//!
+//! ## The stationary layout (image tracking)
+//! The same correspondence-free soft counts pooled over the grid by displacement, so every
+//! model depends on `m − n` only (module `stationary`): per-axis `S[δ]` and `T[δ | v]`, and a
+//! joint 2-D observation kernel `A[δx, δy]` whose clutter floor `λ` is measured against each
+//! displacement's exposure and whose sum is the learned `P̂_D`. The likelihood of a detection
+//! set is the clutter-aware mixture `(1 − P̂_D)·λ + Σ_i (b(z_i) ⋆ A)`. The posterior is held
+//! jointly on the window of its support (module `window`); the prediction is a separable
+//! convolution of it with per-axis displacement kernels `D_d = Σ_v c_d[v] T_d[· | v]`
+//! (`c_d` the velocity distribution between the last two posteriors' marginals), evaluated
+//! only where the update needs it; the estimate is the first moment of the channel
+//! coefficients around the best cell. Storage does not grow with the channel count and a
+//! step costs what the posterior's support costs, so the grid can be as fine as the detection
+//! noise (spacing [`Scales::fine_spacing`]). Why this layout, and the deviations from the
+//! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`).
 //!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;

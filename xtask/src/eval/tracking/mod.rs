@@ -121,11 +121,14 @@ fn protocol(sets: &[SetSpec]) -> String {
     let n: usize = sets.iter().map(|s| s.test.len()).sum();
     format!(
         "{n} test sequences in {} sets. CBT learns both models from the training sequences' \
-         unordered sets of truths and detections (no associations; default configuration: \
-         second order, separable, clutter modelled, first-order fallback, grid spacing from the \
-         training data's motion and noise scales). The baselines' parameters (σ_a, σ_z, P_D, \
-         clutter rate) are calibrated on the same training data. Track-loss radius: {} px on \
-         the image sets, {} on UNGM.",
+         unordered sets of truths and detections (no associations). Image sets: the stationary \
+         layout (shift-invariant models pooled over the grid by displacement: per-axis \
+         first- and second-order motion, a joint 2-D observation kernel with the learned \
+         detection probability and clutter density; the posterior held jointly on the window \
+         of its support; first-order fallback), channel spacing 0.75 × the training data's \
+         detection noise. UNGM: the dense separable layout (measurement ≠ state), spacing 1. \
+         The baselines' parameters (σ_a, σ_z, P_D, clutter rate) are calibrated on the same \
+         training data. Track-loss radius: {} px on the image sets, {} on UNGM.",
         sets.len(),
         IMAGE_LOSS_RADIUS,
         UNGM_LOSS_RADIUS
