@@ -55,7 +55,6 @@ fn dist_derivatives(
             dq += x * mv;
         }
         let mrow = &ws.mrow[..n - r];
-        // sum_aux for four columns at a time (independent chains, each in ascending order).
         // sum_aux_c = Σ_{i≥r} D_ic M_ri (ascending i) for eight or four columns at a time: D
         // is exactly symmetric, so D_ic..D_i(c+7) is a contiguous piece of column i.
         let (wide, four) = lane_blocks(r, n);

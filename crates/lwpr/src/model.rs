@@ -488,43 +488,117 @@ impl Lwpr {
     /// Prediction of output `dim` at normalised `xn` (`xc` scratch of length 2n); returns
     /// `(ŷ, max activation)` in normalised units.
     #[inline(always)]
-    fn predict_dim(&self, dim: usize, xn: &[f64], cutoff: f64, xc: &mut [f64]) -> (f64, f64) {
+    /// Prediction of output `dim` and its largest activation (exact only when `need_max`;
+    /// otherwise the exponential is skipped for fields too far away to pass `cutoff`).
+    fn predict_dim(
+        &self,
+        dim: usize,
+        xn: &[f64],
+        cutoff: f64,
+        xc: &mut [f64],
+        need_max: bool,
+    ) -> (f64, f64) {
+        // Compiled for the common small input dimensions, and with AVX where available for
+        // the others (same operations either way).
+        match self.params.n_in {
+            1 => self.predict_dim_n::<1>(dim, xn, cutoff, xc, need_max),
+            2 => self.predict_dim_n::<2>(dim, xn, cutoff, xc, need_max),
+            3 => self.predict_dim_n::<3>(dim, xn, cutoff, xc, need_max),
+            4 => self.predict_dim_n::<4>(dim, xn, cutoff, xc, need_max),
+            _ => {
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx") {
+                    // SAFETY: the CPU supports AVX (checked just above).
+                    return unsafe { self.predict_dim_avx(dim, xn, cutoff, xc, need_max) };
+                }
+                self.predict_dim_n::<0>(dim, xn, cutoff, xc, need_max)
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn predict_dim_avx(
+        &self,
+        dim: usize,
+        xn: &[f64],
+        cutoff: f64,
+        xc: &mut [f64],
+        need_max: bool,
+    ) -> (f64, f64) {
+        self.predict_dim_n::<0>(dim, xn, cutoff, xc, need_max)
+    }
+
+    #[inline(always)]
+    fn predict_dim_n<const N: usize>(
+        &self,
+        dim: usize,
+        xn: &[f64],
+        cutoff: f64,
+        xc: &mut [f64],
+        need_max: bool,
+    ) -> (f64, f64) {
         let p = &self.params;
-        let n = p.n_in;
+        let n = if N == 0 { p.n_in } else { N };
+        let xn = &xn[..n];
+        // Squared distances beyond `q_skip` give activations below `cutoff` (with a margin
+        // for rounding), so their exponential is not needed unless the maximum is asked for.
+        let q_skip = match p.kernel {
+            Kernel::Gaussian if cutoff > 0.0 && !need_max => {
+                -2.0 * cutoff.ln() * (1.0 + 1e-9) + 1e-9
+            }
+            _ => f64::INFINITY,
+        };
         let mut yp = 0.0;
         let mut sum_w = 0.0;
         let mut w_max: f64 = 0.0;
         for rf in &self.sub[dim].rfs {
+            let c = &rf.c[..n];
             let q = if p.diag_only {
+                let d = &rf.d[..n * n];
                 let mut dist = 0.0;
                 for j in 0..n {
-                    let d = xn[j] - rf.c[j];
-                    dist += d * (rf.d[j + j * n] * d);
+                    let z = xn[j] - c[j];
+                    dist += z * (d[j + j * n] * z);
                 }
                 dist
             } else {
                 // q = |M (x − c)|² with the triangular factor: half the work of (x−c)ᵀD(x−c),
                 // equal up to rounding (training uses the reference's form).
                 let (xc, v) = xc.split_at_mut(n);
+                let v = &mut v[..n];
                 for i in 0..n {
-                    xc[i] = xn[i] - rf.c[i];
+                    xc[i] = xn[i] - c[i];
                     v[i] = 0.0;
                 }
+                let m = &rf.m[..n * n];
                 for j in 0..n {
-                    let col = &rf.m[j * n..j * n + j + 1];
+                    let col = &m[j * n..j * n + j + 1];
                     let xj = xc[j];
                     for (vi, mij) in v[..=j].iter_mut().zip(col) {
                         *vi += mij * xj;
                     }
                 }
-                v.iter().map(|a| a * a).sum()
+                let mut q = 0.0;
+                for &a in v.iter() {
+                    q += a * a;
+                }
+                q
             };
+            if q > q_skip {
+                continue;
+            }
             let w = kernel_eval(p.kernel, q).0;
             if w > w_max {
                 w_max = w;
             }
             if w > cutoff && rf.trustworthy {
-                yp += w * rf.predict_slope(xn);
+                let (slope, mean_x) = (&rf.slope[..n], &rf.mean_x[..n]);
+                let mut v = 0.0;
+                for i in 0..n {
+                    v += slope[i] * (xn[i] - mean_x[i]);
+                }
+                yp += w * (rf.beta0 + v);
                 sum_w += w;
             }
         }
@@ -589,7 +663,7 @@ impl Lwpr {
         let (xbuf, xc) = buf.split_at_mut(n);
         let xn = self.normalise(x, xbuf);
         for dim in 0..self.params.n_out {
-            let (y, w) = self.predict_dim(dim, xn, cutoff, xc);
+            let (y, w) = self.predict_dim(dim, xn, cutoff, xc, max_w.is_some());
             out[dim] = y * self.params.norm_out[dim];
             if let Some(mw) = max_w.as_deref_mut() {
                 mw[dim] = w;

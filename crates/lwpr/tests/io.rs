@@ -127,6 +127,8 @@ fn corrupt_json_is_rejected() {
         .is_err()
     );
     assert!(edit(&|v| v["model"]["mean_x"] = serde_json::json!([0.0])).is_err());
+    // Training relies on an exactly symmetric metric: one upper element changed is refused.
+    assert!(edit(&|v| v["model"]["sub"][0]["rfs"][0]["d"][2] = 1.25.into()).is_err());
     // Unchanged it loads.
     assert!(edit(&|_| ()).is_ok());
 }
