@@ -18,8 +18,8 @@
 //! lie at or above the current level, so when the current level's stack runs empty the next one
 //! is found by scanning upwards; the sink in place of level 255 stops the scan and ends a part.
 //!
-//! A visit reads the four neighbours at once and takes their minimum, the only branch on the
-//! pixel's surroundings:
+//! A visit reads the four neighbours at once, and their minimum alone decides what follows (no
+//! branch per neighbour):
 //! - a lower neighbour: the flood descends into the lowest one (the others stay unreached) and
 //!   pushes the pixel back on its own level, to be visited again when the flood returns to it
 //!   (heap entries are bare pixel indices, with no "resume here" state);
