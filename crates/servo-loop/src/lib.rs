@@ -6,19 +6,26 @@
 //! and then position it in closed loop. This crate is that method, for any [`Robot`] (send a
 //! command, capture images); it knows nothing about a particular arm or simulator.
 //!
-//! ## 1. Recognition learned from action ([`GripperModel`], [`learn_recognition`])
-//! Action precedes perception: the learner opens and closes the gripper servo at random poses
-//! and takes the image difference; the pixels that change are the fingers, and the robust
-//! centroid of the change is the *gripper point*. Around it, a **channel-coded feature map**
-//! (spatial B-spline channels × cyclic cos² channels of the double-angle gradient orientation,
-//! plus grey-level channels, built with `chan-repr`; papers.md §1.4) is sampled in every
-//! training view; the samples are clustered into a few prototypes per camera, minus the mean
-//! background descriptor. A new image is searched for the prototypes (normalised
-//! cross-correlation, coarse-to-fine, sub-pixel peak), giving the gripper point and a
-//! certainty. **Status:** the change detection is reliable (tests), the localisation in a
-//! single new image is not yet (see `fixtures/paper-c/summary.md`: tens of pixels median error
-//! in the default scene, whose striped table and similar-looking arm parts confuse it).
-
+//! ## 1. Recognition learned from action ([`TipModel`], [`learn_recognition`])
+//! Action precedes perception: the learner moves the arm at random and, at each pose, closes
+//! and opens the gripper. From these frames each camera learns (a) the **static scene**, the
+//! per-pixel median of the frames after normalising each frame's lighting (a gain and two
+//! brightness gradients, robust least squares), so clutter and the table cancel; (b) which end
+//! of the arm's silhouette is the **gripper**: the gripper move's image change (the fingers)
+//! picks the *root* point from which the gripper is the farthest silhouette pixel; (c) the
+//! gripper end's size. In one new image the lit scene is subtracted, the largest connected
+//! silhouette is the arm, its pixel farthest from the root is the end of the chain, and the
+//! **tip** (the middle of the gripper's far end, between the finger ends) follows at sub-pixel
+//! precision from the soft coverage of the end: the end position along the gripper's principal
+//! axis from covered areas, the centre across it as the coverage-weighted mean
+//! ([`recognition::silhouette`]). Measured on `arm-sim` (`fixtures/paper-c/summary.md`):
+//! frame-to-frame repeatability ≈ 0.1–0.2 px, a median error of 2–3 px to the projected middle
+//! of the finger ends (the goal of ≤ 1 px is missed), and a definitional offset of ≈ 11 px to
+//! `arm-sim`'s tool point, which lies 8 mm behind the finger ends where nothing marks it.
+//! The earlier **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline ×
+//! cos² orientation channels of image gradients, chan-repr; papers.md §1.4) is kept as an
+//! appearance model; it finds the gripper region only to tens of pixels and is not used by the
+//! servo pipeline.
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
 //! set-points, see [`ControlSpace`]), the percept `x` each produces (the gripper point in every
@@ -59,10 +66,12 @@ pub use error::{Result, ServoError};
 pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
 pub use plant::{Observation, Plant, check_command, check_target};
-pub use recognition::{GripperModel, Localisation, RecognitionConfig};
+pub use recognition::{
+    GripperModel, Localisation, RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipModel,
+};
 pub use robot::Robot;
 pub use servo::{
     BroydenConfig, JacobianAt, RangePolicy, ServoAbort, ServoConfig, ServoResult, ServoRun,
     ServoStep, image_error, open_loop, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
-pub use visual::{ControlSpace, VisualPlant, learn_recognition};
+pub use visual::{ControlSpace, VisualPlant, learn_recognition, observe_averaged};

@@ -7,8 +7,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
 use crate::plant::{Observation, Plant};
-use crate::recognition::model::{RecognitionReport, TrainingView};
-use crate::recognition::{GripperModel, Localisation, RecognitionConfig};
+use crate::recognition::model::TrainingView;
+use crate::recognition::{Localisation, SilhouetteConfig, SilhouetteReport, TipModel};
 use crate::robot::Robot;
 
 /// Which servos are controlled, and how the others are held.
@@ -101,17 +101,18 @@ impl ControlSpace {
     }
 }
 
-/// Learns the gripper model by action (Paper C): at `views` random poses (controlled servos
-/// uniform in `explore`, seeded), capture with the gripper open, close it, capture again; the
-/// change is the gripper ([`GripperModel::learn`]). Leaves the gripper open.
+/// Learns the gripper recogniser by action (Paper C): at `views` random poses (controlled
+/// servos uniform in `explore`, seeded), capture with the gripper open, close it, capture
+/// again; the frames give the static scene, the gripper change locates the end of the chain
+/// ([`TipModel::learn`]). Leaves the gripper at its `rest` set-point.
 pub fn learn_recognition<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
     explore: &[[f64; 2]],
     views: usize,
     seed: u64,
-    config: &RecognitionConfig,
-) -> Result<(GripperModel, RecognitionReport)> {
+    config: &SilhouetteConfig,
+) -> Result<(TipModel, SilhouetteReport)> {
     space.validate(robot)?;
     let (g, [open, closed]) = space.gripper.ok_or(ServoError::InvalidParameter {
         name: "gripper",
@@ -127,11 +128,11 @@ pub fn learn_recognition<R: Robot>(
         c[g] = closed;
         send(robot, &c)?;
         let after = grab(robot)?;
-        c[g] = open;
+        c[g] = space.rest[g];
         send(robot, &c)?;
         training.push(TrainingView { before, after });
     }
-    GripperModel::learn(config, &training)
+    TipModel::learn(config, &training)
 }
 
 fn send<R: Robot>(robot: &mut R, c: &[f64]) -> Result<()> {
@@ -148,42 +149,41 @@ fn grab<R: Robot>(robot: &mut R) -> Result<Vec<GrayImage>> {
     })
 }
 
-/// A robot seen through a learned gripper model.
+/// A robot seen through a learned gripper recogniser.
 pub struct VisualPlant<R: Robot> {
     robot: R,
     space: ControlSpace,
-    model: GripperModel,
-    tracking: bool,
-    hints: Vec<Option<[f64; 2]>>,
+    model: TipModel,
+    captures: usize,
     last_images: Vec<GrayImage>,
     last_localisations: Vec<Localisation>,
 }
 
 impl<R: Robot> VisualPlant<R> {
-    /// Connects a robot, its control space and a gripper model.
-    pub fn new(robot: R, space: ControlSpace, model: GripperModel) -> Result<Self> {
+    /// Connects a robot, its control space and a gripper recogniser.
+    pub fn new(robot: R, space: ControlSpace, model: TipModel) -> Result<Self> {
         space.validate(&robot)?;
-        let cams = model.num_cameras();
         Ok(VisualPlant {
             robot,
             space,
             model,
-            tracking: true,
-            hints: vec![None; cams],
+            captures: 1,
             last_images: Vec::new(),
             last_localisations: Vec::new(),
         })
     }
 
-    /// With tracking on (the default), each observation first searches near the previous
-    /// gripper point. Without a hint, or when that fails, it searches where the image changed
-    /// since the previous observation ([`GripperModel::locate_after_move`]), or the whole
-    /// image for the first observation.
-    pub fn set_tracking(&mut self, on: bool) {
-        self.tracking = on;
-        if !on {
-            self.hints.iter_mut().for_each(|h| *h = None);
+    /// Captures per observation (default 1): the robot stands still between them, so the
+    /// percept is the mean of `n` localisations (sensor noise averages out). Errors: `n = 0`.
+    pub fn set_captures(&mut self, n: usize) -> Result<()> {
+        if n == 0 {
+            return Err(ServoError::InvalidParameter {
+                name: "captures",
+                reason: "at least one capture per observation".into(),
+            });
         }
+        self.captures = n;
+        Ok(())
     }
 
     /// The robot.
@@ -196,8 +196,8 @@ impl<R: Robot> VisualPlant<R> {
         &mut self.robot
     }
 
-    /// The gripper model.
-    pub fn model(&self) -> &GripperModel {
+    /// The gripper recogniser.
+    pub fn model(&self) -> &TipModel {
         &self.model
     }
 
@@ -206,12 +206,12 @@ impl<R: Robot> VisualPlant<R> {
         &self.space
     }
 
-    /// Images of the last observation.
+    /// Images of the last capture.
     pub fn last_images(&self) -> &[GrayImage] {
         &self.last_images
     }
 
-    /// Localisations of the last successful observation.
+    /// Localisations of the last successful observation (averaged over its captures).
     pub fn last_localisations(&self) -> &[Localisation] {
         &self.last_localisations
     }
@@ -220,6 +220,49 @@ impl<R: Robot> VisualPlant<R> {
     pub fn into_robot(self) -> R {
         self.robot
     }
+}
+
+/// Locates the tip in every camera image of `captures` captures and averages (certainty: the
+/// smallest). Shared by [`VisualPlant`] and evaluation harnesses.
+pub fn observe_averaged<F>(
+    model: &TipModel,
+    captures: usize,
+    mut grab_images: F,
+) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
+where
+    F: FnMut() -> Result<Vec<GrayImage>>,
+{
+    let cams = model.num_cameras();
+    let mut sum = vec![[0.0f64; 2]; cams];
+    let mut cert = vec![1.0f64; cams];
+    let mut last = Vec::new();
+    for _ in 0..captures.max(1) {
+        let images = grab_images()?;
+        if images.len() != cams {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera images",
+                expected: cams,
+                got: images.len(),
+            });
+        }
+        for (cam, img) in images.iter().enumerate() {
+            let l = model.locate(cam, img)?;
+            sum[cam][0] += l.position[0];
+            sum[cam][1] += l.position[1];
+            cert[cam] = cert[cam].min(l.certainty);
+        }
+        last = images;
+    }
+    let n = captures.max(1) as f64;
+    let locs = sum
+        .iter()
+        .zip(&cert)
+        .map(|(s, &c)| Localisation {
+            position: [s[0] / n, s[1] / n],
+            certainty: c,
+        })
+        .collect();
+    Ok((locs, last))
 }
 
 impl<R: Robot> Plant for VisualPlant<R> {
@@ -240,32 +283,8 @@ impl<R: Robot> Plant for VisualPlant<R> {
     }
 
     fn observe(&mut self) -> Result<Observation> {
-        let images = grab(&mut self.robot)?;
-        if images.len() != self.model.num_cameras() {
-            return Err(ServoError::DimensionMismatch {
-                what: "camera images",
-                expected: self.model.num_cameras(),
-                got: images.len(),
-            });
-        }
-        let mut locs = Vec::with_capacity(images.len());
-        for (cam, img) in images.iter().enumerate() {
-            let hinted = match (self.tracking, self.hints[cam]) {
-                (true, Some(h)) => self.model.locate(cam, img, Some(h)).ok(),
-                _ => None,
-            };
-            let loc = match (hinted, self.last_images.get(cam)) {
-                (Some(l), _) => l,
-                (None, Some(prev)) => self.model.locate_after_move(cam, img, prev)?,
-                (None, None) => self.model.locate(cam, img, None)?,
-            };
-            locs.push(loc);
-        }
-        if self.tracking {
-            for (h, l) in self.hints.iter_mut().zip(&locs) {
-                *h = Some(l.position);
-            }
-        }
+        let robot = &mut self.robot;
+        let (locs, images) = observe_averaged(&self.model, self.captures, || grab(robot))?;
         let x = locs.iter().flat_map(|l| l.position).collect();
         let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
         self.last_images = images;

@@ -6,12 +6,17 @@
 //!   quadratic B-spline spatial channels and cyclic cos² orientation channels (chan-repr).
 //! - [`change`]: the changed region between two images (the fingers, when only the gripper
 //!   servo moved) and its robust centroid, the gripper point.
-//! - [`model`]: the gripper model learned from those regions (prototype feature maps around
+//! - [`silhouette`]: the recogniser the servo pipeline uses ([`TipModel`]): the static scene
+//!   learned from frames of random poses, the arm's silhouette in one new image, the end of
+//!   the chain (told by gripper moves) and the tip at sub-pixel precision.
+//! - [`model`]: the channel-coded appearance model learned from those regions (prototype feature maps around
 //!   the gripper point) and its localisation in a new image with a certainty.
 
 pub mod change;
 pub mod features;
 pub mod image;
 pub mod model;
+pub mod silhouette;
 
-pub use model::{GripperModel, Localisation, RecognitionConfig};
+pub use model::{GripperModel, Localisation, RecognitionConfig, TrainingView};
+pub use silhouette::{SilhouetteConfig, SilhouetteReport, TipModel};

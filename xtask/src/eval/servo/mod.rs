@@ -12,12 +12,18 @@
 //! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
 //! distance) and 3-D tip distance (mm).
 //!
-//! **Percept.** The servo percept is the simulator's true tip projection plus Gaussian
-//! detection noise (σ = 0.5 px, papers.md §3.4), not `servo-loop`'s learned recognition: the
-//! recognition is evaluated separately (`recognition.json`, on rendered images) and does not
-//! yet meet its goal, see the summary. `--percept recognised` runs the complete pipeline
-//! (training, targets and servoing through the learned recognition on rendered images); it
-//! takes minutes and is not part of the committed fixtures.
+//! **Percept.** By default (and in the fixtures) the percept is `servo-loop`'s learned
+//! recognition on the rendered images: the recogniser learns the static scene and which end
+//! of the silhouette is the gripper from 30 gripper moves, then each percept is the tip found
+//! in every camera's image, averaged over `captures_per_percept` = 2 captures while the arm
+//! stands still (training moves: one capture). Targets are the recognised percept at the
+//! target pose. `--percept simulated` swaps in the true tip projection plus Gaussian noise
+//! (σ = 0.5 px), a control-only check. The recognition study reports the tip's error against
+//! the projected middle of the finger ends and against `arm-sim`'s tool point.
+//!
+//! **Parallelism.** Every (method or training-curve snapshot, chunk of 25 targets) pair runs
+//! on its own simulator and model copy under rayon; the chunking is fixed, so the results do
+//! not depend on the thread count.
 
 mod plant;
 mod report;
@@ -32,7 +38,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt, LearnConfig,
-    RandomCommands, RecognitionConfig, ServoConfig, ServoRun, learn_control, learn_recognition,
+    RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, learn_control, learn_recognition,
     open_loop, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
@@ -50,10 +56,10 @@ pub struct ServoArgs {
     /// unknown keys and impossible values are errors naming the key. Default: the default arm.
     #[arg(long, value_name = "FILE")]
     pub arm: Option<PathBuf>,
-    /// The servo percept: `simulated` (true tip projection + 0.5 px noise; fast, the default
-    /// fixtures) or `recognised` (the learned gripper recognition on rendered images: the
-    /// complete Paper C pipeline; several minutes, not part of the fixtures).
-    #[arg(long, value_enum, default_value_t = PerceptMode::Simulated)]
+    /// The servo percept: `recognised` (the learned gripper recognition on rendered images:
+    /// the complete Paper C pipeline, the default and the fixtures) or `simulated` (true tip
+    /// projection + 0.5 px noise; a control-only check).
+    #[arg(long, value_enum, default_value_t = PerceptMode::Recognised)]
     pub percept: PerceptMode,
 }
 
@@ -72,7 +78,7 @@ impl Default for ServoArgs {
         ServoArgs {
             seed: 2009,
             arm: None,
-            percept: PerceptMode::Simulated,
+            percept: PerceptMode::Recognised,
         }
     }
 }
@@ -83,7 +89,9 @@ pub struct Protocol {
     pub seed: u64,
     pub percept: PerceptMode,
     #[serde(skip)]
-    pub recogniser: Option<servo_loop::GripperModel>,
+    pub recogniser: Option<servo_loop::TipModel>,
+    /// Captures averaged per recognised percept (the arm stands still between them).
+    pub captures_per_percept: usize,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -104,8 +112,9 @@ impl Protocol {
     pub fn default_for(seed: u64) -> Self {
         Protocol {
             seed,
-            percept: PerceptMode::Simulated,
+            percept: PerceptMode::Recognised,
             recogniser: None,
+            captures_per_percept: 2,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -169,16 +178,16 @@ fn servo_config(p: &Protocol) -> ServoConfig {
 }
 
 /// The evaluation plant of the protocol's percept mode.
-fn make_plant(config: &SimConfig, p: &Protocol, seed: u64, tracking: bool) -> Result<SimPlant> {
+fn make_plant(config: &SimConfig, p: &Protocol, seed: u64) -> Result<SimPlant> {
     let sim = ArmSim::new(config.clone())?;
     let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
     if let Some(m) = &p.recogniser {
-        plant.recogniser = Some(Recogniser::new(m.clone(), tracking));
+        plant.recogniser = Some(Recogniser::new(m.clone(), p.captures_per_percept));
     }
     Ok(plant)
 }
 
-/// Runs one method on every target, sequentially on its own simulator.
+/// Runs one method on every target, sequentially on its own simulator (`seed`: its noise).
 pub fn run_method(
     method: &str,
     config: &SimConfig,
@@ -186,8 +195,9 @@ pub fn run_method(
     model: &InverseModel,
     targets: &[Target],
     iterations: usize,
+    seed: u64,
 ) -> Result<Vec<TargetResult>> {
-    let mut plant = make_plant(config, p, p.seed ^ 0x5E4F, true)?;
+    let mut plant = make_plant(config, p, seed)?;
     let mut model = model.clone();
     let cfg = ServoConfig {
         max_iterations: iterations,
@@ -263,7 +273,7 @@ pub fn make_targets(
     count: usize,
     seed: u64,
 ) -> Result<Vec<Target>> {
-    let mut plant = make_plant(config, p, seed ^ 0x0B5E, false)?;
+    let mut plant = make_plant(config, p, seed ^ 0x0B5E)?;
     let mut commands = RandomCommands::new(&p.explore_us, seed)?;
     let cams = plant.cameras;
     let [w, h] = [
@@ -317,7 +327,11 @@ pub fn train(
     p: &Protocol,
     progress: bool,
 ) -> Result<(Vec<(usize, InverseModel)>, servo_loop::LearnReport)> {
-    let mut plant = make_plant(config, p, p.seed ^ 0x7EA1, false)?;
+    let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
+    // Training moves use one capture per percept (LWPR averages the noise itself).
+    if let Some(r) = plant.recogniser.as_mut() {
+        r.captures = 1;
+    }
     let n_in = 2 * plant.cameras;
     let mut model = InverseModel::new(n_in, p.controlled.len(), &InverseModelConfig::default())?;
     let total = p
@@ -342,91 +356,140 @@ pub fn train(
     Ok((snaps, report))
 }
 
-/// Recognition on rendered images: learn from gripper moves, localise at random poses.
-#[derive(Debug, Clone, Serialize)]
-pub struct RecognitionResult {
-    pub views_used: Vec<usize>,
-    pub tests: usize,
-    pub found: usize,
-    /// Per camera: median distance of the found gripper point to the true tip (px).
-    pub median_px: Vec<f64>,
-    /// Per camera: median distance after removing the median offset (repeatability, px).
-    pub median_px_offset_removed: Vec<f64>,
-    /// Per camera: fraction of localisations within 30 px of the true tip.
-    pub within_30px: Vec<f64>,
-    pub median_certainty: f64,
-}
-
-pub fn evaluate_recognition(config: &SimConfig, p: &Protocol) -> Result<RecognitionResult> {
-    let sim = ArmSim::new(config.clone())?;
-    let mut robot = SimRobot(sim);
-    let space = ControlSpace {
+/// The control space of the protocol, with the gripper servo's two learning states.
+pub fn control_space(p: &Protocol) -> ControlSpace {
+    ControlSpace {
         controlled: p.controlled.clone(),
         rest: p.rest_us.to_vec(),
         gripper: Some((5, [2100.0, 1000.0])),
-    };
-    let rc = RecognitionConfig::default();
-    let (model, rep) = learn_recognition(
+    }
+}
+
+/// Learns the gripper recogniser on the simulator (gripper moves at random poses).
+pub fn learn_recogniser(
+    config: &SimConfig,
+    p: &Protocol,
+) -> Result<(servo_loop::TipModel, servo_loop::SilhouetteReport)> {
+    let mut robot = SimRobot(ArmSim::new(config.clone())?);
+    Ok(learn_recognition(
         &mut robot,
-        &space,
+        &control_space(p),
         &p.explore_us,
         p.recognition_views,
         p.seed ^ 0xBEEF,
-        &rc,
-    )?;
+        &SilhouetteConfig::default(),
+    )?)
+}
+
+/// Recognition on rendered images: learn from gripper moves, localise at random poses.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecognitionResult {
+    pub frames: usize,
+    pub gripper_changes: Vec<usize>,
+    pub tests: usize,
+    /// Test images (all cameras) where the tip was found.
+    pub found: usize,
+    /// Per camera: median distance of the single-image tip to the projected middle of the
+    /// finger ends (the point the recogniser defines as the tip) (px).
+    pub median_px_finger_ends: Vec<f64>,
+    /// Per camera: 90th percentile of the same (px).
+    pub p90_px_finger_ends: Vec<f64>,
+    /// Per camera: median distance to arm-sim's tool point (8 mm behind the finger ends) (px).
+    pub median_px_tool_point: Vec<f64>,
+    /// Per camera: median distance between two single-image tips of the same pose (px).
+    pub median_px_repeat: Vec<f64>,
+    /// Per camera: median distance of the averaged percept (`captures_per_percept` images) to
+    /// the middle of the finger ends (px).
+    pub median_px_averaged: Vec<f64>,
+    pub median_certainty: f64,
+}
+
+fn median_of(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn p90_of(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[(v.len() * 9 / 10).min(v.len() - 1)]
+}
+
+pub fn evaluate_recognition(
+    config: &SimConfig,
+    p: &Protocol,
+    model: &servo_loop::TipModel,
+    report: &servo_loop::SilhouetteReport,
+) -> Result<RecognitionResult> {
+    let mut sim = ArmSim::new(config.clone())?;
     let cams = model.num_cameras().min(2);
-    // Localise exactly as learning to control does: random moves, each observation searched
-    // where the image changed since the previous one (no tracking hint).
-    let mut plant = servo_loop::VisualPlant::new(robot, space, model)?;
-    plant.set_tracking(false);
+    let recogniser = Recogniser::new(model.clone(), p.captures_per_percept);
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
-    let mut offsets: Vec<Vec<[f64; 2]>> = vec![Vec::new(); cams];
+    let mut ends = vec![Vec::new(); cams];
+    let mut tool = vec![Vec::new(); cams];
+    let mut repeat = vec![Vec::new(); cams];
+    let mut averaged = vec![Vec::new(); cams];
     let mut found = 0;
     let mut certs = Vec::new();
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
-        servo_loop::Plant::act(&mut plant, &y)?;
-        let obs = servo_loop::Plant::observe(&mut plant);
-        let t = truth(&plant.robot().0);
-        if obs.is_ok() {
+        let mut c = p.rest_us;
+        for (&i, &v) in p.controlled.iter().zip(&y) {
+            c[i] = v;
+        }
+        sim.command(&c)?;
+        let (a, b) = (sim.capture(), sim.capture());
+        let pose = sim.inspect().pose().clone();
+        let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+        let tips = sim.inspect().tip_pixels()?;
+        for cam in 0..cams {
+            let truth = sim.inspect().project(cam, &mid)?;
+            let (Ok(la), Ok(lb)) = (model.locate(cam, &a[cam]), model.locate(cam, &b[cam])) else {
+                continue;
+            };
             found += 1;
-            for (cam, l) in plant.last_localisations().iter().enumerate().take(cams) {
-                offsets[cam].push([l.position[0] - t.px[cam][0], l.position[1] - t.px[cam][1]]);
-                certs.push(l.certainty);
+            certs.push(la.certainty);
+            let [u, v] = la.position;
+            ends[cam].push((u - truth[0]).hypot(v - truth[1]));
+            tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+            repeat[cam].push((u - lb.position[0]).hypot(v - lb.position[1]));
+        }
+        if let Ok(locs) = recogniser.observe(&mut sim, cams) {
+            for (cam, l) in locs.iter().enumerate() {
+                let truth = sim.inspect().project(cam, &mid)?;
+                averaged[cam].push((l.position[0] - truth[0]).hypot(l.position[1] - truth[1]));
             }
         }
     }
-    let median = |mut v: Vec<f64>| -> f64 {
-        if v.is_empty() {
-            return f64::NAN;
-        }
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let mut median_px = Vec::new();
-    let mut rep_px = Vec::new();
-    let mut within = Vec::new();
-    for o in &offsets {
-        let d: Vec<f64> = o.iter().map(|v| v[0].hypot(v[1])).collect();
-        within.push(d.iter().filter(|&&e| e <= 30.0).count() as f64 / p.recognition_tests as f64);
-        median_px.push(median(d));
-        let (mx, my) = (
-            median(o.iter().map(|v| v[0]).collect()),
-            median(o.iter().map(|v| v[1]).collect()),
-        );
-        rep_px.push(median(
-            o.iter().map(|v| (v[0] - mx).hypot(v[1] - my)).collect(),
-        ));
-    }
     Ok(RecognitionResult {
-        views_used: rep.used,
+        frames: report.frames,
+        gripper_changes: report.gripper_changes.clone(),
         tests: p.recognition_tests,
         found,
-        median_px,
-        median_px_offset_removed: rep_px,
-        within_30px: within,
-        median_certainty: median(certs),
+        median_px_finger_ends: ends.iter().map(|v| median_of(v.clone())).collect(),
+        p90_px_finger_ends: ends.iter().map(|v| p90_of(v.clone())).collect(),
+        median_px_tool_point: tool.iter().map(|v| median_of(v.clone())).collect(),
+        median_px_repeat: repeat.iter().map(|v| median_of(v.clone())).collect(),
+        median_px_averaged: averaged.iter().map(|v| median_of(v.clone())).collect(),
+        median_certainty: median_of(certs),
     })
+}
+
+/// Targets per parallel job (fixed, so results do not depend on the thread count).
+pub const TARGET_CHUNK: usize = 25;
+
+/// A parallel job of the study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Job {
+    /// Method index into [`METHODS`].
+    Method(usize),
+    /// A training-curve snapshot (training moves).
+    Curve(usize),
 }
 
 /// Everything the evaluation computes.
@@ -444,6 +507,7 @@ pub fn run_study(
     p: &Protocol,
     progress: bool,
     with_images: bool,
+    recognition_model: Option<(servo_loop::TipModel, servo_loop::SilhouetteReport)>,
 ) -> Result<Study> {
     let (snaps, learn) = train(config, p, progress)?;
     let main = snaps
@@ -452,21 +516,56 @@ pub fn run_study(
         .map(|(_, m)| m.clone())
         .ok_or("no snapshot at the training size")?;
     let targets = make_targets(config, p, p.targets, p.seed ^ 0x7A26)?;
-    let per_method: Vec<(String, Vec<TargetResult>)> = METHODS
+    // One job per (method or curve snapshot, chunk of targets), each on its own simulator
+    // and model copy: the results depend on the fixed chunking, not on the thread count.
+    let curve_targets = &targets[..p.curve_targets.min(targets.len())];
+    let mut jobs: Vec<(Job, &InverseModel, &[Target], usize)> = Vec::new();
+    for (m, _) in METHODS.iter().enumerate() {
+        for chunk in targets.chunks(TARGET_CHUNK) {
+            jobs.push((Job::Method(m), &main, chunk, p.iterations));
+        }
+    }
+    for (k, m) in snaps.iter().filter(|(k, _)| p.curve_moves.contains(k)) {
+        for chunk in curve_targets.chunks(TARGET_CHUNK) {
+            jobs.push((Job::Curve(*k), m, chunk, 5));
+        }
+    }
+    let results: Vec<(Job, Vec<TargetResult>)> = jobs
         .par_iter()
-        .map(|m| {
-            run_method(m, config, p, &main, &targets, p.iterations).map(|r| (m.to_string(), r))
+        .enumerate()
+        .map(|(i, (job, model, chunk, iterations))| {
+            let method = match job {
+                Job::Method(m) => METHODS[*m],
+                Job::Curve(_) => "lwpr",
+            };
+            let seed = p.seed ^ 0x5E4F ^ ((i as u64) << 20);
+            run_method(method, config, p, model, chunk, *iterations, seed).map(|r| (*job, r))
         })
         .collect::<Result<Vec<_>>>()?;
-    let curve_targets = &targets[..p.curve_targets.min(targets.len())];
-    let curve: Vec<(usize, Vec<TargetResult>)> = snaps
-        .par_iter()
-        .filter(|(k, _)| p.curve_moves.contains(k))
-        .map(|(k, m)| run_method("lwpr", config, p, m, curve_targets, 5).map(|r| (*k, r)))
-        .collect::<Result<Vec<_>>>()?;
+    let mut per_method: Vec<(String, Vec<TargetResult>)> = METHODS
+        .iter()
+        .map(|m| (m.to_string(), Vec::new()))
+        .collect();
+    let mut curve: Vec<(usize, Vec<TargetResult>)> = Vec::new();
+    for (job, r) in results {
+        match job {
+            Job::Method(m) => per_method[m].1.extend(r),
+            Job::Curve(k) => match curve.iter_mut().find(|(c, _)| *c == k) {
+                Some((_, v)) => v.extend(r),
+                None => curve.push((k, r)),
+            },
+        }
+    }
     let (recognition, strip) = if with_images {
+        let recognition = match &recognition_model {
+            Some((m, r)) => Some(evaluate_recognition(config, p, m, r)?),
+            None => {
+                let (m, r) = learn_recogniser(config, p)?;
+                Some(evaluate_recognition(config, p, &m, &r)?)
+            }
+        };
         (
-            Some(evaluate_recognition(config, p)?),
+            recognition,
             Some(report::servo_strip(config, p, &main, &targets[0])?),
         )
     } else {
@@ -490,24 +589,14 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     };
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
-    if args.percept == PerceptMode::Recognised {
-        let mut robot = SimRobot(ArmSim::new(config.clone())?);
-        let space = ControlSpace {
-            controlled: p.controlled.clone(),
-            rest: p.rest_us.to_vec(),
-            gripper: Some((5, [2100.0, 1000.0])),
-        };
-        let (model, _) = learn_recognition(
-            &mut robot,
-            &space,
-            &p.explore_us,
-            p.recognition_views,
-            p.seed ^ 0xBEEF,
-            &RecognitionConfig::default(),
-        )?;
-        p.recogniser = Some(model);
-    }
-    let study = run_study(&config, &p, true, true)?;
+    let learned = if args.percept == PerceptMode::Recognised {
+        let (model, report) = learn_recogniser(&config, &p)?;
+        p.recogniser = Some(model.clone());
+        Some((model, report))
+    } else {
+        None
+    };
+    let study = run_study(&config, &p, true, true, learned)?;
     report::write_all(ctx, &study)?;
     Ok(())
 }

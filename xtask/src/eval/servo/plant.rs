@@ -1,5 +1,6 @@
 //! `arm-sim` connected to `servo-loop`: the robot adapter, the evaluation plant (percept = the
-//! simulator's true tip projection plus detection noise, with a ground-truth log) and the
+//! learned recognition on rendered images, or the simulator's true tip projection plus
+//! detection noise; with a ground-truth log) and the
 //! analytic image Jacobian of the ideal arm.
 
 use arm_sim::{ArmSim, ArmSimError, NUM_SERVOS, forward_kinematics};
@@ -8,53 +9,57 @@ use nalgebra::{DMatrix, Vector3};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
-use servo_loop::{GripperModel, Observation, Plant, Robot, ServoError};
+use rayon::prelude::*;
+use servo_loop::{Localisation, Observation, Plant, Robot, ServoError, TipModel};
 
-/// The learned recognition as the percept of a [`SimPlant`] (`--percept recognised`).
+/// The learned recognition as the percept of a [`SimPlant`]: the mean of `captures`
+/// localisations per camera (the arm stands still between the captures), cameras located in
+/// parallel.
 pub struct Recogniser {
-    pub model: GripperModel,
-    /// Search near the previous percept first (servoing); off: search where the image changed
-    /// since the previous capture (random moves).
-    pub tracking: bool,
-    prev: Vec<GrayImage>,
-    hints: Vec<Option<[f64; 2]>>,
+    pub model: TipModel,
+    pub captures: usize,
 }
 
 impl Recogniser {
-    pub fn new(model: GripperModel, tracking: bool) -> Self {
-        let cams = model.num_cameras();
+    pub fn new(model: TipModel, captures: usize) -> Self {
         Recogniser {
             model,
-            tracking,
-            prev: Vec::new(),
-            hints: vec![None; cams],
+            captures: captures.max(1),
         }
     }
 
-    fn observe(&mut self, images: Vec<GrayImage>, cameras: usize) -> servo_loop::Result<Vec<f64>> {
-        let mut out = Ok(Vec::with_capacity(2 * cameras));
-        for (cam, image) in images.iter().enumerate().take(cameras) {
-            let hinted = if self.tracking {
-                self.hints[cam].and_then(|h| self.model.locate(cam, image, Some(h)).ok())
-            } else {
-                None
-            };
-            let loc = match (hinted, self.prev.get(cam)) {
-                (Some(l), _) => Ok(l),
-                (None, Some(p)) => self.model.locate_after_move(cam, image, p),
-                (None, None) => self.model.locate(cam, image, None),
-            };
-            match (loc, &mut out) {
-                (Ok(l), Ok(x)) => {
-                    x.extend(l.position);
-                    self.hints[cam] = Some(l.position);
-                }
-                (Err(e), Ok(_)) => out = Err(e),
-                _ => {}
+    /// Per camera: the averaged localisation.
+    pub fn observe(
+        &self,
+        sim: &mut ArmSim,
+        cameras: usize,
+    ) -> servo_loop::Result<Vec<Localisation>> {
+        let mut sum = vec![[0.0f64; 2]; cameras];
+        let mut cert = vec![1.0f64; cameras];
+        for _ in 0..self.captures {
+            let images = sim.capture();
+            let locs: Vec<servo_loop::Result<Localisation>> = images
+                .par_iter()
+                .take(cameras)
+                .enumerate()
+                .map(|(cam, img)| self.model.locate(cam, img))
+                .collect();
+            for (cam, l) in locs.into_iter().enumerate() {
+                let l = l?;
+                sum[cam][0] += l.position[0];
+                sum[cam][1] += l.position[1];
+                cert[cam] = cert[cam].min(l.certainty);
             }
         }
-        self.prev = images;
-        out
+        let n = self.captures as f64;
+        Ok(sum
+            .iter()
+            .zip(&cert)
+            .map(|(s, &c)| Localisation {
+                position: [s[0] / n, s[1] / n],
+                certainty: c,
+            })
+            .collect())
     }
 }
 
@@ -172,10 +177,11 @@ impl Plant for SimPlant {
         let t = truth(&self.sim);
         self.log.push(t);
         let cams = self.cameras;
-        if let Some(r) = self.recogniser.as_mut() {
-            let images = self.sim.capture();
-            let x = r.observe(images, cams)?;
-            return Ok(Observation { x, certainty: 1.0 });
+        if let Some(r) = self.recogniser.as_ref() {
+            let locs = r.observe(&mut self.sim, cams)?;
+            let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
+            let x = locs.iter().flat_map(|l| l.position).collect();
+            return Ok(Observation { x, certainty });
         }
         let mut x = Vec::with_capacity(2 * self.cameras);
         for (cam, p) in t.px.iter().take(self.cameras).enumerate() {

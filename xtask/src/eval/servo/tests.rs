@@ -2,7 +2,7 @@
 
 use arm_sim::SimConfig;
 
-use super::{Protocol, report, run_study};
+use super::{PerceptMode, Protocol, report, run_study};
 
 #[test]
 fn small_study_summary_snapshot() {
@@ -11,7 +11,9 @@ fn small_study_summary_snapshot() {
     p.curve_moves = vec![100, 300];
     p.curve_targets = 10;
     p.targets = 20;
-    let study = run_study(&SimConfig::default(), &p, false, false).unwrap();
+    // Control only (true tip + noise): the recognised pipeline runs in `cargo xtask eval servo`.
+    p.percept = PerceptMode::Simulated;
+    let study = run_study(&SimConfig::default(), &p, false, false, None).unwrap();
     let text = report::summary(&study);
     // The loop must improve on open loop.
     let stats = report::method_stats("lwpr", &study.per_method[0].1, &p);

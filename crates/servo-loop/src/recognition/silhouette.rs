@@ -1,0 +1,982 @@
+//! The gripper tip from the arm's silhouette against a learned static scene.
+//!
+//! **Learning (action precedes perception).** The robot makes random moves and, at each pose,
+//! closes and opens its gripper ([`TrainingView`]). From these frames every camera learns:
+//! 1. *the static scene* `B`: the per-pixel median of the frames after normalising each
+//!    frame's lighting (below); the arm is elsewhere in most frames, so the median is the
+//!    table, the clutter and the arm's fixed base;
+//! 2. *which end is the gripper*: the image change of closing the gripper is the fingers
+//!    ([`changed_region`]); the *root* is the point (searched on a 24-pixel grid, refined on a
+//!    6-pixel grid) from which the silhouette's farthest pixel lies nearest to that change in
+//!    the training views (sum of distances capped at 60 px), so "farthest from the root" means
+//!    "the gripper end" in new images;
+//! 3. *the gripper end's size*: twice the median distance of that change from the
+//!    silhouette's far end is the length `L` of the end window.
+//!
+//! **Lighting.** A frame is modelled as `I(u, v) = B(u, v) · (a + b u' + c v') + noise`
+//! (`u', v'` in `[-1, 1]` across the image): a global gain and brightness gradients
+//! (`arm-sim`'s lighting change has exactly this form; a real camera's is close to it). The three
+//! coefficients come from a robust least-squares fit on an 8-pixel grid (three rounds, dropping
+//! residuals beyond `3·1.4826·MAD`).
+//!
+//! **Localisation in one image.** The residual `r = I − (a + b u' + c v') B` is the arm (static
+//! clutter and lighting cancel). At half resolution, its 3×3-smoothed magnitude above
+//! `max(k σ/2, d_min)` (`σ` the learned per-pixel noise) is the silhouette; the largest 8-connected component is the arm.
+//! Its pixel farthest from the root is the end of the chain (the gripper). There, the soft
+//! coverage `c = clamp((|r| − 3σ)/(C − 3σ), 0, 1)` (`C` the median contrast of the end) is
+//! analysed in the gripper's frame: the direction `d` is the principal axis of the covered
+//! pixels within `L` of the end (pointing away from the root), `n ⊥ d`. With `s`, `t` the
+//! coordinates along `d` and `n`:
+//! - the **end** along `d`, at sub-pixel precision from areas: `s_end = s_a + A(s > s_a) /
+//!   w(s_a)`, the covered area beyond a cut `s_a` divided by the mean covered width just
+//!   before it (exact for a straight end, the mean end position for an oblique one);
+//! - the **centre** across `d`: the coverage-weighted mean `t` of the end window;
+//! - the **tip** is `end·d + centre·n`: the middle of the gripper's far end, i.e. between the
+//!   finger ends. Two passes, the second centred on the first estimate, make the result
+//!   independent of the integer position of the farthest pixel.
+//!
+//! The certainty compares the end window's covered area with the median learned one.
+//!
+//! **What "tip" means here.** The system can only define the tip by what it sees: the middle
+//! of the gripper's far end. A simulator may define its tool point elsewhere (`arm-sim`'s lies
+//! `finger_pad_mm` = 8 mm behind the finger ends); the evaluation reports the error against
+//! both.
+
+use image::GrayImage;
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, ServoError};
+use crate::recognition::change::changed_region;
+use crate::recognition::image::half_resolution;
+use crate::recognition::model::{Localisation, TrainingView};
+
+/// Settings of the silhouette recogniser.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SilhouetteConfig {
+    /// Threshold multiple `k` of the learned noise `σ` for silhouette pixels.
+    pub noise_multiple: f32,
+    /// Smallest silhouette threshold `d_min` (grey levels).
+    pub min_threshold: f32,
+    /// Smallest arm silhouette (pixels).
+    pub min_pixels: usize,
+    /// Localisations with a lower certainty are failures.
+    pub min_certainty: f64,
+}
+
+impl Default for SilhouetteConfig {
+    fn default() -> Self {
+        SilhouetteConfig {
+            noise_multiple: 5.0,
+            min_threshold: 8.0,
+            min_pixels: 50,
+            min_certainty: 0.3,
+        }
+    }
+}
+
+impl SilhouetteConfig {
+    fn validate(&self) -> Result<()> {
+        let bad = |name, reason: &str| {
+            Err(ServoError::InvalidParameter {
+                name,
+                reason: reason.into(),
+            })
+        };
+        if !(self.noise_multiple.is_finite() && self.noise_multiple > 0.0) {
+            return bad("noise_multiple", "must be finite and positive");
+        }
+        if !(self.min_threshold.is_finite() && self.min_threshold >= 0.0) {
+            return bad("min_threshold", "must be finite and non-negative");
+        }
+        if !(0.0..=1.0).contains(&self.min_certainty) {
+            return bad("min_certainty", "must lie in [0, 1]");
+        }
+        Ok(())
+    }
+}
+
+/// One camera's learned scene and gripper size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraScene {
+    width: usize,
+    height: usize,
+    /// The static scene (lighting-normalised median), row-major.
+    background: Vec<f32>,
+    /// The same at half resolution (2×2 means).
+    half_background: Vec<f32>,
+    /// Per-pixel noise of a frame against the scene (grey levels).
+    noise_sigma: f32,
+    /// The least-moving part of the arm (pixels).
+    root: [f64; 2],
+    /// Length of the gripper end window (pixels).
+    end_length: f64,
+    /// Median covered area of the end window (pixels).
+    end_area: f64,
+}
+
+impl CameraScene {
+    /// The learned static scene (row-major grey levels, frame lighting normalised).
+    pub fn background(&self) -> &[f32] {
+        &self.background
+    }
+
+    /// The root of the chain (pixels).
+    pub fn root(&self) -> [f64; 2] {
+        self.root
+    }
+
+    /// The end window's length (pixels).
+    pub fn end_length(&self) -> f64 {
+        self.end_length
+    }
+
+    /// The learned per-pixel noise (grey levels).
+    pub fn noise_sigma(&self) -> f32 {
+        self.noise_sigma
+    }
+}
+
+/// What learning found, per camera.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct SilhouetteReport {
+    /// Frames used for the static scene.
+    pub frames: usize,
+    /// Gripper moves whose change was found (per camera).
+    pub gripper_changes: Vec<usize>,
+    /// Fraction of training frames whose gripper change lay within the end window of the
+    /// silhouette's far end (the end-of-chain rule agrees with the action), per camera.
+    pub end_agrees: Vec<f64>,
+}
+
+/// The silhouette-based gripper-tip recogniser (see the module docs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TipModel {
+    config: SilhouetteConfig,
+    cameras: Vec<CameraScene>,
+}
+
+/// The arm's silhouette in one image.
+struct Silhouette {
+    /// The full-resolution frame.
+    image: Vec<f32>,
+    /// Its lighting `[a, b, c]`.
+    coef: [f64; 3],
+    /// Pixels of the largest component (found at half resolution), full-resolution
+    /// coordinates of their centres.
+    component: Vec<[f64; 2]>,
+    threshold: f32,
+}
+
+impl Silhouette {
+    /// Residual of full-resolution pixel `(x, y)` against the lit scene.
+    #[inline]
+    fn residual(&self, scene: &CameraScene, x: usize, y: usize) -> f32 {
+        let (hw, hh) = (0.5 * scene.width as f64, 0.5 * scene.height as f64);
+        let g = self.coef[0]
+            + self.coef[1] * (x as f64 + 0.5 - hw) / hw
+            + self.coef[2] * (y as f64 + 0.5 - hh) / hh;
+        let i = y * scene.width + x;
+        self.image[i] - g as f32 * scene.background[i]
+    }
+}
+
+/// Lighting coefficients `[a, b, c]` of `I ≈ B (a + b u' + c v')`.
+fn fit_lighting(img: &[f32], bg: &[f32], w: usize, h: usize) -> [f64; 3] {
+    let (hw, hh) = (0.5 * w as f64, 0.5 * h as f64);
+    let mut coef = [1.0, 0.0, 0.0];
+    let mut limit = f64::INFINITY;
+    let mut res = Vec::new();
+    for _ in 0..3 {
+        let mut ata = Matrix3::<f64>::zeros();
+        let mut atb = Vector3::<f64>::zeros();
+        res.clear();
+        for y in (4..h).step_by(8) {
+            let vy = (y as f64 + 0.5 - hh) / hh;
+            for x in (4..w).step_by(8) {
+                let i = y * w + x;
+                let b = f64::from(bg[i]);
+                let ux = (x as f64 + 0.5 - hw) / hw;
+                let pred = b * (coef[0] + coef[1] * ux + coef[2] * vy);
+                let r = f64::from(img[i]) - pred;
+                res.push(r.abs());
+                if r.abs() > limit || b < 1.0 {
+                    continue;
+                }
+                let a = Vector3::new(b, b * ux, b * vy);
+                ata += a * a.transpose();
+                atb += a * f64::from(img[i]);
+            }
+        }
+        if let Some(s) = ata.cholesky() {
+            let c = s.solve(&atb);
+            coef = [c[0], c[1], c[2]];
+        }
+        // Robust scale of this round's residuals for the next round's cut.
+        let mid = res.len() / 2;
+        if res.is_empty() {
+            break;
+        }
+        let mad = *res.select_nth_unstable_by(mid, f64::total_cmp).1;
+        limit = (3.0 * 1.4826 * mad).max(3.0);
+    }
+    coef
+}
+
+/// 2×2 means (odd trailing row/column dropped).
+fn halve(img: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let (hw, hh) = (w / 2, h / 2);
+    let mut out = vec![0.0f32; hw * hh];
+    for y in 0..hh {
+        let (r0, r1) = (&img[2 * y * w..][..w], &img[(2 * y + 1) * w..][..w]);
+        for (x, o) in out[y * hw..(y + 1) * hw].iter_mut().enumerate() {
+            *o = 0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]);
+        }
+    }
+    out
+}
+
+fn to_f32(img: &GrayImage) -> Vec<f32> {
+    img.as_raw().iter().map(|&v| f32::from(v)).collect()
+}
+
+/// Lit scene `(a + b u' + c v') B` subtracted from `img`.
+fn residual(img: &[f32], bg: &[f32], w: usize, h: usize, coef: [f64; 3]) -> Vec<f32> {
+    let (hw, hh) = (0.5 * w as f32, 0.5 * h as f32);
+    let [a, b, c] = coef.map(|v| v as f32);
+    let mut out = vec![0.0f32; w * h];
+    for y in 0..h {
+        let row = a + c * (y as f32 + 0.5 - hh) / hh;
+        for x in 0..w {
+            let g = row + b * (x as f32 + 0.5 - hw) / hw;
+            let i = y * w + x;
+            out[i] = img[i] - g * bg[i];
+        }
+    }
+    out
+}
+
+/// 3×3 box mean of `|r|` (borders zero).
+fn smoothed_magnitude(r: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        let src = &r[y * w..(y + 1) * w];
+        let dst = &mut rows[y * w..(y + 1) * w];
+        for x in 1..w.saturating_sub(1) {
+            dst[x] = src[x - 1].abs() + src[x].abs() + src[x + 1].abs();
+        }
+    }
+    let mut out = vec![0.0f32; w * h];
+    for y in 1..h.saturating_sub(1) {
+        for x in 0..w {
+            out[y * w + x] =
+                (rows[(y - 1) * w + x] + rows[y * w + x] + rows[(y + 1) * w + x]) / 9.0;
+        }
+    }
+    out
+}
+
+/// Pixels of the largest 8-connected component of `mask`.
+fn largest_component(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
+    let mut seen = vec![false; w * h];
+    let mut best: Vec<usize> = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..w * h {
+        if !mask[start] || seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        stack.push(start);
+        let mut comp = Vec::new();
+        while let Some(p) = stack.pop() {
+            comp.push(p);
+            let (x, y) = (p % w, p / w);
+            for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                    let q = ny * w + nx;
+                    if mask[q] && !seen[q] {
+                        seen[q] = true;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        if comp.len() > best.len() {
+            best = comp;
+        }
+    }
+    best
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// The end analysis of one silhouette: tip, direction, covered area of the end window.
+#[derive(Debug, Clone, Copy)]
+struct EndFit {
+    tip: [f64; 2],
+    area: f64,
+}
+
+impl TipModel {
+    /// Learns every camera's static scene, the chain's root and the gripper end's size from
+    /// training views (see the module docs). Errors: no views, differing image sizes or
+    /// camera counts, no arm silhouette.
+    pub fn learn(
+        config: &SilhouetteConfig,
+        views: &[TrainingView],
+    ) -> Result<(TipModel, SilhouetteReport)> {
+        config.validate()?;
+        let first = views
+            .first()
+            .ok_or_else(|| ServoError::NotEnoughData("no training views".into()))?;
+        let cams = first.before.len();
+        if cams == 0 {
+            return Err(ServoError::NotEnoughData("no camera images".into()));
+        }
+        let mut report = SilhouetteReport {
+            frames: 2 * views.len(),
+            ..SilhouetteReport::default()
+        };
+        let mut cameras = Vec::with_capacity(cams);
+        for cam in 0..cams {
+            let (w, h) = (
+                first.before[cam].width() as usize,
+                first.before[cam].height() as usize,
+            );
+            if w < 8 || h < 8 {
+                return Err(ServoError::InvalidParameter {
+                    name: "image",
+                    reason: format!("{w}×{h} is too small"),
+                });
+            }
+            let mut frames = Vec::with_capacity(2 * views.len());
+            for v in views {
+                for set in [&v.before, &v.after] {
+                    let img = set.get(cam).ok_or(ServoError::DimensionMismatch {
+                        what: "camera images",
+                        expected: cams,
+                        got: set.len(),
+                    })?;
+                    if img.width() as usize != w || img.height() as usize != h {
+                        return Err(ServoError::InvalidParameter {
+                            name: "image",
+                            reason: "training images differ in size".into(),
+                        });
+                    }
+                    frames.push(to_f32(img));
+                }
+            }
+            let mut scene = learn_scene(&frames, w, h);
+            // Noise: robust spread of frame residuals against the scene.
+            let mut spread = Vec::new();
+            for f in frames.iter().take(6) {
+                let coef = fit_lighting(f, &scene.background, w, h);
+                let r = residual(f, &scene.background, w, h, coef);
+                spread.extend(r.iter().step_by(7).map(|v| f64::from(v.abs())));
+            }
+            scene.noise_sigma = (1.4826 * median(&mut spread)).max(0.5) as f32;
+            // Root: the point from which the gripper, as revealed by the gripper moves, is the
+            // silhouette's farthest pixel in most training views (action precedes perception).
+            let model_one = TipModel {
+                config: config.clone(),
+                cameras: vec![scene.clone()],
+            };
+            let mut silhouettes = Vec::with_capacity(frames.len());
+            for f in &frames {
+                silhouettes.push(model_one.silhouette(0, f.clone()));
+            }
+            let mut changes = Vec::with_capacity(views.len());
+            for v in views {
+                let a = half_resolution(&v.before[cam]);
+                let b = half_resolution(&v.after[cam]);
+                changes.push(changed_region(&a, &b, 20).map(|r| r.centroid));
+            }
+            scene.root = learn_root(&silhouettes, &changes, w, h).ok_or_else(|| {
+                ServoError::NotEnoughData(format!(
+                    "no arm silhouette with a gripper change in camera {cam}'s training frames"
+                ))
+            })?;
+            // Gripper size from the gripper moves: distance of the change from the far end.
+            let mut reach = Vec::new();
+            let mut far_points = Vec::new();
+            for k in 0..views.len() {
+                let s = &silhouettes[2 * k];
+                let Some(far) = farthest(&s.component, scene.root) else {
+                    far_points.push(None);
+                    continue;
+                };
+                far_points.push(Some(far));
+                if let Some(g) = changes[k] {
+                    reach.push((g[0] - far[0]).hypot(g[1] - far[1]));
+                }
+            }
+            report.gripper_changes.push(reach.len());
+            if reach.is_empty() {
+                return Err(ServoError::NotEnoughData(format!(
+                    "no gripper move changed camera {cam}'s image"
+                )));
+            }
+            let typical = median(&mut reach.clone());
+
+            scene.end_length = (2.0 * typical).clamp(8.0, 80.0);
+            report.end_agrees.push(
+                reach.iter().filter(|&&r| r <= scene.end_length).count() as f64
+                    / views.len() as f64,
+            );
+            let mut areas = Vec::new();
+            let one = TipModel {
+                config: config.clone(),
+                cameras: vec![scene.clone()],
+            };
+            for s in silhouettes.iter().step_by(2) {
+                if let Some(fit) = one.fit_end(0, s) {
+                    areas.push(fit.area);
+                }
+            }
+            scene.end_area = median(&mut areas).max(1.0);
+            cameras.push(scene);
+        }
+        Ok((
+            TipModel {
+                config: config.clone(),
+                cameras,
+            },
+            report,
+        ))
+    }
+
+    /// Number of cameras.
+    pub fn num_cameras(&self) -> usize {
+        self.cameras.len()
+    }
+
+    /// Camera `cam`'s learned scene.
+    pub fn camera(&self, cam: usize) -> Option<&CameraScene> {
+        self.cameras.get(cam)
+    }
+
+    /// Image size `[width, height]` (of camera 0).
+    pub fn image_size(&self) -> [u32; 2] {
+        self.cameras
+            .first()
+            .map_or([0, 0], |c| [c.width as u32, c.height as u32])
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SilhouetteConfig {
+        &self.config
+    }
+
+    /// Finds the gripper tip in camera `cam`'s image. Errors: unknown camera, wrong image
+    /// size, no silhouette or a certainty below the configured minimum
+    /// ([`ServoError::RecognitionFailed`]).
+    pub fn locate(&self, cam: usize, img: &GrayImage) -> Result<Localisation> {
+        let scene = self.cameras.get(cam).ok_or(ServoError::DimensionMismatch {
+            what: "camera index",
+            expected: self.cameras.len(),
+            got: cam,
+        })?;
+        if img.width() as usize != scene.width || img.height() as usize != scene.height {
+            return Err(ServoError::InvalidParameter {
+                name: "image",
+                reason: format!(
+                    "size {}×{} differs from the trained {}×{}",
+                    img.width(),
+                    img.height(),
+                    scene.width,
+                    scene.height
+                ),
+            });
+        }
+        let s = self.silhouette(cam, to_f32(img));
+        let fail = |certainty: f64| ServoError::RecognitionFailed {
+            camera: cam,
+            certainty,
+            min: self.config.min_certainty,
+        };
+        if s.component.len() < self.config.min_pixels {
+            return Err(fail(0.0));
+        }
+        let fit = self.fit_end(cam, &s).ok_or_else(|| fail(0.0))?;
+        let ratio = fit.area / scene.end_area;
+        let certainty = if ratio > 1.0 { 1.0 / ratio } else { ratio };
+        if certainty.is_nan() || certainty < self.config.min_certainty {
+            return Err(fail(certainty.max(0.0)));
+        }
+        Ok(Localisation {
+            position: fit.tip,
+            certainty,
+        })
+    }
+
+    fn silhouette(&self, cam: usize, img: Vec<f32>) -> Silhouette {
+        let scene = &self.cameras[cam];
+        let (w, h) = (scene.width, scene.height);
+        let coef = fit_lighting(&img, &scene.background, w, h);
+        // Detection at half resolution (2×2 means of frame and scene; the gain field is
+        // smooth, so it is evaluated at the 2×2 block's centre).
+        let (hw2, hh2) = (w / 2, h / 2);
+        let half_img = halve(&img, w, h);
+        let r = residual(&half_img, &scene.half_background, hw2, hh2, coef);
+        let threshold =
+            (self.config.noise_multiple * 0.5 * scene.noise_sigma).max(self.config.min_threshold);
+        let smooth = smoothed_magnitude(&r, hw2, hh2);
+        let mask: Vec<bool> = smooth.iter().map(|&v| v > threshold).collect();
+        let component = largest_component(&mask, hw2, hh2)
+            .into_iter()
+            .map(|p| [2.0 * (p % hw2) as f64 + 0.5, 2.0 * (p / hw2) as f64 + 0.5])
+            .collect();
+        Silhouette {
+            image: img,
+            coef,
+            component,
+            threshold,
+        }
+    }
+
+    /// Sub-pixel end analysis around the silhouette's far end (module docs).
+    fn fit_end(&self, cam: usize, s: &Silhouette) -> Option<EndFit> {
+        let scene = &self.cameras[cam];
+        let (w, h) = (scene.width, scene.height);
+        let far = farthest(&s.component, scene.root)?;
+        let l = scene.end_length;
+        let noise = 3.0 * scene.noise_sigma;
+        // Contrast of the end: median |r| of silhouette pixels within L of the far end.
+        let mut near: Vec<f64> = s
+            .component
+            .iter()
+            .filter(|p| (p[0] - far[0]).hypot(p[1] - far[1]) <= l)
+            .map(|p| f64::from(s.residual(scene, p[0] as usize, p[1] as usize).abs()))
+            .collect();
+        let contrast = (median(&mut near) as f32).max(s.threshold).max(noise + 1.0);
+        // Covered pixels (coverage > 0) of a box around the far end, computed once.
+        let reach = l + 8.0;
+        let (x0, x1) = (
+            (far[0] - reach).floor().max(0.0) as usize,
+            ((far[0] + reach).ceil().max(0.0) as usize).min(w - 1),
+        );
+        let (y0, y1) = (
+            (far[1] - reach).floor().max(0.0) as usize,
+            ((far[1] + reach).ceil().max(0.0) as usize).min(h - 1),
+        );
+        let (hw, hh) = (0.5 * w as f32, 0.5 * h as f32);
+        let [ca, cb, cc] = s.coef.map(|v| v as f32);
+        let inv = 1.0 / (contrast - noise);
+        // Coverage of every box pixel from the median contrast of the end (the frame minus
+        // the lit scene `gB`; a mixing fraction for a gripper of uniform grey). (Estimating
+        // the gripper's grey locally for exact fractions was tried: it was more accurate on
+        // synthetic bars but three times noisier frame to frame on the rendered arm.)
+        let mut covered: Vec<(f64, f64, f64)> = Vec::new();
+        for y in y0..=y1 {
+            let row = ca + cc * (y as f32 + 0.5 - hh) / hh;
+            let (img, bg) = (&s.image[y * w..], &scene.background[y * w..]);
+            for x in x0..=x1 {
+                let g = row + cb * (x as f32 + 0.5 - hw) / hw;
+                let c = (((img[x] - g * bg[x]).abs() - noise) * inv).min(1.0);
+                if c > 0.0 {
+                    covered.push((x as f64, y as f64, f64::from(c)));
+                }
+            }
+        }
+        // Direction away from the root to start with; refined from the end's second moments.
+        let mut d = [far[0] - scene.root[0], far[1] - scene.root[1]];
+        let dn = d[0].hypot(d[1]);
+        if dn < 1e-9 {
+            return None;
+        }
+        d = [d[0] / dn, d[1] / dn];
+        let mut origin = far;
+        let mut result = None;
+        for pass in 0..3 {
+            // (s, t, coverage) in the end window.
+            let mut pts = Vec::new();
+            for &(x, y, c) in &covered {
+                let (dx, dy) = (x - origin[0], y - origin[1]);
+                let sa = dx * d[0] + dy * d[1];
+                let ta = -dx * d[1] + dy * d[0];
+                if sa >= -l && sa <= 6.0 && ta.abs() <= l {
+                    pts.push((sa, ta, c));
+                }
+            }
+            if pts.len() < 4 {
+                return None;
+            }
+            if pass == 0 {
+                // Principal axis of the end window.
+                let sw: f64 = pts.iter().map(|p| p.2).sum();
+                let ms = pts.iter().map(|p| p.2 * p.0).sum::<f64>() / sw;
+                let mt = pts.iter().map(|p| p.2 * p.1).sum::<f64>() / sw;
+                let (mut css, mut ctt, mut cst) = (0.0, 0.0, 0.0);
+                for &(sa, ta, c) in &pts {
+                    css += c * (sa - ms) * (sa - ms);
+                    ctt += c * (ta - mt) * (ta - mt);
+                    cst += c * (sa - ms) * (ta - mt);
+                }
+                let angle = 0.5 * (2.0 * cst).atan2(css - ctt);
+                let (sn, cs) = angle.sin_cos();
+                // Rotate d by `angle` (the major axis in (s, t) coordinates).
+                let nd = [d[0] * cs - d[1] * sn, d[0] * sn + d[1] * cs];
+                d = if nd[0] * d[0] + nd[1] * d[1] >= 0.0 {
+                    nd
+                } else {
+                    [-nd[0], -nd[1]]
+                };
+                continue;
+            }
+            // End along d from areas.
+            let cut = -0.5 * l.min(12.0);
+            let band = 4.0;
+            // A pixel's area, projected on d, is spread as the sum of two uniform variables
+            // of widths |d_x| and |d_y| (a trapezoid); its share between two cuts is exact
+            // for straight edges, so the cuts' sub-pixel positions do not bias the areas.
+            let cdf = pixel_cdf(d);
+            let share = |sa: f64, lo: f64, hi: f64| cdf(hi - sa) - cdf(lo - sa);
+            let beyond: f64 = pts
+                .iter()
+                .map(|p| p.2 * share(p.0, cut, f64::INFINITY))
+                .sum();
+            let width: f64 = pts
+                .iter()
+                .map(|p| p.2 * share(p.0, cut - band, cut))
+                .sum::<f64>()
+                / band;
+            if width <= 0.0 {
+                return None;
+            }
+            let s_end = cut + beyond / width;
+            let (mut sw, mut st) = (0.0, 0.0);
+            for &(sa, ta, c) in &pts {
+                let wgt = c * share(sa, cut - band, s_end);
+                sw += wgt;
+                st += wgt * ta;
+            }
+            let t_mid = if sw > 0.0 { st / sw } else { 0.0 };
+            let area: f64 = pts.iter().map(|p| p.2).sum();
+            let tip = [
+                origin[0] + s_end * d[0] - t_mid * d[1],
+                origin[1] + s_end * d[1] + t_mid * d[0],
+            ];
+            if !(tip[0].is_finite() && tip[1].is_finite()) {
+                return None;
+            }
+            origin = tip;
+            result = Some(EndFit { tip, area });
+        }
+        result
+    }
+}
+
+/// The root (24-pixel grid, refined on a 6-pixel grid) that makes the farthest silhouette pixel closest to the
+/// gripper change in most views: minimises the sum over views of `min(distance, cap)`
+/// between the farthest pixel and the change centroid (`cap` = 60 px; ties: first in
+/// row-major order).
+fn learn_root(
+    silhouettes: &[Silhouette],
+    changes: &[Option<[f64; 2]>],
+    w: usize,
+    h: usize,
+) -> Option<[f64; 2]> {
+    // The open-gripper frame of each view, subsampled (every 2nd half-resolution pixel).
+    let samples: Vec<(Vec<[f32; 2]>, [f64; 2])> = changes
+        .iter()
+        .enumerate()
+        .filter_map(|(k, g)| {
+            let g = (*g)?;
+            let s = silhouettes.get(2 * k)?;
+            let pts: Vec<[f32; 2]> = s
+                .component
+                .iter()
+                .step_by(2)
+                .map(|p| [p[0] as f32, p[1] as f32])
+                .collect();
+            (!pts.is_empty()).then_some((pts, g))
+        })
+        .collect();
+    if samples.is_empty() {
+        return None;
+    }
+    let cap = 60.0f64;
+    let cost_at = |rx: f32, ry: f32| -> f64 {
+        let mut cost = 0.0;
+        for (pts, g) in &samples {
+            let far = pts
+                .iter()
+                .max_by(|a, b| {
+                    let da = (a[0] - rx).powi(2) + (a[1] - ry).powi(2);
+                    let db = (b[0] - rx).powi(2) + (b[1] - ry).powi(2);
+                    da.total_cmp(&db)
+                })
+                .expect("non-empty");
+            let d = (f64::from(far[0]) - g[0]).hypot(f64::from(far[1]) - g[1]);
+            cost += d.min(cap);
+        }
+        cost
+    };
+    let mut best: Option<(f64, [f64; 2])> = None;
+    let consider = |x: i64, y: i64, best: &mut Option<(f64, [f64; 2])>| {
+        if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
+            return;
+        }
+        let c = cost_at(x as f32, y as f32);
+        if best.is_none_or(|b| c < b.0) {
+            *best = Some((c, [x as f64, y as f64]));
+        }
+    };
+    // Coarse 24-pixel grid, then a 6-pixel grid around the best coarse point.
+    for gy in (0..h as i64).step_by(24) {
+        for gx in (0..w as i64).step_by(24) {
+            consider(gx, gy, &mut best);
+        }
+    }
+    let [bx, by] = best?.1;
+    for dy in -4..=4 {
+        for dx in -4..=4 {
+            consider(bx as i64 + 6 * dx, by as i64 + 6 * dy, &mut best);
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// The distribution function of a unit pixel's area projected on the unit direction `d`
+/// (offset from the pixel centre): the sum of uniform variables of widths `|d_x|`, `|d_y|`.
+fn pixel_cdf(d: [f64; 2]) -> impl Fn(f64) -> f64 {
+    let (a, b) = {
+        let (p, q) = (d[0].abs(), d[1].abs());
+        if p >= q { (p, q) } else { (q, p) }
+    };
+    move |x: f64| {
+        let (lo, hi) = (-(a + b) / 2.0, (a + b) / 2.0);
+        if x <= lo {
+            0.0
+        } else if x >= hi {
+            1.0
+        } else if b < 1e-9 {
+            (x + a / 2.0) / a
+        } else if x < -(a - b) / 2.0 {
+            (x - lo).powi(2) / (2.0 * a * b)
+        } else if x <= (a - b) / 2.0 {
+            (x + a / 2.0) / a
+        } else {
+            1.0 - (hi - x).powi(2) / (2.0 * a * b)
+        }
+    }
+}
+
+/// The component pixel farthest from `root`.
+fn farthest(component: &[[f64; 2]], root: [f64; 2]) -> Option<[f64; 2]> {
+    component.iter().copied().max_by(|a, b| {
+        let da = (a[0] - root[0]).powi(2) + (a[1] - root[1]).powi(2);
+        let db = (b[0] - root[0]).powi(2) + (b[1] - root[1]).powi(2);
+        da.total_cmp(&db)
+    })
+}
+
+/// The static scene of one camera from frames with the arm at random poses: the per-pixel
+/// median of lighting-normalised frames (two rounds).
+fn learn_scene(frames: &[Vec<f32>], w: usize, h: usize) -> CameraScene {
+    let mut bg = pixel_median(frames, w * h, None);
+    for _ in 0..2 {
+        let gains: Vec<Vec<f32>> = frames
+            .iter()
+            .map(|f| {
+                let coef = fit_lighting(f, &bg, w, h);
+                lighting_field(w, h, coef)
+            })
+            .collect();
+        bg = pixel_median(frames, w * h, Some(&gains));
+    }
+    CameraScene {
+        width: w,
+        height: h,
+        half_background: halve(&bg, w, h),
+        background: bg,
+        noise_sigma: 1.0,
+        root: [0.0, 0.0],
+        end_length: 20.0,
+        end_area: 1.0,
+    }
+}
+
+/// Per-pixel gain `a + b u' + c v'`.
+fn lighting_field(w: usize, h: usize, coef: [f64; 3]) -> Vec<f32> {
+    let (hw, hh) = (0.5 * w as f64, 0.5 * h as f64);
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let vy = (y as f64 + 0.5 - hh) / hh;
+        for x in 0..w {
+            let ux = (x as f64 + 0.5 - hw) / hw;
+            out.push((coef[0] + coef[1] * ux + coef[2] * vy) as f32);
+        }
+    }
+    out
+}
+
+/// Per-pixel median over frames (each divided by its gain field if given).
+fn pixel_median(frames: &[Vec<f32>], n: usize, gains: Option<&[Vec<f32>]>) -> Vec<f32> {
+    let mut out = vec![0.0f32; n];
+    let mut vals = vec![0.0f32; frames.len()];
+    for (i, o) in out.iter_mut().enumerate() {
+        for (k, f) in frames.iter().enumerate() {
+            vals[k] = match gains {
+                Some(g) if g[k][i] > 1e-3 => f[i] / g[k][i],
+                _ => f[i],
+            };
+        }
+        let mid = vals.len() / 2;
+        *o = *vals.select_nth_unstable_by(mid, f32::total_cmp).1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic texture in [85, 115] (a table's grain: ±15 %).
+    fn texture(w: usize, h: usize) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                100.0 + 10.0 * (x / 3.1).sin() * (y / 4.7).cos() + 5.0 * ((x + 2.0 * y) / 9.0).sin()
+            })
+            .collect()
+    }
+
+    fn scene(bg: Vec<f32>, w: usize, h: usize, root: [f64; 2]) -> TipModel {
+        TipModel {
+            config: SilhouetteConfig::default(),
+            cameras: vec![CameraScene {
+                width: w,
+                height: h,
+                half_background: halve(&bg, w, h),
+                background: bg,
+                noise_sigma: 1.0,
+                root,
+                end_length: 40.0,
+                end_area: 1.0,
+            }],
+        }
+    }
+
+    /// Renders a bar of half-width `half` along the unit direction `d` from `a` to the end
+    /// point `end` (grey 230) over `bg`, with exact-ish anti-aliasing (16×16 supersampling).
+    fn bar(bg: &[f32], w: usize, h: usize, a: [f64; 2], end: [f64; 2], half: f64) -> Vec<f32> {
+        let (dx, dy) = (end[0] - a[0], end[1] - a[1]);
+        let len = dx.hypot(dy);
+        let d = [dx / len, dy / len];
+        let mut out = bg.to_vec();
+        for y in 0..h {
+            for x in 0..w {
+                let mut inside = 0;
+                for sy in 0..16 {
+                    for sx in 0..16 {
+                        let px = x as f64 - 0.5 + (sx as f64 + 0.5) / 16.0 - a[0];
+                        let py = y as f64 - 0.5 + (sy as f64 + 0.5) / 16.0 - a[1];
+                        let s = px * d[0] + py * d[1];
+                        let t = -px * d[1] + py * d[0];
+                        if (0.0..=len).contains(&s) && t.abs() <= half {
+                            inside += 1;
+                        }
+                    }
+                }
+                let c = inside as f32 / 256.0;
+                out[y * w + x] = c * 230.0 + (1.0 - c) * bg[y * w + x];
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn lighting_fit_recovers_gain_and_gradients_despite_an_object() {
+        let (w, h) = (160, 120);
+        let bg = texture(w, h);
+        let truth = [1.07, 0.03, -0.02];
+        let field = lighting_field(w, h, truth);
+        let mut img: Vec<f32> = bg.iter().zip(&field).map(|(b, g)| b * g).collect();
+        // An object covering ≈ 6 % of the image.
+        for y in 40..60 {
+            for x in 60..90 {
+                img[y * w + x] = 250.0;
+            }
+        }
+        let c = fit_lighting(&img, &bg, w, h);
+        for k in 0..3 {
+            assert!((c[k] - truth[k]).abs() < 1e-4, "{c:?} vs {truth:?}");
+        }
+    }
+
+    #[test]
+    fn halve_averages_two_by_two_blocks() {
+        let img: Vec<f32> = (0..4 * 3).map(|v| v as f32).collect();
+        // 4×3 → 2×1: rows 0–1 only.
+        assert_eq!(halve(&img, 4, 3), vec![2.5, 4.5]);
+    }
+
+    /// The end of an axis-aligned bar over a textured table is found within 0.2 px wherever it
+    /// falls between pixel centres (measured 0.06–0.13 px; the coverage comes from the median
+    /// contrast, so the table's grain biases partly covered pixels slightly).
+    #[test]
+    fn end_of_an_axis_aligned_bar_is_sub_pixel_exact() {
+        let (w, h) = (200, 120);
+        let bg = texture(w, h);
+        let model = scene(bg.clone(), w, h, [5.0, 60.0]);
+        for frac in [0.0, 0.2, 0.5, 0.75] {
+            let end = [150.0 + frac, 60.3];
+            let img = bar(&bg, w, h, [20.0, 60.3], end, 6.0);
+            let s = model.silhouette(0, img);
+            let fit = model.fit_end(0, &s).expect("a bar");
+            let err = (fit.tip[0] - end[0]).hypot(fit.tip[1] - end[1]);
+            assert!(err < 0.2, "end {end:?}: found {:?}", fit.tip);
+        }
+    }
+
+    /// An oblique bar (any direction) over a textured table: the middle of its end within a
+    /// quarter pixel.
+    #[test]
+    fn end_of_an_oblique_bar_is_sub_pixel() {
+        let (w, h) = (200, 160);
+        let bg = texture(w, h);
+        for (k, angle) in [20.0f64, 110.0, 200.0, 290.0, 45.0].into_iter().enumerate() {
+            let (s, c) = angle.to_radians().sin_cos();
+            let centre = [100.0, 80.0];
+            let a = [centre[0] - 60.0 * c, centre[1] - 60.0 * s];
+            let end = [centre[0] + 50.0 * c + 0.01 * k as f64, centre[1] + 50.0 * s];
+            let model = scene(bg.clone(), w, h, a);
+            let img = bar(&bg, w, h, a, end, 5.0);
+            let sil = model.silhouette(0, img);
+            let fit = model.fit_end(0, &sil).expect("a bar");
+            let err = (fit.tip[0] - end[0]).hypot(fit.tip[1] - end[1]);
+            assert!(
+                err < 0.25,
+                "angle {angle}: end {end:?}, found {:?}",
+                fit.tip
+            );
+        }
+    }
+
+    #[test]
+    fn bad_settings_and_empty_training_are_typed_errors() {
+        let bad = SilhouetteConfig {
+            noise_multiple: f32::NAN,
+            ..SilhouetteConfig::default()
+        };
+        assert!(matches!(
+            TipModel::learn(&bad, &[]),
+            Err(ServoError::InvalidParameter {
+                name: "noise_multiple",
+                ..
+            })
+        ));
+        assert!(matches!(
+            TipModel::learn(&SilhouetteConfig::default(), &[]),
+            Err(ServoError::NotEnoughData(_))
+        ));
+    }
+}
