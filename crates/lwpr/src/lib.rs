@@ -32,12 +32,29 @@
 //! every prediction returned by `update` is equal, the receptive-field counts are equal and grid
 //! predictions agree to ~4e-16 (`tests/reference.rs`: cross setting A; full metric with meta
 //! learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
-//! metric, meta learning and pruning; also `cargo xtask bench lwpr`). Speed-ups that keep this:
-//! independent reductions run four at a time in interleaved chains (each in the reference's
-//! order), sums the reference repeats per column are computed once per row (or shared as
-//! prefix sums), and the exponential is skipped for fields whose squared distance puts them
-//! below every threshold that could matter (0.001, `0.1·w_gen`, `w_prune`). Deliberate
-//! differences:
+//! metric, meta learning and pruning; also `cargo xtask bench lwpr`). Rust never fuses a
+//! multiply and an add, so rounding is decided by the order of operations alone, and the
+//! speed-ups keep that order for every value:
+//! - the update is compiled separately for input dimensions 1–4 (loops of constant length,
+//!   unrolled), and for larger `n` with AVX where the CPU has it (runtime detection; separate
+//!   multiplies and adds, four lanes per instruction);
+//! - every array is sliced once to its exact length before the loops, so the inner loops carry
+//!   no bounds checks and do not reload vector headers after each store;
+//! - the `O(n³)` sums of the full metric (the activations' `D_:jᵀ(x−c)`, the penalty gradient's
+//!   `Σ_i D_ic M_ri` and `D = MᵀM`) run eight or four independent sums side by side from
+//!   contiguous rows instead of strided columns, each sum still adding its terms in the
+//!   reference's order (this uses that `D` is exactly symmetric, which training keeps and
+//!   loading checks);
+//! - sums the reference repeats per column are computed once per row (or shared as prefix
+//!   sums), and the exponential is skipped for fields whose squared distance puts them below
+//!   every threshold that could matter (0.001, `0.1·w_gen`, `w_prune`).
+//!
+//! What is left is the reference's arithmetic itself. With meta learning at `n = 25` about an
+//! eighth of the update is the `n(n+1)/2` learning-rate exponentials per active field, which a
+//! bit-identical model must take from the same `exp` (a polynomial `exp` of our own saved only
+//! 5 % of the instructions, so we kept bit-identity).
+//!
+//! Deliberate differences:
 //! - **Pruning**: the reference removes the *wider* field ("TODO: ORIGINAL LOGIC WAS REVERSED"
 //!   in its code); we follow the published rule (remove the narrower, larger `tr D`) unless
 //!   [`PruneRule::ReferenceC`] is chosen. With the default `w_prune = 1` and a Gaussian kernel
@@ -50,9 +67,8 @@
 //!   `q = |M(x−c)|²` (half the work of `(x−c)ᵀD(x−c)`), and a cached slope `∂ŷ_k/∂z` per field
 //!   (updated after every change) instead of recomputing the PLS projections, as the reference
 //!   does after `lwpr_predict_J`. Both equal the reference's values up to rounding (≈1e-16).
-//! - **Prediction** uses a cached slope `∂ŷ_k/∂z` per field (updated after every change)
-//!   instead of recomputing the PLS projections, the way the reference does after
-//!   `lwpr_predict_J` has run. The two are equal up to rounding (≈1e-16 relative).
+//!   It is compiled like the update (n = 1–4, AVX) and skips the exponential of fields whose
+//!   distance puts them below the cutoff.
 //! - With one immature PLS direction the reference reads one element before its CV-error array
 //!   (never used afterwards); we use the first element.
 //! - Where no trustworthy field is active, the confidence bound is `+∞` (reference: 1e20).

@@ -303,38 +303,32 @@ pub(crate) fn update_distance_metric(
                 }
             }
         }
+        // Gradient, IDBD step and M step per element in one pass (each element's operations
+        // in the reference's order; the elements are independent, and `max_m` is taken from
+        // the old M above).
+        let meta = p.meta;
         for j in 0..n {
             let col = j * n..j * n + j + 1;
-            let (g, dw) = (&mut dj2dm[col.clone()], &dwdm[col]);
+            let (g, dw) = (&mut dj2dm[col.clone()], &dwdm[col.clone()]);
+            let (ddj2, ddw) = (&ddj2dmdm[col.clone()], &ddwdmdm[col.clone()]);
+            let (bc, ac) = (&mut b[col.clone()], &mut alpha[col.clone()]);
+            let (hc, mc) = (&mut hh[col.clone()], &mut m[col]);
             for i in 0..=j {
-                g[i] = w_w * g[i] + dj1dw * dw[i];
-            }
-        }
-        if p.meta {
-            for j in 0..n {
-                let col = j * n..j * n + j + 1;
-                let (g, dw) = (&dj2dm[col.clone()], &dwdm[col.clone()]);
-                let (ddj2, ddw) = (&ddj2dmdm[col.clone()], &ddwdmdm[col.clone()]);
-                let (bc, ac, hc) = (&mut b[col.clone()], &mut alpha[col.clone()], &mut hh[col]);
-                for i in 0..=j {
+                let gi = w_w * g[i] + dj1dw * dw[i];
+                g[i] = gi;
+                if meta {
                     let dd = w_w * ddj2[i] + ddw[i] * dj1dw + dw[i] * dw[i] * ddj1dwdw;
                     idbd(
                         &mut bc[i],
                         &mut ac[i],
                         &mut hc[i],
-                        g[i],
+                        gi,
                         dd,
                         p.meta_rate,
                         trans_mul,
                     );
                 }
-            }
-        }
-        for j in 0..n {
-            let col = j * n..j * n + j + 1;
-            let (g, ac, mc) = (&dj2dm[col.clone()], &mut alpha[col.clone()], &mut m[col]);
-            for i in 0..=j {
-                let delta = ac[i] * trans_mul * g[i];
+                let delta = ac[i] * trans_mul * gi;
                 if delta > 0.1 * max_m {
                     ac[i] *= 0.5;
                 } else {
