@@ -97,7 +97,8 @@ pub(crate) struct WindowState {
     scratch: Scratch,
 }
 
-#[derive(Debug, Clone, Default, PartialEq)]
+/// Reused buffers: not part of the filter's state (equal whatever they hold).
+#[derive(Debug, Clone, Default)]
 struct Scratch {
     rows: Vec<f64>,
     prior: Vec<f64>,
@@ -106,9 +107,18 @@ struct Scratch {
     far: Vec<(usize, f64)>,
     nears: Vec<(usize, Rect)>,
     shared: Vec<f64>,
+    out: Vec<f64>,
+    enc: Vec<Det>,
+}
+
+impl PartialEq for Scratch {
+    fn eq(&self, _: &Scratch) -> bool {
+        true
+    }
 }
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
+#[derive(Debug, Clone, Default)]
 struct Det {
     ax: Active,
     ay: Active,
@@ -124,7 +134,7 @@ fn dets_weight(d: &Det) -> f64 {
 
 /// The active channels of one coordinate (consecutive, at most 3 for the cos² kernel with
 /// `a = π/3` the stationary layout requires).
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Active {
     k0: usize,
     n: usize,
@@ -168,8 +178,20 @@ impl Active {
 
 #[inline(never)]
 fn marginals(p: &Patch) -> [(usize, Vec<f64>); 2] {
-    let mut mx = vec![0.0; p.h];
-    let mut my = vec![0.0; p.w];
+    let mut m = [(0, Vec::new()), (0, Vec::new())];
+    marginals_into(p, &mut m);
+    m
+}
+
+/// Per-axis marginals of a patch into reused buffers.
+fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
+    let [(ox, mx), (oy, my)] = m;
+    *ox = p.i0;
+    *oy = p.j0;
+    mx.clear();
+    mx.resize(p.h, 0.0);
+    my.clear();
+    my.resize(p.w, 0.0);
     for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
         let mut s = 0.0;
         for (j, &v) in row.iter().enumerate() {
@@ -178,7 +200,6 @@ fn marginals(p: &Patch) -> [(usize, Vec<f64>); 2] {
         }
         mx[i] = s;
     }
-    [(p.i0, mx), (p.j0, my)]
 }
 
 impl WindowState {
@@ -394,7 +415,8 @@ impl WindowState {
         sys: &[StatSystem],
         dets: &[Detection],
     ) -> Result<(), TrackError> {
-        let mut enc = Vec::with_capacity(dets.len());
+        let mut enc = std::mem::take(&mut self.scratch.enc);
+        enc.clear();
         for det in dets {
             let t = space.detection_index(det)?;
             if det.weight == 0.0 {
@@ -528,21 +550,27 @@ impl WindowState {
         let Some(rect) = rect else {
             // Nothing significant (cannot happen with a positive floor): keep the prior.
             self.scratch.parts = parts;
+            self.scratch.enc = enc;
             return Ok(());
         };
+        let mut buf = std::mem::take(&mut self.scratch.out);
+        buf.clear();
+        buf.resize(rect.rows() * rect.cols(), 0.0);
         let mut out = Patch {
             i0: rect.a0,
             j0: rect.b0,
             h: rect.rows(),
             w: rect.cols(),
-            v: vec![0.0; rect.rows() * rect.cols()],
+            v: buf,
         };
         if use_floor {
             let f = if enc.is_empty() { 1.0 } else { floor_mass };
             let pr = if span == Some(full) {
                 std::mem::take(&mut self.scratch.shared)
             } else {
-                self.prior(&kx, &ky, keep, 0.0, full)
+                let mut pr = std::mem::take(&mut self.scratch.prior);
+                self.prior_into(&kx, &ky, keep, 0.0, full, &mut pr);
+                pr
             };
             for a in full.a0..full.a1 {
                 let src = &pr[(a - full.a0) * full.cols()..][..full.cols()];
@@ -553,6 +581,8 @@ impl WindowState {
             }
             if span == Some(full) {
                 self.scratch.shared = pr;
+            } else {
+                self.scratch.prior = pr;
             }
         }
         if !enc.is_empty() {
@@ -570,15 +600,20 @@ impl WindowState {
             }
         }
         self.scratch.parts = parts;
+        self.scratch.enc = enc;
         let s: f64 = out.v.iter().sum();
         if !(s > 0.0 && s.is_finite()) {
+            self.scratch.out = out.v;
             return Ok(());
         }
         out.v.iter_mut().for_each(|v| *v /= s);
-        let out = crop(out, CROP);
-        self.post = out;
-        let cur = marginals(&self.post);
-        self.prev = std::mem::replace(&mut self.cur, cur);
+        // The old posterior's buffer receives the cropped new one; the uncropped one goes
+        // back to the scratch space.
+        let old = std::mem::take(&mut self.post.v);
+        self.post = crop_into(&out, CROP, old);
+        self.scratch.out = out.v;
+        std::mem::swap(&mut self.prev, &mut self.cur);
+        marginals_into(&self.post, &mut self.cur);
         Ok(())
     }
 
@@ -697,37 +732,37 @@ impl WindowState {
     }
 }
 
-/// Crops a normalised patch to the bounding box of its cells `≥ eps · max`.
-#[inline(never)]
-fn crop(p: Patch, eps: f64) -> Patch {
+/// Crops a normalised patch to the bounding box of its cells `≥ eps · max`, into `buf`
+/// (renormalised).
+fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
     let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
     let cut = eps * max;
     let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
-    for i in 0..p.h {
-        for j in 0..p.w {
-            if p.v[i * p.w + j] >= cut && p.v[i * p.w + j] > 0.0 {
-                a0 = a0.min(i);
-                a1 = a1.max(i + 1);
-                b0 = b0.min(j);
-                b1 = b1.max(j + 1);
-            }
+    for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
+        let first = row.iter().position(|&v| v >= cut && v > 0.0);
+        if let Some(f) = first {
+            let l = row.iter().rposition(|&v| v >= cut && v > 0.0).unwrap_or(f);
+            a0 = a0.min(i);
+            a1 = a1.max(i + 1);
+            b0 = b0.min(f);
+            b1 = b1.max(l + 1);
         }
     }
-    if a0 == usize::MAX || (a0 == 0 && b0 == 0 && a1 == p.h && b1 == p.w) {
-        return p;
+    if a0 == usize::MAX {
+        (a0, a1, b0, b1) = (0, p.h, 0, p.w);
     }
     let (h, w) = (a1 - a0, b1 - b0);
-    let mut v = Vec::with_capacity(h * w);
+    buf.clear();
     for i in a0..a1 {
-        v.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
+        buf.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
     }
-    let s: f64 = v.iter().sum();
-    v.iter_mut().for_each(|x| *x /= s);
+    let s: f64 = buf.iter().sum();
+    buf.iter_mut().for_each(|x| *x /= s);
     Patch {
         i0: p.i0 + a0,
         j0: p.j0 + b0,
         h,
         w,
-        v,
+        v: buf,
     }
 }
