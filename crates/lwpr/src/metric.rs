@@ -112,16 +112,15 @@ fn dist_derivatives(
                 k0 += g;
             }
         }
+        // The penalty derivatives per element; the activation derivatives
+        // `∂w/∂M_rc = dq_r · 2 dx_c · ∂w/∂q` (and the second ones) follow from `dq_r` where
+        // they are used (`update_distance_metric`).
+        ws.dq[r] = dq;
         for c in r..n {
-            let sum_aux = ws.sum_aux[c];
             let off = r + c * n;
-            let dqdm = dq * (2.0 * dx[c]);
-            ws.dwdm[off] = dqdm * dwdq;
-            ws.dj2dm[off] = 2.0 * penalty * sum_aux;
+            ws.dj2dm[off] = 2.0 * penalty * ws.sum_aux[c];
             if meta {
-                let sum_aux1 = ws.sum_aux1[c];
-                ws.ddwdmdm[off] = ddwdqdq * dqdm * dqdm + 2.0 * dwdq * dx[c] * dx[c];
-                ws.ddj2dmdm[off] = 2.0 * penalty * (d[c + c * n] + sum_aux1);
+                ws.ddj2dmdm[off] = 2.0 * penalty * (d[c + c * n] + ws.sum_aux1[c]);
             }
         }
     }
@@ -307,17 +306,22 @@ pub(crate) fn update_distance_metric(
         // in the reference's order; the elements are independent, and `max_m` is taken from
         // the old M above).
         let meta = p.meta;
+        let dq = &ws.dq[..n];
+        let dx = &ws.dx[..n];
         for j in 0..n {
             let col = j * n..j * n + j + 1;
-            let (g, dw) = (&mut dj2dm[col.clone()], &dwdm[col.clone()]);
-            let (ddj2, ddw) = (&ddj2dmdm[col.clone()], &ddwdmdm[col.clone()]);
+            let (g, ddj2) = (&mut dj2dm[col.clone()], &ddj2dmdm[col.clone()]);
             let (bc, ac) = (&mut b[col.clone()], &mut alpha[col.clone()]);
             let (hc, mc) = (&mut hh[col.clone()], &mut m[col]);
+            let dxj2 = 2.0 * dx[j];
             for i in 0..=j {
-                let gi = w_w * g[i] + dj1dw * dw[i];
+                let dqdm = dq[i] * dxj2;
+                let dw = dqdm * dwdq;
+                let gi = w_w * g[i] + dj1dw * dw;
                 g[i] = gi;
                 if meta {
-                    let dd = w_w * ddj2[i] + ddw[i] * dj1dw + dw[i] * dw[i] * ddj1dwdw;
+                    let ddw = ddwdqdq * dqdm * dqdm + 2.0 * dwdq * dx[j] * dx[j];
+                    let dd = w_w * ddj2[i] + ddw * dj1dw + dw * dw * ddj1dwdw;
                     idbd(
                         &mut bc[i],
                         &mut ac[i],

@@ -49,6 +49,8 @@ pub(crate) struct Workspace {
     pub prefix: Vec<f64>,
     /// `M` transposed (rows of `M` contiguous) for `D = MᵀM`.
     pub mt: Vec<f64>,
+    /// Per row r of `M`: `Σ_i dx_i M_ri` (the reference's `dqdM` sum).
+    pub dq: Vec<f64>,
 }
 
 impl Workspace {
@@ -77,6 +79,7 @@ impl Workspace {
             sum_aux1: vec![0.0; n],
             prefix: vec![0.0; n + 1],
             mt: vec![0.0; n * n],
+            dq: vec![0.0; n],
         }
     }
 }
