@@ -1,11 +1,15 @@
-//! Recognition and servo-step costs on a synthetic 640×480 scene (no peer exists for them).
+//! Recognition and servo-step costs on a synthetic 640×480 scene and on `arm-sim`'s rendered
+//! 640×480 images (no peer exists for them).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use image::{GrayImage, Luma};
 use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::half_resolution;
 use servo_loop::recognition::model::TrainingView;
-use servo_loop::{GripperModel, InverseModel, InverseModelConfig, RecognitionConfig};
+use servo_loop::{
+    GripperModel, InverseModel, InverseModelConfig, RandomCommands, RecognitionConfig,
+    SilhouetteConfig, TipModel,
+};
 
 fn scene(x0: u32, y0: u32, s: u32) -> GrayImage {
     GrayImage::from_fn(640, 480, |x, y| {
@@ -69,5 +73,30 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
+/// The silhouette recogniser on rendered images: learned from 20 gripper moves of the
+/// default arm, then one localisation of one camera's image.
+fn bench_tip(c: &mut Criterion) {
+    let mut sim = arm_sim::ArmSim::new(arm_sim::SimConfig::default()).unwrap();
+    let explore = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
+    let mut commands = RandomCommands::new(&explore, 1).unwrap();
+    let mut views = Vec::new();
+    let command = |y: &[f64], gripper: f64| [y[0], y[1], y[2], 1944.0, 1500.0, gripper];
+    for _ in 0..20 {
+        let y = commands.next_command();
+        sim.command(&command(&y, 2100.0)).unwrap();
+        let before = sim.capture();
+        sim.command(&command(&y, 1000.0)).unwrap();
+        let after = sim.capture();
+        views.push(TrainingView { before, after });
+    }
+    let (model, _) = TipModel::learn(&SilhouetteConfig::default(), &views).unwrap();
+    sim.command(&command(&commands.next_command(), 1500.0))
+        .unwrap();
+    let img = sim.capture().swap_remove(0);
+    c.bench_function("tip_locate_640x480", |b| {
+        b.iter(|| model.locate(0, &img).unwrap())
+    });
+}
+
+criterion_group!(benches, bench, bench_tip);
 criterion_main!(benches);

@@ -19,9 +19,10 @@
 //! precision from the soft coverage of the end: the end position along the gripper's principal
 //! axis from covered areas, the centre across it as the coverage-weighted mean
 //! ([`recognition::silhouette`]). Measured on `arm-sim` (`fixtures/paper-c/summary.md`):
-//! frame-to-frame repeatability ≈ 0.1–0.2 px, a median error of 2–3 px to the projected middle
-//! of the finger ends (the goal of ≤ 1 px is missed), and a definitional offset of ≈ 11 px to
-//! `arm-sim`'s tool point, which lies 8 mm behind the finger ends where nothing marks it.
+//! frame-to-frame repeatability 0.04–0.13 px (median per camera), a median error of 2.0–2.9 px
+//! to the projected middle of the finger ends (the goal of ≤ 1 px is missed; the 90th
+//! percentile is 14–32 px, when another part of the arm is taken for the far end), and ≈ 11–12
+//! px to `arm-sim`'s tool point, which lies 8 mm behind the finger ends where nothing marks it.
 //! The earlier **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline ×
 //! cos² orientation channels of image gradients, chan-repr; papers.md §1.4) is kept as an
 //! appearance model; it finds the gripper region only to tens of pixels and is not used by the
