@@ -1,6 +1,8 @@
-//! Diagnosis on validation seeds (not the evaluation's test seeds): RMSE and time per frame of
-//! CBT variants against the 1,000-particle filter. `cargo run --release -p cbt-tracker
-//! --example diag [levels...]`.
+//! Diagnosis on validation seeds (7000 + level; the evaluation's test seeds are 2000 + level):
+//! RMSE and time per frame of CBT (stationary layout, 2nd and 1st order) against the
+//! 1,000-particle filter. `cargo run --release -p cbt-tracker --example diag [levels...]`.
+//! Environment: `ROWS=1` prints every sequence; `SPF=f` scales the channel spacing by `f`;
+//! `ONLY=cbt|pf|learn` runs only that part (for instruction counts with callgrind).
 
 use std::time::Instant;
 
