@@ -20,3 +20,38 @@ fn small_study_summary_snapshot() {
     assert!(stats.per_iteration[5].median_px < stats.per_iteration[0].median_px);
     insta::assert_snapshot!("servo_small_summary", text);
 }
+
+/// The parallel jobs (methods × target chunks) give the same numbers on one thread as on many.
+#[test]
+fn study_is_independent_of_the_thread_count() {
+    let mut p = Protocol::default_for(11);
+    p.training_moves = 200;
+    p.curve_moves = vec![100, 200];
+    p.curve_targets = 10;
+    p.targets = 60;
+    p.percept = PerceptMode::Simulated;
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let study = pool
+            .install(|| run_study(&SimConfig::default(), &p, false, false, None))
+            .unwrap();
+        let per_method: Vec<(String, Vec<Vec<f64>>)> = study
+            .per_method
+            .iter()
+            .map(|(m, r)| (m.clone(), r.iter().map(|t| t.px.clone()).collect()))
+            .collect();
+        let curve: Vec<(usize, Vec<Vec<f64>>)> = study
+            .curve
+            .iter()
+            .map(|(k, r)| (*k, r.iter().map(|t| t.mm.clone()).collect()))
+            .collect();
+        (per_method, curve)
+    };
+    let one = run(1);
+    assert_eq!(one.0.len(), 4);
+    assert!(one.0.iter().all(|(_, r)| r.len() == 60));
+    assert_eq!(one, run(3));
+}
