@@ -66,7 +66,15 @@ fn dist_derivatives(
             let acc: [f64; 4] = sum_rows(&d[r * n..n * n], n, mrow, wide, false);
             ws.sum_aux[wide..four].copy_from_slice(&acc);
         }
-        let c = four;
+        // The last one to three columns: one more four-lane block ending at column n − 1 (its
+        // overlap with the block before recomputes identical values).
+        let c = if four < n && n - r >= 4 {
+            let acc: [f64; 4] = sum_rows(&d[r * n..n * n], n, mrow, n - 4, false);
+            ws.sum_aux[n - 4..n].copy_from_slice(&acc);
+            n
+        } else {
+            four
+        };
         for c in c..n {
             let mut acc = 0.0;
             for (i, &mv) in mrow.iter().enumerate() {
@@ -363,7 +371,13 @@ pub(crate) fn update_distance_metric(
                 let acc: [f64; 4] = sum_rows(mt, n, mj, wide, true);
                 d[wide + j * n..four + j * n].copy_from_slice(&acc);
             }
-            let i = four;
+            let i = if four < n && n - j >= 4 {
+                let acc: [f64; 4] = sum_rows(mt, n, mj, n - 4, true);
+                d[n - 4 + j * n..n + j * n].copy_from_slice(&acc);
+                n
+            } else {
+                four
+            };
             for i in i..n {
                 d[i + j * n] = dot(&m[i * n..i * n + j + 1], mj);
             }

@@ -94,7 +94,15 @@ pub(crate) fn distance(d: &[f64], xc: &[f64], diag_only: bool) -> f64 {
                 dist += xc[wide + t] * s[t];
             }
         }
-        let j = four;
+        let j = if four < n && n >= 4 {
+            let s: [f64; 4] = sum_rows(&d[..n * n], n, xc, n - 4, true);
+            for j in four..n {
+                dist += xc[j] * s[j + 4 - n];
+            }
+            n
+        } else {
+            four
+        };
         for j in j..n {
             dist += xc[j] * dot(&d[j * n..j * n + n], xc);
         }
