@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{LwprError, Result};
 use crate::metric::update_distance_metric;
 use crate::params::{Kernel, Params, PruneRule};
-use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, distance, kernel_eval};
+use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, diag_distance, distance, kernel_eval};
 use crate::workspace::Workspace;
 
 /// Receptive fields of one output dimension.
@@ -372,14 +372,7 @@ impl Lwpr {
         for (k, rf) in sub.rfs.iter_mut().enumerate() {
             let c = &rf.c[..n];
             let q = if p.diag_only {
-                // `distance` for a diagonal metric, with `x − c` formed on the fly.
-                let d = &rf.d[..n * n];
-                let mut dist = 0.0;
-                for j in 0..n {
-                    let z = xn_n[j] - c[j];
-                    dist += z * (d[j + j * n] * z);
-                }
-                dist
+                diag_distance(&rf.d, xn_n, c)
             } else {
                 let xc = &mut ws.xc[..n];
                 for i in 0..n {
@@ -555,13 +548,7 @@ impl Lwpr {
         for rf in &self.sub[dim].rfs {
             let c = &rf.c[..n];
             let q = if p.diag_only {
-                let d = &rf.d[..n * n];
-                let mut dist = 0.0;
-                for j in 0..n {
-                    let z = xn[j] - c[j];
-                    dist += z * (d[j + j * n] * z);
-                }
-                dist
+                diag_distance(&rf.d, xn, c)
             } else {
                 // q = |M (x − c)|² with the triangular factor: half the work of (x−c)ᵀD(x−c),
                 // equal up to rounding (training uses the reference's form).

@@ -66,6 +66,20 @@ pub(crate) struct ReceptiveField {
     pub slope: Vec<f64>,
 }
 
+/// [`distance`] for a diagonal metric with `x − c` formed on the fly (the same bits as
+/// `distance(d, x − c, true)`); `d` is the full `n × n` metric, `n = c.len()`.
+#[inline(always)]
+pub(crate) fn diag_distance(d: &[f64], x: &[f64], c: &[f64]) -> f64 {
+    let n = c.len();
+    let (d, x) = (&d[..n * n], &x[..n]);
+    let mut dist = 0.0;
+    for j in 0..n {
+        let z = x[j] - c[j];
+        dist += z * (d[j + j * n] * z);
+    }
+    dist
+}
+
 /// Squared Mahalanobis distance `(x−c)ᵀD(x−c)` in the reference's summation order.
 #[inline(always)]
 pub(crate) fn distance(d: &[f64], xc: &[f64], diag_only: bool) -> f64 {
