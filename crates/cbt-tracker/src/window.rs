@@ -110,6 +110,9 @@ struct Scratch {
     shared: Vec<f64>,
     out: Vec<f64>,
     enc: Vec<Det>,
+    /// Kernel taps of the prediction's y pass: (first source column, length, first output
+    /// column, weight).
+    taps: Vec<(usize, usize, usize, f64)>,
 }
 
 impl PartialEq for Scratch {
@@ -190,6 +193,20 @@ fn lane_sum(v: &[f64]) -> f64 {
     }
     let rest: f64 = chunks.remainder().iter().sum();
     ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + rest
+}
+
+/// Largest value (0 for an empty slice or all values below 0), with eight lanes.
+#[inline]
+fn lane_max(v: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let mut chunks = v.chunks_exact(8);
+    for c in &mut chunks {
+        for (a, &x) in acc.iter_mut().zip(c) {
+            *a = a.max(x);
+        }
+    }
+    let rest = chunks.remainder().iter().fold(0.0f64, |a, &b| a.max(b));
+    acc.iter().fold(rest, |a, &b| a.max(b))
 }
 
 /// `out[i] *= b[i]` and the sum of the products, with eight accumulators.
@@ -337,27 +354,26 @@ impl WindowState {
         let rows = &mut self.scratch.rows;
         rows.clear();
         rows.resize((a_hi - a_lo) * nc, 0.0);
-        // Along y: rows[a][j] = Σ_b q[a, b] D_y[j − b].
+        // Along y: rows[a][j] = Σ_δ D_y[δ] q[a, j − δ]: one contiguous axpy per kernel tap
+        // (columns b = j − δ − j0 of the posterior row).
+        let taps: &mut Vec<(usize, usize, usize, f64)> = &mut self.scratch.taps;
+        taps.clear();
+        for (t, &k) in ky.v.iter().enumerate() {
+            let delta = ky.lo + t as i64;
+            let b_lo = (rect.b0 as i64 - p.j0 as i64 - delta).max(0);
+            let b_hi = (rect.b1 as i64 - p.j0 as i64 - delta).min(p.w as i64);
+            if b_lo >= b_hi || k == 0.0 {
+                continue;
+            }
+            let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
+            taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
+        }
         for a in a_lo..a_hi {
             let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
             let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
-            for (b, &q) in src.iter().enumerate() {
-                if q == 0.0 {
-                    continue;
-                }
-                let bb = (p.j0 + b) as i64;
-                // j = bb + δ for δ in ky; restricted to [b0, b1).
-                let j_lo = (bb + ky.lo).max(rect.b0 as i64);
-                let j_hi = (bb + ky.hi() + 1).min(rect.b1 as i64);
-                if j_lo >= j_hi {
-                    continue;
-                }
-                let k0 = (j_lo - bb - ky.lo) as usize;
-                let n = (j_hi - j_lo) as usize;
-                let kv = &ky.v[k0..k0 + n];
-                let d = &mut dst[(j_lo - rect.b0 as i64) as usize..][..n];
-                for (x, &k) in d.iter_mut().zip(kv) {
-                    *x += q * k;
+            for &(b0, n, d0, k) in taps.iter() {
+                for (x, &q) in dst[d0..d0 + n].iter_mut().zip(&src[b0..b0 + n]) {
+                    *x += k * q;
                 }
             }
         }
@@ -684,37 +700,31 @@ impl WindowState {
             }
         };
         // Local maxima holding at least MIN_SHARE of the largest cell, by decreasing value.
-        let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
+        let max = lane_max(&p.v);
         let cut = crate::decode::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
+        // A cell is a maximum when no neighbour is larger and no neighbour earlier in raster
+        // order (the row above, the cell to the left) is equal.
+        let w = p.w;
         for i in 0..p.h {
-            for j in 0..p.w {
-                let v = p.v[i * p.w + j];
+            let cur = &p.v[i * w..(i + 1) * w];
+            let above = (i > 0).then(|| &p.v[(i - 1) * w..i * w]);
+            let below = (i + 1 < p.h).then(|| &p.v[(i + 1) * w..(i + 2) * w]);
+            for (j, &v) in cur.iter().enumerate() {
                 if v <= 0.0 || v < cut {
                     continue;
                 }
-                let mut is_max = true;
-                'n: for di in -1i64..=1 {
-                    for dj in -1i64..=1 {
-                        let (a, b) = (i as i64 + di, j as i64 + dj);
-                        if (di, dj) == (0, 0)
-                            || a < 0
-                            || b < 0
-                            || a >= p.h as i64
-                            || b >= p.w as i64
-                        {
-                            continue;
-                        }
-                        let o = p.v[a as usize * p.w + b as usize];
-                        if o > v || (o == v && (a, b) < (i as i64, j as i64)) {
-                            is_max = false;
-                            break 'n;
-                        }
-                    }
+                let (b0, b1) = (j.saturating_sub(1), (j + 2).min(w));
+                if (j > 0 && cur[j - 1] >= v) || (j + 1 < w && cur[j + 1] > v) {
+                    continue;
                 }
-                if is_max {
-                    peaks.push((v, i, j));
+                if above.is_some_and(|r| r[b0..b1].iter().any(|&o| o >= v)) {
+                    continue;
                 }
+                if below.is_some_and(|r| r[b0..b1].iter().any(|&o| o > v)) {
+                    continue;
+                }
+                peaks.push((v, i, j));
             }
         }
         peaks.sort_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
@@ -766,7 +776,7 @@ impl WindowState {
 /// Crops a normalised patch to the bounding box of its cells `≥ eps · max`, into `buf`
 /// (renormalised).
 fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
-    let max = p.v.iter().fold(0.0f64, |a, &b| a.max(b));
+    let max = lane_max(&p.v);
     let cut = eps * max;
     let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
     for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
