@@ -1,6 +1,8 @@
 //! Gripper recognition learned from action (Paper C; papers.md §1.4, §3.1).
 //!
-//! - [`image`]: grey images to half-resolution float images.
+//! - [`image`]: grey images to half-resolution float images, and the raster steps of the
+//!   silhouette (box smoothing, largest 8-connected component).
+//! - `lighting`: the gain-and-gradient lighting model `I ≈ B (a + b u' + c v')` and its robust fit.
 //! - [`features`]: the channel-coded feature map (CCFM) of an image: a soft histogram over
 //!   (column, row, gradient orientation), weighted by a saturated gradient magnitude, with
 //!   quadratic B-spline spatial channels and cyclic cos² orientation channels (chan-repr).
@@ -15,6 +17,7 @@
 pub mod change;
 pub mod features;
 pub mod image;
+mod lighting;
 pub mod model;
 pub mod silhouette;
 

@@ -43,12 +43,14 @@
 //! both.
 
 use image::GrayImage;
-use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError};
 use crate::recognition::change::changed_region;
-use crate::recognition::image::half_resolution;
+use crate::recognition::image::{
+    half_resolution, halve, largest_component, smoothed_magnitude, to_f32,
+};
+use crate::recognition::lighting::{fit_lighting, lighting_field, residual};
 use crate::recognition::model::{Localisation, TrainingView};
 
 /// Settings of the silhouette recogniser.
@@ -180,133 +182,6 @@ impl Silhouette {
         let i = y * scene.width + x;
         self.image[i] - g as f32 * scene.background[i]
     }
-}
-
-/// Lighting coefficients `[a, b, c]` of `I ≈ B (a + b u' + c v')`.
-fn fit_lighting(img: &[f32], bg: &[f32], w: usize, h: usize) -> [f64; 3] {
-    let (hw, hh) = (0.5 * w as f64, 0.5 * h as f64);
-    let mut coef = [1.0, 0.0, 0.0];
-    let mut limit = f64::INFINITY;
-    let mut res = Vec::new();
-    for _ in 0..3 {
-        let mut ata = Matrix3::<f64>::zeros();
-        let mut atb = Vector3::<f64>::zeros();
-        res.clear();
-        for y in (4..h).step_by(8) {
-            let vy = (y as f64 + 0.5 - hh) / hh;
-            for x in (4..w).step_by(8) {
-                let i = y * w + x;
-                let b = f64::from(bg[i]);
-                let ux = (x as f64 + 0.5 - hw) / hw;
-                let pred = b * (coef[0] + coef[1] * ux + coef[2] * vy);
-                let r = f64::from(img[i]) - pred;
-                res.push(r.abs());
-                if r.abs() > limit || b < 1.0 {
-                    continue;
-                }
-                let a = Vector3::new(b, b * ux, b * vy);
-                ata += a * a.transpose();
-                atb += a * f64::from(img[i]);
-            }
-        }
-        if let Some(s) = ata.cholesky() {
-            let c = s.solve(&atb);
-            coef = [c[0], c[1], c[2]];
-        }
-        // Robust scale of this round's residuals for the next round's cut.
-        let mid = res.len() / 2;
-        if res.is_empty() {
-            break;
-        }
-        let mad = *res.select_nth_unstable_by(mid, f64::total_cmp).1;
-        limit = (3.0 * 1.4826 * mad).max(3.0);
-    }
-    coef
-}
-
-/// 2×2 means (odd trailing row/column dropped).
-fn halve(img: &[f32], w: usize, h: usize) -> Vec<f32> {
-    let (hw, hh) = (w / 2, h / 2);
-    let mut out = vec![0.0f32; hw * hh];
-    for y in 0..hh {
-        let (r0, r1) = (&img[2 * y * w..][..w], &img[(2 * y + 1) * w..][..w]);
-        for (x, o) in out[y * hw..(y + 1) * hw].iter_mut().enumerate() {
-            *o = 0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]);
-        }
-    }
-    out
-}
-
-fn to_f32(img: &GrayImage) -> Vec<f32> {
-    img.as_raw().iter().map(|&v| f32::from(v)).collect()
-}
-
-/// Lit scene `(a + b u' + c v') B` subtracted from `img`.
-fn residual(img: &[f32], bg: &[f32], w: usize, h: usize, coef: [f64; 3]) -> Vec<f32> {
-    let (hw, hh) = (0.5 * w as f32, 0.5 * h as f32);
-    let [a, b, c] = coef.map(|v| v as f32);
-    let mut out = vec![0.0f32; w * h];
-    for y in 0..h {
-        let row = a + c * (y as f32 + 0.5 - hh) / hh;
-        for x in 0..w {
-            let g = row + b * (x as f32 + 0.5 - hw) / hw;
-            let i = y * w + x;
-            out[i] = img[i] - g * bg[i];
-        }
-    }
-    out
-}
-
-/// 3×3 box mean of `|r|` (borders zero).
-fn smoothed_magnitude(r: &[f32], w: usize, h: usize) -> Vec<f32> {
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        let src = &r[y * w..(y + 1) * w];
-        let dst = &mut rows[y * w..(y + 1) * w];
-        for x in 1..w.saturating_sub(1) {
-            dst[x] = src[x - 1].abs() + src[x].abs() + src[x + 1].abs();
-        }
-    }
-    let mut out = vec![0.0f32; w * h];
-    for y in 1..h.saturating_sub(1) {
-        for x in 0..w {
-            out[y * w + x] =
-                (rows[(y - 1) * w + x] + rows[y * w + x] + rows[(y + 1) * w + x]) / 9.0;
-        }
-    }
-    out
-}
-
-/// Pixels of the largest 8-connected component of `mask`.
-fn largest_component(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
-    let mut seen = vec![false; w * h];
-    let mut best: Vec<usize> = Vec::new();
-    let mut stack = Vec::new();
-    for start in 0..w * h {
-        if !mask[start] || seen[start] {
-            continue;
-        }
-        seen[start] = true;
-        stack.push(start);
-        let mut comp = Vec::new();
-        while let Some(p) = stack.pop() {
-            comp.push(p);
-            let (x, y) = (p % w, p / w);
-            for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
-                for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
-                    let q = ny * w + nx;
-                    if mask[q] && !seen[q] {
-                        seen[q] = true;
-                        stack.push(q);
-                    }
-                }
-            }
-        }
-        if comp.len() > best.len() {
-            best = comp;
-        }
-    }
-    best
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -804,20 +679,6 @@ fn learn_scene(frames: &[Vec<f32>], w: usize, h: usize) -> CameraScene {
     }
 }
 
-/// Per-pixel gain `a + b u' + c v'`.
-fn lighting_field(w: usize, h: usize, coef: [f64; 3]) -> Vec<f32> {
-    let (hw, hh) = (0.5 * w as f64, 0.5 * h as f64);
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let vy = (y as f64 + 0.5 - hh) / hh;
-        for x in 0..w {
-            let ux = (x as f64 + 0.5 - hw) / hw;
-            out.push((coef[0] + coef[1] * ux + coef[2] * vy) as f32);
-        }
-    }
-    out
-}
-
 /// Per-pixel median over frames (each divided by its gain field if given).
 fn pixel_median(frames: &[Vec<f32>], n: usize, gains: Option<&[Vec<f32>]>) -> Vec<f32> {
     let mut out = vec![0.0f32; n];
@@ -891,32 +752,6 @@ mod tests {
             }
         }
         out
-    }
-
-    #[test]
-    fn lighting_fit_recovers_gain_and_gradients_despite_an_object() {
-        let (w, h) = (160, 120);
-        let bg = texture(w, h);
-        let truth = [1.07, 0.03, -0.02];
-        let field = lighting_field(w, h, truth);
-        let mut img: Vec<f32> = bg.iter().zip(&field).map(|(b, g)| b * g).collect();
-        // An object covering ≈ 6 % of the image.
-        for y in 40..60 {
-            for x in 60..90 {
-                img[y * w + x] = 250.0;
-            }
-        }
-        let c = fit_lighting(&img, &bg, w, h);
-        for k in 0..3 {
-            assert!((c[k] - truth[k]).abs() < 1e-4, "{c:?} vs {truth:?}");
-        }
-    }
-
-    #[test]
-    fn halve_averages_two_by_two_blocks() {
-        let img: Vec<f32> = (0..4 * 3).map(|v| v as f32).collect();
-        // 4×3 → 2×1: rows 0–1 only.
-        assert_eq!(halve(&img, 4, 3), vec![2.5, 4.5]);
     }
 
     /// The end of an axis-aligned bar over a textured table is found within 0.2 px wherever it
