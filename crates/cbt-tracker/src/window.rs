@@ -653,9 +653,9 @@ impl WindowState {
             self.scratch.out = out.v;
             return Ok(());
         }
-        out.v.iter_mut().for_each(|v| *v /= s);
-        // The old posterior's buffer receives the cropped new one; the uncropped one goes
-        // back to the scratch space.
+        // The old posterior's buffer receives the cropped new one (normalised there: the crop
+        // is relative to the maximum, so it needs no normalised input); the uncropped one
+        // goes back to the scratch space.
         let old = std::mem::take(&mut self.post.v);
         self.post = crop_into(&out, CROP, old);
         self.scratch.out = out.v;
@@ -677,14 +677,18 @@ impl WindowState {
             let i_hi = ((ci as i64 + r + 1) as usize).min(p.h);
             let j_lo = (cj as i64 - r).max(0) as usize;
             let j_hi = ((cj as i64 + r + 1) as usize).min(p.w);
+            let by = space.state_basis(1);
             for i in i_lo..i_hi {
                 let x = space.state_basis(0).centre(p.i0 + i);
-                for j in j_lo..j_hi {
-                    let v = p.v[i * p.w + j];
-                    m += v;
-                    sx += v * x;
-                    sy += v * space.state_basis(1).centre(p.j0 + j);
+                let row = &p.v[i * p.w + j_lo..i * p.w + j_hi];
+                let (mut rm, mut ry) = (0.0, 0.0);
+                for (j, &v) in (j_lo..).zip(row) {
+                    rm += v;
+                    ry += v * by.centre(p.j0 + j);
                 }
+                m += rm;
+                sx += rm * x;
+                sy += ry;
             }
             let pos = if m > 0.0 {
                 [sx / m, sy / m]
@@ -797,8 +801,8 @@ fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
     for i in a0..a1 {
         buf.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
     }
-    let s = lane_sum(&buf);
-    buf.iter_mut().for_each(|x| *x /= s);
+    let s = 1.0 / lane_sum(&buf);
+    buf.iter_mut().for_each(|x| *x *= s);
     Patch {
         i0: p.i0 + a0,
         j0: p.j0 + b0,
