@@ -25,10 +25,7 @@
 //!   (heap entries are bare pixel indices, with no "resume here" state);
 //! - otherwise the pixel joins the component, and all four neighbours are marked and pushed onto
 //!   the stack of their cell value without a branch: the pushes of neighbours reached before
-//!   land in the sink, one slot that every such push overwrites and nothing reads. The sink's
-//!   top is never advanced (a push writes its advanced top to a spare entry instead, the index
-//!   chosen without a branch), so the pushes of one visit, most of which go to the sink, do not
-//!   wait for each other's store of the same top. If a neighbour has the
+//!   land in the sink, four slots reset after every visit and never read. If a neighbour has the
 //!   current level, the last one pushed, the top of the current stack, is taken back at once and
 //!   visited next from a register instead of a store and reload; which neighbour that is, is
 //!   chosen with conditional moves (`select_unpredictable`), as it follows no pattern.
@@ -148,11 +145,8 @@ impl Default for TreeBuilder {
 const REACHED: u8 = SINK as u8;
 /// Index of the sink in the per-level stack tops (in place of level 255).
 const SINK: usize = 255;
-/// Slots of the sink: one, as its top is never advanced (every push to it overwrites slot 0).
-const SINK_SLOTS: u32 = 1;
-/// Where a push to the sink writes its advanced top instead: a spare entry past the sink's, so
-/// the sink's top stays 0 and consecutive pushes to it do not wait for one another's stores.
-const SINK_TOP_SPARE: usize = SINK + 1;
+/// Slots of the sink: it is reset after the four pushes of every visited pixel.
+const SINK_SLOTS: u32 = 4;
 /// Slots of the component stack: open components have strictly decreasing levels from the
 /// bottom up, so at most 256 are open, plus the sentinel in slot 0.
 const STACK_SLOTS: usize = 258;
@@ -275,7 +269,7 @@ impl TreeBuilder {
         // pixels, each at most once). `bottom[g]..top_of[g]` are level g's entries; the sink's
         // `bottom` never equals its top, so it stops the upward scan.
         let mut bottom = [0u32; SINK + 1];
-        let mut top_of = [0u32; SINK_TOP_SPARE + 1];
+        let mut top_of = [0u32; SINK + 1];
         let mut acc = SINK_SLOTS;
         for g in 0..SINK {
             bottom[g] = acc;
@@ -357,6 +351,7 @@ impl TreeBuilder {
                     unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
                     push(heap, &mut top_of, vs[i], ns[i]);
                 }
+                top_of[SINK] = 0;
                 add(order, &mut pos, cur);
                 if low == cur_level {
                     // A neighbour at the same level is the next pixel: the last one pushed
@@ -452,20 +447,17 @@ fn add(order: &mut [u32], pos: &mut u32, idx: u32) {
     *pos += 1;
 }
 
-/// Pushes the padded index `e` on top of level `g`'s stack; `g` is [`SINK`] for a reached
-/// pixel, whose entry is never read.
+/// Pushes the padded index `e` on top of level
+/// `g`'s stack; `g` is [`SINK`] for a reached pixel, whose entry is never read.
 #[inline(always)]
-fn push(heap: &mut [u32], top_of: &mut [u32; SINK_TOP_SPARE + 1], g: u32, e: u32) {
+fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
     debug_assert!(g as usize <= SINK);
     // SAFETY: `g` is a level or the sink (cells hold nothing else).
-    let t = unsafe { *top_of.get_unchecked(g as usize) };
-    debug_assert!((t as usize) < heap.len());
+    let t = unsafe { top_of.get_unchecked_mut(g as usize) };
+    debug_assert!((*t as usize) < heap.len());
     // SAFETY: level g's stack holds at most hist[g] entries, each a distinct pixel of level g
-    // waiting in the heap; the sink's top is always 0 (slot 0, overwritten by every push to it).
-    unsafe { *heap.get_unchecked_mut(t as usize) = e };
-    // The sink's advanced top goes to the spare entry (an index computed without a branch), so
-    // its own top is never written.
-    let at = g as usize + (g as usize == SINK) as usize;
-    // SAFETY: `at <= SINK_TOP_SPARE`.
-    unsafe { *top_of.get_unchecked_mut(at) = t + 1 };
+    // waiting in the heap; the sink takes at most the four pushes of one visit before it is
+    // reset.
+    unsafe { *heap.get_unchecked_mut(*t as usize) = e };
+    *t += 1;
 }
