@@ -103,6 +103,7 @@ struct Scratch {
     rows: Vec<f64>,
     prior: Vec<f64>,
     bump: Vec<f64>,
+    row: Vec<f64>,
     /// Per part: its rectangle, its mass and its values.
     parts: Vec<(Rect, f64, Vec<f64>)>,
     far: Vec<(usize, f64)>,
@@ -162,12 +163,6 @@ impl Active {
             }
         });
         a
-    }
-    fn iter(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.v[..self.n]
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| (self.k0 + i, v))
     }
     fn first(&self) -> usize {
         self.k0
@@ -424,32 +419,42 @@ impl WindowState {
         let kern = obs.flipped_kernel();
         let kw = (2 * ra + 1) as usize;
         let nc = rect.cols();
-        let bump = &mut self.scratch.bump;
-        bump.clear();
-        bump.resize(rect.rows() * nc, 0.0);
-        for (mx, vx) in det.ax.iter() {
-            let i_lo = (mx as i64 - ra).max(rect.a0 as i64);
-            let i_hi = (mx as i64 + ra + 1).min(rect.a1 as i64);
-            for (my, vy) in det.ay.iter() {
-                let c = det.w * vx * vy;
-                let j_lo = (my as i64 - ra).max(rect.b0 as i64);
-                let j_hi = (my as i64 + ra + 1).min(rect.b1 as i64);
-                if j_lo >= j_hi {
-                    continue;
-                }
-                let q0 = (j_lo - my as i64 + ra) as usize;
-                let n = (j_hi - j_lo) as usize;
-                for i in i_lo..i_hi {
-                    let p = (i - mx as i64 + ra) as usize;
-                    let krow = &kern[p * kw + q0..p * kw + q0 + n];
-                    let row = (i as usize - rect.a0) * nc + (j_lo as usize - rect.b0);
-                    for (b, &k) in bump[row..row + n].iter_mut().zip(krow) {
-                        *b += c * k;
-                    }
+        // Separably: G[p][q] = Σ_t v_y[t] F[p][q − t] on the kernel's rows (q over the bump's
+        // columns, first column m_y0 − ra), then bump row i = w · Σ_t v_x[t] G[i − m_x0 + ra − t].
+        let (kx0, ky0) = (det.ax.first() as i64 - ra, det.ay.first() as i64 - ra);
+        let ww = det.ay.n + kw - 1;
+        let g = &mut self.scratch.bump;
+        g.clear();
+        g.resize(kw * ww, 0.0);
+        for (krow, grow) in kern.chunks_exact(kw).zip(g.chunks_exact_mut(ww)) {
+            for (t, &c) in det.ay.v[..det.ay.n].iter().enumerate() {
+                for (x, &k) in grow[t..t + kw].iter_mut().zip(krow) {
+                    *x += c * k;
                 }
             }
         }
-        mul_sum(out, bump)
+        // Columns of the rect within the bump's columns.
+        let q0 = (rect.b0 as i64 - ky0) as usize;
+        let row_buf = &mut self.scratch.row;
+        let mut mass = 0.0;
+        for (i, orow) in (rect.a0..rect.a1).zip(out.chunks_exact_mut(nc.max(1))) {
+            let srow = i as i64 - kx0;
+            row_buf.clear();
+            row_buf.resize(nc, 0.0);
+            for (t, &vx) in det.ax.v[..det.ax.n].iter().enumerate() {
+                let p = srow - t as i64;
+                if p < 0 || p >= kw as i64 {
+                    continue;
+                }
+                let c = det.w * vx;
+                let grow = &g[p as usize * ww + q0..p as usize * ww + q0 + nc];
+                for (x, &k) in row_buf.iter_mut().zip(grow) {
+                    *x += c * k;
+                }
+            }
+            mass += mul_sum(orow, row_buf);
+        }
+        mass
     }
 
     /// One predict + update step. Validates and encodes every detection first: on error the
