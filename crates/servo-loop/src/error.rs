@@ -92,6 +92,16 @@ pub enum ServoError {
     Channel(#[from] chan_repr::ChanError),
 }
 
+impl ServoError {
+    /// [`ServoError::InvalidParameter`] for `name`, rejected because of `reason`.
+    pub(crate) fn invalid(name: &'static str, reason: &str) -> ServoError {
+        ServoError::InvalidParameter {
+            name,
+            reason: reason.into(),
+        }
+    }
+}
+
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, ServoError>;
 

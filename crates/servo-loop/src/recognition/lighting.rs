@@ -79,10 +79,12 @@ pub(crate) fn residual(img: &[f32], bg: &[f32], w: usize, h: usize, coef: [f64; 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn texture(w: usize, h: usize) -> Vec<f32> {
+    /// A deterministic texture in [85, 115] (a table's grain: ±15 %), shared by the
+    /// recognition tests.
+    pub(crate) fn texture(w: usize, h: usize) -> Vec<f32> {
         (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as f32, (i / w) as f32);

@@ -67,29 +67,32 @@ impl Default for RecognitionConfig {
 
 impl RecognitionConfig {
     fn validate(&self) -> Result<()> {
-        let bad = |name, reason: &str| {
-            Err(ServoError::InvalidParameter {
-                name,
-                reason: reason.into(),
-            })
-        };
         if self.block == 0 {
-            return bad("block", "must be at least 1");
+            return Err(ServoError::invalid("block", "must be at least 1"));
         }
         if self.orientations < 3 {
-            return bad("orientations", "must be at least 3");
+            return Err(ServoError::invalid("orientations", "must be at least 3"));
         }
         if !(self.magnitude_half.is_finite() && self.magnitude_half > 0.0) {
-            return bad("magnitude_half", "must be finite and positive");
+            return Err(ServoError::invalid(
+                "magnitude_half",
+                "must be finite and positive",
+            ));
         }
         if self.cells == 0 || self.prototypes == 0 {
-            return bad("cells", "cells and prototypes must be at least 1");
+            return Err(ServoError::invalid(
+                "cells",
+                "cells and prototypes must be at least 1",
+            ));
         }
         if !(0.0..=1.0).contains(&self.min_certainty) {
-            return bad("min_certainty", "must lie in [0, 1]");
+            return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
         }
         if !(self.search_radius.is_finite() && self.search_radius > 0.0) {
-            return bad("search_radius", "must be finite and positive");
+            return Err(ServoError::invalid(
+                "search_radius",
+                "must be finite and positive",
+            ));
         }
         Ok(())
     }

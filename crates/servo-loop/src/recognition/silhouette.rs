@@ -80,20 +80,20 @@ impl Default for SilhouetteConfig {
 
 impl SilhouetteConfig {
     fn validate(&self) -> Result<()> {
-        let bad = |name, reason: &str| {
-            Err(ServoError::InvalidParameter {
-                name,
-                reason: reason.into(),
-            })
-        };
         if !(self.noise_multiple.is_finite() && self.noise_multiple > 0.0) {
-            return bad("noise_multiple", "must be finite and positive");
+            return Err(ServoError::invalid(
+                "noise_multiple",
+                "must be finite and positive",
+            ));
         }
         if !(self.min_threshold.is_finite() && self.min_threshold >= 0.0) {
-            return bad("min_threshold", "must be finite and non-negative");
+            return Err(ServoError::invalid(
+                "min_threshold",
+                "must be finite and non-negative",
+            ));
         }
         if !(0.0..=1.0).contains(&self.min_certainty) {
-            return bad("min_certainty", "must lie in [0, 1]");
+            return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
         }
         Ok(())
     }
@@ -699,16 +699,7 @@ fn pixel_median(frames: &[Vec<f32>], n: usize, gains: Option<&[Vec<f32>]>) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A deterministic texture in [85, 115] (a table's grain: ±15 %).
-    fn texture(w: usize, h: usize) -> Vec<f32> {
-        (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f32, (i / w) as f32);
-                100.0 + 10.0 * (x / 3.1).sin() * (y / 4.7).cos() + 5.0 * ((x + 2.0 * y) / 9.0).sin()
-            })
-            .collect()
-    }
+    use crate::recognition::lighting::tests::texture;
 
     fn scene(bg: Vec<f32>, w: usize, h: usize, root: [f64; 2]) -> TipModel {
         TipModel {
