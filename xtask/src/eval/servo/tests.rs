@@ -4,15 +4,22 @@ use arm_sim::SimConfig;
 
 use super::{PerceptMode, Protocol, report, run_study};
 
+/// A small study: `moves` training moves (learning curve at 100 and `moves`, 10 targets),
+/// `targets` targets, control only (true tip + noise: the recognised pipeline runs in
+/// `cargo xtask eval servo`).
+fn small_protocol(seed: u64, moves: usize, targets: usize) -> Protocol {
+    let mut p = Protocol::default_for(seed);
+    p.training_moves = moves;
+    p.curve_moves = vec![100, moves];
+    p.curve_targets = 10;
+    p.targets = targets;
+    p.percept = PerceptMode::Simulated;
+    p
+}
+
 #[test]
 fn small_study_summary_snapshot() {
-    let mut p = Protocol::default_for(7);
-    p.training_moves = 300;
-    p.curve_moves = vec![100, 300];
-    p.curve_targets = 10;
-    p.targets = 20;
-    // Control only (true tip + noise): the recognised pipeline runs in `cargo xtask eval servo`.
-    p.percept = PerceptMode::Simulated;
+    let p = small_protocol(7, 300, 20);
     let study = run_study(&SimConfig::default(), &p, false, false, None).unwrap();
     let text = report::summary(&study);
     // The loop must improve on open loop.
@@ -24,12 +31,7 @@ fn small_study_summary_snapshot() {
 /// The parallel jobs (methods × target chunks) give the same numbers on one thread as on many.
 #[test]
 fn study_is_independent_of_the_thread_count() {
-    let mut p = Protocol::default_for(11);
-    p.training_moves = 200;
-    p.curve_moves = vec![100, 200];
-    p.curve_targets = 10;
-    p.targets = 60;
-    p.percept = PerceptMode::Simulated;
+    let p = small_protocol(11, 200, 60);
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
