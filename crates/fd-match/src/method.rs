@@ -107,17 +107,22 @@ impl PairError {
         j: usize,
         max_error: f64,
     ) -> Option<(f64, Option<Alignment>)> {
-        if self.method == Method::FdCorr {
-            let c = self.corr.correlate_known(
-                a.fd(i),
-                b.fd(j),
-                a.magnitudes(i),
-                b.magnitudes(j),
-                max_error,
-            )?;
-            return Some((c.error, Some(c.alignment)));
-        }
-        Some(self.eval(a, i, b, j))
+        Some(match self.method {
+            Method::FdCorr => {
+                let c = self.corr.correlate_known(
+                    a.fd(i),
+                    b.fd(j),
+                    a.magnitudes(i),
+                    b.magnitudes(j),
+                    max_error,
+                )?;
+                (c.error, Some(c.alignment))
+            }
+            Method::AbsFdSsd => (ssd_real(a.magnitudes(i), b.magnitudes(j)), None),
+            Method::Afd0Ssd => (ssd_real(a.afd0(i), b.afd0(j)), None),
+            Method::Afd1Ssd => (ssd_complex(a.afd1(i), b.afd1(j)), None),
+            Method::FdSsd => (ssd_complex(a.fd(i), b.fd(j)), None),
+        })
     }
 
     /// Error between descriptor `i` of `a` and `j` of `b` (same configuration).
@@ -129,24 +134,7 @@ impl PairError {
         b: &DescriptorSet,
         j: usize,
     ) -> (f64, Option<Alignment>) {
-        match self.method {
-            Method::FdCorr => {
-                let c = self
-                    .corr
-                    .correlate_known(
-                        a.fd(i),
-                        b.fd(j),
-                        a.magnitudes(i),
-                        b.magnitudes(j),
-                        f64::INFINITY,
-                    )
-                    .expect("every error is below infinity");
-                (c.error, Some(c.alignment))
-            }
-            Method::AbsFdSsd => (ssd_real(a.magnitudes(i), b.magnitudes(j)), None),
-            Method::Afd0Ssd => (ssd_real(a.afd0(i), b.afd0(j)), None),
-            Method::Afd1Ssd => (ssd_complex(a.afd1(i), b.afd1(j)), None),
-            Method::FdSsd => (ssd_complex(a.fd(i), b.fd(j)), None),
-        }
+        self.eval_below(a, i, b, j, f64::INFINITY)
+            .expect("every error is below infinity")
     }
 }

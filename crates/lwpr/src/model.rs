@@ -479,10 +479,9 @@ impl Lwpr {
     }
 
     /// Prediction of output `dim` at normalised `xn` (`xc` scratch of length 2n); returns
-    /// `(ŷ, max activation)` in normalised units.
+    /// `(ŷ, max activation)` in normalised units, the activation exact only when `need_max`
+    /// (otherwise the exponential is skipped for fields too far away to pass `cutoff`).
     #[inline(always)]
-    /// Prediction of output `dim` and its largest activation (exact only when `need_max`;
-    /// otherwise the exponential is skipped for fields too far away to pass `cutoff`).
     fn predict_dim(
         &self,
         dim: usize,
