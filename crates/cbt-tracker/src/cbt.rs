@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
+use crate::integrity::{len, nonneg};
 use crate::model::{History, ObservationModel, SystemModel};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
 use crate::window::{Patch, WindowState};
@@ -25,7 +26,12 @@ use crate::{CbtModel, Detection, Point, TrackError};
 ///    `q⁺ ∝ ℓ ⊙ q⁻`; no detection leaves `q⁺ = q⁻`.
 /// 3. **estimate**: the posterior decoded with `chan-repr`'s local decoder
 ///    ([`chan_repr::ChannelGrid::decode`]): best mode, certainty = its window mass, runner-ups.
+///
+/// A tracker read back with serde is validated: its model as [`CbtModel`] is, and its
+/// posterior's sizes against the model's space, its values finite and non-negative
+/// ([`TrackError::Corrupt`] otherwise).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CbtTrackerRaw")]
 pub struct CbtTracker {
     model: CbtModel,
     name: String,
@@ -45,6 +51,56 @@ pub struct CbtTracker {
     history: History,
     #[serde(skip)]
     scratch: Scratch,
+}
+
+/// A [`CbtTracker`] as read, before its consistency check.
+#[derive(Deserialize)]
+struct CbtTrackerRaw {
+    model: CbtModel,
+    name: String,
+    post: Vec<f64>,
+    prev: Vec<f64>,
+    marg: Vec<Vec<f64>>,
+    marg_prev: Vec<Vec<f64>>,
+    self_learning: bool,
+    #[serde(default)]
+    win: WindowState,
+}
+
+impl TryFrom<CbtTrackerRaw> for CbtTracker {
+    type Error = TrackError;
+
+    fn try_from(raw: CbtTrackerRaw) -> Result<Self, TrackError> {
+        let mut t = CbtTracker {
+            model: raw.model,
+            name: raw.name,
+            post: raw.post,
+            prev: raw.prev,
+            marg: raw.marg,
+            marg_prev: raw.marg_prev,
+            self_learning: raw.self_learning,
+            win: raw.win,
+            history: History::default(),
+            scratch: Scratch::default(),
+        };
+        let space = t.model.space();
+        if t.is_stationary() {
+            t.win.check(space)?;
+        } else {
+            for (what, v) in [("posterior", &t.post), ("previous posterior", &t.prev)] {
+                len(what, v.len(), space.cells())?;
+                nonneg(what, v)?;
+            }
+        }
+        for (what, m) in [("marginals", &t.marg), ("previous marginals", &t.marg_prev)] {
+            len(what, m.len(), space.dims())?;
+            for (d, v) in m.iter().enumerate() {
+                len(what, v.len(), space.axis_len(d))?;
+                nonneg(what, v)?;
+            }
+        }
+        Ok(t)
+    }
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -253,7 +309,11 @@ impl CbtTracker {
                 Order::Second => s.predict2(space, &self.post, &self.prev, &cfg, prior),
                 Order::First => s.predict1(space, &self.post, &cfg, prior),
             },
-            SystemModel::Stationary(_) => unreachable!("the stationary layout predicts in window"),
+            SystemModel::Stationary(sys) => {
+                // Held on a window: the dense prior of its next step (normalised).
+                *prior = self.win.clone().dense_prior(space, &cfg, sys);
+                return;
+            }
         }
         let total: f64 = prior.iter().sum();
         let gamma = cfg.mixing;
@@ -333,7 +393,11 @@ impl CbtTracker {
                 }
             }
             ObservationModel::Stationary(_) => {
-                unreachable!("the stationary layout updates in window")
+                // `filter` updates the stationary layout in its window; a model whose system
+                // layout differs is rejected when it is built or read.
+                return Err(TrackError::Mismatch(
+                    "the stationary observation model needs the stationary system model".into(),
+                ));
             }
             ObservationModel::Joint(o) => {
                 // `z.joint` holds every detection's weighted joint encoding; the likelihood

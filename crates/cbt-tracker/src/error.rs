@@ -60,6 +60,10 @@ pub enum TrackError {
     /// Two models or a model and a tracker that do not belong together.
     #[error("mismatch: {0}")]
     Mismatch(String),
+    /// A deserialised model or tracker whose parts do not fit together (layouts, sizes against
+    /// its space, non-finite or negative values): a corrupted or hand-edited file.
+    #[error("corrupt model or tracker: {0}")]
+    Corrupt(String),
     /// A malformed sequence file, with the line (1-based) where it went wrong.
     #[error("{}:{line}: {reason}", path.display())]
     Csv {

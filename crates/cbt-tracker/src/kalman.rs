@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::calibrate::Calibration;
 use crate::error::positive;
+use crate::integrity::finite;
 use crate::tracker::{Estimate, Tracker};
 use crate::{Detection, Point, TrackError};
 
@@ -53,7 +54,11 @@ impl KalmanParams {
 /// `ν = z − H x⁻` has `νᵀ S⁻¹ ν ≤ gate` (`S = H P⁻ Hᵀ + R`) the closest is used:
 /// `K = P⁻ Hᵀ S⁻¹`, `x = x⁻ + K ν`, `P = P⁻ − K H P⁻` (the form of OpenCV's
 /// `KalmanFilter::correct`). No gated detection: `x = x⁻`, `P = P⁻`.
+///
+/// A filter read back with serde is validated (parameters, finite state and matrices):
+/// [`TrackError::Corrupt`] otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "KalmanRaw")]
 pub struct KalmanTracker {
     params: KalmanParams,
     x: Vector4<f64>,
@@ -62,6 +67,41 @@ pub struct KalmanTracker {
     q: Matrix4<f64>,
     h: Matrix2x4<f64>,
     r: Matrix2<f64>,
+}
+
+/// A [`KalmanTracker`] as read, before its consistency check.
+#[derive(Deserialize)]
+struct KalmanRaw {
+    params: KalmanParams,
+    x: Vector4<f64>,
+    p: Matrix4<f64>,
+    f: Matrix4<f64>,
+    q: Matrix4<f64>,
+    h: Matrix2x4<f64>,
+    r: Matrix2<f64>,
+}
+
+impl TryFrom<KalmanRaw> for KalmanTracker {
+    type Error = TrackError;
+
+    fn try_from(k: KalmanRaw) -> Result<Self, TrackError> {
+        k.params.validate()?;
+        finite("Kalman state", k.x.as_slice())?;
+        finite("Kalman covariance", k.p.as_slice())?;
+        finite("Kalman transition", k.f.as_slice())?;
+        finite("Kalman process noise", k.q.as_slice())?;
+        finite("Kalman measurement matrix", k.h.as_slice())?;
+        finite("Kalman measurement noise", k.r.as_slice())?;
+        Ok(KalmanTracker {
+            params: k.params,
+            x: k.x,
+            p: k.p,
+            f: k.f,
+            q: k.q,
+            h: k.h,
+            r: k.r,
+        })
+    }
 }
 
 impl KalmanTracker {

@@ -51,6 +51,14 @@
 //! `(1 − P_D) + P_D/λ · Σ_i N(z_i; h(x), R)` (for one detection and `λ = 1/area`, the
 //! `P_D·N + (1 − P_D)/area` of the issue, up to a constant factor).
 //!
+//! ## Saving and loading
+//! [`CbtModel`], [`CbtTracker`], [`KalmanTracker`] and [`ParticleFilter`] serialise with serde.
+//! Reading one back validates it as a whole — the configuration, that the observation and
+//! system models have the configured layout, every matrix, tensor, kernel and window against
+//! the [`Space`], every value finite and non-negative — so a corrupted or hand-edited file is
+//! a [`TrackError::Corrupt`] (or the configuration's [`TrackError::InvalidParameter`]) from
+//! the deserialiser, never a panic in a later step.
+//!
 //! ## Data
 //! [`sim`]: the synthetic RC-car-following generator (papers.md §2.5) and the univariate
 //! non-stationary growth model of Arulampalam et al. (§2.4); [`csv`]: the plain
@@ -80,6 +88,7 @@ mod data;
 mod decode;
 mod encode;
 mod error;
+mod integrity;
 mod kalman;
 pub mod metrics;
 mod model;

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Layout, Order, SystemFallback};
 use crate::encode::{Encoded, encode_detections, encode_states};
+use crate::integrity::{corrupt, len};
 use crate::observation::{AxisObservation, JointObservation};
 use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
 use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
@@ -56,13 +57,111 @@ pub struct LearnStats {
 /// let model = CbtModel::learn(space, CbtConfig::default(), &[frames]).unwrap();
 /// assert_eq!(model.stats().triples, 28);
 /// ```
+///
+/// A model read back with serde is validated as a whole (its configuration, that both models
+/// have the configured layout, every size against the space, every value finite and
+/// non-negative): a corrupted or hand-edited file is a [`TrackError::Corrupt`] (or the
+/// configuration's [`TrackError::InvalidParameter`]) in the deserialiser's error, never a
+/// panic later in the filter.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CbtModelRaw")]
 pub struct CbtModel {
     space: Space,
     config: CbtConfig,
     pub(crate) obs: ObservationModel,
     pub(crate) sys: SystemModel,
     stats: LearnStats,
+}
+
+/// A [`CbtModel`] as read, before its consistency check.
+#[derive(Deserialize)]
+struct CbtModelRaw {
+    space: Space,
+    config: CbtConfig,
+    obs: ObservationModel,
+    sys: SystemModel,
+    stats: LearnStats,
+}
+
+impl TryFrom<CbtModelRaw> for CbtModel {
+    type Error = TrackError;
+
+    fn try_from(raw: CbtModelRaw) -> Result<Self, TrackError> {
+        let CbtModelRaw {
+            space,
+            config,
+            mut obs,
+            mut sys,
+            stats,
+        } = raw;
+        config.validate()?;
+        let layout = |l: Layout| {
+            corrupt(format!(
+                "a {:?} model in a file configured for the {:?} layout",
+                l, config.layout
+            ))
+        };
+        let dims = space.dims();
+        match &mut obs {
+            ObservationModel::Separable(axes) if config.layout == Layout::Separable => {
+                len("separable observation axes", axes.len(), dims)?;
+                for (d, o) in axes.iter().enumerate() {
+                    o.check(&space, d)?;
+                }
+            }
+            ObservationModel::Joint(o) if config.layout == Layout::SparseJoint => {
+                o.check(&space)?
+            }
+            ObservationModel::Stationary(o) if config.layout == Layout::Stationary => {
+                check_space(&space)?;
+                o.check(&space)?;
+            }
+            ObservationModel::Separable(_) => return Err(layout(Layout::Separable)),
+            ObservationModel::Joint(_) => return Err(layout(Layout::SparseJoint)),
+            ObservationModel::Stationary(_) => return Err(layout(Layout::Stationary)),
+        }
+        let second_order = config.order == Order::Second;
+        match &mut sys {
+            SystemModel::Separable { first, second } if config.layout == Layout::Separable => {
+                len("first-order axes", first.len(), dims)?;
+                for (d, s) in first.iter().enumerate() {
+                    s.check(space.axis_len(d))?;
+                }
+                match second {
+                    Some(second) if second_order => {
+                        len("second-order axes", second.len(), dims)?;
+                        for (d, s) in second.iter().enumerate() {
+                            s.check(space.axis_len(d))?;
+                        }
+                    }
+                    None if !second_order => {}
+                    _ => {
+                        return Err(corrupt(
+                            "the second-order tensors do not match the configured order",
+                        ));
+                    }
+                }
+            }
+            SystemModel::Joint(s) if config.layout == Layout::SparseJoint => {
+                s.check(&space, second_order)?;
+                s.prepare(&space, &config);
+            }
+            SystemModel::Stationary(s) if config.layout == Layout::Stationary => {
+                len("displacement model axes", s.len(), dims)?;
+                s.iter().try_for_each(StatSystem::check)?;
+            }
+            SystemModel::Separable { .. } => return Err(layout(Layout::Separable)),
+            SystemModel::Joint(_) => return Err(layout(Layout::SparseJoint)),
+            SystemModel::Stationary(_) => return Err(layout(Layout::Stationary)),
+        }
+        Ok(CbtModel {
+            space,
+            config,
+            obs,
+            sys,
+            stats,
+        })
+    }
 }
 
 /// The encodings of the last two frames' states, chaining transitions across

@@ -14,9 +14,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::Space;
 use crate::config::{CbtConfig, Clutter, ObservationFallback};
 use crate::encode::Encoded;
+use crate::integrity::{corrupt, len, nonneg, nonneg1, sparse};
+use crate::{Space, TrackError};
 
 /// Marginal statistics for the clutter background (shared by both layouts).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -55,6 +56,18 @@ impl Background {
         self.pair_mass += sz * sx;
         self.pairs += n_states * w_dets;
         self.wrong += n_states * (w_dets - w_dets.min(1.0));
+    }
+
+    /// Consistency of a deserialised background with `nz` measurement and `nx` state cells.
+    fn check(&self, nz: usize, nx: usize) -> Result<(), TrackError> {
+        len("observation background (detections)", self.zsum.len(), nz)?;
+        len("observation background (states)", self.xsum.len(), nx)?;
+        nonneg("observation background (detections)", &self.zsum)?;
+        nonneg("observation background (states)", &self.xsum)?;
+        for v in [self.pair_mass, self.pairs, self.wrong] {
+            nonneg1("observation background mass", v)?;
+        }
+        Ok(())
     }
 
     /// The learned share `π` of wrong (clutter) pairs among all detection–state pairs.
@@ -110,6 +123,29 @@ impl AxisObservation {
         };
         o.normalise_all(cfg);
         o
+    }
+
+    /// Consistency of a deserialised model with axis `d` of `space`.
+    pub fn check(&self, space: &Space, d: usize) -> Result<(), TrackError> {
+        if (self.nz, self.nx) != (space.meas_len(d), space.axis_len(d)) {
+            return Err(corrupt(format!(
+                "observation model of axis {d} is {}×{}, the space has {}×{} channels",
+                self.nz,
+                self.nx,
+                space.meas_len(d),
+                space.axis_len(d)
+            )));
+        }
+        let n = self.nz * self.nx;
+        for (what, v) in [
+            ("observation counts", &self.counts),
+            ("observation fallback", &self.fallback),
+            ("observation model", &self.model),
+        ] {
+            len(what, v.len(), n)?;
+            nonneg(what, v)?;
+        }
+        self.background.check(self.nz, self.nx)
     }
 
     /// Adds the pairs of one frame's encoded detections and states on this axis.
@@ -265,6 +301,31 @@ impl JointObservation {
         };
         o.normalise(cfg);
         o
+    }
+
+    /// Consistency of a deserialised model with `space`.
+    pub fn check(&self, space: &Space) -> Result<(), TrackError> {
+        let gz: usize = (0..space.dims()).map(|d| space.meas_len(d)).product();
+        len("joint observation rows", self.rows.len(), gz)?;
+        len(
+            "joint observation fallback rows",
+            self.fallback_rows.len(),
+            gz,
+        )?;
+        len(
+            "joint observation normalisers",
+            self.inv.len(),
+            space.cells(),
+        )?;
+        if (self.gz, self.gx) != (gz, space.cells()) {
+            return Err(corrupt("joint observation model sized for another space"));
+        }
+        for row in self.rows.iter().chain(&self.fallback_rows) {
+            sparse("joint observation row", row, self.gx)?;
+        }
+        nonneg("joint observation normalisers", &self.inv)?;
+        nonneg1("joint observation background factor", self.k)?;
+        self.background.check(self.gz, self.gx)
     }
 
     pub fn add(&mut self, z: &Encoded, x: &Encoded) {

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::calibrate::Calibration;
 use crate::error::{positive, unit};
+use crate::integrity::{corrupt, finite, len, nonneg};
 use crate::tracker::{Estimate, Tracker};
 use crate::{Detection, Point, TrackError};
 
@@ -104,7 +105,11 @@ impl PfModel {
 /// A SIR particle filter with `n` particles, systematic resampling after every update and a
 /// seeded generator (`Xoshiro256++`, serialised with the filter, so a reloaded filter
 /// continues the same random sequence).
+///
+/// A filter read back with serde is validated (model parameters, at least one particle, as
+/// many weights as particles, finite values): [`TrackError::Corrupt`] otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ParticleFilterRaw")]
 pub struct ParticleFilter {
     model: PfModel,
     particles: Vec<[f64; 4]>,
@@ -114,6 +119,44 @@ pub struct ParticleFilter {
     /// Time index of the current estimate (UNGM's `k`).
     k: u64,
     estimate: Point,
+}
+
+/// A [`ParticleFilter`] as read, before its consistency check.
+#[derive(Deserialize)]
+struct ParticleFilterRaw {
+    model: PfModel,
+    particles: Vec<[f64; 4]>,
+    weights: Vec<f64>,
+    logw: Vec<f64>,
+    rng: Xoshiro256PlusPlus,
+    k: u64,
+    estimate: Point,
+}
+
+impl TryFrom<ParticleFilterRaw> for ParticleFilter {
+    type Error = TrackError;
+
+    fn try_from(r: ParticleFilterRaw) -> Result<Self, TrackError> {
+        r.model.validate()?;
+        if r.particles.is_empty() {
+            return Err(corrupt("a particle filter without particles"));
+        }
+        len("particle weights", r.weights.len(), r.particles.len())?;
+        len("particle log-weights", r.logw.len(), r.particles.len())?;
+        nonneg("particle weights", &r.weights)?;
+        finite("particles", r.particles.as_flattened())?;
+        finite("estimate", &r.estimate)?;
+        // Log-weights are scratch (rewritten before every use); −∞ is a valid value.
+        Ok(ParticleFilter {
+            model: r.model,
+            particles: r.particles,
+            weights: r.weights,
+            logw: r.logw,
+            rng: r.rng,
+            k: r.k,
+            estimate: r.estimate,
+        })
+    }
 }
 
 impl ParticleFilter {

@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, SystemFallback};
 use crate::encode::Encoded;
+use crate::integrity::{corrupt, len, nonneg, nonneg1};
 use crate::{Space, TrackError};
 
 /// Width (channels) of the ring beyond the observation kernel that measures the clutter floor.
@@ -115,6 +116,64 @@ impl StatObservation {
         };
         o.normalise(cfg);
         o
+    }
+
+    /// Consistency of a deserialised model with `space`; fills the fields older files lack
+    /// (`exposure`: zeros, as [`Self::normalise`] reads a missing one; `len`: the space's).
+    pub fn check(&mut self, space: &Space) -> Result<(), TrackError> {
+        let ro = self.radius + RING;
+        if self.radius == 0 || ro > 1000 {
+            return Err(corrupt(format!(
+                "observation kernel radius {} outside 1..=996",
+                self.radius
+            )));
+        }
+        let n = (2 * ro + 1) * (2 * ro + 1);
+        if self.exposure.is_empty() {
+            self.exposure = vec![0.0; n];
+        }
+        if self.len == [0, 0] {
+            self.len = [space.meas_len(0), space.meas_len(1)];
+        }
+        len("observation measurement cells", self.cells, space.cells())?;
+        if self.len != [space.meas_len(0), space.meas_len(1)] {
+            return Err(corrupt(format!(
+                "observation model of a {:?}-channel grid, the space has {:?}",
+                self.len,
+                [space.meas_len(0), space.meas_len(1)]
+            )));
+        }
+        for (what, v) in [
+            ("observation counts", &self.counts),
+            ("observation exposure", &self.exposure),
+        ] {
+            len(what, v.len(), n)?;
+            nonneg(what, v)?;
+        }
+        if self.ra > self.radius {
+            return Err(corrupt(format!(
+                "truncated kernel radius {} beyond the kernel radius {}",
+                self.ra, self.radius
+            )));
+        }
+        let k = (2 * self.ra + 1) * (2 * self.ra + 1);
+        len("observation kernel", self.kernel.len(), k)?;
+        nonneg("observation kernel", &self.kernel)?;
+        if !self.flipped.iter().eq(self.kernel.iter().rev()) {
+            return Err(corrupt(
+                "the reflected observation kernel is not the kernel's",
+            ));
+        }
+        for v in [self.norm, self.background, self.floor] {
+            nonneg1("observation statistic", v)?;
+        }
+        if !(0.0..=1.0).contains(&self.p_detect) {
+            return Err(corrupt(format!(
+                "detection probability {} outside [0, 1]",
+                self.p_detect
+            )));
+        }
+        Ok(())
     }
 
     /// Adds every (detection, state) pair of one frame.
@@ -339,6 +398,26 @@ impl StatSystem {
         };
         s.normalise(cfg);
         s
+    }
+
+    /// Consistency of a deserialised model.
+    pub fn check(&self) -> Result<(), TrackError> {
+        let w = self
+            .r
+            .checked_mul(2)
+            .and_then(|v| v.checked_add(1))
+            .filter(|&w| w <= 1 << 15)
+            .ok_or_else(|| corrupt(format!("displacement radius {} too large", self.r)))?;
+        for (what, v, n) in [
+            ("first-order displacement counts", &self.c1, w),
+            ("first-order displacement model", &self.s1, w),
+            ("second-order displacement counts", &self.c2, w * w),
+            ("second-order displacement model", &self.t, w * w),
+        ] {
+            len(what, v.len(), n)?;
+            nonneg(what, v)?;
+        }
+        Ok(())
     }
 
     /// Radius `r`.

@@ -23,9 +23,10 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::Space;
 use crate::config::{CbtConfig, SystemFallback};
+use crate::integrity::{corrupt, len, nonneg, nonneg1, sparse};
 use crate::observation::{add_sorted, split};
+use crate::{Space, TrackError};
 
 /// Normalised Gaussian column of `n` cells around integer `centre`, truncated at 3σ:
 /// `(first index, values)`.
@@ -67,6 +68,19 @@ impl AxisSystem1 {
         };
         s.normalise_columns(&(0..n).collect::<Vec<_>>(), cfg);
         s
+    }
+
+    /// Consistency of a deserialised model with an axis of `n` channels.
+    pub fn check(&self, n: usize) -> Result<(), TrackError> {
+        len("first-order model", self.n, n)?;
+        for (what, v) in [
+            ("first-order counts", &self.counts),
+            ("first-order model", &self.model),
+        ] {
+            len(what, v.len(), n * n)?;
+            nonneg(what, v)?;
+        }
+        Ok(())
     }
 
     /// Adds `a_t ⊗ a_{t−1}`.
@@ -146,6 +160,30 @@ impl AxisSystem2 {
         };
         s.normalise_columns(&(0..n * n).collect::<Vec<_>>(), cfg, first);
         s
+    }
+
+    /// Consistency of a deserialised model with an axis of `n` channels.
+    pub fn check(&self, n: usize) -> Result<(), TrackError> {
+        len("second-order model", self.n, n)?;
+        for (what, v) in [
+            ("second-order counts", &self.counts),
+            ("second-order model", &self.model),
+        ] {
+            len(what, v.len(), n * n * n)?;
+            nonneg(what, v)?;
+        }
+        len("second-order bands", self.band.len(), n * n)?;
+        if let Some(c) = self
+            .band
+            .iter()
+            .position(|&(lo, hi)| lo > hi || hi as usize > n)
+        {
+            return Err(corrupt(format!(
+                "second-order band of column {c} is {:?}, outside 0..={n}",
+                self.band[c]
+            )));
+        }
+        Ok(())
     }
 
     /// Adds `a_t ⊗ a_{t−1} ⊗ a_{t−2}`; returns the touched columns `o·N + n`.
@@ -297,6 +335,32 @@ impl JointSystem {
             order2,
             gauss: axis_gaussians(space, cfg.fallback_sigma),
         }
+    }
+
+    /// Consistency of a deserialised model with `space` (the cached fallback Gaussians are
+    /// rebuilt by [`Self::prepare`], not checked).
+    pub fn check(&self, space: &Space, order2: bool) -> Result<(), TrackError> {
+        let g = space.cells();
+        len("joint system model", self.cells, g)?;
+        len("joint first-order columns", self.first.len(), g)?;
+        if self.order2 != order2 {
+            return Err(corrupt(
+                "joint system model of another order than its configuration",
+            ));
+        }
+        let cols = self.first.iter().map(|c| (None, c));
+        let cols = cols.chain(self.second.iter().map(|(k, c)| (Some(*k), c)));
+        for (key, c) in cols {
+            if key.is_some_and(|k| k >= (g as u64) * (g as u64)) {
+                return Err(corrupt(format!(
+                    "joint second-order column key {} beyond the grid's {g}² pairs",
+                    key.unwrap_or(0)
+                )));
+            }
+            nonneg1("joint system column mass", c.mass)?;
+            sparse("joint system column", &c.entries, g)?;
+        }
+        Ok(())
     }
 
     /// Rebuilds caches after deserialisation.

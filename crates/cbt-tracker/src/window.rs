@@ -28,6 +28,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Order};
+use crate::integrity::{corrupt, len, nonneg};
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Space, TrackError};
@@ -251,6 +252,39 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
 }
 
 impl WindowState {
+    /// Consistency of a deserialised window with `space`; the current marginals, which older
+    /// files lack, are recomputed from the posterior when missing.
+    pub fn check(&mut self, space: &Space) -> Result<(), TrackError> {
+        let p = &self.post;
+        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+        if p.h == 0 || p.w == 0 || p.i0 + p.h > nx || p.j0 + p.w > ny {
+            return Err(corrupt(format!(
+                "posterior window {}×{} at ({}, {}) does not fit the {nx}×{ny} grid",
+                p.h, p.w, p.i0, p.j0
+            )));
+        }
+        len("posterior window", p.v.len(), p.h * p.w)?;
+        nonneg("posterior window", &p.v)?;
+        if p.v.iter().sum::<f64>() <= 0.0 {
+            return Err(corrupt("the posterior window has no mass"));
+        }
+        if self.cur[0].1.is_empty() && self.cur[1].1.is_empty() {
+            self.cur = marginals(&self.post);
+        }
+        for (what, m) in [("previous", &self.prev), ("current", &self.cur)] {
+            for (d, (o, v)) in m.iter().enumerate() {
+                if o + v.len() > space.axis_len(d) {
+                    return Err(corrupt(format!(
+                        "{what} marginal of axis {d} ({} cells from {o}) beyond the grid",
+                        v.len()
+                    )));
+                }
+                nonneg("posterior marginal", v)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Starts from a joint density given on a patch (normalised, cropped here).
     pub fn start(&mut self, mut p: Patch) {
         let s: f64 = p.v.iter().sum();

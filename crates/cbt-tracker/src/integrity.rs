@@ -1,0 +1,90 @@
+//! Consistency checks of deserialised models and trackers: a model or tracker read back with
+//! serde is validated as a whole (layouts, sizes against its [`Space`](crate::Space),
+//! finiteness, non-negativity) before it can be used, so a corrupted or hand-edited file gives
+//! [`TrackError::Corrupt`] instead of a panic or a silent wrong answer in the filter.
+
+use crate::TrackError;
+
+/// A [`TrackError::Corrupt`] naming what is wrong.
+pub(crate) fn corrupt(what: impl Into<String>) -> TrackError {
+    TrackError::Corrupt(what.into())
+}
+
+/// Checks that `what` has `want` entries.
+pub(crate) fn len(what: &str, got: usize, want: usize) -> Result<(), TrackError> {
+    if got == want {
+        Ok(())
+    } else {
+        Err(corrupt(format!(
+            "{what} has {got} entries, expected {want}"
+        )))
+    }
+}
+
+/// Checks that every value is finite and non-negative.
+pub(crate) fn nonneg(what: &str, v: &[f64]) -> Result<(), TrackError> {
+    match v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+        None => Ok(()),
+        Some(i) => Err(corrupt(format!(
+            "{what}[{i}] = {} is not a finite non-negative number",
+            v[i]
+        ))),
+    }
+}
+
+/// Checks that one value is finite and non-negative.
+pub(crate) fn nonneg1(what: &str, v: f64) -> Result<(), TrackError> {
+    nonneg(what, &[v])
+}
+
+/// Checks that every value is finite.
+pub(crate) fn finite(what: &str, v: &[f64]) -> Result<(), TrackError> {
+    match v.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(corrupt(format!("{what}[{i}] = {} is not finite", v[i]))),
+    }
+}
+
+/// Checks sparse `(index, value)` entries: indices below `bound`, values finite and
+/// non-negative.
+pub(crate) fn sparse(what: &str, v: &[(u32, f64)], bound: usize) -> Result<(), TrackError> {
+    for &(i, x) in v {
+        if i as usize >= bound {
+            return Err(corrupt(format!(
+                "{what} has index {i}, beyond its {bound} cells"
+            )));
+        }
+        nonneg1(what, x)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    // JSON cannot carry NaN or ∞, but other serde formats can: the checks reject them.
+    #[test]
+    fn non_finite_and_negative_values_are_corrupt() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -1e-300] {
+            assert!(matches!(
+                nonneg("v", &[0.0, bad]),
+                Err(TrackError::Corrupt(_))
+            ));
+            assert!(matches!(nonneg1("v", bad), Err(TrackError::Corrupt(_))));
+            assert!(matches!(
+                sparse("v", &[(0, bad)], 1),
+                Err(TrackError::Corrupt(_))
+            ));
+        }
+        for bad in [f64::NAN, f64::INFINITY] {
+            assert!(matches!(finite("v", &[bad]), Err(TrackError::Corrupt(_))));
+        }
+        assert!(finite("v", &[-3.0, 0.0]).is_ok() && nonneg("v", &[0.0, 2.0]).is_ok());
+        assert!(matches!(
+            sparse("v", &[(3, 1.0)], 3),
+            Err(TrackError::Corrupt(_))
+        ));
+        assert!(len("v", 3, 3).is_ok() && len("v", 2, 3).is_err());
+    }
+}
