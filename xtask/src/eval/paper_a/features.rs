@@ -11,7 +11,7 @@
 use image::GrayImage;
 use mser::{GrayView, MserParams};
 
-use super::overlap::Ellipse;
+use super::overlap::{Ellipse, from_covariance};
 
 /// The regions of one image, index-aligned: region `i` has `ellipses[i]` and `contours[i]`.
 #[derive(Debug, Clone, Default)]
@@ -36,7 +36,7 @@ pub fn detect(img: &GrayImage, params: &MserParams) -> crate::Result<Features> {
     let mut out = Features::default();
     for r in &regions {
         let (u, v) = r.centroid();
-        let ellipse = Ellipse::from_covariance(u, v, r.moments.area_covariance())?;
+        let ellipse = from_covariance(u, v, r.moments.area_covariance())?;
         out.ellipses.push(ellipse);
         out.contours.push(r.contour(&view)?);
     }
@@ -46,6 +46,7 @@ pub fn detect(img: &GrayImage, params: &MserParams) -> crate::Result<Features> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::eval::paper_a::overlap::tests::half_extent;
 
     #[test]
     fn a_dark_disc_gives_its_moment_ellipse_and_contour() {
@@ -70,7 +71,7 @@ mod tests {
         let e = f.ellipses[k];
         assert!((e.u - 40.0).abs() < 1e-9 && (e.v - 30.0).abs() < 1e-9);
         // A filled ellipse with semi-axes 20, 10 has standard deviations 10, 5.
-        let (hx, hy) = e.half_extent();
+        let (hx, hy) = half_extent(&e);
         assert!(
             (hx - 10.0).abs() < 0.3 && (hy - 5.0).abs() < 0.3,
             "{hx} {hy}"

@@ -7,7 +7,8 @@ use rayon::prelude::*;
 
 use super::homography::Homography;
 use super::overlap::{
-    DESCRIPTOR_THRESHOLD, Ellipse, Normalisation, Offset, may_overlap, overlap_error,
+    DESCRIPTOR_THRESHOLD, Ellipse, Normalisation, Offset, map_linearised, may_overlap,
+    overlap_error, radius,
 };
 
 /// The ground truth of one image pair.
@@ -39,7 +40,7 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
     let mut mapped: Vec<(u32, Ellipse)> = e2
         .iter()
         .enumerate()
-        .filter_map(|(j, e)| e.map_linearised(&h_inv).map(|m| (j as u32, m)))
+        .filter_map(|(j, e)| map_linearised(e, &h_inv).map(|m| (j as u32, m)))
         .collect();
     mapped.sort_by(|p, q| p.1.u.total_cmp(&q.1.u).then(p.0.cmp(&q.0)));
     let xs: Vec<f64> = mapped.iter().map(|p| p.1.u).collect();
@@ -47,7 +48,7 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
         .par_iter()
         .enumerate()
         .flat_map_iter(|(i, a)| {
-            let reach = 4.0 * a.radius();
+            let reach = 4.0 * radius(a);
             let lo = xs.partition_point(|&x| x <= a.u - reach);
             let hi = xs.partition_point(|&x| x < a.u + reach);
             let mut out = Vec::new();
@@ -92,6 +93,7 @@ pub fn greedy_one_to_one(mut scored: Vec<(f64, u32, u32)>) -> Vec<(u32, u32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::eval::paper_a::overlap::tests::{circ, ellipse};
 
     fn identity() -> Homography {
         Homography::from_row_major(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).unwrap()
@@ -109,14 +111,8 @@ mod tests {
     #[test]
     fn nested_twins_are_all_correct_but_count_once() {
         // One blob seen at two grey levels in each image: four correct pairs, two existing.
-        let e1 = [
-            Ellipse::circle(50.0, 50.0, 10.0),
-            Ellipse::circle(50.0, 50.0, 11.0),
-        ];
-        let e2 = [
-            Ellipse::circle(51.0, 50.0, 10.0),
-            Ellipse::circle(50.0, 51.0, 11.0),
-        ];
+        let e1 = [circ(50.0, 50.0, 10.0), circ(50.0, 50.0, 11.0)];
+        let e2 = [circ(51.0, 50.0, 10.0), circ(50.0, 51.0, 11.0)];
         let t = pair_truth(&e1, &e2, &identity());
         assert_eq!(t.correct, vec![(0, 0), (0, 1), (1, 0), (1, 1)]);
         assert_eq!(t.existing(), 2);
@@ -133,10 +129,10 @@ mod tests {
         for k in 0..60u32 {
             let (x, y) = ((k * 37 % 300) as f64 + 20.0, (k * 53 % 200) as f64 + 20.0);
             let r = 3.0 + (k % 7) as f64;
-            let e = Ellipse::new(x, y, 1.0 / (r * r), 0.01 / (r * r), 0.8 / (r * r)).unwrap();
+            let e = ellipse(x, y, 1.0 / (r * r), 0.01 / (r * r), 0.8 / (r * r)).unwrap();
             e1.push(e);
             if k % 3 != 0 {
-                let mut m = e.map_linearised(&h).unwrap();
+                let mut m = map_linearised(&e, &h).unwrap();
                 m.u += (k % 5) as f64 * 0.7;
                 e2.push(m);
             }
@@ -146,7 +142,7 @@ mod tests {
         let mut brute = Vec::new();
         for (i, a) in e1.iter().enumerate() {
             for (j, b) in e2.iter().enumerate() {
-                let b1 = b.map_linearised(&hi).unwrap();
+                let b1 = map_linearised(b, &hi).unwrap();
                 let eps = overlap_error(a, &b1, Normalisation::Descriptor, Offset::Faithful);
                 if eps < 0.5 {
                     brute.push((i as u32, j as u32));

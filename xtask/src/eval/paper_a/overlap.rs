@@ -10,92 +10,62 @@ use nalgebra::Matrix2;
 use super::error::PaperAError;
 use super::homography::Homography;
 
-/// An ellipse `dᵀ M d = 1`, `M = [[a, b], [b, c]]`, `d = p − (u, v)`, in 0-based pixel
-/// coordinates (x right, y down).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ellipse {
-    /// Centre x.
-    pub u: f64,
-    /// Centre y.
-    pub v: f64,
-    /// M₁₁.
-    pub a: f64,
-    /// M₁₂ (half the cross coefficient).
-    pub b: f64,
-    /// M₂₂.
-    pub c: f64,
+pub use mser::Ellipse;
+
+/// `e` itself if every number is finite and `M = [[a, b], [b, c]]` is positive definite.
+pub fn checked(e: Ellipse) -> Result<Ellipse, PaperAError> {
+    let Ellipse { u, v, a, b, c } = e;
+    let ok = [u, v, a, b, c].iter().all(|x| x.is_finite()) && a > 0.0 && a * c - b * b > 0.0;
+    if ok {
+        Ok(e)
+    } else {
+        Err(PaperAError::Ellipse { u, v, a, b, c })
+    }
 }
 
-impl Ellipse {
-    /// Checks that every number is finite and M is positive definite.
-    pub fn new(u: f64, v: f64, a: f64, b: f64, c: f64) -> Result<Self, PaperAError> {
-        let ok = [u, v, a, b, c].iter().all(|x| x.is_finite()) && a > 0.0 && a * c - b * b > 0.0;
-        if ok {
-            Ok(Ellipse { u, v, a, b, c })
-        } else {
-            Err(PaperAError::Ellipse { u, v, a, b, c })
-        }
-    }
+/// The ellipse `dᵀ Σ⁻¹ d = 1` of a covariance `Σ = [σxx, σxy, σyy]` (semi-axes = standard
+/// deviations, the frame convention of VLFeat/VLBenchmarks; [`Ellipse::from_covariance`] with
+/// `k = 1`). `Err` if Σ is not positive definite or a number is not finite.
+pub fn from_covariance(u: f64, v: f64, cov: [f64; 3]) -> Result<Ellipse, PaperAError> {
+    let [xx, xy, yy] = cov;
+    let e = Ellipse::from_covariance(u, v, cov, 1.0).ok_or(PaperAError::Ellipse {
+        u,
+        v,
+        a: xx,
+        b: xy,
+        c: yy,
+    })?;
+    checked(e)
+}
 
-    /// The circle of radius `r` about `(x, y)`: `(x, y, 1/r², 0, 1/r²)`.
-    #[cfg(test)]
-    pub fn circle(x: f64, y: f64, r: f64) -> Self {
-        Ellipse {
-            u: x,
-            v: y,
-            a: 1.0 / (r * r),
-            b: 0.0,
-            c: 1.0 / (r * r),
-        }
-    }
+/// `det M = ac − b²`.
+fn det(e: &Ellipse) -> f64 {
+    e.a * e.c - e.b * e.b
+}
 
-    /// The ellipse `dᵀ Σ⁻¹ d = 1` of a covariance `Σ = [σxx, σxy, σyy]` (semi-axes = standard
-    /// deviations, the frame convention of VLFeat/VLBenchmarks). `Err` if Σ is not positive
-    /// definite.
-    pub fn from_covariance(u: f64, v: f64, cov: [f64; 3]) -> Result<Self, PaperAError> {
-        let [xx, xy, yy] = cov;
-        let det = xx * yy - xy * xy;
-        Self::new(u, v, yy / det, -xy / det, xx / det)
-    }
+/// Equal-area radius `(det M)^(−1/4)`.
+pub fn radius(e: &Ellipse) -> f64 {
+    det(e).powf(-0.25)
+}
 
-    /// `det M = ac − b²`.
-    pub fn det(&self) -> f64 {
-        self.a * self.c - self.b * self.b
-    }
-
-    /// Equal-area radius `(det M)^(−1/4)`.
-    pub fn radius(&self) -> f64 {
-        self.det().powf(-0.25)
-    }
-
-    /// Area `π / √det M`.
-    #[cfg(test)]
-    pub fn area(&self) -> f64 {
-        std::f64::consts::PI / self.det().sqrt()
-    }
-
-    /// Half-width and half-height of the axis-aligned bounding box: `(√(c/det), √(a/det))`.
-    #[cfg(test)]
-    pub fn half_extent(&self) -> (f64, f64) {
-        let d = self.det();
-        ((self.c / d).sqrt(), (self.a / d).sqrt())
-    }
-
-    fn shape(&self) -> Matrix2<f64> {
-        Matrix2::new(self.a, self.b, self.b, self.c)
-    }
-
-    /// The ellipse mapped through `h` by the local affine approximation at its centre (OVERLAP.md
-    /// §2): centre `h(u, v)`, shape `M' = J⁻ᵀ M J⁻¹`. `None` when the centre maps to infinity or
-    /// J is singular there.
-    pub fn map_linearised(&self, h: &Homography) -> Option<Ellipse> {
-        let (u, v) = h.map(self.u, self.v)?;
-        let j_inv = h.jacobian(self.u, self.v)?.try_inverse()?;
-        let m = j_inv.transpose() * self.shape() * j_inv;
-        // Symmetrise against rounding.
-        let b = 0.5 * (m[(0, 1)] + m[(1, 0)]);
-        Ellipse::new(u, v, m[(0, 0)], b, m[(1, 1)]).ok()
-    }
+/// The ellipse mapped through `h` by the local affine approximation at its centre (OVERLAP.md
+/// §2): centre `h(u, v)`, shape `M' = J⁻ᵀ M J⁻¹`. `None` when the centre maps to infinity or
+/// J is singular there.
+pub fn map_linearised(e: &Ellipse, h: &Homography) -> Option<Ellipse> {
+    let (u, v) = h.map(e.u, e.v)?;
+    let j_inv = h.jacobian(e.u, e.v)?.try_inverse()?;
+    let shape = Matrix2::new(e.a, e.b, e.b, e.c);
+    let m = j_inv.transpose() * shape * j_inv;
+    // Symmetrise against rounding.
+    let b = 0.5 * (m[(0, 1)] + m[(1, 0)]);
+    checked(Ellipse {
+        u,
+        v,
+        a: m[(0, 0)],
+        b,
+        c: m[(1, 1)],
+    })
+    .ok()
 }
 
 /// How both ellipses are magnified before the area ratio is computed (OVERLAP.md §4.3).
@@ -129,7 +99,7 @@ pub const DESCRIPTOR_THRESHOLD: f64 = 0.5;
 /// Whether the pair can reach ε < `threshold` at all: IoU ≤ min(area)/max(area), so a pair with
 /// area ratio ≤ 1 − threshold never does (the exact pre-filter of VLBenchmarks).
 pub fn may_overlap(a: &Ellipse, b_in_a: &Ellipse, threshold: f64) -> bool {
-    let (da, db) = (a.det(), b_in_a.det());
+    let (da, db) = (det(a), det(b_in_a));
     // area ∝ det^(−1/2); ratio = √(min det / max det).
     let ratio = (da.min(db) / da.max(db)).sqrt();
     ratio > 1.0 - threshold
@@ -138,7 +108,7 @@ pub fn may_overlap(a: &Ellipse, b_in_a: &Ellipse, threshold: f64) -> bool {
 /// Overlap error `ε(A, B) = 1 − |A ∩ B| / |A ∪ B|` of region A (img1) and region B already mapped
 /// into img1, with the distance gate, normalisation and grid of OVERLAP.md §4. In `[0, 1]`.
 pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offset) -> f64 {
-    let r_a = a.radius();
+    let r_a = radius(a);
     let (mut dx, mut dy) = (b.u - a.u, b.v - a.v);
     if (dx * dx + dy * dy).sqrt() >= 4.0 * r_a {
         return 1.0;
@@ -194,13 +164,25 @@ pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offs
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use Normalisation::*;
     use Offset::*;
 
-    fn circ(x: f64, y: f64, r: f64) -> Ellipse {
-        Ellipse::circle(x, y, r)
+    /// The circle of radius `r` about `(x, y)`: `(x, y, 1/r², 0, 1/r²)`.
+    pub(crate) fn circ(x: f64, y: f64, r: f64) -> Ellipse {
+        let k = 1.0 / (r * r);
+        ellipse(x, y, k, 0.0, k).unwrap()
+    }
+
+    pub(crate) fn ellipse(u: f64, v: f64, a: f64, b: f64, c: f64) -> Result<Ellipse, PaperAError> {
+        checked(Ellipse { u, v, a, b, c })
+    }
+
+    /// Half-width and half-height of the axis-aligned bounding box: `(√(c/det), √(a/det))`.
+    pub(crate) fn half_extent(e: &Ellipse) -> (f64, f64) {
+        let d = det(e);
+        ((e.c / d).sqrt(), (e.a / d).sqrt())
     }
 
     fn close(got: f64, want: f64) {
@@ -250,8 +232,8 @@ mod tests {
 
     #[test]
     fn t5_general_ellipses_in_every_mode() {
-        let a = Ellipse::new(100.0, 100.0, 1.0 / 400.0, 0.0, 1.0 / 100.0).unwrap();
-        let b = Ellipse::new(102.0, 101.0, 1.0 / 324.0, 0.0005, 1.0 / 121.0).unwrap();
+        let a = ellipse(100.0, 100.0, 1.0 / 400.0, 0.0, 1.0 / 100.0).unwrap();
+        let b = ellipse(102.0, 101.0, 1.0 / 324.0, 0.0005, 1.0 / 121.0).unwrap();
         close(overlap_error(&a, &b, Repeatability, Faithful), 0.1438);
         close(overlap_error(&a, &b, Descriptor, Faithful), 0.1395);
         close(overlap_error(&a, &b, Unscaled, Faithful), 0.1854);
@@ -273,13 +255,13 @@ mod tests {
                 assert!((j[(r, c)] - w).abs() < 2e-6, "J[{r}{c}] = {}", j[(r, c)]);
             }
         }
-        let e = Ellipse::new(400.0, 300.0, 1.0 / 400.0, 0.0, 1.0 / 100.0).unwrap();
-        let m = e.map_linearised(&h).unwrap();
+        let e = ellipse(400.0, 300.0, 1.0 / 400.0, 0.0, 1.0 / 100.0).unwrap();
+        let m = map_linearised(&e, &h).unwrap();
         assert!((m.u - 378.3091).abs() < 1e-4 && (m.v - 336.3334).abs() < 1e-4);
         for (got, want) in [(m.a, 4.661704e-3), (m.b, 2.062367e-3), (m.c, 1.101921e-2)] {
             assert!((got / want - 1.0).abs() < 1e-5, "{got} vs {want}");
         }
-        let back = m.map_linearised(&h.inverse()).unwrap();
+        let back = map_linearised(&m, &h.inverse()).unwrap();
         for (got, want) in [
             (back.u, e.u),
             (back.v, e.v),
@@ -296,9 +278,9 @@ mod tests {
         // x' = 2x + 5, y' = 2y − 3: a circle of radius 4 becomes one of radius 8.
         let h =
             Homography::from_row_major(&[2.0, 0.0, 5.0, 0.0, 2.0, -3.0, 0.0, 0.0, 1.0]).unwrap();
-        let m = circ(10.0, 20.0, 4.0).map_linearised(&h).unwrap();
+        let m = map_linearised(&circ(10.0, 20.0, 4.0), &h).unwrap();
         assert!((m.u - 25.0).abs() < 1e-12 && (m.v - 37.0).abs() < 1e-12);
-        assert!((m.radius() - 8.0).abs() < 1e-12 && m.b.abs() < 1e-15);
+        assert!((radius(&m) - 8.0).abs() < 1e-12 && m.b.abs() < 1e-15);
     }
 
     #[test]
@@ -316,12 +298,12 @@ mod tests {
 
     #[test]
     fn rejects_degenerate_ellipses() {
-        assert!(Ellipse::new(0.0, 0.0, 1.0, 1.0, 1.0).is_err());
-        assert!(Ellipse::new(0.0, 0.0, -1.0, 0.0, -1.0).is_err());
-        assert!(Ellipse::new(f64::NAN, 0.0, 1.0, 0.0, 1.0).is_err());
-        assert!(Ellipse::from_covariance(0.0, 0.0, [1.0, 1.0, 1.0]).is_err());
-        let e = Ellipse::from_covariance(1.0, 2.0, [4.0, 0.0, 9.0]).unwrap();
+        assert!(ellipse(0.0, 0.0, 1.0, 1.0, 1.0).is_err());
+        assert!(ellipse(0.0, 0.0, -1.0, 0.0, -1.0).is_err());
+        assert!(ellipse(f64::NAN, 0.0, 1.0, 0.0, 1.0).is_err());
+        assert!(from_covariance(0.0, 0.0, [1.0, 1.0, 1.0]).is_err());
+        let e = from_covariance(1.0, 2.0, [4.0, 0.0, 9.0]).unwrap();
         assert!((e.a - 0.25).abs() < 1e-15 && (e.c - 1.0 / 9.0).abs() < 1e-15);
-        assert_eq!(e.half_extent(), (2.0, 3.0));
+        assert_eq!(half_extent(&e), (2.0, 3.0));
     }
 }
