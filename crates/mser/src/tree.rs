@@ -58,8 +58,13 @@ pub struct Node {
     pub area: u32,
     /// Parent id or [`NONE`] for the root.
     pub parent: u32,
-    /// Next sibling id or [`NONE`] (links the children while the parent is still open).
-    pub next_sibling: u32,
+    /// Where the node closed: `position << 1 | merged`, with `position` its component's place on
+    /// the flood's stack of open components (1 = bottom; 0 for the root at level 255) and
+    /// `merged` set when it merged into the component below (its parent then sits one place
+    /// lower; otherwise the component was raised and its parent is the raised one, at the same
+    /// place). A node's parent is the next node to close at the parent's place (see
+    /// [`link_parents`]).
+    pub slot: u32,
     /// Padded index of the node's first pixel in raster order, or [`NONE`] until
     /// [`Tree::seed`] has computed it (the flood does not track it).
     pub seed: u32,
@@ -108,8 +113,6 @@ struct Comp {
     level: u32,
     /// Position in the flood order at which the component was opened.
     start: u32,
-    /// Closed children, linked through [`Node::next_sibling`].
-    children: u32,
 }
 
 /// Reusable buffers for building trees of images of any size.
@@ -131,7 +134,6 @@ impl Default for TreeBuilder {
                 [Comp {
                     level: u32::MAX,
                     start: 0,
-                    children: NONE,
                 }; STACK_SLOTS],
             ),
         }
@@ -171,11 +173,7 @@ impl Components<'_> {
         self.depth += 1;
         // Levels strictly decrease up the stack, so depth <= 256 (the assert holds always).
         self.stack[self.depth.min(STACK_SLOTS - 1)] = self.top;
-        self.top = Comp {
-            level,
-            start: pos,
-            children: NONE,
-        };
+        self.top = Comp { level, start: pos };
     }
 
     /// The flood rises to level `next` at flood position `pos`: raise the top component to it or
@@ -184,8 +182,7 @@ impl Components<'_> {
     fn rise(&mut self, next: u32, pos: u32) {
         loop {
             if next < self.stack[self.depth].level {
-                let id = self.close(pos, NONE);
-                self.top.children = id;
+                self.close(pos, self.place() << 1);
                 self.top.level = next;
                 return;
             }
@@ -199,33 +196,27 @@ impl Components<'_> {
     /// Closes the top component and merges it into the one below, which becomes the top.
     fn merge(&mut self, pos: u32) {
         debug_assert!(self.depth > 0);
-        let mut b = self.stack[self.depth];
+        self.close(pos, self.place() << 1 | 1);
+        self.top = self.stack[self.depth];
         self.depth -= 1;
-        b.children = self.close(pos, b.children);
-        self.top = b;
     }
 
-    /// Closes the top component at flood position `pos` as a node whose next sibling is
-    /// `sibling`, and returns the new node's id.
-    fn close(&mut self, pos: u32, sibling: u32) -> u32 {
+    /// The top component's place on the stack (1 = bottom).
+    fn place(&self) -> u32 {
+        self.depth as u32 + 1
+    }
+
+    /// Closes the top component at flood position `pos` as a node with [`Node::slot`] `slot`.
+    fn close(&mut self, pos: u32, slot: u32) {
         let c = &self.top;
-        let nodes = &mut *self.nodes;
-        let id = nodes.len() as u32;
-        let mut ch = c.children;
-        while ch != NONE {
-            let n = &mut nodes[ch as usize];
-            n.parent = id;
-            ch = n.next_sibling;
-        }
-        nodes.push(Node {
+        self.nodes.push(Node {
             level: c.level,
             area: pos - c.start,
             parent: NONE,
-            next_sibling: sibling,
+            slot,
             seed: NONE,
             start: c.start,
         });
-        id
     }
 }
 
@@ -291,8 +282,6 @@ impl TreeBuilder {
         let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
 
         let mut pos = 0u32;
-        // Roots of the finished floods, linked as siblings.
-        let mut roots = NONE;
         let mut scan_from = stride as usize;
         let below_255 = (npix as u32) - hist[255 ^ flip as usize];
         // One flood per connected part of the pixels below 255, each from its first pixel in
@@ -313,7 +302,6 @@ impl TreeBuilder {
                 top: Comp {
                     level: cur_level,
                     start: pos,
-                    children: NONE,
                 },
                 nodes: &mut tree.nodes,
             };
@@ -388,11 +376,12 @@ impl TreeBuilder {
                     heap[top_of[g] as usize]
                 };
             }
-            // The part is flooded; close its remaining components into its root.
+            // The part is flooded; close its remaining components into its root, which merges
+            // into the root at level 255 (place 0), if there is one.
             while comps.depth > 0 {
                 comps.merge(pos);
             }
-            roots = comps.close(pos, roots);
+            comps.close(pos, 1 << 1 | 1);
         }
 
         if hist[255 ^ flip as usize] > 0 {
@@ -415,15 +404,33 @@ impl TreeBuilder {
                 top: Comp {
                     level: 255,
                     start: 0,
-                    children: roots,
                 },
                 nodes: &mut tree.nodes,
             };
-            comps.close(pos, NONE);
+            comps.close(pos, 0);
         }
         // Otherwise the pixels below 255 are one 4-connected part, and its flood's root is
         // the tree's root.
         debug_assert_eq!(pos as usize, npix);
+        link_parents(&mut tree.nodes);
+    }
+}
+
+/// Sets every node's parent from the places where the nodes closed ([`Node::slot`]): the parent
+/// is the next node (in id order) to close at the parent's place, found by one backward pass
+/// that remembers the latest node seen at each place. (A raised component closes again at its
+/// own place, a merged one's component below closes next at the place below, and no other node
+/// closes at that place in between, as components above it are opened and closed after it.)
+fn link_parents(nodes: &mut [Node]) {
+    let mut last = [NONE; STACK_SLOTS];
+    for (i, n) in nodes.iter_mut().enumerate().rev() {
+        let place = (n.slot >> 1) as usize;
+        // SAFETY: places are at most 257 (a depth of at most 256 below the top), and a
+        // parent's place is one lower only when the node merged (place >= 1).
+        unsafe {
+            n.parent = *last.get_unchecked(place - (n.slot & 1) as usize);
+            *last.get_unchecked_mut(place) = i as u32;
+        }
     }
 }
 
