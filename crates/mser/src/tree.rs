@@ -30,6 +30,12 @@
 //!   visited next from a register instead of a store and reload; which neighbour that is, is
 //!   chosen with conditional moves (`select_unpredictable`), as it follows no pattern.
 //!
+//! The top of the current level's stack lives in a register (its memory copy is kept equal).
+//! Most visits are dead ends whose next pixel is popped from that stack; read from memory, the
+//! pop would wait until the visit's four pushes, whose slots depend on the neighbours' values,
+//! are known not to write it, chaining every visit's cell loads to the next; from the register it
+//! does not, and consecutive visits overlap (about 20 % faster on the Oxford images).
+//!
 //! A fixed stack of open components (at most 255, as their levels strictly decrease upwards, over
 //! a sentinel) holds, for each, its grey level, the position in the flood order at which it was
 //! opened and its closed children. Per pixel the flood only appends the pixel to the flood order;
@@ -305,7 +311,15 @@ impl TreeBuilder {
                 },
                 nodes: &mut tree.nodes,
             };
+            // The top of the current level's stack, kept in a register: the dead end's pop
+            // reads it from here, so it does not wait for the visit's pushes (whose slots depend
+            // on the neighbours' values) to rule out a store to it. The memory copy
+            // `top_of[cur_level]` is kept equal to it at the start of every visit; only a visit
+            // with a neighbour at the current level pushes there, and that path reloads it.
+            // Every stack is empty when a part starts.
+            let mut ct = bottom[cur_level as usize];
             loop {
+                debug_assert_eq!(ct, top_of[cur_level as usize]);
                 // `cur` is a pixel at `cur_level`, the level of the top component, either seen
                 // for the first time or pushed back when the flood descended from it.
                 let ns = offs.map(|o| cur.wrapping_add(o));
@@ -325,9 +339,16 @@ impl TreeBuilder {
                     // at its level and is visited again when the flood comes back to it.
                     // SAFETY: as above.
                     unsafe { *cells.get_unchecked_mut(next as usize) = REACHED };
-                    push(heap, &mut top_of, cur_level, cur);
+                    debug_assert!((ct as usize) < heap.len());
+                    // SAFETY: level `cur_level`'s stack holds at most its hist entries.
+                    unsafe { *heap.get_unchecked_mut(ct as usize) = cur };
+                    // SAFETY: `cur_level` is a grey level.
+                    unsafe { *top_of.get_unchecked_mut(cur_level as usize) = ct + 1 };
                     comps.open(low, pos);
                     cur_level = low;
+                    // Every waiting pixel lies at or above the old level: the new one is empty.
+                    // SAFETY: `low` is a grey level.
+                    ct = unsafe { *bottom.get_unchecked(low as usize) };
                     cur = next;
                     continue;
                 }
@@ -345,36 +366,39 @@ impl TreeBuilder {
                     // A neighbour at the same level is the next pixel: the last one pushed
                     // there, i.e. the top of the current stack. Take it back and keep it in a
                     // register instead of reloading it from the heap.
-                    top_of[low as usize] -= 1;
+                    // SAFETY: `low` is a grey level.
+                    let t = unsafe { top_of.get_unchecked_mut(low as usize) };
+                    *t -= 1;
+                    ct = *t;
                     cur = next;
                     continue;
                 }
 
                 // Dead end: the next pixel comes from the current level's stack, else from the
-                // lowest non-empty one.
-                let mut g = cur_level as usize;
-                debug_assert!(g < SINK);
+                // lowest non-empty one. No push of this visit went to the current level.
                 // SAFETY: `cur_level` is a grey level.
-                let t = unsafe { top_of.get_unchecked_mut(g) };
-                cur = if *t != bottom[g] {
-                    *t -= 1;
-                    debug_assert!((*t as usize) < heap.len());
-                    // SAFETY: bottom[g] <= top_of[g] < bottom[g + 1] <= heap.len().
-                    unsafe { *heap.get_unchecked(*t as usize) }
+                if ct != unsafe { *bottom.get_unchecked(cur_level as usize) } {
+                    ct -= 1;
+                    // SAFETY: as above.
+                    unsafe { *top_of.get_unchecked_mut(cur_level as usize) = ct };
+                    debug_assert!((ct as usize) < heap.len());
+                    // SAFETY: bottom[g] <= ct < bottom[g + 1] <= heap.len().
+                    cur = unsafe { *heap.get_unchecked(ct as usize) };
                 } else {
                     // Every entry lies at or above the current level: scan upwards.
-                    g += 1;
+                    let mut g = cur_level as usize + 1;
                     while top_of[g] == bottom[g] {
                         g += 1;
                     }
                     if g == SINK {
                         break;
                     }
-                    top_of[g] -= 1;
+                    ct = top_of[g] - 1;
+                    top_of[g] = ct;
                     cur_level = g as u32;
                     comps.rise(cur_level, pos);
-                    heap[top_of[g] as usize]
-                };
+                    cur = heap[ct as usize];
+                }
             }
             // The part is flooded; close its remaining components into its root, which merges
             // into the root at level 255 (place 0), if there is one.
