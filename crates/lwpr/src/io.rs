@@ -8,12 +8,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::model::{Lwpr, SubModel};
-use crate::params::{Kernel, Params, PruneRule};
+use crate::params::{Arithmetic, Kernel, Params, PruneRule};
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
 
 /// Version of both the JSON envelope and the binary layout.
-pub const BINARY_FORMAT_VERSION: u32 = 1;
+pub const BINARY_FORMAT_VERSION: u32 = 2;
 const MAGIC: &[u8; 8] = b"LWPR-RS\0";
 const JSON_FORMAT: &str = "lwpr-rs";
 
@@ -143,6 +143,10 @@ fn enc_params(e: &mut Enc, p: &Params) {
     e.vec(&p.norm_out);
     e.u64(kernel_code(p.kernel));
     e.u64(prune_code(p.prune_rule));
+    e.u64(match p.arithmetic {
+        Arithmetic::Fast => 0,
+        Arithmetic::Reference => 1,
+    });
 }
 
 fn dec_params(d: &mut Dec) -> Result<Params> {
@@ -170,6 +174,11 @@ fn dec_params(d: &mut Dec) -> Result<Params> {
         1 => PruneRule::ReferenceC,
         k => return Err(fmt_err(format!("unknown prune rule code {k}"))),
     };
+    let arithmetic = match d.u64()? {
+        0 => Arithmetic::Fast,
+        1 => Arithmetic::Reference,
+        k => return Err(fmt_err(format!("unknown arithmetic code {k}"))),
+    };
     Ok(Params {
         n_in,
         n_out,
@@ -192,6 +201,7 @@ fn dec_params(d: &mut Dec) -> Result<Params> {
         norm_out,
         kernel,
         prune_rule,
+        arithmetic,
     })
 }
 

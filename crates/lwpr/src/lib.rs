@@ -26,7 +26,8 @@
 //! removed when the second activation exceeds `w_prune` ([`PruneRule`]).
 //!
 //! ## Faithfulness to the reference
-//! The update performs the reference's floating-point operations in the reference's order
+//! For `n ≤ 4` inputs, for diagonal metrics, and always with [`Arithmetic::Reference`], the
+//! update performs the reference's floating-point operations in the reference's order
 //! (including its dot-product order: blocks of four, remainder backwards; see `linalg`), so with
 //! the same parameters and samples the learned model is **bit-identical** to the C library's:
 //! every prediction returned by `update` is equal, the receptive-field counts are equal and grid
@@ -34,9 +35,9 @@
 //! learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
 //! metric, meta learning and pruning; also `cargo xtask bench lwpr`). Rust never fuses a
 //! multiply and an add, so rounding is decided by the order of operations alone, and the
-//! speed-ups keep that order for every value:
+//! speed-ups of this exact path keep that order for every value:
 //! - the update is compiled separately for input dimensions 1–4 (loops of constant length,
-//!   unrolled), and for larger `n` with AVX where the CPU has it (runtime detection; separate
+//!   unrolled), and for larger `n` with AVX2 where the CPU has it (runtime detection; separate
 //!   multiplies and adds, four lanes per instruction);
 //! - every array is sliced once to its exact length before the loops, so the inner loops carry
 //!   no bounds checks and do not reload vector headers after each store;
@@ -49,10 +50,31 @@
 //!   sums), and the exponential is skipped for fields whose squared distance puts them below
 //!   every threshold that could matter (0.001, `0.1·w_gen`, `w_prune`).
 //!
-//! What is left is the reference's arithmetic itself. With meta learning at `n = 25` about an
-//! eighth of the update is the `n(n+1)/2` learning-rate exponentials per active field, which a
-//! bit-identical model must take from the same `exp` (a polynomial `exp` of our own saved only
-//! 5 % of the instructions, so we kept bit-identity).
+//! ### Full metric with `n ≥ 5`: [`Arithmetic::Fast`] (default)
+//! Kept in the reference's order, each of these sums is one long chain of dependent additions,
+//! and at `n = 25` with meta learning the update is dominated by them and by the `n(n+1)/2`
+//! learning-rate exponentials per active field (a profile of the exact path: the CPU waits on
+//! add latencies and on store-to-load forwarding of short accumulator arrays, and on the
+//! library `exp` calls, which also keep the element loop from vectorising). The default
+//! arithmetic computes the same formulas in an order that vectorises (module `fast`):
+//! - the activation as `q = |M(x−c)|²` from the triangular factor (half the work of
+//!   `(x−c)ᵀD(x−c)`), its `M(x−c)` reused as the metric gradient's `∂q/∂M` factor;
+//! - `MD` (penalty gradient) and `D = MᵀM` as 4 × 8 / 4 × 4 register blocks over contiguous
+//!   columns (the lower triangle of `M` is zero, so blocks may start early), `D` mirrored so it
+//!   stays exactly symmetric; the meta term `Σ_i M_ri² + M_rc²` from one row sum;
+//! - the IDBD step with a branch-free polynomial `exp` (≤ 2 ulp on IDBD's clamped range
+//!   `[−10, 10]`), so gradient, IDBD and `M` step run four elements per instruction.
+//!
+//! Still no fused multiply-adds, so the results are the same bits on every x86-64 CPU and any
+//! number of threads. Where the two arithmetics diverge: the first differing value is an
+//! activation in its last bit (on the 25-D benchmark the first field's, at sample 2–19
+//! depending on the seed, `0.8424269292293707` vs `0.8424269292293706`); the first differing
+//! update prediction follows once that field is trustworthy (update 54–58). The differences
+//! stay at rounding level: on the 25-D cross benchmark (20 000 samples, seeds 1–8, both pruning
+//! rules) the same receptive-field count as the reference in every case, nMSE equal to six
+//! digits, grid predictions within 1e-12 (`tests/reference.rs` checks 1e-6 against the C
+//! library; `tests/arithmetic.rs` checks 1e-9 against [`Arithmetic::Reference`] for n = 5–12).
+//! The 25-D update is about 1.7× faster than in the exact order.
 //!
 //! Deliberate differences:
 //! - **Pruning**: the reference removes the *wider* field ("TODO: ORIGINAL LOGIC WAS REVERSED"
@@ -107,6 +129,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod error;
+mod fast;
 mod io;
 mod linalg;
 mod metric;
@@ -118,4 +141,4 @@ mod workspace;
 pub use error::{LwprError, Result};
 pub use io::BINARY_FORMAT_VERSION;
 pub use model::{Lwpr, PredictionWithConfidence, PredictionWithJacobian, RfView};
-pub use params::{Kernel, LwprBuilder, Params, PruneRule};
+pub use params::{Arithmetic, Kernel, LwprBuilder, Params, PruneRule};

@@ -166,17 +166,14 @@ pub(crate) fn update_distance_metric(
     n: usize,
     rf: &mut ReceptiveField,
     p: &Params,
-    w: f64,
-    dwdq: f64,
-    ddwdqdq: f64,
+    (w, dwdq, ddwdqdq): (f64, f64, f64),
     e_cv: f64,
     e: f64,
     xn: &[f64],
     ws: &mut Workspace,
+    fast: bool,
 ) -> f64 {
     let nr = rf.n_reg;
-    let penalty = p.penalty / n as f64;
-    let nn = n * n;
     // Arrays sliced once to their exact lengths (no bounds checks in the loops below).
     let (s, ss_s2) = (&rf.s[..nr], &rf.ss_s2[..nr]);
     let (tr_h, tr_r) = (&rf.tr_h[..nr], &rf.tr_r[..nr]);
@@ -243,6 +240,40 @@ pub(crate) fn update_distance_metric(
     } else {
         0.0
     };
+    if fast {
+        fast_metric_step(n, rf, p, ws, w_w, dj1dw, ddj1dwdw, dwdq, ddwdqdq, trans_mul);
+    } else {
+        reference_metric_step(n, rf, p, ws, w_w, dj1dw, ddj1dwdw, dwdq, ddwdqdq, trans_mul);
+    }
+    let (s, lambda) = (&rf.s[..nr], &rf.lambda[..nr]);
+    let (tr_h, tr_r) = (&mut rf.tr_h[..nr], &mut rf.tr_r[..nr]);
+    let deriv_ok = &ws.deriv_ok[..nr];
+    for i in 0..nr {
+        if deriv_ok[i] {
+            let lam = lambda[i];
+            tr_h[i] = lam * tr_h[i] + (w / (1.0 - h)) * s[i] * e_cv * trans_mul;
+            tr_r[i] = lam * tr_r[i] + (w * w * e_cv2 / (1.0 - h)) * s[i] * s[i] * trans_mul;
+        }
+    }
+    trans_mul
+}
+
+/// The metric step in the reference's order of operations (bit-identical to the C library).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn reference_metric_step(
+    n: usize,
+    rf: &mut ReceptiveField,
+    p: &Params,
+    ws: &mut Workspace,
+    w_w: f64,
+    dj1dw: f64,
+    ddj1dwdw: f64,
+    dwdq: f64,
+    ddwdqdq: f64,
+    trans_mul: f64,
+) {
+    let nn = n * n;
     dist_derivatives(
         n,
         ws,
@@ -251,7 +282,7 @@ pub(crate) fn update_distance_metric(
         &rf.d,
         &rf.m,
         p.diag_only,
-        penalty,
+        p.penalty / n as f64,
         p.meta,
     );
 
@@ -383,16 +414,63 @@ pub(crate) fn update_distance_metric(
             }
         }
     }
+}
 
-    let (s, lambda) = (&rf.s[..nr], &rf.lambda[..nr]);
-    let (tr_h, tr_r) = (&mut rf.tr_h[..nr], &mut rf.tr_r[..nr]);
-    let deriv_ok = &ws.deriv_ok[..nr];
-    for i in 0..nr {
-        if deriv_ok[i] {
-            let lam = lambda[i];
-            tr_h[i] = lam * tr_h[i] + (w / (1.0 - h)) * s[i] * e_cv * trans_mul;
-            tr_r[i] = lam * tr_r[i] + (w * w * e_cv2 / (1.0 - h)) * s[i] * s[i] * trans_mul;
+/// The metric step of [`crate::Arithmetic::Fast`] (full metric, `n ≥ 5`); `ws.dq` holds
+/// `M(x−c)` from the activation ([`crate::fast::distance_m`]), `ws.dx` holds `x − c`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn fast_metric_step(
+    n: usize,
+    rf: &mut ReceptiveField,
+    p: &Params,
+    ws: &mut Workspace,
+    w_w: f64,
+    dj1dw: f64,
+    ddj1dwdw: f64,
+    dwdq: f64,
+    ddwdqdq: f64,
+    trans_mul: f64,
+) {
+    let nn = n * n;
+    let penalty = p.penalty / n as f64;
+    // The reference doubles the penalty inside its derivative routine.
+    crate::fast::penalty_derivatives(
+        n,
+        &rf.m,
+        &rf.d,
+        penalty + penalty,
+        p.meta,
+        &mut ws.sum_aux1,
+        &mut ws.dj2dm,
+        &mut ws.ddj2dmdm,
+    );
+    let m = &rf.m[..nn];
+    let mut max_m: f64 = 0.0;
+    for j in 0..n {
+        for &v in &m[j * n..j * n + j + 1] {
+            let v = v.abs();
+            if v > max_m {
+                max_m = v;
+            }
         }
     }
-    trans_mul
+    let k = crate::fast::StepScalars {
+        w_w,
+        dj1dw,
+        ddj1dwdw,
+        dwdq,
+        ddwdqdq,
+        meta_rate: p.meta_rate,
+        trans_mul,
+        limit: 0.1 * max_m,
+    };
+    let (dq, dx, g, ddj2) = (&ws.dq, &ws.dx, &mut ws.dj2dm, &ws.ddj2dmdm);
+    let (b, alpha, h, m) = (&mut rf.b, &mut rf.alpha, &mut rf.h, &mut rf.m);
+    if p.meta {
+        crate::fast::metric_step::<true>(n, &k, dq, dx, g, ddj2, b, alpha, h, m);
+    } else {
+        crate::fast::metric_step::<false>(n, &k, dq, dx, g, ddj2, b, alpha, h, m);
+    }
+    crate::fast::gram(n, &rf.m, &mut ws.mt, &mut rf.d);
 }

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::metric::update_distance_metric;
-use crate::params::{Kernel, Params, PruneRule};
+use crate::params::{Arithmetic, Kernel, Params, PruneRule};
 use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, diag_distance, distance, kernel_eval};
 use crate::workspace::Workspace;
 
@@ -175,6 +175,13 @@ impl Lwpr {
         }
     }
 
+    /// Switches the arithmetic of further updates ([`Arithmetic`]); everything learned is kept.
+    /// (`Arithmetic::Reference` makes the rest of training bit-identical to the C library's
+    /// continuing from the same state.)
+    pub fn set_arithmetic(&mut self, arithmetic: Arithmetic) {
+        self.params.arithmetic = arithmetic;
+    }
+
     /// Input dimension n.
     pub fn n_in(&self) -> usize {
         self.params.n_in
@@ -327,15 +334,15 @@ impl Lwpr {
     /// multiply-add), so the results are the same bits either way.
     fn update_sub_any_n(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU supports AVX (checked just above).
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX and AVX2 (checked just above).
             return unsafe { Self::update_sub_avx(p, sub, yn, ws) };
         }
         Self::update_sub::<0>(p, sub, yn, ws)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
+    #[target_feature(enable = "avx,avx2")]
     fn update_sub_avx(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
         Self::update_sub::<0>(p, sub, yn, ws)
     }
@@ -369,10 +376,18 @@ impl Lwpr {
             Kernel::BiSquare => f64::INFINITY,
         };
         let xn_n = &xn[..n];
+        // Arithmetic::Fast for n ≥ 5 with a full metric: the vectorised module `fast`.
+        let fast = N == 0 && !p.diag_only && p.arithmetic == Arithmetic::Fast;
         for (k, rf) in sub.rfs.iter_mut().enumerate() {
             let c = &rf.c[..n];
             let q = if p.diag_only {
                 diag_distance(&rf.d, xn_n, c)
+            } else if fast {
+                let xc = &mut ws.xc[..n];
+                for i in 0..n {
+                    xc[i] = xn_n[i] - c[i];
+                }
+                crate::fast::distance_m(&rf.m, xc, &mut ws.dq)
             } else {
                 let xc = &mut ws.xc[..n];
                 for i in 0..n {
@@ -405,7 +420,17 @@ impl Lwpr {
                     act.sum_w += w;
                 }
                 if p.update_d {
-                    update_distance_metric(n, rf, p, w, dwdq, ddwdqdq, e_cv, e, &xn[..n], ws);
+                    update_distance_metric(
+                        n,
+                        rf,
+                        p,
+                        (w, dwdq, ddwdqdq),
+                        e_cv,
+                        e,
+                        &xn[..n],
+                        ws,
+                        fast,
+                    );
                 }
                 rf.check_add_projection(p);
                 rf.anneal(p);

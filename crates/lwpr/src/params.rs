@@ -31,6 +31,23 @@ pub enum PruneRule {
     ReferenceC,
 }
 
+/// How the update of a full distance metric with `n ≥ 5` inputs does its arithmetic. For
+/// `n ≤ 4` or a diagonal metric both choices run the reference's operations in the reference's
+/// order, so training is bit-identical to the C library either way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Arithmetic {
+    /// Sums reordered into vector lanes, the activation from the triangular factor
+    /// (`q = |M(x−c)|²`) and a polynomial exponential for the meta-learned rates (see the crate
+    /// docs, "Faithfulness"). The same formulas as the reference; the values differ from it by
+    /// rounding, which over thousands of updates makes the models differ slightly (the same
+    /// accuracy). Deterministic: the same bits on every x86-64 CPU. Default.
+    #[default]
+    Fast,
+    /// Every operation in the reference's order, also for `n ≥ 5`: training is bit-identical to
+    /// the C library in every dimension (slower for large `n`).
+    Reference,
+}
+
 /// All parameters of a model. Names follow the reference library (`init_D` → `init_d` etc.).
 /// Matrices are `n_in × n_in`, stored column-major.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,6 +95,9 @@ pub struct Params {
     pub kernel: Kernel,
     /// Pruning rule (default: the published one).
     pub prune_rule: PruneRule,
+    /// Arithmetic of the metric update for `n ≥ 5` (default [`Arithmetic::Fast`]).
+    #[serde(default)]
+    pub arithmetic: Arithmetic,
 }
 
 impl Params {
@@ -111,6 +131,7 @@ impl Params {
             norm_out: vec![1.0; n_out],
             kernel: Kernel::Gaussian,
             prune_rule: PruneRule::Published,
+            arithmetic: Arithmetic::Fast,
         }
     }
 
@@ -372,6 +393,13 @@ impl LwprBuilder {
     /// Pruning rule.
     pub fn prune_rule(mut self, r: PruneRule) -> Self {
         self.params.prune_rule = r;
+        self
+    }
+
+    /// Arithmetic of the metric update for `n ≥ 5` ([`Arithmetic::Reference`] for training
+    /// that is bit-identical to the C library in every dimension).
+    pub fn arithmetic(mut self, a: Arithmetic) -> Self {
+        self.params.arithmetic = a;
         self
     }
 

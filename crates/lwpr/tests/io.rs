@@ -132,3 +132,20 @@ fn corrupt_json_is_rejected() {
     // Unchanged it loads.
     assert!(edit(&|_| ()).is_ok());
 }
+
+#[test]
+fn arithmetic_choice_survives_both_forms() {
+    let mut m = LwprBuilder::new(6, 1)
+        .diag_only(false)
+        .arithmetic(lwpr::Arithmetic::Reference)
+        .build()
+        .unwrap();
+    m.update(&[0.1, 0.2, 0.3, 0.4, 0.5, 0.6], &[1.0]).unwrap();
+    for back in [
+        Lwpr::from_binary(&m.to_binary()).unwrap(),
+        Lwpr::from_json(&m.to_json()).unwrap(),
+    ] {
+        assert_eq!(back.params().arithmetic, lwpr::Arithmetic::Reference);
+        assert_eq!(back, m);
+    }
+}

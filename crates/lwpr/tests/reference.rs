@@ -6,7 +6,7 @@
 mod harness;
 
 use harness::*;
-use lwpr::{Lwpr, LwprBuilder};
+use lwpr::{Arithmetic, Lwpr, LwprBuilder};
 use std::path::Path;
 
 fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
@@ -128,6 +128,7 @@ fn cross_25d_full_metric_meta_pruning_matches_reference() {
         .diag_only(false)
         .meta(true)
         .prune_rule(lwpr::PruneRule::ReferenceC)
+        .arithmetic(Arithmetic::Reference)
         .build()
         .unwrap();
     compare(
@@ -135,5 +136,64 @@ fn cross_25d_full_metric_meta_pruning_matches_reference() {
         &x,
         &y,
         "cross in 25-D, full metric + meta, w_prune 0.7, reference pruning rule",
+    );
+}
+
+/// The default `Arithmetic::Fast` (vectorised sums for n ≥ 5) in the same 25-D setting: not
+/// bit-identical (the activations differ in the last bit from the 12th sample on), but the
+/// same receptive fields and grid predictions within 1e-6 of the reference's.
+#[test]
+fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
+    let dim = 25;
+    let q = random_rotation(dim, 7);
+    let (x2, y) = cross_samples(5, 4_000, 0.1);
+    let x = embed(&x2, &q, dim);
+    let (gx, _) = cross_grid();
+    let gx = embed(&gx, &q, dim);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let driver = match build_peer(&root) {
+        Ok(d) => d,
+        Err(reason) => {
+            eprintln!("SKIPPED 25-D fast arithmetic: {reason}");
+            return;
+        }
+    };
+    let mut model = LwprBuilder::new(dim, 1)
+        .init_d_spherical(0.25)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.7)
+        .diag_only(false)
+        .meta(true)
+        .prune_rule(lwpr::PruneRule::ReferenceC)
+        .build()
+        .unwrap();
+    assert_eq!(model.params().arithmetic, Arithmetic::Fast);
+    let peer = run_peer(&driver, &PeerSettings::of(&model), &x, &y, &gx, &[y.len()])
+        .expect("reference run");
+    let mut worst_update: f64 = 0.0;
+    for (t, (xs, ys)) in x.chunks(dim).zip(&y).enumerate() {
+        let ours = model.update(xs, &[*ys]).unwrap()[0];
+        worst_update = worst_update.max((ours - peer.update_predictions[t]).abs());
+    }
+    let (nrf, pred) = &peer.checkpoints[0];
+    assert_eq!(&model.num_rfs(), nrf, "receptive-field counts");
+    let ours = model.predict_batch(&gx, 0.001).unwrap();
+    let worst = ours
+        .iter()
+        .zip(pred)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-6,
+        "largest grid prediction difference {worst:e}"
+    );
+    assert!(
+        worst_update <= 1e-6,
+        "largest update prediction difference {worst_update:e}"
+    );
+    eprintln!(
+        "25-D fast arithmetic: {nrf:?} receptive fields, largest grid difference {worst:e}, \
+         largest update difference {worst_update:e}"
     );
 }
