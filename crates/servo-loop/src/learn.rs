@@ -8,6 +8,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
 use serde::{Deserialize, Serialize};
 
+use crate::approach::{Approach, ApproachState};
 use crate::error::{Result, ServoError};
 use crate::inverse::InverseModel;
 use crate::plant::{Plant, check_command};
@@ -25,6 +26,11 @@ pub struct LearnConfig {
     pub seed: u64,
     /// Draw a progress bar on stderr (indicatif; hidden when stderr is not a terminal).
     pub progress: bool,
+    /// Execute every move with the unidirectional approach ([`crate::approach`]), as the
+    /// servo loop will, so that the learned map describes where the joints end when
+    /// approached that way (`None`: send each command as it is).
+    #[serde(default)]
+    pub approach: Option<Approach>,
 }
 
 /// What a learning session did.
@@ -110,12 +116,24 @@ pub fn learn_control<P: Plant + ?Sized>(
             });
         }
     }
+    if let Some(a) = &config.approach {
+        a.validate()?;
+    }
     let bar = progress_bar(config.moves as u64, config.progress);
     let mut report = LearnReport::default();
+    let mut state = ApproachState::new();
     for k in 1..=config.moves {
-        let y = commands.next_command();
-        check_command(&*plant, &y)?;
-        plant.act(&y)?;
+        let mut y = commands.next_command();
+        match &config.approach {
+            Some(a) => {
+                y = a.round(&y);
+                state.execute(&mut *plant, a, &y, false)?;
+            }
+            None => {
+                check_command(&*plant, &y)?;
+                plant.act(&y)?;
+            }
+        }
         report.executed += 1;
         match plant.observe() {
             Ok(obs) => {

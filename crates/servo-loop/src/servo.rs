@@ -21,6 +21,7 @@
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use crate::approach::{Approach, ApproachState};
 use crate::error::{Result, ServoError, check_finite, check_len};
 use crate::inverse::InverseModel;
 use crate::plant::{Observation, Plant, check_command, check_target};
@@ -61,6 +62,13 @@ pub struct ServoConfig {
     pub refine_online: bool,
     /// Behaviour at the servo range.
     pub range: RangePolicy,
+    /// How commands are executed: `None` sends each command as it is; `Some` executes it with
+    /// the unidirectional approach of [`crate::approach`] (rounded to the controller's
+    /// resolution, pre-positioned where a joint would otherwise end against the approach
+    /// direction, and every joint re-seated when a correction leaves the command unchanged
+    /// while the error is above the tolerance). For servos with a deadband and backlash.
+    #[serde(default)]
+    pub approach: Option<Approach>,
 }
 
 impl Default for ServoConfig {
@@ -72,13 +80,17 @@ impl Default for ServoConfig {
             jacobian_at: JacobianAt::Current,
             refine_online: true,
             range: RangePolicy::Stop,
+            approach: None,
         }
     }
 }
 
 impl ServoConfig {
-    /// Checks `tolerance ≥ 0` and `damping ∈ (0, 1]`.
+    /// Checks `tolerance ≥ 0`, `damping ∈ (0, 1]` and the approach settings.
     pub fn validate(&self) -> Result<()> {
+        if let Some(a) = &self.approach {
+            a.validate()?;
+        }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(ServoError::InvalidParameter {
                 name: "tolerance",
@@ -100,6 +112,9 @@ impl ServoConfig {
 pub struct ServoStep {
     /// The command sent (controlled set-points).
     pub command: Vec<f64>,
+    /// The pre-position sent before it, with [`ServoConfig::approach`] (not observed).
+    #[serde(default)]
+    pub pre_position: Option<Vec<f64>>,
     /// The percept observed after it.
     pub percept: Vec<f64>,
     /// Recognition certainty of the percept.
@@ -164,6 +179,7 @@ struct Runner<'a, P: Plant + ?Sized> {
     x_w: &'a [f64],
     config: &'a ServoConfig,
     run: ServoRun,
+    approach: ApproachState,
 }
 
 impl<'a, P: Plant + ?Sized> Runner<'a, P> {
@@ -175,6 +191,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
             x_w,
             config,
             run: ServoRun::default(),
+            approach: ApproachState::new(),
         })
     }
 
@@ -185,8 +202,11 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         }
     }
 
-    /// Applies the range policy, executes `y`, observes and records.
+    /// Applies the range policy (and the approach), executes `y`, observes and records.
     fn execute(&mut self, mut y: Vec<f64>) -> Result<Observation> {
+        if let Some(a) = &self.config.approach {
+            y = a.round(&y);
+        }
         if self.config.range == RangePolicy::Clamp {
             for (j, v) in y.iter_mut().enumerate() {
                 let [lo, hi] = self.plant.command_range(j);
@@ -196,13 +216,25 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
             }
         }
         check_command(&*self.plant, &y)?;
-        self.plant.act(&y)?;
+        let pre_position = match &self.config.approach {
+            Some(a) => {
+                // An unchanged command while still above the tolerance: re-seat every joint
+                // (a fresh draw of the servos' end noise) instead of stalling.
+                let reseat = self.approach.last() == Some(&y[..]);
+                self.approach.execute(&mut *self.plant, a, &y, reseat)?
+            }
+            None => {
+                self.plant.act(&y)?;
+                None
+            }
+        };
         let obs = self.plant.observe()?;
         check_len("percept", &obs.x, self.x_w.len())?;
         check_finite("percept", &obs.x)?;
         let error = image_error(&obs.x, self.x_w);
         self.run.steps.push(ServoStep {
             command: y,
+            pre_position,
             percept: obs.x.clone(),
             certainty: obs.certainty,
             error,
@@ -228,9 +260,20 @@ pub fn open_loop<P: Plant + ?Sized>(
     model: &InverseModel,
     x_w: &[f64],
 ) -> ServoResult {
+    open_loop_with(plant, model, x_w, &ServoConfig::default())
+}
+
+/// Open-loop positioning executed with `config`'s range policy and approach (its iteration
+/// settings are ignored): executes `y₀ = f̂(x_w)` only.
+pub fn open_loop_with<P: Plant + ?Sized>(
+    plant: &mut P,
+    model: &InverseModel,
+    x_w: &[f64],
+    config: &ServoConfig,
+) -> ServoResult {
     let config = ServoConfig {
         max_iterations: 0,
-        ..ServoConfig::default()
+        ..config.clone()
     };
     let mut r = Runner::new(plant, x_w, &config).map_err(|e| ServoAbort {
         error: e,
@@ -260,9 +303,10 @@ pub fn servo_lwpr<P: Plant + ?Sized>(
         run: ServoRun::default(),
     })?;
     let step = |r: &mut Runner<'_, P>, model: &mut InverseModel, y: Vec<f64>| -> Result<Vec<f64>> {
-        let obs = r.execute(y.clone())?;
+        let obs = r.execute(y)?;
         if r.config.refine_online {
-            model.update(&obs.x, &y)?;
+            // The command as executed (rounded with an approach), not as asked.
+            model.update(&obs.x, r.last_command().as_slice())?;
         }
         Ok(obs.x)
     };
@@ -378,16 +422,18 @@ pub fn servo_broyden<P: Plant + ?Sized>(
         Ok(o) => o.x,
         Err(e) => return Err(r.abort(e)),
     };
+    // The first guess as executed (rounded with an approach).
+    let y0r = r.last_command();
     let mut b = DMatrix::zeros(n, m);
     let mut x = x0.clone();
-    let mut y = DVector::from_column_slice(y0);
+    let mut y = y0r.clone();
     let mut probes = 0;
     for j in 0..m {
         if r.run.converged || probes >= config.max_iterations {
             break;
         }
         let [lo, hi] = r.plant.command_range(j);
-        let mut yp = DVector::from_column_slice(y0);
+        let mut yp = y0r.clone();
         let delta = if yp[j] + broyden.probe <= hi || yp[j] - broyden.probe < lo {
             broyden.probe
         } else {
@@ -398,11 +444,15 @@ pub fn servo_broyden<P: Plant + ?Sized>(
             Ok(o) => o.x,
             Err(e) => return Err(r.abort(e)),
         };
+        // The probe as executed (rounded with an approach).
+        let delta = r.last_command()[j] - y0r[j];
         probes += 1;
-        for i in 0..n {
-            b[(i, j)] = (x[i] - x0[i]) / delta;
+        if delta != 0.0 {
+            for i in 0..n {
+                b[(i, j)] = (x[i] - x0[i]) / delta;
+            }
         }
-        y = yp;
+        y = r.last_command();
     }
     let mut x_prev = x.clone();
     let mut y_prev = y.clone();
@@ -419,6 +469,7 @@ pub fn servo_broyden<P: Plant + ?Sized>(
             Ok(o) => o.x,
             Err(e) => return Err(r.abort(e)),
         };
+        y = r.last_command();
         let dyv = &y - &y_prev;
         let dxv = DVector::from_iterator(n, x.iter().zip(&x_prev).map(|(a, b)| a - b));
         let denom = dyv.dot(&dyv);

@@ -98,6 +98,7 @@ fn trained(moves: usize) -> InverseModel {
         explore: RANGE.to_vec(),
         seed: 11,
         progress: false,
+        approach: None,
     };
     let report = learn_control(&mut arm, &mut model, &cfg, |_, _| {}).unwrap();
     assert_eq!(report.used, moves);
@@ -384,6 +385,7 @@ fn invalid_settings_are_rejected() {
         explore: vec![[0.0, 3.0], [0.3, 2.0]],
         seed: 1,
         progress: false,
+        approach: None,
     };
     let e = learn_control(&mut Arm::new(), &mut model, &lc, |_, _| {}).unwrap_err();
     assert!(matches!(

@@ -272,6 +272,7 @@ fn robot_failing_mid_run_is_a_typed_error_and_the_model_stays_intact() {
         explore: EXPLORE.to_vec(),
         seed: 1,
         progress: false,
+        approach: None,
     };
     let report = learn_control(&mut plant, &mut model, &lc, |_, _| {}).unwrap();
     assert_eq!(report.executed, 6);

@@ -37,9 +37,9 @@ use clap::Args;
 use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
-    BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt, LearnConfig,
-    RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, learn_control, learn_recognition,
-    open_loop, servo_broyden, servo_image_jacobian, servo_lwpr,
+    Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
+    LearnConfig, RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, learn_control,
+    learn_recognition, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -106,6 +106,9 @@ pub struct Protocol {
     pub broyden_probe_us: f64,
     pub recognition_views: usize,
     pub recognition_tests: usize,
+    /// How every move (training and servoing, all methods) is executed: the unidirectional
+    /// approach for hobby servos (`servo_loop::Approach::hobby_servo`), or `None` (plain).
+    pub approach: Option<Approach>,
 }
 
 impl Protocol {
@@ -129,6 +132,7 @@ impl Protocol {
             broyden_probe_us: 20.0,
             recognition_views: 30,
             recognition_tests: 40,
+            approach: Some(Approach::hobby_servo()),
         }
     }
 }
@@ -174,6 +178,7 @@ fn servo_config(p: &Protocol) -> ServoConfig {
         jacobian_at: JacobianAt::Current,
         refine_online: true,
         range: servo_loop::RangePolicy::Stop,
+        approach: p.approach.clone(),
     }
 }
 
@@ -217,7 +222,7 @@ pub fn run_method(
         plant.log.clear();
         let result = match method {
             "lwpr" => servo_lwpr(&mut plant, &mut model, &t.x_w, &cfg),
-            "lwpr-open-loop" => open_loop(&mut plant, &model, &t.x_w),
+            "lwpr-open-loop" => open_loop_with(&mut plant, &model, &t.x_w, &cfg),
             "broyden" | "true-jacobian" => match model.predict(&t.x_w) {
                 Ok(y0) if method == "broyden" => servo_broyden(
                     &mut plant,
@@ -346,6 +351,7 @@ pub fn train(
         explore: p.explore_us.clone(),
         seed: p.seed,
         progress,
+        approach: p.approach.clone(),
     };
     let mut snaps = Vec::new();
     let report = learn_control(&mut plant, &mut model, &lc, |k, m| {

@@ -153,6 +153,25 @@ pub fn summary(study: &Study) -> String {
             p.noise_px
         );
     }
+    match &p.approach {
+        Some(a) => {
+            let up = a.direction == servo_loop::ApproachDirection::Up;
+            s += &format!(
+                "**Execution:** every move (training and servoing, every method) ends each joint's final approach moving {}: a joint whose \
+                 set-point moves the other way (or whose last direction is unknown) is first sent {} µs {} it, more than hobby servos' \
+                 deadband + backlash (≤ 8 µs + 1° ≈ 19 µs by their data sheets); set-points are rounded to the controller's {} µs; \
+                 a correction that leaves the command unchanged while the percept error is above the tolerance re-seats every \
+                 joint (servo_loop::Approach::hobby_servo). Pre-positions are not observed and do not count as iterations.\n\n",
+                if up { "up" } else { "down" },
+                a.overshoot,
+                if up { "below" } else { "above" },
+                a.resolution
+            );
+        }
+        None => {
+            s += "**Execution:** every command is sent as it is (no unidirectional approach).\n\n"
+        }
+    }
     s += "## Error per iteration (median / p90 px, median mm, success rate)\n\n";
     s += "| iteration |";
     for st in &stats {
