@@ -2,7 +2,8 @@
 //! RMSE and time per frame of CBT (stationary layout, 2nd and 1st order) against the
 //! 1,000-particle filter. `cargo run --release -p cbt-tracker --example diag [levels...]`.
 //! Environment: `ROWS=1` prints every sequence; `SPF=f` scales the channel spacing by `f`;
-//! `ONLY=cbt|pf|learn` runs only that part (for instruction counts with callgrind).
+//! `ONLY=cbt|pf|learn` runs only that part (for instruction counts with callgrind);
+//! `DIGEST=1` prints a bit-exact fingerprint of every run's estimates.
 
 use std::time::Instant;
 
@@ -29,6 +30,13 @@ fn run(t: &mut dyn Tracker, s: &Sequence) -> (f64, f64) {
         est.push(e.position);
     }
     let dt = t0.elapsed().as_secs_f64() / (s.frames.len() - 1) as f64;
+    if std::env::var("DIGEST").is_ok() {
+        // Bit-exact fingerprint of the estimates (to check that a speed-up changes nothing).
+        let h = est.iter().fold(0u64, |h, p| {
+            (h ^ p[0].to_bits() ^ p[1].to_bits().rotate_left(17)).wrapping_mul(0x100000001b3)
+        });
+        println!("   digest {} {h:016x}", t.name());
+    }
     let truths: Vec<Option<Point>> = s.frames.iter().map(|f| f.truth).collect();
     (score(&est, &truths, 2, 20.0).rmse, dt)
 }

@@ -148,7 +148,7 @@ impl TryFrom<CbtModelRaw> for CbtModel {
             }
             SystemModel::Stationary(s) if config.layout == Layout::Stationary => {
                 len("displacement model axes", s.len(), dims)?;
-                s.iter().try_for_each(StatSystem::check)?;
+                s.iter_mut().try_for_each(StatSystem::check)?;
             }
             SystemModel::Separable { .. } => return Err(layout(Layout::Separable)),
             SystemModel::Joint(_) => return Err(layout(Layout::SparseJoint)),

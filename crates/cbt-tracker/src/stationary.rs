@@ -88,6 +88,11 @@ pub(crate) struct StatObservation {
     kernel: Vec<f64>,
     /// `A` point-reflected (reversed), for the filter's contiguous inner loop.
     flipped: Vec<f64>,
+    /// `flipped` with its rows padded by `n − 1` zeros to the stride `2ra + n` of a bump
+    /// built from a detection with `n = 1, 2, 3` active channels (derived; rebuilt after
+    /// loading).
+    #[serde(skip)]
+    padded: [Vec<f64>; 3],
     ra: usize,
     /// Learned clutter density per cell and frame `B`.
     background: f64,
@@ -109,6 +114,7 @@ impl StatObservation {
             len: [space.meas_len(0), space.meas_len(1)],
             kernel: Vec::new(),
             flipped: Vec::new(),
+            padded: Default::default(),
             ra: 0,
             background: 0.0,
             p_detect: 0.0,
@@ -164,6 +170,7 @@ impl StatObservation {
                 "the reflected observation kernel is not the kernel's",
             ));
         }
+        self.rebuild_padded();
         for v in [self.norm, self.background, self.floor] {
             nonneg1("observation statistic", v)?;
         }
@@ -319,19 +326,32 @@ impl StatObservation {
             .collect();
         self.ra = ra;
         self.flipped = self.kernel.iter().rev().copied().collect();
+        self.rebuild_padded();
         self.p_detect = total.clamp(0.0, 1.0);
         self.floor =
             (1.0 - self.p_detect) * self.background + cfg.observation_floor / self.cells as f64;
     }
 
+    /// Rebuilds the padded copies of the reflected kernel.
+    fn rebuild_padded(&mut self) {
+        let kw = 2 * self.ra + 1;
+        for (n, p) in self.padded.iter_mut().enumerate() {
+            p.clear();
+            for row in self.flipped.chunks_exact(kw) {
+                p.extend_from_slice(row);
+                p.extend(std::iter::repeat_n(0.0, n));
+            }
+        }
+    }
+
+    /// The reflected kernel with rows padded to the stride `2ra + n` (`n = 1..=3`).
+    pub fn padded_kernel(&self, n: usize) -> &[f64] {
+        &self.padded[n - 1]
+    }
+
     /// The learned kernel `A` (radius [`Self::kernel_radius`]), row-major over `(δx, δy)`.
     pub fn kernel(&self) -> &[f64] {
         &self.kernel
-    }
-
-    /// `A` point-reflected: `F[p·(2ra + 1) + q] = A[(2ra − p)·(2ra + 1) + 2ra − q]`.
-    pub fn flipped_kernel(&self) -> &[f64] {
-        &self.flipped
     }
 
     /// Radius of the truncated kernel.
@@ -384,7 +404,14 @@ pub(crate) struct StatSystem {
     c2: Vec<f64>,
     s1: Vec<f64>,
     t: Vec<f64>,
+    /// Per `v`: the range `[lo, hi)` of `δ + r` outside which `T[· | v]` holds at most
+    /// [`BAND_TAIL`] of its mass (derived from `t`; rebuilt after loading).
+    #[serde(skip)]
+    band: Vec<(u32, u32)>,
 }
+
+/// Mass share of `T[· | v]` the prediction may skip in each tail of a column.
+const BAND_TAIL: f64 = 1e-9;
 
 impl StatSystem {
     pub fn new(r: usize, cfg: &CbtConfig) -> Self {
@@ -395,13 +422,14 @@ impl StatSystem {
             c2: vec![0.0; w * w],
             s1: vec![0.0; w],
             t: vec![0.0; w * w],
+            band: Vec::new(),
         };
         s.normalise(cfg);
         s
     }
 
-    /// Consistency of a deserialised model.
-    pub fn check(&self) -> Result<(), TrackError> {
+    /// Consistency of a deserialised model (and its derived bands rebuilt).
+    pub fn check(&mut self) -> Result<(), TrackError> {
         let w = self
             .r
             .checked_mul(2)
@@ -417,6 +445,7 @@ impl StatSystem {
             len(what, v.len(), n)?;
             nonneg(what, v)?;
         }
+        self.rebuild_bands();
         Ok(())
     }
 
@@ -484,6 +513,35 @@ impl StatSystem {
                 self.t[v * w + i] = (col[i] + alpha * f[i]) / (mass + alpha);
             }
         }
+        self.rebuild_bands();
+    }
+
+    /// Recomputes the columns' bands from `T`.
+    pub fn rebuild_bands(&mut self) {
+        let w = 2 * self.r + 1;
+        self.band.clear();
+        for col in self.t.chunks_exact(w) {
+            let cut = BAND_TAIL * col.iter().sum::<f64>();
+            let (mut lo, mut hi, mut acc) = (0, w, 0.0);
+            while lo + 1 < hi && acc + col[lo] <= cut {
+                acc += col[lo];
+                lo += 1;
+            }
+            acc = 0.0;
+            while hi > lo + 1 && acc + col[hi - 1] <= cut {
+                acc += col[hi - 1];
+                hi -= 1;
+            }
+            self.band.push((lo as u32, hi as u32));
+        }
+    }
+
+    /// The band `[lo, hi)` of column `v + r` of `T` (the whole column when not built).
+    #[inline]
+    pub fn band(&self, vi: usize) -> (usize, usize) {
+        self.band
+            .get(vi)
+            .map_or((0, 2 * self.r + 1), |&(lo, hi)| (lo as usize, hi as usize))
     }
 
     /// `S[δ]`, `δ = i − r`.

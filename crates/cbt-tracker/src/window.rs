@@ -36,6 +36,11 @@ use crate::{Detection, Space, TrackError};
 /// Cells below this share of the posterior's maximum are cropped from the window.
 const CROP: f64 = 1e-4;
 
+/// Each tail of a displacement kernel holding at most this share of its mass is dropped (the
+/// kernel is renormalised): far below the crop and support thresholds, and it shortens a
+/// Gaussian kernel of `σ` channels to `± 4.3 σ`.
+const KERNEL_TAIL: f64 = 1e-5;
+
 /// A dense rectangle of the joint grid: rows `i0..i0 + h` (axis 0), columns `j0..j0 + w`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub(crate) struct Patch {
@@ -315,15 +320,20 @@ impl WindowState {
                     let a_lo = (o2 + v - o1).max(0);
                     let a_hi = (o2 + v + m2.len() as i64 - o1).min(m1.len() as i64);
                     let mut c = 0.0;
-                    for a in a_lo..a_hi {
-                        c += m1[a as usize] * m2[(o1 + a - v - o2) as usize];
+                    if a_lo < a_hi {
+                        let b_lo = (o1 + a_lo - v - o2) as usize;
+                        let n = (a_hi - a_lo) as usize;
+                        for (&x, &y) in m1[a_lo as usize..][..n].iter().zip(&m2[b_lo..][..n]) {
+                            c += x * y;
+                        }
                     }
                     if c == 0.0 {
                         continue;
                     }
                     inside += c;
                     let col = &t[(v + r) as usize * w..(v + r + 1) as usize * w];
-                    for (dst, &s) in out.iter_mut().zip(col) {
+                    let (lo, hi) = sys.band((v + r) as usize);
+                    for (dst, &s) in out[lo..hi].iter_mut().zip(&col[lo..hi]) {
                         *dst += c * s;
                     }
                 }
@@ -334,12 +344,19 @@ impl WindowState {
                 }
             }
         }
-        // Trim negligible tails.
-        let max = out.iter().fold(0.0f64, |a, &b| a.max(b));
-        let keep = |v: &f64| *v > 1e-7 * max;
-        let lo = out.iter().position(keep).unwrap_or(0);
-        let hi = out.iter().rposition(keep).map_or(0, |h| h + 1);
-        let v = out[lo..hi.max(lo + 1)].to_vec();
+        // Drop each tail holding at most KERNEL_TAIL of the mass.
+        let cut = KERNEL_TAIL * out.iter().sum::<f64>();
+        let (mut lo, mut hi, mut acc) = (0, w, 0.0);
+        while lo + 1 < hi && acc + out[lo] <= cut {
+            acc += out[lo];
+            lo += 1;
+        }
+        acc = 0.0;
+        while hi > lo + 1 && acc + out[hi - 1] <= cut {
+            acc += out[hi - 1];
+            hi -= 1;
+        }
+        let v = out[lo..hi].to_vec();
         let s: f64 = v.iter().sum();
         Kernel1 {
             lo: lo as i64 - r,
@@ -406,17 +423,22 @@ impl WindowState {
                 }
             }
         }
-        // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j].
-        for a in a_lo..a_hi {
-            let src = &rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
-            let i_lo = (a as i64 + kx.lo).max(rect.a0 as i64);
-            let i_hi = (a as i64 + kx.hi() + 1).min(rect.a1 as i64);
-            for i in i_lo..i_hi {
-                let k = keep * kx.v[(i - a as i64 - kx.lo) as usize];
-                let dst = &mut out[(i as usize - rect.a0) * nc..(i as usize - rect.a0 + 1) * nc];
-                for (x, &s) in dst.iter_mut().zip(src) {
-                    *x += k * s;
-                }
+        // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
+        // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
+        // it joins; taps by decreasing δ add each cell's terms by increasing a.
+        for (t, &kv) in kx.v.iter().enumerate().rev() {
+            let delta = kx.lo + t as i64;
+            let lo = (a_lo as i64).max(rect.a0 as i64 - delta);
+            let hi = (a_hi as i64).min(rect.a1 as i64 - delta);
+            if lo >= hi {
+                continue;
+            }
+            let k = keep * kv;
+            let n = (hi - lo) as usize * nc;
+            let src = &rows[(lo as usize - a_lo) * nc..][..n];
+            let dst = &mut out[((lo + delta) as usize - rect.a0) * nc..][..n];
+            for (x, &s) in dst.iter_mut().zip(src) {
+                *x += k * s;
             }
         }
     }
@@ -450,43 +472,63 @@ impl WindowState {
         let ra = obs.kernel_radius() as i64;
         // The point-reflected kernel F[p][q] = A[−(p − ra)][−(q − ra)]:
         // bump[i][j] += c · F[i − m_x + ra][j − m_y + ra], contiguous in j.
-        let kern = obs.flipped_kernel();
         let kw = (2 * ra + 1) as usize;
         let nc = rect.cols();
         // Separably: G[p][q] = Σ_t v_y[t] F[p][q − t] on the kernel's rows (q over the bump's
         // columns, first column m_y0 − ra), then bump row i = w · Σ_t v_x[t] G[i − m_x0 + ra − t].
         let (kx0, ky0) = (det.ax.first() as i64 - ra, det.ay.first() as i64 - ra);
         let ww = det.ay.n + kw - 1;
+        // Rows of the bump B (first row kx0, stride ww) the rect needs, and the rows of G
+        // they read. G and B as contiguous axpys over whole row blocks of stride ww: the
+        // kernel padded to that stride (zeros in its last ww − kw columns catch the shifts
+        // across rows).
+        let (r0, r1) = (
+            (rect.a0 as i64 - kx0) as usize,
+            (rect.a1 as i64 - kx0) as usize,
+        );
+        let (p0, p1) = (r0.saturating_sub(det.ax.n - 1), r1.min(kw));
+        let fpad = obs.padded_kernel(det.ay.n);
+        // The first tap of each pass assigns (its range holds every row it writes to), so
+        // neither buffer needs clearing; rows of G outside [p0, p1) are never read.
         let g = &mut self.scratch.bump;
-        g.clear();
         g.resize(kw * ww, 0.0);
-        for (krow, grow) in kern.chunks_exact(kw).zip(g.chunks_exact_mut(ww)) {
+        if p0 < p1 {
+            let (lo, hi) = (p0 * ww, p1 * ww);
             for (t, &c) in det.ay.v[..det.ay.n].iter().enumerate() {
-                for (x, &k) in grow[t..t + kw].iter_mut().zip(krow) {
-                    *x += c * k;
+                let lo = lo.max(t);
+                let dst = g[lo..hi].iter_mut().zip(&fpad[lo - t..hi - t]);
+                if t == 0 {
+                    dst.for_each(|(x, &k)| *x = c * k);
+                } else {
+                    dst.for_each(|(x, &k)| *x += c * k);
                 }
+            }
+        }
+        let b = &mut self.scratch.row;
+        b.resize((r1 - r0) * ww, 0.0);
+        // Rows the first tap does not reach start at zero.
+        b[(r1.min(kw).max(r0) - r0) * ww..].fill(0.0);
+        for (t, &vx) in det.ax.v[..det.ax.n].iter().enumerate() {
+            // B row r = G row r − t, for r in [r0, r1) with r − t in [0, kw).
+            let (lo, hi) = (r0.max(t), r1.min(t + kw));
+            if lo >= hi {
+                continue;
+            }
+            let c = det.w * vx;
+            let n = (hi - lo) * ww;
+            let src = &g[(lo - t) * ww..][..n];
+            let dst = b[(lo - r0) * ww..][..n].iter_mut().zip(src);
+            if t == 0 {
+                dst.for_each(|(x, &k)| *x = c * k);
+            } else {
+                dst.for_each(|(x, &k)| *x += c * k);
             }
         }
         // Columns of the rect within the bump's columns.
         let q0 = (rect.b0 as i64 - ky0) as usize;
-        let row_buf = &mut self.scratch.row;
         let mut mass = 0.0;
-        for (i, orow) in (rect.a0..rect.a1).zip(out.chunks_exact_mut(nc.max(1))) {
-            let srow = i as i64 - kx0;
-            row_buf.clear();
-            row_buf.resize(nc, 0.0);
-            for (t, &vx) in det.ax.v[..det.ax.n].iter().enumerate() {
-                let p = srow - t as i64;
-                if p < 0 || p >= kw as i64 {
-                    continue;
-                }
-                let c = det.w * vx;
-                let grow = &g[p as usize * ww + q0..p as usize * ww + q0 + nc];
-                for (x, &k) in row_buf.iter_mut().zip(grow) {
-                    *x += c * k;
-                }
-            }
-            mass += mul_sum(orow, row_buf);
+        for (brow, orow) in b.chunks_exact(ww).zip(out.chunks_exact_mut(nc.max(1))) {
+            mass += mul_sum(orow, &brow[q0..q0 + nc]);
         }
         mass
     }
@@ -751,20 +793,31 @@ impl WindowState {
         let w = p.w;
         for i in 0..p.h {
             let cur = &p.v[i * w..(i + 1) * w];
-            let above = (i > 0).then(|| &p.v[(i - 1) * w..i * w]);
-            let below = (i + 1 < p.h).then(|| &p.v[(i + 1) * w..(i + 2) * w]);
+            // Absent rows compare as an all-zero row (a candidate is positive).
+            let above = if i > 0 { &p.v[(i - 1) * w..i * w] } else { cur };
+            let below = if i + 1 < p.h {
+                &p.v[(i + 1) * w..(i + 2) * w]
+            } else {
+                cur
+            };
+            let (has_above, has_below) = (i > 0, i + 1 < p.h);
             for (j, &v) in cur.iter().enumerate() {
                 if v <= 0.0 || v < cut {
                     continue;
                 }
-                let (b0, b1) = (j.saturating_sub(1), (j + 2).min(w));
+                // The direct neighbours first (on a smooth hill, one of them is higher).
+                if (has_above && above[j] >= v) || (has_below && below[j] > v) {
+                    continue;
+                }
                 if (j > 0 && cur[j - 1] >= v) || (j + 1 < w && cur[j + 1] > v) {
                     continue;
                 }
-                if above.is_some_and(|r| r[b0..b1].iter().any(|&o| o >= v)) {
+                if j > 0 && ((has_above && above[j - 1] >= v) || (has_below && below[j - 1] > v)) {
                     continue;
                 }
-                if below.is_some_and(|r| r[b0..b1].iter().any(|&o| o > v)) {
+                if j + 1 < w
+                    && ((has_above && above[j + 1] >= v) || (has_below && below[j + 1] > v))
+                {
                     continue;
                 }
                 peaks.push((v, i, j));
