@@ -1,8 +1,9 @@
 //! `cargo xtask bench lwpr`: our LWPR against the reference C library (LWPR 1.2.6, built from
 //! `../shared/peers/lwpr` into `target/peers/lwpr` in the same run) on identical sample streams:
 //! updates/s, predictions/s, receptive fields and nMSE for the 2-D cross function (setting A of
-//! papers.md §4.6, seeds 1–3) and its rotation into 25 dimensions, plus the learning curve and
-//! the largest prediction difference (faithfulness).
+//! papers.md §4.6, seeds 1–3) and its rotation into 25 dimensions (both pruning rules; the default
+//! and the exact arithmetic), plus the learning curve and the largest prediction difference
+//! (faithfulness).
 
 // Included by both the bench and the eval module (it is also the tests' harness).
 #[allow(clippy::duplicate_mod)]
@@ -12,7 +13,7 @@ mod harness;
 use std::time::Instant;
 
 use harness::*;
-use lwpr::{Lwpr, LwprBuilder, PruneRule};
+use lwpr::{Arithmetic, Lwpr, LwprBuilder, PruneRule};
 
 use super::BenchArgs;
 use crate::report::{BenchRow, median};
@@ -200,9 +201,16 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
     let (x2, y) = cross_samples(5, 20_000, 0.1);
     let x = embed(&x2, &q, dim);
     let tx = embed(&gx, &q, dim);
-    for (label, rule) in [
-        ("published pruning", PruneRule::Published),
-        ("reference pruning", PruneRule::ReferenceC),
+    // The default arithmetic (vectorised for n ≥ 5) with both pruning rules, and the
+    // reference's order of operations (bit-identical to the C library) for comparison.
+    for (label, rule, arithmetic) in [
+        ("published pruning", PruneRule::Published, Arithmetic::Fast),
+        ("reference pruning", PruneRule::ReferenceC, Arithmetic::Fast),
+        (
+            "reference pruning, exact arithmetic",
+            PruneRule::ReferenceC,
+            Arithmetic::Reference,
+        ),
     ] {
         let fresh = LwprBuilder::new(dim, 1)
             .init_d_spherical(0.25)
@@ -212,6 +220,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
             .diag_only(false)
             .meta(true)
             .prune_rule(rule)
+            .arithmetic(arithmetic)
             .build()?;
         let (ours, peer) = measure(&driver, &fresh, &x, &y, &tx, &gy)?;
         rows_for(&format!("cross 25-D, {label}"), &ours, &peer, &mut rows);
