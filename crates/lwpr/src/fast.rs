@@ -58,37 +58,42 @@ pub(crate) fn exp_lanes(x: f64) -> f64 {
     f64::from_bits(p.to_bits().wrapping_add(t.to_bits() << 52))
 }
 
-/// `Σ a_i²` with four interleaved partial sums.
-#[inline(always)]
-fn sum_sq(a: &[f64]) -> f64 {
-    let mut acc = [0.0; 4];
-    let mut chunks = a.chunks_exact(4);
-    for c in &mut chunks {
-        for t in 0..4 {
-            acc[t] += c[t] * c[t];
-        }
-    }
-    let mut s = (acc[0] + acc[2]) + (acc[1] + acc[3]);
-    for &v in chunks.remainder() {
-        s += v * v;
-    }
-    s
-}
-
 /// `v = M xc` for upper-triangular `M` (column-major `n × n`, `n = xc.len()`) and returns
-/// `q = |v|²`.
+/// `q = |v|²`; stops early and returns a value `> q_stop` (with `v` incomplete) as soon as the
+/// rows done so far prove `q > q_stop` (pass `f64::INFINITY` for the complete result).
+/// Rows are taken from the bottom up, four at a time (`M_r..r+3,j` is a contiguous piece of
+/// column `j`), so the cheap short rows come first.
 #[inline(always)]
-pub(crate) fn distance_m(m: &[f64], xc: &[f64], v: &mut [f64]) -> f64 {
+pub(crate) fn distance_m(m: &[f64], xc: &[f64], v: &mut [f64], q_stop: f64) -> f64 {
     let n = xc.len();
     let (m, v) = (&m[..n * n], &mut v[..n]);
-    v.fill(0.0);
-    for j in 0..n {
-        let xj = xc[j];
-        for (vi, &mij) in v[..=j].iter_mut().zip(&m[j * n..j * n + j + 1]) {
-            *vi += mij * xj;
+    let blocks = n / 4;
+    let mut q = 0.0;
+    for r in (4 * blocks..n).rev() {
+        let mut s = 0.0;
+        for j in r..n {
+            s += m[r + j * n] * xc[j];
+        }
+        v[r] = s;
+        q += s * s;
+    }
+    for b in (0..blocks).rev() {
+        let r0 = 4 * b;
+        let mut acc = [0.0; 4];
+        for j in r0..n {
+            let col: &[f64; 4] = m[j * n + r0..j * n + r0 + 4].try_into().expect("4");
+            let xj = xc[j];
+            for t in 0..4 {
+                acc[t] += col[t] * xj;
+            }
+        }
+        v[r0..r0 + 4].copy_from_slice(&acc);
+        q += (acc[0] * acc[0] + acc[1] * acc[1]) + (acc[2] * acc[2] + acc[3] * acc[3]);
+        if q > q_stop {
+            return q;
         }
     }
-    sum_sq(v)
+    q
 }
 
 /// The penalty derivatives `∂J₂/∂M_rc = 2γ'·(MD)_rc` into `dj2dm` and, with `meta`,
@@ -141,8 +146,8 @@ pub(crate) fn penalty_derivatives(
     }
 }
 
-/// `dj2dm_rc = two_pen · (MD)_rc` for rows `r0..r0+4` and columns `c0..c0+W` (`c ≥ r`), the
-/// `4 × W` sums in registers.
+/// `dj2dm_rc = two_pen · (MD)_rc` for rows `r0..r0+4` and columns `c0..c0+W`, the `W` column
+/// pieces of four rows in registers (written whole: entries below the diagonal are scratch).
 #[inline(always)]
 fn md_block<const W: usize>(
     n: usize,
@@ -153,23 +158,20 @@ fn md_block<const W: usize>(
     two_pen: f64,
     dj2dm: &mut [f64],
 ) {
-    let mut acc = [[0.0; W]; 4];
+    let mut acc = [[0.0; 4]; W];
     for i in r0..n {
-        let dv: &[f64; W] = d[i * n + c0..i * n + c0 + W].try_into().expect("W");
         let mv: &[f64; 4] = m[i * n + r0..i * n + r0 + 4].try_into().expect("4");
-        for t in 0..4 {
-            for l in 0..W {
-                acc[t][l] += mv[t] * dv[l];
+        let dv: &[f64; W] = d[i * n + c0..i * n + c0 + W].try_into().expect("W");
+        for l in 0..W {
+            for t in 0..4 {
+                acc[l][t] += mv[t] * dv[l];
             }
         }
     }
-    for t in 0..4 {
-        let r = r0 + t;
-        for l in 0..W {
-            let c = c0 + l;
-            if c >= r {
-                dj2dm[r + c * n] = two_pen * acc[t][l];
-            }
+    for l in 0..W {
+        let c = c0 + l;
+        for t in 0..4 {
+            dj2dm[c * n + r0 + t] = two_pen * acc[l][t];
         }
     }
 }
@@ -384,7 +386,7 @@ mod tests {
             let scale = 1.0 + d.iter().map(|v| v.abs()).sum::<f64>();
             // q = |M xc|² = xcᵀ D xc, and v = M xc.
             let mut v = vec![0.0; n];
-            let q = distance_m(&m, &xc, &mut v);
+            let q = distance_m(&m, &xc, &mut v, f64::INFINITY);
             let mut plain = 0.0;
             for j in 0..n {
                 for i in 0..n {

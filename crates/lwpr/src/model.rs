@@ -387,7 +387,7 @@ impl Lwpr {
                 for i in 0..n {
                     xc[i] = xn_n[i] - c[i];
                 }
-                crate::fast::distance_m(&rf.m, xc, &mut ws.dq)
+                crate::fast::distance_m(&rf.m, xc, &mut ws.dq, q_skip)
             } else {
                 let xc = &mut ws.xc[..n];
                 for i in 0..n {
