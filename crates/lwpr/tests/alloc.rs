@@ -31,9 +31,15 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn grown_model_updates_and_predicts_without_allocating() {
-    for (diag, meta) in [(true, false), (false, true)] {
-        let (x, y) = cross_samples(1, 6000, 0.1);
-        let mut m = LwprBuilder::new(2, 1)
+    // n = 6 with a full metric runs the vectorised path (`Arithmetic::Fast`).
+    for (dim, diag, meta) in [(2, true, false), (2, false, true), (6, false, true)] {
+        let (x2, y) = cross_samples(1, 6000, 0.1);
+        let x = if dim == 2 {
+            x2
+        } else {
+            embed(&x2, &random_rotation(dim, 7), dim)
+        };
+        let mut m = LwprBuilder::new(dim, 1)
             .init_d_spherical(50.0)
             .init_alpha(250.0)
             .w_gen(0.2)
@@ -41,7 +47,7 @@ fn grown_model_updates_and_predicts_without_allocating() {
             .meta(meta)
             .build()
             .unwrap();
-        for (a, b) in x.chunks(2).zip(&y) {
+        for (a, b) in x.chunks(dim).zip(&y) {
             m.update(a, &[*b]).unwrap();
         }
         // Replay seen inputs until a whole pass adds neither fields nor PLS directions.
@@ -56,7 +62,7 @@ fn grown_model_updates_and_predicts_without_allocating() {
         for _pass in 0..10 {
             let (rfs, pls) = (m.num_rfs(), dims(&m));
             let before = ALLOCS.load(Ordering::SeqCst);
-            for (a, b) in x.chunks(2).zip(&y).take(2000) {
+            for (a, b) in x.chunks(dim).zip(&y).take(2000) {
                 m.update_into(a, &[*b], &mut out).unwrap();
                 m.predict_into(a, 0.001, &mut out).unwrap();
             }
@@ -64,7 +70,7 @@ fn grown_model_updates_and_predicts_without_allocating() {
             if (m.num_rfs(), dims(&m)) == (rfs, pls) {
                 assert_eq!(
                     allocs, 0,
-                    "allocations in 2000 updates + predictions (diag {diag}, meta {meta})"
+                    "allocations in 2000 updates + predictions (n {dim}, diag {diag}, meta {meta})"
                 );
                 checked = true;
                 break;
