@@ -95,6 +95,7 @@ mod model;
 mod observation;
 mod particle;
 pub mod sim;
+mod simd;
 mod space;
 mod stationary;
 mod system;

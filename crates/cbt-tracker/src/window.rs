@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
+use crate::simd::{axpy, lane_max, lane_sum, mul_sum, scale_into};
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Space, TrackError};
@@ -181,57 +182,6 @@ impl Active {
     }
 }
 
-/// Sum with eight independent accumulators (vectorisable; differs from the sequential sum
-/// only by rounding).
-#[inline]
-fn lane_sum(v: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let mut chunks = v.chunks_exact(8);
-    for c in &mut chunks {
-        for (a, &x) in acc.iter_mut().zip(c) {
-            *a += x;
-        }
-    }
-    let rest: f64 = chunks.remainder().iter().sum();
-    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + rest
-}
-
-/// Largest value (0 for an empty slice or all values below 0), with eight lanes.
-#[inline]
-fn lane_max(v: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let mut chunks = v.chunks_exact(8);
-    for c in &mut chunks {
-        for (a, &x) in acc.iter_mut().zip(c) {
-            *a = a.max(x);
-        }
-    }
-    let rest = chunks.remainder().iter().fold(0.0f64, |a, &b| a.max(b));
-    acc.iter().fold(rest, |a, &b| a.max(b))
-}
-
-/// `out[i] *= b[i]` and the sum of the products, with eight accumulators.
-#[inline]
-fn mul_sum(out: &mut [f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let n = out.len().min(b.len());
-    let (out, b) = (&mut out[..n], &b[..n]);
-    let mut oc = out.chunks_exact_mut(8);
-    let mut bc = b.chunks_exact(8);
-    for (o, bb) in (&mut oc).zip(&mut bc) {
-        for ((a, x), &y) in acc.iter_mut().zip(o.iter_mut()).zip(bb) {
-            *x *= y;
-            *a += *x;
-        }
-    }
-    let mut rest = 0.0;
-    for (x, &y) in oc.into_remainder().iter_mut().zip(bc.remainder()) {
-        *x *= y;
-        rest += *x;
-    }
-    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + rest
-}
-
 #[inline(never)]
 fn marginals(p: &Patch) -> [(usize, Vec<f64>); 2] {
     let mut m = [(0, Vec::new()), (0, Vec::new())];
@@ -249,9 +199,7 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
     my.clear();
     my.resize(p.w, 0.0);
     for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
-        for (m, &v) in my.iter_mut().zip(row) {
-            *m += v;
-        }
+        axpy(my, row, 1.0);
         mx[i] = lane_sum(row);
     }
 }
@@ -418,9 +366,7 @@ impl WindowState {
             let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
             let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
             for &(b0, n, d0, k) in taps.iter() {
-                for (x, &q) in dst[d0..d0 + n].iter_mut().zip(&src[b0..b0 + n]) {
-                    *x += k * q;
-                }
+                axpy(&mut dst[d0..d0 + n], &src[b0..b0 + n], k);
             }
         }
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
@@ -436,10 +382,11 @@ impl WindowState {
             let k = keep * kv;
             let n = (hi - lo) as usize * nc;
             let src = &rows[(lo as usize - a_lo) * nc..][..n];
-            let dst = &mut out[((lo + delta) as usize - rect.a0) * nc..][..n];
-            for (x, &s) in dst.iter_mut().zip(src) {
-                *x += k * s;
-            }
+            axpy(
+                &mut out[((lo + delta) as usize - rect.a0) * nc..][..n],
+                src,
+                k,
+            );
         }
     }
 
@@ -496,11 +443,10 @@ impl WindowState {
             let (lo, hi) = (p0 * ww, p1 * ww);
             for (t, &c) in det.ay.v[..det.ay.n].iter().enumerate() {
                 let lo = lo.max(t);
-                let dst = g[lo..hi].iter_mut().zip(&fpad[lo - t..hi - t]);
                 if t == 0 {
-                    dst.for_each(|(x, &k)| *x = c * k);
+                    scale_into(&mut g[lo..hi], &fpad[lo..hi], c);
                 } else {
-                    dst.for_each(|(x, &k)| *x += c * k);
+                    axpy(&mut g[lo..hi], &fpad[lo - t..hi - t], c);
                 }
             }
         }
@@ -517,11 +463,11 @@ impl WindowState {
             let c = det.w * vx;
             let n = (hi - lo) * ww;
             let src = &g[(lo - t) * ww..][..n];
-            let dst = b[(lo - r0) * ww..][..n].iter_mut().zip(src);
+            let dst = &mut b[(lo - r0) * ww..][..n];
             if t == 0 {
-                dst.for_each(|(x, &k)| *x = c * k);
+                scale_into(dst, src, c);
             } else {
-                dst.for_each(|(x, &k)| *x += c * k);
+                axpy(dst, src, c);
             }
         }
         // Columns of the rect within the bump's columns.
@@ -703,9 +649,7 @@ impl WindowState {
             for a in full.a0..full.a1 {
                 let src = &pr[(a - full.a0) * full.cols()..][..full.cols()];
                 let dst = &mut out.v[(a - rect.a0) * out.w + full.b0 - rect.b0..][..full.cols()];
-                for (d, &s) in dst.iter_mut().zip(src) {
-                    *d += f * s;
-                }
+                axpy(dst, src, f);
             }
             if span == Some(full) {
                 self.scratch.shared = pr;
@@ -721,9 +665,7 @@ impl WindowState {
                 for a in r.a0..r.a1 {
                     let src = &v[(a - r.a0) * r.cols()..][..r.cols()];
                     let dst = &mut out.v[(a - rect.a0) * out.w + r.b0 - rect.b0..][..r.cols()];
-                    for (d, &s) in dst.iter_mut().zip(src) {
-                        *d += s;
-                    }
+                    axpy(dst, src, 1.0);
                 }
             }
         }
