@@ -263,39 +263,52 @@ impl TreeBuilder {
 
         // Boundary heap: the sink first (slots 0..SINK_SLOTS, taking the pushes of reached
         // neighbours), then one stack per level below 255 (level g holds at most its hist[g]
-        // pixels, each at most once). `bottom[g]..top_of[g]` are level g's entries; the sink's
-        // `bottom` never equals its top, so it stops the upward scan.
-        let mut bottom = [0u32; SINK + 1];
-        let mut top_of = [0u32; SINK + 1];
-        let mut acc = SINK_SLOTS;
-        for g in 0..SINK {
-            bottom[g] = acc;
-            top_of[g] = acc;
-            acc += hist[g ^ flip as usize];
+        // pixels, each at most once). `bottom[g]..top_of[g]` are level g's entries, as
+        // pointers into the heap, so that a push needs no heap base in a register; the sink's
+        // `bottom` (null) never equals its top, so it stops the upward scan.
+        let mut acc = SINK_SLOTS as usize;
+        let mut starts = [0usize; SINK];
+        for (g, st) in starts.iter_mut().enumerate() {
+            *st = acc;
+            acc += hist[g ^ flip as usize] as usize;
         }
-        bottom[SINK] = u32::MAX;
-        let heap_len = acc as usize;
+        let heap_len = acc;
         if self.heap.len() < heap_len {
             self.heap.resize(heap_len, 0);
         }
-        let heap = &mut self.heap[..];
+        let heap = self.heap.as_mut_ptr();
+        // SAFETY (of every `heap.add` here): `starts[g] <= heap_len <= self.heap.len()`.
+        let mut bottom = [std::ptr::null_mut::<u32>(); SINK + 1];
+        for (b, &st) in bottom.iter_mut().zip(&starts) {
+            *b = unsafe { heap.add(st) };
+        }
+        let mut top_of = bottom;
+        top_of[SINK] = heap;
         let cells = &mut self.cells[..];
-        let order = &mut tree.order[..];
+        let order = Order {
+            ptr: tree.order.as_mut_ptr(),
+            len: npix,
+        };
 
         let stride = stride as u32;
         // Push order, and so the preference among equal neighbours: the last one pushed is
         // visited next.
         let offs: [u32; 4] = [1, stride.wrapping_neg(), u32::MAX, stride];
 
-        let mut pos = 0u32;
+        // The flood order's next slot; `pos` is its index, computed where needed.
+        let mut at = order.ptr;
         let mut scan_from = stride as usize;
         let below_255 = (npix as u32) - hist[255 ^ flip as usize];
         // One flood per connected part of the pixels below 255, each from its first pixel in
         // raster order (the cells below 255 are exactly the unreached pixels of those parts),
         // until all of them are in.
-        while pos < below_255 {
+        while order.pos(at) < below_255 {
             let Some(skip) = cells[scan_from..].iter().position(|&c| c != REACHED) else {
-                debug_assert!(false, "{} pixels below 255 not flooded", below_255 - pos);
+                debug_assert!(
+                    false,
+                    "{} pixels below 255 not flooded",
+                    below_255 - order.pos(at)
+                );
                 break;
             };
             let mut cur = (scan_from + skip) as u32;
@@ -307,7 +320,7 @@ impl TreeBuilder {
                 depth: 0,
                 top: Comp {
                     level: cur_level,
-                    start: pos,
+                    start: order.pos(at),
                 },
                 nodes: &mut tree.nodes,
             };
@@ -339,12 +352,12 @@ impl TreeBuilder {
                     // at its level and is visited again when the flood comes back to it.
                     // SAFETY: as above.
                     unsafe { *cells.get_unchecked_mut(next as usize) = REACHED };
-                    debug_assert!((ct as usize) < heap.len());
                     // SAFETY: level `cur_level`'s stack holds at most its hist entries.
-                    unsafe { *heap.get_unchecked_mut(ct as usize) = cur };
-                    // SAFETY: `cur_level` is a grey level.
-                    unsafe { *top_of.get_unchecked_mut(cur_level as usize) = ct + 1 };
-                    comps.open(low, pos);
+                    unsafe {
+                        *ct = cur;
+                        *top_of.get_unchecked_mut(cur_level as usize) = ct.add(1);
+                    }
+                    comps.open(low, order.pos(at));
                     cur_level = low;
                     // Every waiting pixel lies at or above the old level: the new one is empty.
                     // SAFETY: `low` is a grey level.
@@ -358,18 +371,25 @@ impl TreeBuilder {
                 for i in 0..4 {
                     // SAFETY: as above.
                     unsafe { *cells.get_unchecked_mut(ns[i] as usize) = REACHED };
-                    push(heap, &mut top_of, vs[i], ns[i]);
+                    push(&mut top_of, vs[i], ns[i]);
                 }
-                top_of[SINK] = 0;
-                add(order, &mut pos, cur);
+                top_of[SINK] = heap;
+                debug_assert!(order.pos(at) < npix as u32);
+                // SAFETY: every image pixel is added once, so `pos < npix`.
+                unsafe {
+                    *at = cur;
+                    at = at.add(1);
+                }
                 if low == cur_level {
                     // A neighbour at the same level is the next pixel: the last one pushed
                     // there, i.e. the top of the current stack. Take it back and keep it in a
                     // register instead of reloading it from the heap.
-                    // SAFETY: `low` is a grey level.
-                    let t = unsafe { top_of.get_unchecked_mut(low as usize) };
-                    *t -= 1;
-                    ct = *t;
+                    // SAFETY: `low` is a grey level and its stack is not empty.
+                    unsafe {
+                        let t = top_of.get_unchecked_mut(low as usize);
+                        *t = t.sub(1);
+                        ct = *t;
+                    }
                     cur = next;
                     continue;
                 }
@@ -378,12 +398,12 @@ impl TreeBuilder {
                 // lowest non-empty one. No push of this visit went to the current level.
                 // SAFETY: `cur_level` is a grey level.
                 if ct != unsafe { *bottom.get_unchecked(cur_level as usize) } {
-                    ct -= 1;
-                    // SAFETY: as above.
-                    unsafe { *top_of.get_unchecked_mut(cur_level as usize) = ct };
-                    debug_assert!((ct as usize) < heap.len());
-                    // SAFETY: bottom[g] <= ct < bottom[g + 1] <= heap.len().
-                    cur = unsafe { *heap.get_unchecked(ct as usize) };
+                    // SAFETY: the stack is not empty, so `ct - 1` is its top entry.
+                    unsafe {
+                        ct = ct.sub(1);
+                        *top_of.get_unchecked_mut(cur_level as usize) = ct;
+                        cur = *ct;
+                    }
                 } else {
                     // Every entry lies at or above the current level: scan upwards.
                     let mut g = cur_level as usize + 1;
@@ -393,20 +413,25 @@ impl TreeBuilder {
                     if g == SINK {
                         break;
                     }
-                    ct = top_of[g] - 1;
-                    top_of[g] = ct;
+                    // SAFETY: as above.
+                    unsafe {
+                        ct = top_of[g].sub(1);
+                        top_of[g] = ct;
+                        cur = *ct;
+                    }
                     cur_level = g as u32;
-                    comps.rise(cur_level, pos);
-                    cur = heap[ct as usize];
+                    comps.rise(cur_level, order.pos(at));
                 }
             }
             // The part is flooded; close its remaining components into its root, which merges
             // into the root at level 255 (place 0), if there is one.
+            let pos = order.pos(at);
             while comps.depth > 0 {
                 comps.merge(pos);
             }
             comps.close(pos, 1 << 1 | 1);
         }
+        let mut pos = order.pos(at);
 
         if hist[255 ^ flip as usize] > 0 {
             // The pixels of level 255 were never flooded: they join the root, the whole image
@@ -419,7 +444,10 @@ impl TreeBuilder {
                     .enumerate()
                     .filter(|&(_, &g)| g ^ flip == 255)
                 {
-                    add(order, &mut pos, base + x as u32);
+                    debug_assert!((pos as usize) < npix);
+                    // SAFETY: every image pixel is added once, so `pos < npix`.
+                    unsafe { *order.ptr.add(pos as usize) = base + x as u32 };
+                    pos += 1;
                 }
             }
             let mut comps = Components {
@@ -469,26 +497,34 @@ pub fn histogram(img: &GrayView) -> [u32; 256] {
     hist
 }
 
-/// Appends pixel `idx` to the flood order (it joins the top component).
-#[inline(always)]
-fn add(order: &mut [u32], pos: &mut u32, idx: u32) {
-    debug_assert!((*pos as usize) < order.len());
-    // SAFETY: every image pixel is reached once and added once, so `pos < w * h`.
-    unsafe { *order.get_unchecked_mut(*pos as usize) = idx };
-    *pos += 1;
+/// The flood order as a raw pointer: the flood writes it through a moving pointer.
+#[derive(Clone, Copy)]
+struct Order {
+    ptr: *mut u32,
+    len: usize,
 }
 
-/// Pushes the padded index `e` on top of level
-/// `g`'s stack; `g` is [`SINK`] for a reached pixel, whose entry is never read.
+impl Order {
+    /// The index of the slot `at` points to.
+    #[inline(always)]
+    fn pos(&self, at: *mut u32) -> u32 {
+        debug_assert!(at >= self.ptr && (at as usize - self.ptr as usize) / 4 <= self.len);
+        ((at as usize - self.ptr as usize) / std::mem::size_of::<u32>()) as u32
+    }
+}
+
+/// Pushes the padded index `e` on top of level `g`'s stack; `g` is [`SINK`] for a reached
+/// pixel, whose entry is never read.
 #[inline(always)]
-fn push(heap: &mut [u32], top_of: &mut [u32; SINK + 1], g: u32, e: u32) {
+fn push(top_of: &mut [*mut u32; SINK + 1], g: u32, e: u32) {
     debug_assert!(g as usize <= SINK);
-    // SAFETY: `g` is a level or the sink (cells hold nothing else).
-    let t = unsafe { top_of.get_unchecked_mut(g as usize) };
-    debug_assert!((*t as usize) < heap.len());
-    // SAFETY: level g's stack holds at most hist[g] entries, each a distinct pixel of level g
-    // waiting in the heap; the sink takes at most the four pushes of one visit before it is
-    // reset.
-    unsafe { *heap.get_unchecked_mut(*t as usize) = e };
-    *t += 1;
+    // SAFETY: `g` is a level or the sink (cells hold nothing else). Level g's stack holds at
+    // most hist[g] entries, each a distinct pixel of level g waiting in the heap, so its top
+    // stays below the next level's bottom; the sink takes at most the four pushes of one visit
+    // before it is reset.
+    unsafe {
+        let t = top_of.get_unchecked_mut(g as usize);
+        **t = e;
+        *t = t.add(1);
+    }
 }
