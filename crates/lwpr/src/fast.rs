@@ -3,9 +3,11 @@
 //! reordered so that they run as independent vector lanes instead of one long chain each.
 //!
 //! - activation distance `q = |M(x−c)|²` (triangular factor, half the work of
-//!   `(x−c)ᵀD(x−c)`), its `v = M(x−c)` kept as the metric gradient's `∂q/∂M` factor;
-//! - the penalty gradient `Σ_i M_ri D_ic = (MD)_rc` and `D = MᵀM` as column updates
-//!   (`acc += a·column`, every element its own lane);
+//!   `(x−c)ᵀD(x−c)`), four rows at a time from the bottom up, stopping as soon as the partial
+//!   sum puts the field beyond every threshold; its `v = M(x−c)` kept as the metric gradient's
+//!   `∂q/∂M` factor;
+//! - the penalty gradient `Σ_i M_ri D_ic = (MD)_rc` and `D = MᵀM` as small register blocks
+//!   (4 × 8 or 4 × 4 sums, each loaded column feeding all of them);
 //! - the meta gradient's `Σ_i M_ri² + M_rc²` from one row sum instead of a suffix chain per
 //!   element;
 //! - the learning-rate exponentials of IDBD by [`exp_lanes`] (a polynomial, ≤ 2 ulp), which
@@ -17,7 +19,8 @@
 
 /// `e^x` for `x ∈ [−10, 10]` (the clamped range of IDBD's log learning rates), within 2 ulp
 /// of the correctly rounded value: `x = k ln 2 + r`, `|r| ≤ ln2/2`, degree-13 Taylor polynomial
-/// of `e^r` (Estrin's scheme), scaled by `2^k` through the exponent bits. Branch-free, so loops over it vectorise.
+/// of `e^r` (Estrin's scheme), scaled by `2^k` through the exponent bits. Branch-free, so
+/// loops over it vectorise.
 #[inline(always)]
 pub(crate) fn exp_lanes(x: f64) -> f64 {
     const SHIFT: f64 = 6755399441055744.0; // 1.5 · 2^52: adding it rounds to an integer

@@ -58,7 +58,8 @@
 //! library `exp` calls, which also keep the element loop from vectorising). The default
 //! arithmetic computes the same formulas in an order that vectorises (module `fast`):
 //! - the activation as `q = |M(x−c)|²` from the triangular factor (half the work of
-//!   `(x−c)ᵀD(x−c)`), its `M(x−c)` reused as the metric gradient's `∂q/∂M` factor;
+//!   `(x−c)ᵀD(x−c)`, and stopped early for fields that are too far away), its `M(x−c)`
+//!   reused as the metric gradient's `∂q/∂M` factor;
 //! - `MD` (penalty gradient) and `D = MᵀM` as 4 × 8 / 4 × 4 register blocks over contiguous
 //!   columns (the lower triangle of `M` is zero, so blocks may start early), `D` mirrored so it
 //!   stays exactly symmetric; the meta term `Σ_i M_ri² + M_rc²` from one row sum;
@@ -68,13 +69,14 @@
 //! Still no fused multiply-adds, so the results are the same bits on every x86-64 CPU and any
 //! number of threads. Where the two arithmetics diverge: the first differing value is an
 //! activation in its last bit (on the 25-D benchmark the first field's, at sample 2–19
-//! depending on the seed, `0.8424269292293707` vs `0.8424269292293706`); the first differing
-//! update prediction follows once that field is trustworthy (update 54–58). The differences
+//! depending on the seed; seed 5: sample 11, `0.8502838880516133` vs `0.8502838880516131`);
+//! the first differing update prediction follows once that field is trustworthy (update
+//! 54–56; seed 5: `0.44551127449819067` vs `0.44551127449819056`). The differences
 //! stay at rounding level: on the 25-D cross benchmark (20 000 samples, seeds 1–8, both pruning
 //! rules) the same receptive-field count as the reference in every case, nMSE equal to six
 //! digits, grid predictions within 1e-12 (`tests/reference.rs` checks 1e-6 against the C
 //! library; `tests/arithmetic.rs` checks 1e-9 against [`Arithmetic::Reference`] for n = 5–12).
-//! The 25-D update is about 1.7× faster than in the exact order.
+//! The 25-D update takes about half the CPU time of the exact order.
 //!
 //! Deliberate differences:
 //! - **Pruning**: the reference removes the *wider* field ("TODO: ORIGINAL LOGIC WAS REVERSED"
