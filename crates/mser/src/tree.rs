@@ -341,13 +341,8 @@ impl TreeBuilder {
                 // `< total`.
                 let vs = ns.map(|n| unsafe { *cells.get_unchecked(n as usize) } as u32);
                 let low = vs[0].min(vs[1]).min(vs[2].min(vs[3]));
-                // The last neighbour at the lowest level `low` (if `low` is a grey level).
-                // Conditional moves, not branches: which neighbour it is follows no pattern.
-                let mut next = ns[0];
-                for i in 1..4 {
-                    next = std::hint::select_unpredictable(vs[i] == low, ns[i], next);
-                }
                 if low < cur_level {
+                    let next = last_at(ns, vs, low);
                     // Descend into a lower neighbour. The others stay unreached: `cur` waits
                     // at its level and is visited again when the flood comes back to it.
                     // SAFETY: as above.
@@ -384,6 +379,7 @@ impl TreeBuilder {
                     // A neighbour at the same level is the next pixel: the last one pushed
                     // there, i.e. the top of the current stack. Take it back and keep it in a
                     // register instead of reloading it from the heap.
+                    let next = last_at(ns, vs, low);
                     // SAFETY: `low` is a grey level and its stack is not empty.
                     unsafe {
                         let t = top_of.get_unchecked_mut(low as usize);
@@ -495,6 +491,17 @@ pub fn histogram(img: &GrayView) -> [u32; 256] {
         }
     }
     hist
+}
+
+/// The last of the neighbours `ns` whose value in `vs` is `low`, their minimum. Conditional
+/// moves, not branches: which neighbour it is follows no pattern.
+#[inline(always)]
+fn last_at(ns: [u32; 4], vs: [u32; 4], low: u32) -> u32 {
+    let mut next = ns[0];
+    for i in 1..4 {
+        next = std::hint::select_unpredictable(vs[i] == low, ns[i], next);
+    }
+    next
 }
 
 /// The flood order as a raw pointer: the flood writes it through a moving pointer.
