@@ -118,6 +118,9 @@ struct Scratch {
     shared: Vec<f64>,
     out: Vec<f64>,
     enc: Vec<Det>,
+    /// The displacement kernels of the step (x, y) and their work buffer.
+    kernels: (Kernel1, Kernel1),
+    disp: Vec<f64>,
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<(usize, usize, usize, f64)>,
@@ -250,9 +253,24 @@ impl WindowState {
     /// Displacement kernel of axis `d` (step 1 of the module doc).
     #[inline(never)]
     fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
+        let mut k = Kernel1::default();
+        self.displacement_into(sys, d, order, &mut Vec::new(), &mut k);
+        k
+    }
+
+    /// [`Self::displacement`] into `k`, with `out` as the work buffer.
+    fn displacement_into(
+        &self,
+        sys: &StatSystem,
+        d: usize,
+        order: Order,
+        out: &mut Vec<f64>,
+        k: &mut Kernel1,
+    ) {
         let r = sys.radius() as i64;
         let w = (2 * r + 1) as usize;
-        let mut out = vec![0.0; w];
+        out.clear();
+        out.resize(w, 0.0);
         match order {
             Order::First => out.copy_from_slice(sys.first()),
             Order::Second => {
@@ -281,9 +299,7 @@ impl WindowState {
                     inside += c;
                     let col = &t[(v + r) as usize * w..(v + r + 1) as usize * w];
                     let (lo, hi) = sys.band((v + r) as usize);
-                    for (dst, &s) in out[lo..hi].iter_mut().zip(&col[lo..hi]) {
-                        *dst += c * s;
-                    }
+                    axpy(&mut out[lo..hi], &col[lo..hi], c);
                 }
                 let total: f64 = m1.iter().sum::<f64>() * m2.iter().sum::<f64>();
                 let rest = (total - inside).max(0.0);
@@ -304,15 +320,12 @@ impl WindowState {
             acc += out[hi - 1];
             hi -= 1;
         }
-        let v = out[lo..hi].to_vec();
-        let s: f64 = v.iter().sum();
-        Kernel1 {
-            lo: lo as i64 - r,
-            v: if s > 0.0 {
-                v.iter().map(|x| x / s).collect()
-            } else {
-                v
-            },
+        k.lo = lo as i64 - r;
+        k.v.clear();
+        k.v.extend_from_slice(&out[lo..hi]);
+        let s: f64 = k.v.iter().sum();
+        if s > 0.0 {
+            k.v.iter_mut().for_each(|x| *x /= s);
         }
     }
 
@@ -509,8 +522,11 @@ impl WindowState {
             }
         }
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
-        let kx = self.displacement(&sys[0], 0, cfg.order);
-        let ky = self.displacement(&sys[1], 1, cfg.order);
+        let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
+        let mut work = std::mem::take(&mut self.scratch.disp);
+        self.displacement_into(&sys[0], 0, cfg.order, &mut work, &mut kx);
+        self.displacement_into(&sys[1], 1, cfg.order, &mut work, &mut ky);
+        self.scratch.disp = work;
         let gamma = cfg.mixing;
         let keep = 1.0 - gamma;
         let u = gamma / space.cells() as f64;
@@ -625,6 +641,7 @@ impl WindowState {
             // Nothing significant (cannot happen with a positive floor): keep the prior.
             self.scratch.parts = parts;
             self.scratch.enc = enc;
+            self.scratch.kernels = (kx, ky);
             return Ok(());
         };
         let mut buf = std::mem::take(&mut self.scratch.out);
@@ -671,6 +688,7 @@ impl WindowState {
         }
         self.scratch.parts = parts;
         self.scratch.enc = enc;
+        self.scratch.kernels = (kx, ky);
         let s = lane_sum(&out.v);
         if !(s > 0.0 && s.is_finite()) {
             self.scratch.out = out.v;
