@@ -169,12 +169,16 @@ struct Components<'a> {
     /// The top (current) component.
     top: Comp,
     nodes: &'a mut Vec<Node>,
+    /// The flood order, whose next slot (passed to `open` and `rise`) gives the flood position.
+    order: Order,
 }
 
 impl Components<'_> {
-    /// The flood descends to a lower `level` at flood position `pos`: open a component on top.
+    /// The flood descends to a lower `level` with the flood order's next slot at `at`: open a
+    /// component on top. (Positions are computed here, out of the flood's loop.)
     #[inline(never)]
-    fn open(&mut self, level: u32, pos: u32) {
+    fn open(&mut self, level: u32, at: *mut u32) {
+        let pos = self.order.pos(at);
         debug_assert!(level < self.top.level);
         self.depth += 1;
         // Levels strictly decrease up the stack, so depth <= 256 (the assert holds always).
@@ -182,10 +186,11 @@ impl Components<'_> {
         self.top = Comp { level, start: pos };
     }
 
-    /// The flood rises to level `next` at flood position `pos`: raise the top component to it or
-    /// merge it into the ones below, closing one node for each.
+    /// The flood rises to level `next` with the flood order's next slot at `at`: raise the top
+    /// component to it or merge it into the ones below, closing one node for each.
     #[inline(never)]
-    fn rise(&mut self, next: u32, pos: u32) {
+    fn rise(&mut self, next: u32, at: *mut u32) {
+        let pos = self.order.pos(at);
         loop {
             if next < self.stack[self.depth].level {
                 self.close(pos, self.place() << 1);
@@ -323,6 +328,7 @@ impl TreeBuilder {
                     start: order.pos(at),
                 },
                 nodes: &mut tree.nodes,
+                order,
             };
             // The top of the current level's stack, kept in a register: the dead end's pop
             // reads it from here, so it does not wait for the visit's pushes (whose slots depend
@@ -352,7 +358,7 @@ impl TreeBuilder {
                         *ct = cur;
                         *top_of.get_unchecked_mut(cur_level as usize) = ct.add(1);
                     }
-                    comps.open(low, order.pos(at));
+                    comps.open(low, at);
                     cur_level = low;
                     // Every waiting pixel lies at or above the old level: the new one is empty.
                     // SAFETY: `low` is a grey level.
@@ -416,7 +422,7 @@ impl TreeBuilder {
                         cur = *ct;
                     }
                     cur_level = g as u32;
-                    comps.rise(cur_level, order.pos(at));
+                    comps.rise(cur_level, at);
                 }
             }
             // The part is flooded; close its remaining components into its root, which merges
@@ -454,6 +460,7 @@ impl TreeBuilder {
                     start: 0,
                 },
                 nodes: &mut tree.nodes,
+                order,
             };
             comps.close(pos, 0);
         }
