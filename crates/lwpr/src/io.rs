@@ -12,7 +12,8 @@ use crate::params::{Arithmetic, Kernel, Params, PruneRule};
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
 
-/// Version of both the JSON envelope and the binary layout.
+/// Version of both the JSON envelope and the binary layout (2 added [`crate::Arithmetic`] to the
+/// parameters; files of version 1 are rejected as unsupported).
 pub const BINARY_FORMAT_VERSION: u32 = 2;
 const MAGIC: &[u8; 8] = b"LWPR-RS\0";
 const JSON_FORMAT: &str = "lwpr-rs";
