@@ -27,6 +27,30 @@ pub(crate) fn scale_into(dst: &mut [f64], src: &[f64], k: f64) {
     scale_body(dst, src, k);
 }
 
+/// Runs `f` compiled with AVX when the CPU has it (for loops that call the `_inline`
+/// bodies below many times: one check instead of one per call).
+#[inline]
+pub(crate) fn with_avx<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above).
+        return unsafe { with_avx_enabled(f) };
+    }
+    f()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn with_avx_enabled<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+/// [`axpy`] without its own dispatch (inlined into the caller's code).
+#[inline(always)]
+pub(crate) fn axpy_inline(dst: &mut [f64], src: &[f64], k: f64) {
+    axpy_body(dst, src, k);
+}
+
 #[inline(always)]
 fn axpy_body(dst: &mut [f64], src: &[f64], k: f64) {
     for (x, &s) in dst.iter_mut().zip(src) {

@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
-use crate::simd::{axpy, lane_max, lane_sum, mul_sum, scale_into};
+use crate::simd::{axpy, axpy_inline, lane_max, lane_sum, mul_sum, scale_into, with_avx};
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Space, TrackError};
@@ -375,13 +375,15 @@ impl WindowState {
             let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
             taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
         }
-        for a in a_lo..a_hi {
-            let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
-            let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
-            for &(b0, n, d0, k) in taps.iter() {
-                axpy(&mut dst[d0..d0 + n], &src[b0..b0 + n], k);
+        with_avx(|| {
+            for a in a_lo..a_hi {
+                let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
+                let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
+                for &(b0, n, d0, k) in taps.iter() {
+                    axpy_inline(&mut dst[d0..d0 + n], &src[b0..b0 + n], k);
+                }
             }
-        }
+        });
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
         // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
         // it joins; taps by decreasing δ add each cell's terms by increasing a.
