@@ -34,14 +34,20 @@
 //! Most visits are dead ends whose next pixel is popped from that stack; read from memory, the
 //! pop would wait until the visit's four pushes, whose slots depend on the neighbours' values,
 //! are known not to write it, chaining every visit's cell loads to the next; from the register it
-//! does not, and consecutive visits overlap (about 20 % faster on the Oxford images).
+//! does not, and consecutive visits overlap (about 20 % faster on the Oxford images). The loop
+//! keeps few values live so that they all stay in registers: stack tops are pointers into the
+//! heap (a push needs no heap base), the flood order is written through a moving pointer (flood
+//! positions are computed inside the out-of-line calls that need them), and the neighbour taken
+//! next is selected only on the two rare paths that use it.
 //!
 //! A fixed stack of open components (at most 255, as their levels strictly decrease upwards, over
-//! a sentinel) holds, for each, its grey level, the position in the flood order at which it was
-//! opened and its closed children. Per pixel the flood only appends the pixel to the flood order;
-//! opening, raising and merging components are rare events handled out of line. Raising a
-//! component to a higher level or merging it into the one below closes the node: one record of six
-//! integers. Because components on the stack only ever merge into the one directly below, **the
+//! a sentinel) holds, for each, its grey level and the position in the flood order at which it
+//! was opened. Per pixel the flood only appends the pixel to the flood order; opening, raising
+//! and merging components are rare events handled out of line. Raising a component to a higher
+//! level or merging it into the one below closes the node: one record of six integers, which
+//! notes the component's place on the stack. No children are tracked: a node's parent is the
+//! next node to close at its parent's place (the same place when raised, the one below when
+//! merged), and one backward pass over the nodes links them all ([`Node::slot`]). Because components on the stack only ever merge into the one directly below, **the
 //! pixels of every node are one contiguous run of the flood order** (`order[start .. start +
 //! area]`), so neither moments, bounding boxes nor first pixels are accumulated during the flood:
 //! moments and boxes are summed afterwards over the runs of the few selected nodes (module
