@@ -94,7 +94,9 @@
 //!   (updated after every change) instead of recomputing the PLS projections, as the reference
 //!   does after `lwpr_predict_J`. Both equal the reference's values up to rounding (≈1e-16).
 //!   It is compiled like the update (n = 1–4, AVX) and skips the exponential of fields whose
-//!   distance puts them below the cutoff.
+//!   distance puts them below the cutoff; for `n ≥ 5` the distance is summed four rows at a
+//!   time from the bottom up and stopped as soon as it passes that bound (as in
+//!   [`Arithmetic::Fast`] training), so far-away fields cost a fraction of `n²/2`.
 //! - With one immature PLS direction the reference reads one element before its CV-error array
 //!   (never used afterwards); we use the first element.
 //! - Where no trustworthy field is active, the confidence bound is `+∞` (reference: 1e20).

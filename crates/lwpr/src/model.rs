@@ -573,6 +573,14 @@ impl Lwpr {
             let c = &rf.c[..n];
             let q = if p.diag_only {
                 diag_distance(&rf.d, xn, c)
+            } else if N == 0 {
+                // n ≥ 5: the same |M (x − c)|² by row blocks, stopped as soon as the field is
+                // known to be below the cutoff.
+                let (xc, v) = xc.split_at_mut(n);
+                for i in 0..n {
+                    xc[i] = xn[i] - c[i];
+                }
+                crate::fast::distance_m(&rf.m, &xc[..n], v, q_skip)
             } else {
                 // q = |M (x − c)|² with the triangular factor: half the work of (x−c)ᵀD(x−c),
                 // equal up to rounding (training uses the reference's form).

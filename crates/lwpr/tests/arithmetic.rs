@@ -90,3 +90,26 @@ proptest! {
         }
     }
 }
+
+/// Prediction for n ≥ 5 stops summing a field's distance once it is known to be beyond the
+/// cutoff; asking for the largest activation turns that off, and the prediction must not change.
+#[test]
+fn early_stopped_distances_do_not_change_predictions() {
+    let n = 8;
+    let mut m = model(n, false, true, 1.0, Arithmetic::Fast);
+    for x in samples(n, 3000, 5) {
+        m.update(&x, &[target(&x)]).unwrap();
+    }
+    assert!(
+        m.receptive_fields(0).len() > 3,
+        "a model with several fields"
+    );
+    let mut active = 0;
+    for x in samples(n, 300, 99) {
+        let fast = m.predict(&x, 0.001).unwrap();
+        let (full, w_max) = m.predict_with_max_activation(&x, 0.001).unwrap();
+        assert_eq!(fast[0].to_bits(), full[0].to_bits());
+        active += usize::from(w_max[0] > 0.001);
+    }
+    assert!(active > 0, "some test inputs activate a field");
+}
