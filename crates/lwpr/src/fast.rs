@@ -14,8 +14,9 @@
 //!   vectorises with the rest of the per-element step.
 //!
 //! Every operation is a separate multiply or add in a fixed order (no fused multiply-add), so
-//! the results are the same bits on every x86-64 CPU, with or without AVX, and on any number of
-//! threads; they differ from the reference order only by rounding.
+//! the results do not depend on the vector width (AVX2 or not) or the number of threads; they
+//! differ from the reference order only by rounding. (The activation's `exp(−q/2)` still comes
+//! from the platform's libm, as on the exact path.)
 
 /// `e^x` for `x ∈ [−10, 10]` (the clamped range of IDBD's log learning rates), within 2 ulp
 /// of the correctly rounded value: `x = k ln 2 + r`, `|r| ≤ ln2/2`, degree-13 Taylor polynomial

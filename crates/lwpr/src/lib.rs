@@ -66,8 +66,8 @@
 //! - the IDBD step with a branch-free polynomial `exp` (≤ 2 ulp on IDBD's clamped range
 //!   `[−10, 10]`), so gradient, IDBD and `M` step run four elements per instruction.
 //!
-//! Still no fused multiply-adds, so the results are the same bits on every x86-64 CPU and any
-//! number of threads. Where the two arithmetics diverge: the first differing value is an
+//! Still no fused multiply-adds, so the results do not depend on the vector width or the number
+//! of threads. Where the two arithmetics diverge: the first differing value is an
 //! activation in its last bit (on the 25-D benchmark the first field's, at sample 2–19
 //! depending on the seed; seed 5: sample 11, `0.8502838880516133` vs `0.8502838880516131`);
 //! the first differing update prediction follows once that field is trustworthy (update

@@ -40,7 +40,7 @@ pub enum Arithmetic {
     /// (`q = |M(x−c)|²`) and a polynomial exponential for the meta-learned rates (see the crate
     /// docs, "Faithfulness"). The same formulas as the reference; the values differ from it by
     /// rounding, which over thousands of updates makes the models differ slightly (the same
-    /// accuracy). Deterministic: the same bits on every x86-64 CPU. Default.
+    /// accuracy). Deterministic (independent of vector width and thread count). Default.
     #[default]
     Fast,
     /// Every operation in the reference's order, also for `n ≥ 5`: training is bit-identical to
