@@ -12,9 +12,25 @@ use crate::params::{Arithmetic, Kernel, Params, PruneRule};
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
 
-/// Version of both the JSON envelope and the binary layout (2 added [`crate::Arithmetic`] to the
-/// parameters; files of version 1 are rejected as unsupported).
+/// Version of both the JSON envelope and the binary layout written now. Version 2 added
+/// [`crate::Arithmetic`] to the parameters. Files of version 1 still load: their models were
+/// trained in the reference's arithmetic, so they come back with [`Arithmetic::Reference`] and
+/// go on training exactly as before.
 pub const BINARY_FORMAT_VERSION: u32 = 2;
+
+/// The oldest format version that still loads.
+const OLDEST_FORMAT_VERSION: u32 = 1;
+
+/// Checks a file's format version: `Err` unless it is one this build reads.
+fn check_version(version: u32) -> Result<()> {
+    if (OLDEST_FORMAT_VERSION..=BINARY_FORMAT_VERSION).contains(&version) {
+        Ok(())
+    } else {
+        Err(fmt_err(format!(
+            "unsupported format version {version} (this build reads {OLDEST_FORMAT_VERSION} to {BINARY_FORMAT_VERSION})"
+        )))
+    }
+}
 const MAGIC: &[u8; 8] = b"LWPR-RS\0";
 const JSON_FORMAT: &str = "lwpr-rs";
 
@@ -150,7 +166,8 @@ fn enc_params(e: &mut Enc, p: &Params) {
     });
 }
 
-fn dec_params(d: &mut Dec) -> Result<Params> {
+/// Decodes the parameters of a file of format `version` (version 1 has no arithmetic code).
+fn dec_params(d: &mut Dec, version: u32) -> Result<Params> {
     let n_in = d.usize()?;
     let n_out = d.usize()?;
     let init_d = d.vec()?;
@@ -175,10 +192,14 @@ fn dec_params(d: &mut Dec) -> Result<Params> {
         1 => PruneRule::ReferenceC,
         k => return Err(fmt_err(format!("unknown prune rule code {k}"))),
     };
-    let arithmetic = match d.u64()? {
-        0 => Arithmetic::Fast,
-        1 => Arithmetic::Reference,
-        k => return Err(fmt_err(format!("unknown arithmetic code {k}"))),
+    let arithmetic = if version == 1 {
+        Arithmetic::Reference
+    } else {
+        match d.u64()? {
+            0 => Arithmetic::Fast,
+            1 => Arithmetic::Reference,
+            k => return Err(fmt_err(format!("unknown arithmetic code {k}"))),
+        }
     };
     Ok(Params {
         n_in,
@@ -306,13 +327,12 @@ impl Lwpr {
         if env.format != JSON_FORMAT {
             return Err(fmt_err(format!("unknown format `{}`", env.format)));
         }
-        if env.version != BINARY_FORMAT_VERSION {
-            return Err(fmt_err(format!(
-                "unsupported format version {}",
-                env.version
-            )));
+        check_version(env.version)?;
+        let mut model = env.model;
+        if env.version == 1 {
+            model.params.arithmetic = Arithmetic::Reference;
         }
-        env.model.finish_load()
+        model.finish_load()
     }
 
     /// The model in the compact binary form: magic, version, payload length, little-endian
@@ -347,9 +367,7 @@ impl Lwpr {
             return Err(fmt_err("not an lwpr-rs binary model (bad magic)"));
         }
         let version = u32::from_le_bytes(data[8..12].try_into().expect("4 bytes"));
-        if version != BINARY_FORMAT_VERSION {
-            return Err(fmt_err(format!("unsupported format version {version}")));
-        }
+        check_version(version)?;
         let len = u64::from_le_bytes(data[12..20].try_into().expect("8 bytes"));
         let rest = &data[20..];
         if (rest.len() as u64) < 8 || len != rest.len() as u64 - 8 {
@@ -363,7 +381,7 @@ impl Lwpr {
             data: payload,
             pos: 0,
         };
-        let params = dec_params(&mut d)?;
+        let params = dec_params(&mut d, version)?;
         let n_data = d.u64()?;
         let mean_x = d.vec()?;
         let var_x = d.vec()?;
@@ -508,5 +526,79 @@ impl Lwpr {
         }
         self.ws = Workspace::new(n, m);
         Ok(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::LwprBuilder;
+
+    fn trained() -> Lwpr {
+        let mut m = LwprBuilder::new(5, 1)
+            .init_d_spherical(4.0)
+            .diag_only(false)
+            .build()
+            .unwrap();
+        for k in 0..200 {
+            let t = k as f64 * 0.37;
+            let x = [
+                t.sin(),
+                t.cos(),
+                (2.0 * t).sin(),
+                0.1 * t % 1.0,
+                (0.7 * t).cos(),
+            ];
+            m.update(&x, &[x[0] * x[1] + x[2]]).unwrap();
+        }
+        m
+    }
+
+    /// Writes `payload` in the binary frame of format `version`.
+    fn framed(version: u32, payload: &[u8]) -> Vec<u8> {
+        let mut out = MAGIC.to_vec();
+        out.extend_from_slice(&version.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(payload);
+        out.extend_from_slice(&fnv1a(payload).to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn version_1_binary_loads_with_reference_arithmetic() {
+        let m = trained();
+        let mut params = Enc(Vec::new());
+        enc_params(&mut params, &m.params);
+        let bin = m.to_binary();
+        let payload = &bin[20..bin.len() - 8];
+        // Version 1 had no arithmetic code: the last u64 of the parameters.
+        let cut = params.0.len() - 8;
+        let v1: Vec<u8> = [&payload[..cut], &payload[cut + 8..]].concat();
+        let loaded = Lwpr::from_binary(&framed(1, &v1)).unwrap();
+        assert_eq!(loaded.params().arithmetic, Arithmetic::Reference);
+        let mut expect = m.clone();
+        expect.set_arithmetic(Arithmetic::Reference);
+        assert_eq!(loaded, expect);
+        // The same payload claiming version 2 is short by the arithmetic code.
+        assert!(Lwpr::from_binary(&framed(2, &v1)).is_err());
+        assert!(Lwpr::from_binary(&framed(3, payload)).is_err());
+        assert!(Lwpr::from_binary(&framed(0, payload)).is_err());
+    }
+
+    #[test]
+    fn version_1_json_loads_with_reference_arithmetic() {
+        let m = trained();
+        let mut v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+        v["version"] = 1.into();
+        v["model"]["params"]
+            .as_object_mut()
+            .unwrap()
+            .remove("arithmetic");
+        let loaded = Lwpr::from_json(&v.to_string()).unwrap();
+        let mut expect = m.clone();
+        expect.set_arithmetic(Arithmetic::Reference);
+        assert_eq!(loaded, expect);
+        v["version"] = 3.into();
+        assert!(Lwpr::from_json(&v.to_string()).is_err());
     }
 }
