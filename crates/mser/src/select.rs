@@ -85,10 +85,15 @@ impl Selector {
         best.clear();
         best.resize(n, 0);
         for (i, c) in tree.nodes.iter().enumerate() {
+            if c.area < min_area {
+                // Nothing of `min_area` pixels lies inside, so there is nothing to mark, carry
+                // up or select (and `best[i]` is 0): skip the parent's entries.
+                continue;
+            }
             let q = c.parent;
             let b = best[i];
             let mut cand = false;
-            if q != NONE && c.area >= min_area {
+            if q != NONE {
                 let (vi, vq) = (var[i], var[q as usize]);
                 if vi < vq {
                     best[q as usize] |= BEATEN;
