@@ -43,7 +43,9 @@
 //! coefficients around the best cell. Storage does not grow with the channel count and a
 //! step costs what the posterior's support costs, so the grid can be as fine as the detection
 //! noise (spacing [`Scales::fine_spacing`]). Why this layout, and the deviations from the
-//! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`).
+//! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`). Its inner
+//! loops run with AVX when the CPU has it (chosen at run time; the same operations in the same
+//! order, so results do not depend on the CPU).
 //!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;
