@@ -51,6 +51,19 @@ pub(crate) fn axpy_inline(dst: &mut [f64], src: &[f64], k: f64) {
     axpy_body(dst, src, k);
 }
 
+/// [`lane_sum`] without its own dispatch (inlined into the caller's code).
+#[inline(always)]
+pub(crate) fn lane_sum_inline(v: &[f64]) -> f64 {
+    lane_sum_body(v)
+}
+
+/// `out[i] *= b[i]` and the sum of the products, with eight accumulators; without its own
+/// dispatch (call it inside [`with_avx`]).
+#[inline(always)]
+pub(crate) fn mul_sum_inline(out: &mut [f64], b: &[f64]) -> f64 {
+    mul_sum_body(out, b)
+}
+
 #[inline(always)]
 fn axpy_body(dst: &mut [f64], src: &[f64], k: f64) {
     for (x, &s) in dst.iter_mut().zip(src) {
@@ -100,17 +113,6 @@ pub(crate) fn lane_max(v: &[f64]) -> f64 {
     lane_max_body(v)
 }
 
-/// `out[i] *= b[i]` and the sum of the products, with eight accumulators.
-#[inline]
-pub(crate) fn mul_sum(out: &mut [f64], b: &[f64]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        return unsafe { mul_sum_avx(out, b) };
-    }
-    mul_sum_body(out, b)
-}
-
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn lane_sum_avx(v: &[f64]) -> f64 {
@@ -121,12 +123,6 @@ fn lane_sum_avx(v: &[f64]) -> f64 {
 #[target_feature(enable = "avx")]
 fn lane_max_avx(v: &[f64]) -> f64 {
     lane_max_body(v)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-fn mul_sum_avx(out: &mut [f64], b: &[f64]) -> f64 {
-    mul_sum_body(out, b)
 }
 
 /// Sum with eight independent accumulators (vectorisable; differs from the sequential sum
@@ -205,10 +201,8 @@ mod tests {
             assert_eq!(lane_sum(&src).to_bits(), lane_sum_body(&src).to_bits());
             assert_eq!(lane_max(&src), lane_max_body(&src));
             let (mut c, mut d) = (start.clone(), start.clone());
-            assert_eq!(
-                mul_sum(&mut c, &src).to_bits(),
-                mul_sum_body(&mut d, &src).to_bits()
-            );
+            let with = with_avx(|| mul_sum_inline(&mut c, &src));
+            assert_eq!(with.to_bits(), mul_sum_body(&mut d, &src).to_bits());
             assert_eq!(c, d);
             let exact: f64 = start.iter().zip(&src).map(|(x, s)| x * s).sum();
             assert!((mul_sum_body(&mut start.clone(), &src) - exact).abs() <= 1e-12);

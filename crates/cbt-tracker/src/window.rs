@@ -38,7 +38,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
-use crate::simd::{axpy, axpy_inline, lane_max, lane_sum, mul_sum, scale_into, with_avx};
+use crate::simd::{
+    axpy, axpy_inline, lane_max, lane_sum, lane_sum_inline, mul_sum_inline, scale_into, with_avx,
+};
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Space, TrackError};
@@ -210,10 +212,12 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
     mx.resize(p.h, 0.0);
     my.clear();
     my.resize(p.w, 0.0);
-    for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
-        axpy(my, row, 1.0);
-        mx[i] = lane_sum(row);
-    }
+    with_avx(|| {
+        for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
+            axpy_inline(my, row, 1.0);
+            mx[i] = lane_sum_inline(row);
+        }
+    });
 }
 
 impl WindowState {
@@ -396,22 +400,21 @@ impl WindowState {
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
         // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
         // it joins; taps by decreasing δ add each cell's terms by increasing a.
-        for (t, &kv) in kx.v.iter().enumerate().rev() {
-            let delta = kx.lo + t as i64;
-            let lo = (a_lo as i64).max(rect.a0 as i64 - delta);
-            let hi = (a_hi as i64).min(rect.a1 as i64 - delta);
-            if lo >= hi {
-                continue;
+        with_avx(|| {
+            for (t, &kv) in kx.v.iter().enumerate().rev() {
+                let delta = kx.lo + t as i64;
+                let lo = (a_lo as i64).max(rect.a0 as i64 - delta);
+                let hi = (a_hi as i64).min(rect.a1 as i64 - delta);
+                if lo >= hi {
+                    continue;
+                }
+                let k = keep * kv;
+                let n = (hi - lo) as usize * nc;
+                let src = &rows[(lo as usize - a_lo) * nc..][..n];
+                let dst = &mut out[((lo + delta) as usize - rect.a0) * nc..][..n];
+                axpy_inline(dst, src, k);
             }
-            let k = keep * kv;
-            let n = (hi - lo) as usize * nc;
-            let src = &rows[(lo as usize - a_lo) * nc..][..n];
-            axpy(
-                &mut out[((lo + delta) as usize - rect.a0) * nc..][..n],
-                src,
-                k,
-            );
-        }
+        });
     }
 
     /// Part `q⁻ ⊙ (b(z) ⋆ A)` of one detection on `rect` into `out`; returns its mass.
@@ -496,11 +499,13 @@ impl WindowState {
         }
         // Columns of the rect within the bump's columns.
         let q0 = (rect.b0 as i64 - ky0) as usize;
-        let mut mass = 0.0;
-        for (brow, orow) in b.chunks_exact(ww).zip(out.chunks_exact_mut(nc.max(1))) {
-            mass += mul_sum(orow, &brow[q0..q0 + nc]);
-        }
-        mass
+        with_avx(|| {
+            let mut mass = 0.0;
+            for (brow, orow) in b.chunks_exact(ww).zip(out.chunks_exact_mut(nc.max(1))) {
+                mass += mul_sum_inline(orow, &brow[q0..q0 + nc]);
+            }
+            mass
+        })
     }
 
     /// One predict + update step. Validates and encodes every detection first: on error the
