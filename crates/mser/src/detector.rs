@@ -90,7 +90,13 @@ impl Region {
 #[derive(Debug)]
 pub struct Mser {
     params: MserParams,
-    dark: Workspace,
+    /// The buffers of [`detect`](Self::detect), used by both polarities in turn: the second
+    /// pass finds them still in the caches (and the TLB), which measured 1.5-3 % faster than
+    /// one set per polarity. [`detect_parallel`](Self::detect_parallel) uses them for the dark
+    /// polarity.
+    work: Workspace,
+    /// The bright polarity's buffers of `detect_parallel`.
+    #[cfg(feature = "rayon")]
     bright: Workspace,
 }
 
@@ -100,7 +106,8 @@ impl Mser {
         params.validate()?;
         Ok(Mser {
             params,
-            dark: Workspace::default(),
+            work: Workspace::default(),
+            #[cfg(feature = "rayon")]
             bright: Workspace::default(),
         })
     }
@@ -118,10 +125,10 @@ impl Mser {
         let p = &self.params;
         let hist = histogram(img);
         if matches!(p.polarities, Polarities::Dark | Polarities::Both) {
-            self.dark.run(img, &hist, p, Polarity::Dark, &mut out);
+            self.work.run(img, &hist, p, Polarity::Dark, &mut out);
         }
         if matches!(p.polarities, Polarities::Bright | Polarities::Both) {
-            self.bright.run(img, &hist, p, Polarity::Bright, &mut out);
+            self.work.run(img, &hist, p, Polarity::Bright, &mut out);
         }
         Ok(out)
     }
@@ -134,7 +141,7 @@ impl Mser {
         }
         let p = &self.params;
         let hist = histogram(img);
-        let (dark, bright) = (&mut self.dark, &mut self.bright);
+        let (dark, bright) = (&mut self.work, &mut self.bright);
         let (mut a, b) = rayon::join(
             || {
                 let mut v = Vec::new();
