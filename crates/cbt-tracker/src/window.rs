@@ -39,7 +39,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    axpy, axpy_inline, lane_max, lane_sum, lane_sum_inline, mul_sum_inline, scale_into, with_avx,
+    Tap, axpy, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline, mul_sum_inline,
+    scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -134,7 +135,7 @@ struct Scratch {
     disp: Vec<f64>,
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
-    taps: Vec<(usize, usize, usize, f64)>,
+    taps: Vec<Tap>,
 }
 
 impl PartialEq for Scratch {
@@ -376,7 +377,7 @@ impl WindowState {
         rows.resize((a_hi - a_lo) * nc, 0.0);
         // Along y: rows[a][j] = Σ_δ D_y[δ] q[a, j − δ]: one contiguous axpy per kernel tap
         // (columns b = j − δ − j0 of the posterior row).
-        let taps: &mut Vec<(usize, usize, usize, f64)> = &mut self.scratch.taps;
+        let taps: &mut Vec<Tap> = &mut self.scratch.taps;
         taps.clear();
         for (t, &k) in ky.v.iter().enumerate() {
             let delta = ky.lo + t as i64;
@@ -388,15 +389,8 @@ impl WindowState {
             let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
             taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
         }
-        with_avx(|| {
-            for a in a_lo..a_hi {
-                let src = &p.v[(a - p.i0) * p.w..(a - p.i0 + 1) * p.w];
-                let dst = &mut rows[(a - a_lo) * nc..(a - a_lo + 1) * nc];
-                for &(b0, n, d0, k) in taps.iter() {
-                    axpy_inline(&mut dst[d0..d0 + n], &src[b0..b0 + n], k);
-                }
-            }
-        });
+        let src = &p.v[(a_lo - p.i0) * p.w..(a_hi - p.i0) * p.w];
+        axpy_taps(rows, nc, src, p.w, a_hi - a_lo, taps);
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
         // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
         // it joins; taps by decreasing δ add each cell's terms by increasing a.
