@@ -130,6 +130,10 @@ pub(crate) fn axpy_taps(
     }
 }
 
+/// Lane masks selecting the first `n` of four lanes (`n = 0..=3`).
+#[cfg(target_arch = "x86_64")]
+const TAIL_MASKS: [[i64; 4]; 4] = [[0, 0, 0, 0], [-1, 0, 0, 0], [-1, -1, 0, 0], [-1, -1, -1, 0]];
+
 /// [`axpy_taps`] with AVX intrinsics (no FMA: a multiplication, then an addition).
 ///
 /// # Safety
@@ -145,7 +149,8 @@ unsafe fn axpy_taps_avx(
     taps: &[Tap],
 ) {
     use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
+        _mm256_add_pd, _mm256_loadu_pd, _mm256_loadu_si256, _mm256_maskload_pd,
+        _mm256_maskstore_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
     };
     for r in 0..n {
         // SAFETY: rows and taps lie within the buffers (the caller's contract).
@@ -162,9 +167,12 @@ unsafe fn axpy_taps_avx(
                     _mm256_storeu_pd(d.add(i), _mm256_add_pd(x, y));
                     i += 4;
                 }
-                while i < len {
-                    *d.add(i) += k * *s.add(i);
-                    i += 1;
+                if i < len {
+                    // The 1–3 left-over cells through a lane mask (other lanes untouched).
+                    let m = _mm256_loadu_si256(TAIL_MASKS[len - i].as_ptr().cast());
+                    let x = _mm256_maskload_pd(d.add(i), m);
+                    let y = _mm256_mul_pd(kv, _mm256_maskload_pd(s.add(i), m));
+                    _mm256_maskstore_pd(d.add(i), m, _mm256_add_pd(x, y));
                 }
             }
         }
