@@ -673,11 +673,9 @@ impl WindowState {
                 self.prior_into(&kx, &ky, keep, 0.0, full, &mut pr);
                 pr
             };
-            for a in full.a0..full.a1 {
-                let src = &pr[(a - full.a0) * full.cols()..][..full.cols()];
-                let dst = &mut out.v[(a - rect.a0) * out.w + full.b0 - rect.b0..][..full.cols()];
-                axpy(dst, src, f);
-            }
+            let dst = &mut out.v[(full.a0 - rect.a0) * out.w..];
+            let tap = [(0, full.cols(), full.b0 - rect.b0, f)];
+            axpy_taps(dst, out.w, &pr, full.cols(), full.rows(), &tap);
             if span == Some(full) {
                 self.scratch.shared = pr;
             } else {
@@ -689,11 +687,9 @@ impl WindowState {
                 if !sig(*mass) {
                     continue;
                 }
-                for a in r.a0..r.a1 {
-                    let src = &v[(a - r.a0) * r.cols()..][..r.cols()];
-                    let dst = &mut out.v[(a - rect.a0) * out.w + r.b0 - rect.b0..][..r.cols()];
-                    axpy(dst, src, 1.0);
-                }
+                let dst = &mut out.v[(r.a0 - rect.a0) * out.w..];
+                let tap = [(0, r.cols(), r.b0 - rect.b0, 1.0)];
+                axpy_taps(dst, out.w, v, r.cols(), r.rows(), &tap);
             }
         }
         self.scratch.parts = parts;
