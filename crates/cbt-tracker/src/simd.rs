@@ -57,13 +57,6 @@ pub(crate) fn lane_sum_inline(v: &[f64]) -> f64 {
     lane_sum_body(v)
 }
 
-/// `out[i] *= b[i]` and the sum of the products, with eight accumulators; without its own
-/// dispatch (call it inside [`with_avx`]).
-#[inline(always)]
-pub(crate) fn mul_sum_inline(out: &mut [f64], b: &[f64]) -> f64 {
-    mul_sum_body(out, b)
-}
-
 #[inline(always)]
 fn axpy_body(dst: &mut [f64], src: &[f64], k: f64) {
     for (x, &s) in dst.iter_mut().zip(src) {
@@ -128,6 +121,100 @@ pub(crate) fn axpy_taps(
             axpy_body(&mut d[d0..d0 + len], &s[b0..b0 + len], k);
         }
     }
+}
+
+/// For each of `n` rows: `out_row[i] *= b_row[q0 + i]` over the `nc` cells of the row (rows at
+/// strides `nc` and `bs`), and the sum of the rows' product sums (eight accumulators each, as [`lane_sum`]), added row by row.
+/// The AVX copy does the products four lanes at a time (lane masks for the tail) and adds them
+/// in exactly the order of the plain loop (two four-lane accumulators for its eight, the
+/// left-over cells one by one), so the result is bit-identical.
+pub(crate) fn mul_sum_rows(
+    out: &mut [f64],
+    nc: usize,
+    b: &[f64],
+    bs: usize,
+    q0: usize,
+    n: usize,
+) -> f64 {
+    assert!(
+        out.len() >= n * nc && q0 + nc <= bs && b.len() >= n * bs,
+        "rows beyond the buffers"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above); rows lie within the buffers
+        // (asserted above).
+        return unsafe { mul_sum_rows_avx(out, nc, b, bs, q0, n) };
+    }
+    let mut mass = 0.0;
+    for r in 0..n {
+        mass += mul_sum_body(
+            &mut out[r * nc..(r + 1) * nc],
+            &b[r * bs + q0..r * bs + q0 + nc],
+        );
+    }
+    mass
+}
+
+/// [`mul_sum_rows`] with AVX intrinsics.
+///
+/// # Safety
+/// The CPU must support AVX; the rows must lie within the buffers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn mul_sum_rows_avx(
+    out: &mut [f64],
+    nc: usize,
+    b: &[f64],
+    bs: usize,
+    q0: usize,
+    n: usize,
+) -> f64 {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_loadu_pd, _mm256_loadu_si256, _mm256_maskload_pd,
+        _mm256_maskstore_pd, _mm256_mul_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    let mut mass = 0.0;
+    for r in 0..n {
+        // SAFETY: the rows lie within the buffers (the caller's contract).
+        unsafe {
+            let o = out.as_mut_ptr().add(r * nc);
+            let q = b.as_ptr().add(r * bs + q0);
+            let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            let mut i = 0;
+            while i + 8 <= nc {
+                let x = _mm256_mul_pd(_mm256_loadu_pd(o.add(i)), _mm256_loadu_pd(q.add(i)));
+                let y = _mm256_mul_pd(_mm256_loadu_pd(o.add(i + 4)), _mm256_loadu_pd(q.add(i + 4)));
+                _mm256_storeu_pd(o.add(i), x);
+                _mm256_storeu_pd(o.add(i + 4), y);
+                lo = _mm256_add_pd(lo, x);
+                hi = _mm256_add_pd(hi, y);
+                i += 8;
+            }
+            let tail = i;
+            if i + 4 <= nc {
+                let x = _mm256_mul_pd(_mm256_loadu_pd(o.add(i)), _mm256_loadu_pd(q.add(i)));
+                _mm256_storeu_pd(o.add(i), x);
+                i += 4;
+            }
+            if i < nc {
+                let m = _mm256_loadu_si256(TAIL_MASKS[nc - i].as_ptr().cast());
+                let x = _mm256_mul_pd(
+                    _mm256_maskload_pd(o.add(i), m),
+                    _mm256_maskload_pd(q.add(i), m),
+                );
+                _mm256_maskstore_pd(o.add(i), m, x);
+            }
+            let mut rest = 0.0;
+            for k in tail..nc {
+                rest += *o.add(k);
+            }
+            let mut a = [0.0f64; 4];
+            _mm256_storeu_pd(a.as_mut_ptr(), _mm256_add_pd(lo, hi));
+            mass += ((a[0] + a[1]) + (a[2] + a[3])) + rest;
+        }
+    }
+    mass
 }
 
 /// Lane masks selecting the first `n` of four lanes (`n = 0..=3`).
@@ -290,12 +377,33 @@ mod tests {
             assert_eq!(lane_sum(&src).to_bits(), lane_sum_body(&src).to_bits());
             assert_eq!(lane_max(&src), lane_max_body(&src));
             let (mut c, mut d) = (start.clone(), start.clone());
-            let with = with_avx(|| mul_sum_inline(&mut c, &src));
+            let with = mul_sum_rows(&mut c, n, &src, n, 0, 1);
             assert_eq!(with.to_bits(), mul_sum_body(&mut d, &src).to_bits());
             assert_eq!(c, d);
             let exact: f64 = start.iter().zip(&src).map(|(x, s)| x * s).sum();
             assert!((mul_sum_body(&mut start.clone(), &src) - exact).abs() <= 1e-12);
             assert_eq!(lane_max(&src), src.iter().fold(0.0f64, |a, &b| a.max(b)));
+        }
+    }
+
+    #[test]
+    fn row_products_match_the_plain_loops_bit_for_bit() {
+        for nc in [0usize, 1, 3, 4, 5, 7, 8, 9, 12, 15, 16, 17, 23] {
+            let (bs, q0, n) = (nc + 5, 2, 3);
+            let b: Vec<f64> = (0..bs * n).map(|i| (i as f64 * 0.77).sin().abs()).collect();
+            let start: Vec<f64> = (0..nc * n)
+                .map(|i| (i as f64 * 0.31).cos().abs() / 3.0)
+                .collect();
+            let mut got = start.clone();
+            let m = mul_sum_rows(&mut got, nc, &b, bs, q0, n);
+            let mut want = start.clone();
+            let mut mass = 0.0;
+            for r in 0..n {
+                let row = &mut want[r * nc..(r + 1) * nc];
+                mass += mul_sum_body(row, &b[r * bs + q0..r * bs + q0 + nc]);
+            }
+            assert_eq!(got, want);
+            assert_eq!(m.to_bits(), mass.to_bits());
         }
     }
 

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline, mul_sum_inline,
+    Tap, axpy, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline, mul_sum_rows,
     scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
@@ -493,13 +493,7 @@ impl WindowState {
         }
         // Columns of the rect within the bump's columns.
         let q0 = (rect.b0 as i64 - ky0) as usize;
-        with_avx(|| {
-            let mut mass = 0.0;
-            for (brow, orow) in b.chunks_exact(ww).zip(out.chunks_exact_mut(nc.max(1))) {
-                mass += mul_sum_inline(orow, &brow[q0..q0 + nc]);
-            }
-            mass
-        })
+        mul_sum_rows(out, nc, b, ww, q0, r1 - r0)
     }
 
     /// One predict + update step. Validates and encodes every detection first: on error the
