@@ -217,6 +217,92 @@ unsafe fn mul_sum_rows_avx(
     mass
 }
 
+/// Calls `f(j)`, by increasing `j`, for every cell of `cur` that passes the first tests of a
+/// local maximum: `!(v <= 0)`, `!(v < cut)`, `!(above[j] >= v)`, `!(below[j] > v)` (the
+/// absent rows' tests pass). Every other cell fails one of them; the AVX copy tests four cells
+/// per comparison (the same predicates, NaN included) and calls `f` for the same cells.
+#[inline]
+pub(crate) fn peak_candidates(
+    cur: &[f64],
+    above: Option<&[f64]>,
+    below: Option<&[f64]>,
+    cut: f64,
+    mut f: impl FnMut(usize),
+) {
+    let n = cur.len();
+    assert!(above.is_none_or(|a| a.len() >= n) && below.is_none_or(|b| b.len() >= n));
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above); the rows are as long as `cur`
+        // (asserted above).
+        unsafe { peak_candidates_avx(cur, above, below, cut, &mut f) };
+        return;
+    }
+    for (j, &v) in cur.iter().enumerate() {
+        if candidate(v, above.map(|a| a[j]), below.map(|b| b[j]), cut) {
+            f(j);
+        }
+    }
+}
+
+/// The scalar form of [`peak_candidates`]'s test.
+#[inline(always)]
+fn candidate(v: f64, above: Option<f64>, below: Option<f64>, cut: f64) -> bool {
+    !(v <= 0.0 || v < cut || above.is_some_and(|a| a >= v) || below.is_some_and(|b| b > v))
+}
+
+/// [`peak_candidates`] with AVX comparisons.
+///
+/// # Safety
+/// The CPU must support AVX; `above` and `below` must be at least as long as `cur`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn peak_candidates_avx(
+    cur: &[f64],
+    above: Option<&[f64]>,
+    below: Option<&[f64]>,
+    cut: f64,
+    f: &mut impl FnMut(usize),
+) {
+    use std::arch::x86_64::{
+        _CMP_NGE_UQ, _CMP_NGT_UQ, _CMP_NLE_UQ, _CMP_NLT_UQ, _mm256_and_pd, _mm256_cmp_pd,
+        _mm256_loadu_pd, _mm256_movemask_pd, _mm256_set1_pd, _mm256_setzero_pd,
+    };
+    let n = cur.len();
+    let (zero, cutv) = (_mm256_setzero_pd(), _mm256_set1_pd(cut));
+    let mut j = 0;
+    while j + 4 <= n {
+        // SAFETY: j + 4 ≤ n and the rows hold at least n cells.
+        let bits = unsafe {
+            let v = _mm256_loadu_pd(cur.as_ptr().add(j));
+            let mut m = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_NLE_UQ>(v, zero),
+                _mm256_cmp_pd::<_CMP_NLT_UQ>(v, cutv),
+            );
+            if let Some(a) = above {
+                let a = _mm256_loadu_pd(a.as_ptr().add(j));
+                m = _mm256_and_pd(m, _mm256_cmp_pd::<_CMP_NGE_UQ>(a, v));
+            }
+            if let Some(b) = below {
+                let b = _mm256_loadu_pd(b.as_ptr().add(j));
+                m = _mm256_and_pd(m, _mm256_cmp_pd::<_CMP_NGT_UQ>(b, v));
+            }
+            _mm256_movemask_pd(m)
+        };
+        let mut bits = bits as u32;
+        while bits != 0 {
+            f(j + bits.trailing_zeros() as usize);
+            bits &= bits - 1;
+        }
+        j += 4;
+    }
+    for (k, &v) in cur.iter().enumerate().skip(j) {
+        if candidate(v, above.map(|a| a[k]), below.map(|b| b[k]), cut) {
+            f(k);
+        }
+    }
+}
+
 /// Lane masks selecting the first `n` of four lanes (`n = 0..=3`).
 #[cfg(target_arch = "x86_64")]
 const TAIL_MASKS: [[i64; 4]; 4] = [[0, 0, 0, 0], [-1, 0, 0, 0], [-1, -1, 0, 0], [-1, -1, -1, 0]];
@@ -404,6 +490,43 @@ mod tests {
             }
             assert_eq!(got, want);
             assert_eq!(m.to_bits(), mass.to_bits());
+        }
+    }
+
+    #[test]
+    fn peak_candidates_match_the_scalar_test() {
+        for n in [0usize, 1, 3, 4, 5, 9, 13] {
+            let row = |s: f64| -> Vec<f64> {
+                (0..n)
+                    .map(|i| ((i as f64 * s).sin() * 2.0).max(-0.1))
+                    .collect()
+            };
+            let (cur, above, below) = (row(0.9), row(1.3), row(0.4));
+            for (up, down) in [
+                (None, None),
+                (Some(&above[..]), None),
+                (None, Some(&below[..])),
+                (Some(&above[..]), Some(&below[..])),
+            ] {
+                for cut in [0.0, 0.5, f64::NAN] {
+                    let mut got = Vec::new();
+                    peak_candidates(&cur, up, down, cut, |j| got.push(j));
+                    let want: Vec<usize> = (0..n)
+                        .filter(|&j| candidate(cur[j], up.map(|a| a[j]), down.map(|b| b[j]), cut))
+                        .collect();
+                    assert_eq!(got, want);
+                    let plain: Vec<usize> = (0..n)
+                        .filter(|&j| {
+                            let v = cur[j];
+                            !(v <= 0.0
+                                || v < cut
+                                || up.is_some_and(|a| a[j] >= v)
+                                || down.is_some_and(|b| b[j] > v))
+                        })
+                        .collect();
+                    assert_eq!(got, plain);
+                }
+            }
         }
     }
 

@@ -40,7 +40,7 @@ use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
     Tap, axpy, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline, mul_sum_rows,
-    scale_into, with_avx,
+    peak_candidates, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -761,27 +761,24 @@ impl WindowState {
                 cur
             };
             let (has_above, has_below) = (i > 0, i + 1 < p.h);
-            for (j, &v) in cur.iter().enumerate() {
-                if v <= 0.0 || v < cut {
-                    continue;
-                }
-                // The direct neighbours first (on a smooth hill, one of them is higher).
-                if (has_above && above[j] >= v) || (has_below && below[j] > v) {
-                    continue;
-                }
+            // The direct vertical neighbours first, four cells at a time (on a smooth hill,
+            // one of them is higher); the survivors meet the other neighbours here.
+            let (up, down) = (has_above.then_some(above), has_below.then_some(below));
+            peak_candidates(cur, up, down, cut, |j| {
+                let v = cur[j];
                 if (j > 0 && cur[j - 1] >= v) || (j + 1 < w && cur[j + 1] > v) {
-                    continue;
+                    return;
                 }
                 if j > 0 && ((has_above && above[j - 1] >= v) || (has_below && below[j - 1] > v)) {
-                    continue;
+                    return;
                 }
                 if j + 1 < w
                     && ((has_above && above[j + 1] >= v) || (has_below && below[j + 1] > v))
                 {
-                    continue;
+                    return;
                 }
                 peaks.push((v, i, j));
-            }
+            });
         }
         peaks.sort_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
         for &(_, i, j) in &peaks {
