@@ -303,6 +303,93 @@ unsafe fn peak_candidates_avx(
     }
 }
 
+/// One source cell of a row convolution: `(first kernel tap, length, first destination
+/// column, source column)`.
+pub(crate) type CellTap = (usize, usize, usize, usize);
+
+/// For each of `n` rows and every `(k0, len, d0, b)` in `cells`, in order:
+/// `dst_row[d0..d0 + len] += src_row[b] · kern[k0..k0 + len]` (rows at strides `ds`, `ss`).
+/// The source-major form of [`axpy_taps`] (a product `x·y` equals `y·x` exactly), for kernels
+/// longer than the source rows: fewer, longer row operations.
+pub(crate) fn axpy_cells(
+    dst: &mut [f64],
+    ds: usize,
+    src: &[f64],
+    ss: usize,
+    n: usize,
+    kern: &[f64],
+    cells: &[CellTap],
+) {
+    for &(k0, len, d0, b) in cells {
+        assert!(
+            k0 + len <= kern.len() && d0 + len <= ds && b < ss,
+            "cell beyond its row"
+        );
+    }
+    assert!(
+        dst.len() >= n * ds && src.len() >= n * ss,
+        "rows beyond the buffers"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above); every cell stays within its row
+        // and the kernel, every row within its buffer (asserted above).
+        unsafe { axpy_cells_avx(dst, ds, src, ss, n, kern, cells) };
+        return;
+    }
+    for r in 0..n {
+        let (d, s) = (&mut dst[r * ds..(r + 1) * ds], &src[r * ss..(r + 1) * ss]);
+        for &(k0, len, d0, b) in cells {
+            axpy_body(&mut d[d0..d0 + len], &kern[k0..k0 + len], s[b]);
+        }
+    }
+}
+
+/// [`axpy_cells`] with AVX intrinsics (no FMA).
+///
+/// # Safety
+/// The CPU must support AVX; cells and rows must lie within the buffers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn axpy_cells_avx(
+    dst: &mut [f64],
+    ds: usize,
+    src: &[f64],
+    ss: usize,
+    n: usize,
+    kern: &[f64],
+    cells: &[CellTap],
+) {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_loadu_pd, _mm256_loadu_si256, _mm256_maskload_pd,
+        _mm256_maskstore_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
+    };
+    for r in 0..n {
+        // SAFETY: rows, cells and kernel ranges lie within the buffers (the caller's contract).
+        unsafe {
+            let d = dst.as_mut_ptr().add(r * ds);
+            let s = src.as_ptr().add(r * ss);
+            for &(k0, len, d0, b) in cells {
+                let (d, kp) = (d.add(d0), kern.as_ptr().add(k0));
+                let kv = _mm256_set1_pd(*s.add(b));
+                let mut i = 0;
+                while i + 4 <= len {
+                    let x = _mm256_loadu_pd(d.add(i));
+                    let y = _mm256_mul_pd(kv, _mm256_loadu_pd(kp.add(i)));
+                    _mm256_storeu_pd(d.add(i), _mm256_add_pd(x, y));
+                    i += 4;
+                }
+                if i < len {
+                    let m = _mm256_loadu_si256(TAIL_MASKS[len - i].as_ptr().cast());
+                    let x = _mm256_maskload_pd(d.add(i), m);
+                    let y = _mm256_mul_pd(kv, _mm256_maskload_pd(kp.add(i), m));
+                    _mm256_maskstore_pd(d.add(i), m, _mm256_add_pd(x, y));
+                }
+            }
+        }
+    }
+}
+
 /// Lane masks selecting the first `n` of four lanes (`n = 0..=3`).
 #[cfg(target_arch = "x86_64")]
 const TAIL_MASKS: [[i64; 4]; 4] = [[0, 0, 0, 0], [-1, 0, 0, 0], [-1, -1, 0, 0], [-1, -1, -1, 0]];
@@ -528,6 +615,48 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn row_cells_match_the_row_taps_bit_for_bit() {
+        // One row convolution both ways: taps by increasing offset against source cells by
+        // decreasing column (each output cell adds its terms in the same order).
+        let (ss, ds, n) = (9usize, 14usize, 3usize);
+        let src: Vec<f64> = (0..ss * n)
+            .map(|i| (i as f64 * 0.71).sin().abs() / 7.0)
+            .collect();
+        let kern: Vec<f64> = (0..11)
+            .map(|i| (i as f64 * 0.37).cos().abs() / 5.0)
+            .collect();
+        let start: Vec<f64> = (0..ds * n).map(|i| (i as f64 * 0.3).cos().abs()).collect();
+        // Output column j = b + t − 3 (offset t of the kernel), clipped to [0, ds).
+        let mut taps: Vec<Tap> = Vec::new();
+        for (t, &k) in kern.iter().enumerate() {
+            let b_lo = (3i64 - t as i64).max(0);
+            let b_hi = (ds as i64 + 3 - t as i64).min(ss as i64);
+            if b_lo < b_hi {
+                let d0 = (b_lo + t as i64 - 3) as usize;
+                taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
+            }
+        }
+        let mut cells: Vec<CellTap> = Vec::new();
+        for b in (0..ss as i64).rev() {
+            let j_lo = (b - 3).max(0);
+            let j_hi = (b - 3 + kern.len() as i64).min(ds as i64);
+            if j_lo < j_hi {
+                cells.push((
+                    (j_lo - b + 3) as usize,
+                    (j_hi - j_lo) as usize,
+                    j_lo as usize,
+                    b as usize,
+                ));
+            }
+        }
+        let (mut a, mut c) = (start.clone(), start.clone());
+        axpy_taps(&mut a, ds, &src, ss, n, &taps);
+        axpy_cells(&mut c, ds, &src, ss, n, &kern, &cells);
+        assert_eq!(a, c);
+        assert_ne!(a, start);
     }
 
     #[test]

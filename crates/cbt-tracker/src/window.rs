@@ -39,8 +39,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline, mul_sum_rows,
-    peak_candidates, scale_into, with_avx,
+    CellTap, Tap, axpy, axpy_cells, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline,
+    mul_sum_rows, peak_candidates, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -136,6 +136,8 @@ struct Scratch {
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<Tap>,
+    /// Source cells of the prediction's y pass in its source-major form.
+    cells: Vec<CellTap>,
 }
 
 impl PartialEq for Scratch {
@@ -390,7 +392,25 @@ impl WindowState {
             taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
         }
         let src = &p.v[(a_lo - p.i0) * p.w..(a_hi - p.i0) * p.w];
-        axpy_taps(rows, nc, src, p.w, a_hi - a_lo, taps);
+        if ky.v.len() > p.w {
+            // Kernel longer than the rows: source-major (one row operation per posterior
+            // cell, by decreasing column, so each cell still adds its terms by increasing δ).
+            let cells = &mut self.scratch.cells;
+            cells.clear();
+            for b in (0..p.w as i64).rev() {
+                let col = p.j0 as i64 + b;
+                let j_lo = (col + ky.lo).max(rect.b0 as i64);
+                let j_hi = (col + ky.hi() + 1).min(rect.b1 as i64);
+                if j_lo < j_hi {
+                    let k0 = (j_lo - col - ky.lo) as usize;
+                    let d0 = (j_lo - rect.b0 as i64) as usize;
+                    cells.push((k0, (j_hi - j_lo) as usize, d0, b as usize));
+                }
+            }
+            axpy_cells(rows, nc, src, p.w, a_hi - a_lo, &ky.v, cells);
+        } else {
+            axpy_taps(rows, nc, src, p.w, a_hi - a_lo, taps);
+        }
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
         // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
         // it joins; taps by decreasing δ add each cell's terms by increasing a.
