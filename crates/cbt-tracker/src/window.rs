@@ -289,7 +289,8 @@ impl WindowState {
         out.resize(w, 0.0);
         match order {
             Order::First => out.copy_from_slice(sys.first()),
-            Order::Second => {
+            // One AVX dispatch for the whole sum (the same operations in the same order).
+            Order::Second => with_avx(|| {
                 let (o2, m2) = (self.prev[d].0 as i64, &self.prev[d].1);
                 let (o1, m1) = (self.cur[d].0 as i64, &self.cur[d].1);
                 let t = sys.second();
@@ -315,14 +316,14 @@ impl WindowState {
                     inside += c;
                     let col = &t[(v + r) as usize * w..(v + r + 1) as usize * w];
                     let (lo, hi) = sys.band((v + r) as usize);
-                    axpy(&mut out[lo..hi], &col[lo..hi], c);
+                    axpy_inline(&mut out[lo..hi], &col[lo..hi], c);
                 }
                 let total: f64 = m1.iter().sum::<f64>() * m2.iter().sum::<f64>();
                 let rest = (total - inside).max(0.0);
                 for (dst, &s) in out.iter_mut().zip(sys.first()) {
                     *dst += rest * s;
                 }
-            }
+            }),
         }
         // Drop each tail holding at most KERNEL_TAIL of the mass.
         let cut = KERNEL_TAIL * out.iter().sum::<f64>();
