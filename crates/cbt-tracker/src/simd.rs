@@ -303,89 +303,99 @@ unsafe fn peak_candidates_avx(
     }
 }
 
-/// One source cell of a row convolution: `(first kernel tap, length, first destination
-/// column, source column)`.
-pub(crate) type CellTap = (usize, usize, usize, usize);
-
-/// For each of `n` rows and every `(k0, len, d0, b)` in `cells`, in order:
-/// `dst_row[d0..d0 + len] += src_row[b] · kern[k0..k0 + len]` (rows at strides `ds`, `ss`).
-/// The source-major form of [`axpy_taps`] (a product `x·y` equals `y·x` exactly), for kernels
-/// longer than the source rows: fewer, longer row operations.
-pub(crate) fn axpy_cells(
+/// Row convolution held in registers: for each of `n` rows,
+/// `dst_row[j] = Σ_b src_row[b] · kern[j − b + base]` over `j < dc`, `b < sc` (rows at strides
+/// `dc` and `ss`; taps outside `kern` are absent), the terms added by decreasing `b` starting
+/// from `+0` — the order of [`axpy_taps`] with taps by increasing offset, so the values are
+/// the same. `kpad` is `kern` with three zeros on each side. The AVX copy keeps four outputs
+/// in a register and adds `src_row[b] · kpad[..]` for every `b` reaching them (an absent tap
+/// adds `+0`, which leaves a non-negative sum unchanged): no stores between the terms.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn conv_rows(
     dst: &mut [f64],
-    ds: usize,
+    dc: usize,
     src: &[f64],
     ss: usize,
+    sc: usize,
     n: usize,
-    kern: &[f64],
-    cells: &[CellTap],
+    kpad: &[f64],
+    base: i64,
 ) {
-    for &(k0, len, d0, b) in cells {
-        assert!(
-            k0 + len <= kern.len() && d0 + len <= ds && b < ss,
-            "cell beyond its row"
-        );
-    }
-    assert!(
-        dst.len() >= n * ds && src.len() >= n * ss,
-        "rows beyond the buffers"
-    );
+    let len = kpad.len() as i64 - 6;
+    assert!(len >= 1 && sc <= ss && dst.len() >= n * dc && src.len() >= n * ss);
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); every cell stays within its row
-        // and the kernel, every row within its buffer (asserted above).
-        unsafe { axpy_cells_avx(dst, ds, src, ss, n, kern, cells) };
+        // SAFETY: the CPU supports AVX (checked just above); buffers as asserted above.
+        unsafe { conv_rows_avx(dst, dc, src, ss, sc, n, kpad, base) };
         return;
     }
     for r in 0..n {
-        let (d, s) = (&mut dst[r * ds..(r + 1) * ds], &src[r * ss..(r + 1) * ss]);
-        for &(k0, len, d0, b) in cells {
-            axpy_body(&mut d[d0..d0 + len], &kern[k0..k0 + len], s[b]);
+        for j in 0..dc {
+            let mut acc = 0.0;
+            for b in (0..sc).rev() {
+                let t = j as i64 - b as i64 + base;
+                if (0..len).contains(&t) {
+                    acc += src[r * ss + b] * kpad[(t + 3) as usize];
+                }
+            }
+            dst[r * dc + j] = acc;
         }
     }
 }
 
-/// [`axpy_cells`] with AVX intrinsics (no FMA).
+/// [`conv_rows`] with AVX intrinsics (no FMA).
 ///
 /// # Safety
-/// The CPU must support AVX; cells and rows must lie within the buffers.
+/// The CPU must support AVX; the buffers must be as [`conv_rows`] asserts.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn axpy_cells_avx(
+#[allow(clippy::too_many_arguments)]
+unsafe fn conv_rows_avx(
     dst: &mut [f64],
-    ds: usize,
+    dc: usize,
     src: &[f64],
     ss: usize,
+    sc: usize,
     n: usize,
-    kern: &[f64],
-    cells: &[CellTap],
+    kpad: &[f64],
+    base: i64,
 ) {
     use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_loadu_pd, _mm256_loadu_si256, _mm256_maskload_pd,
-        _mm256_maskstore_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
+        _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
+        _mm256_maskstore_pd, _mm256_mul_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
+    let len = kpad.len() as i64 - 6;
     for r in 0..n {
-        // SAFETY: rows, cells and kernel ranges lie within the buffers (the caller's contract).
-        unsafe {
-            let d = dst.as_mut_ptr().add(r * ds);
-            let s = src.as_ptr().add(r * ss);
-            for &(k0, len, d0, b) in cells {
-                let (d, kp) = (d.add(d0), kern.as_ptr().add(k0));
-                let kv = _mm256_set1_pd(*s.add(b));
-                let mut i = 0;
-                while i + 4 <= len {
-                    let x = _mm256_loadu_pd(d.add(i));
-                    let y = _mm256_mul_pd(kv, _mm256_loadu_pd(kp.add(i)));
-                    _mm256_storeu_pd(d.add(i), _mm256_add_pd(x, y));
-                    i += 4;
+        let row = &src[r * ss..r * ss + sc];
+        let mut j = 0;
+        while j < dc {
+            // Sources b reaching lanes j..j + 4: t = j + lane − b + base ∈ [0, len).
+            let b_hi = (j as i64 + base + 3).min(sc as i64 - 1);
+            let b_lo = (j as i64 + base - len + 1).max(0);
+            let mut acc = _mm256_setzero_pd();
+            let mut b = b_hi;
+            while b >= b_lo {
+                // t0 + 3 ∈ [0, len + 3) for the b above: the padded load stays inside kpad.
+                let t0 = j as i64 - b + base;
+                // SAFETY: b < sc ≤ row length; t0 + 3 + 4 ≤ len + 6 = kpad.len().
+                unsafe {
+                    let q = _mm256_broadcast_sd(row.get_unchecked(b as usize));
+                    let k = _mm256_loadu_pd(kpad.as_ptr().add((t0 + 3) as usize));
+                    acc = _mm256_add_pd(acc, _mm256_mul_pd(q, k));
                 }
-                if i < len {
-                    let m = _mm256_loadu_si256(TAIL_MASKS[len - i].as_ptr().cast());
-                    let x = _mm256_maskload_pd(d.add(i), m);
-                    let y = _mm256_mul_pd(kv, _mm256_maskload_pd(kp.add(i), m));
-                    _mm256_maskstore_pd(d.add(i), m, _mm256_add_pd(x, y));
+                b -= 1;
+            }
+            let d = dst[r * dc..].as_mut_ptr();
+            // SAFETY: j + 4 ≤ dc, or the mask keeps the lanes below dc.
+            unsafe {
+                if j + 4 <= dc {
+                    _mm256_storeu_pd(d.add(j), acc);
+                } else {
+                    let m = _mm256_loadu_si256(TAIL_MASKS[dc - j].as_ptr().cast());
+                    _mm256_maskstore_pd(d.add(j), m, acc);
                 }
             }
+            j += 4;
         }
     }
 }
@@ -618,45 +628,39 @@ mod tests {
     }
 
     #[test]
-    fn row_cells_match_the_row_taps_bit_for_bit() {
-        // One row convolution both ways: taps by increasing offset against source cells by
-        // decreasing column (each output cell adds its terms in the same order).
-        let (ss, ds, n) = (9usize, 14usize, 3usize);
-        let src: Vec<f64> = (0..ss * n)
-            .map(|i| (i as f64 * 0.71).sin().abs() / 7.0)
-            .collect();
-        let kern: Vec<f64> = (0..11)
-            .map(|i| (i as f64 * 0.37).cos().abs() / 5.0)
-            .collect();
-        let start: Vec<f64> = (0..ds * n).map(|i| (i as f64 * 0.3).cos().abs()).collect();
-        // Output column j = b + t − 3 (offset t of the kernel), clipped to [0, ds).
-        let mut taps: Vec<Tap> = Vec::new();
-        for (t, &k) in kern.iter().enumerate() {
-            let b_lo = (3i64 - t as i64).max(0);
-            let b_hi = (ds as i64 + 3 - t as i64).min(ss as i64);
-            if b_lo < b_hi {
-                let d0 = (b_lo + t as i64 - 3) as usize;
-                taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
+    fn register_row_convolution_matches_the_row_taps_bit_for_bit() {
+        // One row convolution both ways: taps by increasing offset (axpy_taps) against four
+        // outputs in a register (conv_rows); output column j = b + t − 3 for kernel tap t.
+        for (ss, ds) in [(9usize, 14usize), (12, 15), (3, 5), (15, 4)] {
+            let n = 3;
+            let src: Vec<f64> = (0..ss * n)
+                .map(|i| (i as f64 * 0.71).sin().abs() / 7.0)
+                .collect();
+            let kern: Vec<f64> = (0..11)
+                .map(|i| (i as f64 * 0.37).cos().abs() / 5.0)
+                .collect();
+            let mut taps: Vec<Tap> = Vec::new();
+            for (t, &k) in kern.iter().enumerate() {
+                let b_lo = (3i64 - t as i64).max(0);
+                let b_hi = (ds as i64 + 3 - t as i64).min(ss as i64);
+                if b_lo < b_hi {
+                    let d0 = (b_lo + t as i64 - 3) as usize;
+                    taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
+                }
             }
+            let mut a = vec![0.0; ds * n];
+            axpy_taps(&mut a, ds, &src, ss, n, &taps);
+            let kpad: Vec<f64> = [0.0; 3]
+                .iter()
+                .chain(&kern)
+                .chain(&[0.0; 3])
+                .copied()
+                .collect();
+            let mut c = vec![f64::NAN; ds * n];
+            conv_rows(&mut c, ds, &src, ss, ss, n, &kpad, 3);
+            assert_eq!(a, c);
+            assert!(a.iter().any(|&v| v > 0.0));
         }
-        let mut cells: Vec<CellTap> = Vec::new();
-        for b in (0..ss as i64).rev() {
-            let j_lo = (b - 3).max(0);
-            let j_hi = (b - 3 + kern.len() as i64).min(ds as i64);
-            if j_lo < j_hi {
-                cells.push((
-                    (j_lo - b + 3) as usize,
-                    (j_hi - j_lo) as usize,
-                    j_lo as usize,
-                    b as usize,
-                ));
-            }
-        }
-        let (mut a, mut c) = (start.clone(), start.clone());
-        axpy_taps(&mut a, ds, &src, ss, n, &taps);
-        axpy_cells(&mut c, ds, &src, ss, n, &kern, &cells);
-        assert_eq!(a, c);
-        assert_ne!(a, start);
     }
 
     #[test]

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    CellTap, Tap, axpy, axpy_cells, axpy_inline, axpy_taps, lane_max, lane_sum, lane_sum_inline,
+    Tap, axpy, axpy_inline, axpy_taps, conv_rows, lane_max, lane_sum, lane_sum_inline,
     mul_sum_rows, peak_candidates, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
@@ -136,8 +136,8 @@ struct Scratch {
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<Tap>,
-    /// Source cells of the prediction's y pass in its source-major form.
-    cells: Vec<CellTap>,
+    /// The y kernel with three zeros on each side (prediction's y pass).
+    kpad: Vec<f64>,
 }
 
 impl PartialEq for Scratch {
@@ -378,38 +378,32 @@ impl WindowState {
         let rows = &mut self.scratch.rows;
         rows.clear();
         rows.resize((a_hi - a_lo) * nc, 0.0);
-        // Along y: rows[a][j] = Σ_δ D_y[δ] q[a, j − δ]: one contiguous axpy per kernel tap
-        // (columns b = j − δ − j0 of the posterior row).
-        let taps: &mut Vec<Tap> = &mut self.scratch.taps;
-        taps.clear();
-        for (t, &k) in ky.v.iter().enumerate() {
-            let delta = ky.lo + t as i64;
-            let b_lo = (rect.b0 as i64 - p.j0 as i64 - delta).max(0);
-            let b_hi = (rect.b1 as i64 - p.j0 as i64 - delta).min(p.w as i64);
-            if b_lo >= b_hi || k == 0.0 {
-                continue;
-            }
-            let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
-            taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
-        }
+        // Along y: rows[a][j] = Σ_δ D_y[δ] q[a, j − δ], the terms by increasing δ (columns
+        // b = j − δ − j0 of the posterior row). Kernel long against the rows: four outputs at
+        // a time in a register; short: one contiguous axpy per kernel tap (module `simd`;
+        // the same values either way).
         let src = &p.v[(a_lo - p.i0) * p.w..(a_hi - p.i0) * p.w];
-        if ky.v.len() > p.w {
-            // Kernel longer than the rows: source-major (one row operation per posterior
-            // cell, by decreasing column, so each cell still adds its terms by increasing δ).
-            let cells = &mut self.scratch.cells;
-            cells.clear();
-            for b in (0..p.w as i64).rev() {
-                let col = p.j0 as i64 + b;
-                let j_lo = (col + ky.lo).max(rect.b0 as i64);
-                let j_hi = (col + ky.hi() + 1).min(rect.b1 as i64);
-                if j_lo < j_hi {
-                    let k0 = (j_lo - col - ky.lo) as usize;
-                    let d0 = (j_lo - rect.b0 as i64) as usize;
-                    cells.push((k0, (j_hi - j_lo) as usize, d0, b as usize));
-                }
-            }
-            axpy_cells(rows, nc, src, p.w, a_hi - a_lo, &ky.v, cells);
+        if 2 * ky.v.len() > p.w {
+            let kpad = &mut self.scratch.kpad;
+            kpad.clear();
+            kpad.extend_from_slice(&[0.0; 3]);
+            kpad.extend_from_slice(&ky.v);
+            kpad.extend_from_slice(&[0.0; 3]);
+            let base = rect.b0 as i64 - p.j0 as i64 - ky.lo;
+            conv_rows(rows, nc, src, p.w, p.w, a_hi - a_lo, kpad, base);
         } else {
+            let taps: &mut Vec<Tap> = &mut self.scratch.taps;
+            taps.clear();
+            for (t, &k) in ky.v.iter().enumerate() {
+                let delta = ky.lo + t as i64;
+                let b_lo = (rect.b0 as i64 - p.j0 as i64 - delta).max(0);
+                let b_hi = (rect.b1 as i64 - p.j0 as i64 - delta).min(p.w as i64);
+                if b_lo >= b_hi || k == 0.0 {
+                    continue;
+                }
+                let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
+                taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
+            }
             axpy_taps(rows, nc, src, p.w, a_hi - a_lo, taps);
         }
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
