@@ -400,6 +400,64 @@ unsafe fn conv_rows_avx(
     }
 }
 
+/// `out[δ] += c · cols[v·stride + δ]` for every `(v, c)` in `cols`, in order (`out.len() ≤
+/// stride`, `stride` a multiple of 16). The AVX copy holds sixteen outputs in four registers
+/// across all the columns: the same products and additions per output, no stores between.
+pub(crate) fn column_sum(out: &mut [f64], cols: &[f64], stride: usize, terms: &[(usize, f64)]) {
+    assert!(stride.is_multiple_of(16) && out.len() <= stride);
+    assert!(terms.iter().all(|&(v, _)| (v + 1) * stride <= cols.len()));
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above); columns as asserted above.
+        unsafe { column_sum_avx(out, cols, stride, terms) };
+        return;
+    }
+    for &(v, c) in terms {
+        axpy_body(out, &cols[v * stride..], c);
+    }
+}
+
+/// [`column_sum`] with AVX intrinsics (no FMA).
+///
+/// # Safety
+/// The CPU must support AVX; the buffers must be as [`column_sum`] asserts.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn column_sum_avx(out: &mut [f64], cols: &[f64], stride: usize, terms: &[(usize, f64)]) {
+    use std::arch::x86_64::{
+        __m256d, _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
+    };
+    let n = out.len();
+    let mut j = 0;
+    while j < n {
+        let mut buf = [0.0f64; 16];
+        let m = (n - j).min(16);
+        buf[..m].copy_from_slice(&out[j..j + m]);
+        // SAFETY: buf holds 16 cells; column cells j..j + 16 lie within the column's stride
+        // (j < n ≤ stride, both multiples of 16 apart from n) and within `cols` (asserted).
+        unsafe {
+            let mut acc: [__m256d; 4] = [
+                _mm256_loadu_pd(buf.as_ptr()),
+                _mm256_loadu_pd(buf.as_ptr().add(4)),
+                _mm256_loadu_pd(buf.as_ptr().add(8)),
+                _mm256_loadu_pd(buf.as_ptr().add(12)),
+            ];
+            for &(v, c) in terms {
+                let k = _mm256_set1_pd(c);
+                let p = cols.as_ptr().add(v * stride + j);
+                for (l, a) in acc.iter_mut().enumerate() {
+                    *a = _mm256_add_pd(*a, _mm256_mul_pd(k, _mm256_loadu_pd(p.add(4 * l))));
+                }
+            }
+            for (l, a) in acc.iter().enumerate() {
+                _mm256_storeu_pd(buf.as_mut_ptr().add(4 * l), *a);
+            }
+        }
+        out[j..j + m].copy_from_slice(&buf[..m]);
+        j += 16;
+    }
+}
+
 /// Lane masks selecting the first `n` of four lanes (`n = 0..=3`).
 #[cfg(target_arch = "x86_64")]
 const TAIL_MASKS: [[i64; 4]; 4] = [[0, 0, 0, 0], [-1, 0, 0, 0], [-1, -1, 0, 0], [-1, -1, -1, 0]];
@@ -660,6 +718,26 @@ mod tests {
             conv_rows(&mut c, ds, &src, ss, ss, n, &kpad, 3);
             assert_eq!(a, c);
             assert!(a.iter().any(|&v| v > 0.0));
+        }
+    }
+
+    #[test]
+    fn column_sums_match_the_plain_loops_bit_for_bit() {
+        for (w, stride) in [(1usize, 16usize), (13, 16), (33, 48), (16, 16), (40, 48)] {
+            let cols: Vec<f64> = (0..stride * 5)
+                .map(|i| (i as f64 * 0.61).sin().abs())
+                .collect();
+            let terms = [(3usize, 0.25), (0, 1.0 / 3.0), (4, 1e-3), (3, 0.7)];
+            let start: Vec<f64> = (0..w).map(|i| i as f64 * 0.1).collect();
+            let mut got = start.clone();
+            column_sum(&mut got, &cols, stride, &terms);
+            let mut want = start.clone();
+            for &(v, c) in &terms {
+                for (d, x) in want.iter_mut().enumerate() {
+                    *x += c * cols[v * stride + d];
+                }
+            }
+            assert_eq!(got, want);
         }
     }
 

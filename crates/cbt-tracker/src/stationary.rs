@@ -408,6 +408,10 @@ pub(crate) struct StatSystem {
     /// [`BAND_TAIL`] of its mass (derived from `t`; rebuilt after loading).
     #[serde(skip)]
     band: Vec<(u32, u32)>,
+    /// `T` with each column zeroed outside its band and padded with zeros to
+    /// [`Self::banded_stride`] (derived; rebuilt with the bands).
+    #[serde(skip)]
+    banded: Vec<f64>,
 }
 
 /// Mass share of `T[· | v]` the prediction may skip in each tail of a column.
@@ -423,6 +427,7 @@ impl StatSystem {
             s1: vec![0.0; w],
             t: vec![0.0; w * w],
             band: Vec::new(),
+            banded: Vec::new(),
         };
         s.normalise(cfg);
         s
@@ -534,6 +539,24 @@ impl StatSystem {
             }
             self.band.push((lo as u32, hi as u32));
         }
+        let stride = self.banded_stride();
+        self.banded.clear();
+        self.banded.resize(w * stride, 0.0);
+        for (v, col) in self.t.chunks_exact(w).enumerate() {
+            let (lo, hi) = self.band(v);
+            self.banded[v * stride + lo..v * stride + hi].copy_from_slice(&col[lo..hi]);
+        }
+    }
+
+    /// Column stride of [`Self::banded`]: `2r + 1` rounded up to a multiple of 16.
+    pub fn banded_stride(&self) -> usize {
+        (2 * self.r + 1).div_ceil(16) * 16
+    }
+
+    /// `T` with each column `v + r` zeroed outside its [band](Self::band), columns at
+    /// [`Self::banded_stride`] (zero-padded).
+    pub fn banded(&self) -> &[f64] {
+        &self.banded
     }
 
     /// The band `[lo, hi)` of column `v + r` of `T` (the whole column when not built).

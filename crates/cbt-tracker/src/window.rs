@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, conv_rows, lane_max, lane_sum, lane_sum_inline,
+    Tap, axpy, axpy_inline, axpy_taps, column_sum, conv_rows, lane_max, lane_sum, lane_sum_inline,
     mul_sum_rows, peak_candidates, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
@@ -132,7 +132,7 @@ struct Scratch {
     enc: Vec<Det>,
     /// The displacement kernels of the step (x, y) and their work buffer.
     kernels: (Kernel1, Kernel1),
-    disp: Vec<f64>,
+    disp: (Vec<f64>, Vec<(usize, f64)>),
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<Tap>,
@@ -270,31 +270,33 @@ impl WindowState {
     #[inline(never)]
     fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
         let mut k = Kernel1::default();
-        self.displacement_into(sys, d, order, &mut Vec::new(), &mut k);
+        self.displacement_into(sys, d, order, &mut (Vec::new(), Vec::new()), &mut k);
         k
     }
 
-    /// [`Self::displacement`] into `k`, with `out` as the work buffer.
+    /// [`Self::displacement`] into `k`, with `work` as the work buffers.
     fn displacement_into(
         &self,
         sys: &StatSystem,
         d: usize,
         order: Order,
-        out: &mut Vec<f64>,
+        work: &mut (Vec<f64>, Vec<(usize, f64)>),
         k: &mut Kernel1,
     ) {
+        let (out, terms) = work;
         let r = sys.radius() as i64;
         let w = (2 * r + 1) as usize;
         out.clear();
         out.resize(w, 0.0);
         match order {
             Order::First => out.copy_from_slice(sys.first()),
-            // One AVX dispatch for the whole sum (the same operations in the same order).
-            Order::Second => with_avx(|| {
+            Order::Second => {
                 let (o2, m2) = (self.prev[d].0 as i64, &self.prev[d].1);
                 let (o1, m1) = (self.cur[d].0 as i64, &self.cur[d].1);
-                let t = sys.second();
                 let mut inside = 0.0;
+                // Column v of T (zeroed outside its band: the zeros add +0) times c[v], added
+                // to `out` by increasing v.
+                terms.clear();
                 // v = n − o with n ∈ [o1, o1 + |m1|), o ∈ [o2, o2 + |m2|).
                 let v_lo = (o1 - o2 - m2.len() as i64 + 1).max(-r);
                 let v_hi = (o1 + m1.len() as i64 - 1 - o2).min(r);
@@ -314,16 +316,15 @@ impl WindowState {
                         continue;
                     }
                     inside += c;
-                    let col = &t[(v + r) as usize * w..(v + r + 1) as usize * w];
-                    let (lo, hi) = sys.band((v + r) as usize);
-                    axpy_inline(&mut out[lo..hi], &col[lo..hi], c);
+                    terms.push(((v + r) as usize, c));
                 }
+                column_sum(out, sys.banded(), sys.banded_stride(), terms);
                 let total: f64 = m1.iter().sum::<f64>() * m2.iter().sum::<f64>();
                 let rest = (total - inside).max(0.0);
                 for (dst, &s) in out.iter_mut().zip(sys.first()) {
                     *dst += rest * s;
                 }
-            }),
+            }
         }
         // Drop each tail holding at most KERNEL_TAIL of the mass.
         let cut = KERNEL_TAIL * out.iter().sum::<f64>();
