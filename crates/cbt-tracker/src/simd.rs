@@ -123,14 +123,18 @@ pub(crate) fn axpy_taps(
     }
 }
 
-/// For each of `n` rows: `out_row[i] *= b_row[q0 + i]` over the `nc` cells of the row (rows at
-/// strides `nc` and `bs`), and the sum of the rows' product sums (eight accumulators each, as [`lane_sum`]), added row by row.
-/// The AVX copy does the products four lanes at a time (lane masks for the tail) and adds them
-/// in exactly the order of the plain loop (two four-lane accumulators for its eight, the
-/// left-over cells one by one), so the result is bit-identical.
+/// For each of `n` rows: `out_row[i] = a_row[i] · b_row[q0 + i]` over the `nc` cells of the
+/// row, with `a` = `src` (rows at stride `ss`) or, when `src` is `None`, `out` itself (in
+/// place); `out` and `b` rows at strides `nc` and `bs`. Returns the sum of the rows' product
+/// sums (eight accumulators each, as [`lane_sum`]), added row by row. The AVX copy does the
+/// products four lanes at a time (lane masks for the tail) and adds them in exactly the
+/// order of the plain loop (two four-lane accumulators for its eight, the left-over cells
+/// one by one), so the result is bit-identical.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn mul_sum_rows(
     out: &mut [f64],
     nc: usize,
+    src: Option<(&[f64], usize)>,
     b: &[f64],
     bs: usize,
     q0: usize,
@@ -140,18 +144,25 @@ pub(crate) fn mul_sum_rows(
         out.len() >= n * nc && q0 + nc <= bs && b.len() >= n * bs,
         "rows beyond the buffers"
     );
+    if let Some((a, ss)) = src {
+        assert!(
+            n == 0 || (nc <= ss && a.len() >= (n - 1) * ss + nc),
+            "rows beyond the source"
+        );
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU supports AVX (checked just above); rows lie within the buffers
         // (asserted above).
-        return unsafe { mul_sum_rows_avx(out, nc, b, bs, q0, n) };
+        return unsafe { mul_sum_rows_avx(out, nc, src, b, bs, q0, n) };
     }
     let mut mass = 0.0;
     for r in 0..n {
-        mass += mul_sum_body(
-            &mut out[r * nc..(r + 1) * nc],
-            &b[r * bs + q0..r * bs + q0 + nc],
-        );
+        let row = &mut out[r * nc..(r + 1) * nc];
+        if let Some((a, ss)) = src {
+            row.copy_from_slice(&a[r * ss..r * ss + nc]);
+        }
+        mass += mul_sum_body(row, &b[r * bs + q0..r * bs + q0 + nc]);
     }
     mass
 }
@@ -162,9 +173,11 @@ pub(crate) fn mul_sum_rows(
 /// The CPU must support AVX; the rows must lie within the buffers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn mul_sum_rows_avx(
     out: &mut [f64],
     nc: usize,
+    src: Option<(&[f64], usize)>,
     b: &[f64],
     bs: usize,
     q0: usize,
@@ -176,15 +189,20 @@ unsafe fn mul_sum_rows_avx(
     };
     let mut mass = 0.0;
     for r in 0..n {
-        // SAFETY: the rows lie within the buffers (the caller's contract).
+        // SAFETY: the rows lie within the buffers (the caller's contract); each cell of `a`
+        // is read before the same cell of `o` is written (in place: the same cell).
         unsafe {
             let o = out.as_mut_ptr().add(r * nc);
+            let a: *const f64 = match src {
+                Some((a, ss)) => a.as_ptr().add(r * ss),
+                None => o,
+            };
             let q = b.as_ptr().add(r * bs + q0);
             let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
             let mut i = 0;
             while i + 8 <= nc {
-                let x = _mm256_mul_pd(_mm256_loadu_pd(o.add(i)), _mm256_loadu_pd(q.add(i)));
-                let y = _mm256_mul_pd(_mm256_loadu_pd(o.add(i + 4)), _mm256_loadu_pd(q.add(i + 4)));
+                let x = _mm256_mul_pd(_mm256_loadu_pd(a.add(i)), _mm256_loadu_pd(q.add(i)));
+                let y = _mm256_mul_pd(_mm256_loadu_pd(a.add(i + 4)), _mm256_loadu_pd(q.add(i + 4)));
                 _mm256_storeu_pd(o.add(i), x);
                 _mm256_storeu_pd(o.add(i + 4), y);
                 lo = _mm256_add_pd(lo, x);
@@ -193,14 +211,14 @@ unsafe fn mul_sum_rows_avx(
             }
             let tail = i;
             if i + 4 <= nc {
-                let x = _mm256_mul_pd(_mm256_loadu_pd(o.add(i)), _mm256_loadu_pd(q.add(i)));
+                let x = _mm256_mul_pd(_mm256_loadu_pd(a.add(i)), _mm256_loadu_pd(q.add(i)));
                 _mm256_storeu_pd(o.add(i), x);
                 i += 4;
             }
             if i < nc {
                 let m = _mm256_loadu_si256(TAIL_MASKS[nc - i].as_ptr().cast());
                 let x = _mm256_mul_pd(
-                    _mm256_maskload_pd(o.add(i), m),
+                    _mm256_maskload_pd(a.add(i), m),
                     _mm256_maskload_pd(q.add(i), m),
                 );
                 _mm256_maskstore_pd(o.add(i), m, x);
@@ -209,9 +227,9 @@ unsafe fn mul_sum_rows_avx(
             for k in tail..nc {
                 rest += *o.add(k);
             }
-            let mut a = [0.0f64; 4];
-            _mm256_storeu_pd(a.as_mut_ptr(), _mm256_add_pd(lo, hi));
-            mass += ((a[0] + a[1]) + (a[2] + a[3])) + rest;
+            let mut acc = [0.0f64; 4];
+            _mm256_storeu_pd(acc.as_mut_ptr(), _mm256_add_pd(lo, hi));
+            mass += ((acc[0] + acc[1]) + (acc[2] + acc[3])) + rest;
         }
     }
     mass
@@ -618,7 +636,7 @@ mod tests {
             assert_eq!(lane_sum(&src).to_bits(), lane_sum_body(&src).to_bits());
             assert_eq!(lane_max(&src), lane_max_body(&src));
             let (mut c, mut d) = (start.clone(), start.clone());
-            let with = mul_sum_rows(&mut c, n, &src, n, 0, 1);
+            let with = mul_sum_rows(&mut c, n, None, &src, n, 0, 1);
             assert_eq!(with.to_bits(), mul_sum_body(&mut d, &src).to_bits());
             assert_eq!(c, d);
             let exact: f64 = start.iter().zip(&src).map(|(x, s)| x * s).sum();
@@ -636,7 +654,16 @@ mod tests {
                 .map(|i| (i as f64 * 0.31).cos().abs() / 3.0)
                 .collect();
             let mut got = start.clone();
-            let m = mul_sum_rows(&mut got, nc, &b, bs, q0, n);
+            let m = mul_sum_rows(&mut got, nc, None, &b, bs, q0, n);
+            // From a separate source with its own stride: the same values.
+            let a: Vec<f64> = start
+                .chunks(nc.max(1))
+                .flat_map(|row| row.iter().copied().chain([f64::NAN; 2]))
+                .collect();
+            let mut from = vec![0.0; nc * n];
+            let m2 = mul_sum_rows(&mut from, nc, Some((&a, nc + 2)), &b, bs, q0, n);
+            assert_eq!(from, got);
+            assert_eq!(m2.to_bits(), m.to_bits());
             let mut want = start.clone();
             let mut mass = 0.0;
             for r in 0..n {

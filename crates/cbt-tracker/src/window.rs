@@ -442,17 +442,19 @@ impl WindowState {
         shared: Option<(Rect, &[f64])>,
         out: &mut Vec<f64>,
     ) -> f64 {
-        match shared {
-            // The prior was computed once on a rectangle holding `rect`.
+        // The prior on `rect`: read from the one computed on a rectangle holding it (no copy:
+        // the products below read it there), or computed here into `out`.
+        let src = match shared {
             Some((big, pr)) => {
-                out.clear();
-                for a in rect.a0..rect.a1 {
-                    let row = (a - big.a0) * big.cols() + rect.b0 - big.b0;
-                    out.extend_from_slice(&pr[row..row + rect.cols()]);
-                }
+                out.resize(rect.rows() * rect.cols(), 0.0);
+                let first = (rect.a0 - big.a0) * big.cols() + rect.b0 - big.b0;
+                Some((&pr[first..], big.cols()))
             }
-            None => self.prior_into(kx, ky, keep, u, rect, out),
-        }
+            None => {
+                self.prior_into(kx, ky, keep, u, rect, out);
+                None
+            }
+        };
         let ra = obs.kernel_radius() as i64;
         // The point-reflected kernel F[p][q] = A[−(p − ra)][−(q − ra)]:
         // bump[i][j] += c · F[i − m_x + ra][j − m_y + ra], contiguous in j.
@@ -509,7 +511,7 @@ impl WindowState {
         }
         // Columns of the rect within the bump's columns.
         let q0 = (rect.b0 as i64 - ky0) as usize;
-        mul_sum_rows(out, nc, b, ww, q0, r1 - r0)
+        mul_sum_rows(out, nc, src, b, ww, q0, r1 - r0)
     }
 
     /// One predict + update step. Validates and encodes every detection first: on error the
