@@ -656,9 +656,13 @@ mod tests {
             let mut got = start.clone();
             let m = mul_sum_rows(&mut got, nc, None, &b, bs, q0, n);
             // From a separate source with its own stride: the same values.
-            let a: Vec<f64> = start
-                .chunks(nc.max(1))
-                .flat_map(|row| row.iter().copied().chain([f64::NAN; 2]))
+            let a: Vec<f64> = (0..n)
+                .flat_map(|r| {
+                    start[r * nc..(r + 1) * nc]
+                        .iter()
+                        .copied()
+                        .chain([f64::NAN; 2])
+                })
                 .collect();
             let mut from = vec![0.0; nc * n];
             let m2 = mul_sum_rows(&mut from, nc, Some((&a, nc + 2)), &b, bs, q0, n);
