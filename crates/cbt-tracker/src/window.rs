@@ -32,7 +32,10 @@
 //! allow it (the prediction's x pass: one per kernel tap; the bump: the reflected kernel is
 //! stored padded to the bump's row stride, so that its two separable passes are one axpy per
 //! active channel), and the inner loops run with AVX when the CPU has it (module `simd`,
-//! run-time dispatch, bit-identical to the baseline build).
+//! run-time dispatch, bit-identical to the baseline build). Short rows use AVX intrinsics
+//! with lane-mask tails; the prediction's y pass (kernel long against the rows) and the
+//! displacement sum (`T` zeroed outside its bands, derived) hold their outputs in registers
+//! across all their terms, added in the same order as the plain loops.
 
 use serde::{Deserialize, Serialize};
 
