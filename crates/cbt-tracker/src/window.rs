@@ -42,8 +42,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, column_sum, conv_rows, lane_max, lane_sum, lane_sum_inline,
-    mul_sum_rows, peak_candidates, scale_into, with_avx,
+    Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, lane_max, lane_sum,
+    lane_sum_inline, mul_sum_rows, peak_candidates, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -218,9 +218,9 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
     mx.resize(p.h, 0.0);
     my.clear();
     my.resize(p.w, 0.0);
+    column_totals(my, &p.v, p.w, p.h);
     with_avx(|| {
         for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
-            axpy_inline(my, row, 1.0);
             mx[i] = lane_sum_inline(row);
         }
     });
