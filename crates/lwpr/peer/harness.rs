@@ -116,6 +116,19 @@ pub fn embed(x2: &[f64], q: &[f64], dim: usize) -> Vec<f64> {
     out
 }
 
+/// The reference library's 25-D test settings (papers.md §4.6) for `dim` inputs and one output:
+/// `init_D = 0.25 I`, `init_alpha = 250`, `w_gen = 0.2`, `w_prune = 0.7`, full metric, meta
+/// learning. The pruning rule and the arithmetic are left to the caller.
+pub fn setting_25d(dim: usize) -> lwpr::LwprBuilder {
+    lwpr::LwprBuilder::new(dim, 1)
+        .init_d_spherical(0.25)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.7)
+        .diag_only(false)
+        .meta(true)
+}
+
 /// nMSE: mean squared error over the population variance of the targets.
 pub fn nmse(pred: &[f64], target: &[f64]) -> f64 {
     let n = target.len() as f64;
@@ -128,6 +141,14 @@ pub fn nmse(pred: &[f64], target: &[f64]) -> f64 {
         .sum::<f64>()
         / n;
     mse / var
+}
+
+/// Largest absolute element-wise difference of two prediction vectors (over the common length).
+pub fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// Finds the reference library (env `LWPR_PEER_DIR`, else `<workspace>/../shared/peers/lwpr`),

@@ -127,13 +127,7 @@ fn cross_in_25_dimensions() {
     let q = random_rotation(dim, 7);
     let (x2, y) = cross_samples(5, 4_000, 0.1);
     let x = embed(&x2, &q, dim);
-    let mut m = LwprBuilder::new(dim, 1)
-        .init_d_spherical(0.25)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .w_prune(0.7)
-        .diag_only(false)
-        .meta(true)
+    let mut m = setting_25d(dim)
         .prune_rule(lwpr::PruneRule::ReferenceC)
         .build()
         .unwrap();

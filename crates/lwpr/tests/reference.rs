@@ -52,11 +52,7 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     let (nrf, pred) = &peer.checkpoints[0];
     assert_eq!(&model.num_rfs(), nrf, "{label}: receptive-field counts");
     let ours = model.predict_batch(&gx, 0.001).unwrap();
-    let worst = ours
-        .iter()
-        .zip(pred)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let worst = max_abs_diff(&ours, pred);
     assert!(
         worst <= 1e-6,
         "{label}: largest prediction difference {worst:e}"
@@ -120,13 +116,7 @@ fn cross_25d_full_metric_meta_pruning_matches_reference() {
     let q = random_rotation(dim, 7);
     let (x2, y) = cross_samples(5, 4_000, 0.1);
     let x = embed(&x2, &q, dim);
-    let model = LwprBuilder::new(dim, 1)
-        .init_d_spherical(0.25)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .w_prune(0.7)
-        .diag_only(false)
-        .meta(true)
+    let model = setting_25d(dim)
         .prune_rule(lwpr::PruneRule::ReferenceC)
         .arithmetic(Arithmetic::Reference)
         .build()
@@ -158,13 +148,7 @@ fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
             return;
         }
     };
-    let mut model = LwprBuilder::new(dim, 1)
-        .init_d_spherical(0.25)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .w_prune(0.7)
-        .diag_only(false)
-        .meta(true)
+    let mut model = setting_25d(dim)
         .prune_rule(lwpr::PruneRule::ReferenceC)
         .build()
         .unwrap();
@@ -179,11 +163,7 @@ fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
     let (nrf, pred) = &peer.checkpoints[0];
     assert_eq!(&model.num_rfs(), nrf, "receptive-field counts");
     let ours = model.predict_batch(&gx, 0.001).unwrap();
-    let worst = ours
-        .iter()
-        .zip(pred)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let worst = max_abs_diff(&ours, pred);
     assert!(
         worst <= 1e-6,
         "largest grid prediction difference {worst:e}"

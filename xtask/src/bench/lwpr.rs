@@ -102,12 +102,7 @@ fn measure(
 }
 
 fn rows_for(case: &str, ours: &Measured, peer: &Measured, rows: &mut Vec<BenchRow>) {
-    let diff = ours
-        .pred
-        .iter()
-        .zip(&peer.pred)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let diff = max_abs_diff(&ours.pred, &peer.pred);
     println!(
         "{case}: RFs {} vs {}, nMSE {:.6} vs {:.6}, largest prediction difference {diff:.2e}",
         ours.n_rf, peer.n_rf, ours.nmse, peer.nmse
@@ -212,13 +207,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
             Arithmetic::Reference,
         ),
     ] {
-        let fresh = LwprBuilder::new(dim, 1)
-            .init_d_spherical(0.25)
-            .init_alpha(250.0)
-            .w_gen(0.2)
-            .w_prune(0.7)
-            .diag_only(false)
-            .meta(true)
+        let fresh = setting_25d(dim)
             .prune_rule(rule)
             .arithmetic(arithmetic)
             .build()?;
