@@ -321,6 +321,124 @@ unsafe fn peak_candidates_avx(
     }
 }
 
+/// The first and last index of `row` whose value passes `v >= cut && v > 0` (NaN fails), or
+/// `None` when no cell does. The AVX copy tests four cells per comparison from each end (the
+/// same ordered predicates) and returns the same indices.
+#[cfg(test)]
+pub(crate) fn extent(row: &[f64], cut: f64) -> Option<(usize, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above).
+        return unsafe { extent_avx(row, cut) };
+    }
+    extent_body(row, cut)
+}
+
+/// Calls `f(i, first, last)`, by increasing `i`, with the [`extent`] of every row `i` of the
+/// grid `v` (rows of `w` cells) that has one; one dispatch for all the rows.
+#[inline]
+pub(crate) fn row_extents(v: &[f64], w: usize, cut: f64, mut f: impl FnMut(usize, usize, usize)) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above).
+        unsafe { row_extents_avx(v, w, cut, &mut f) };
+        return;
+    }
+    for (i, row) in v.chunks_exact(w.max(1)).enumerate() {
+        if let Some((a, b)) = extent_body(row, cut) {
+            f(i, a, b);
+        }
+    }
+}
+
+/// [`row_extents`] with AVX comparisons.
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn row_extents_avx(v: &[f64], w: usize, cut: f64, f: &mut impl FnMut(usize, usize, usize)) {
+    for (i, row) in v.chunks_exact(w.max(1)).enumerate() {
+        // SAFETY: AVX is enabled here as well.
+        if let Some((a, b)) = unsafe { extent_avx(row, cut) } {
+            f(i, a, b);
+        }
+    }
+}
+
+#[inline(always)]
+fn passes(v: f64, cut: f64) -> bool {
+    v >= cut && v > 0.0
+}
+
+#[inline(always)]
+fn extent_body(row: &[f64], cut: f64) -> Option<(usize, usize)> {
+    let f = row.iter().position(|&v| passes(v, cut))?;
+    let l = row.iter().rposition(|&v| passes(v, cut)).unwrap_or(f);
+    Some((f, l))
+}
+
+/// [`extent`] with AVX comparisons.
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn extent_avx(row: &[f64], cut: f64) -> Option<(usize, usize)> {
+    use std::arch::x86_64::{
+        _CMP_GE_OQ, _CMP_GT_OQ, _mm256_and_pd, _mm256_cmp_pd, _mm256_loadu_pd, _mm256_movemask_pd,
+        _mm256_set1_pd, _mm256_setzero_pd,
+    };
+    let n = row.len();
+    let (zero, cutv) = (_mm256_setzero_pd(), _mm256_set1_pd(cut));
+    // Bit l set when cell i + l passes (i + 4 ≤ n at every use).
+    macro_rules! bits {
+        ($i:expr) => {{
+            // SAFETY: $i + 4 ≤ n (the loops' conditions).
+            unsafe {
+                let v = _mm256_loadu_pd(row.as_ptr().add($i));
+                let m = _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(v, cutv),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(v, zero),
+                );
+                _mm256_movemask_pd(m) as u32
+            }
+        }};
+    }
+    let mut first = None;
+    let mut i = 0;
+    while i + 4 <= n {
+        let b = bits!(i);
+        if b != 0 {
+            first = Some(i + b.trailing_zeros() as usize);
+            break;
+        }
+        i += 4;
+    }
+    let f = match first {
+        Some(f) => f,
+        None => (i..n).find(|&k| passes(row[k], cut))?,
+    };
+    // From the end: the 0–3 cells beyond the last full group of four (counted from the end)
+    // one by one, then groups of four down to the first hit.
+    let mut hi = n;
+    while hi > f + 1 && (hi - f - 1) % 4 != 0 {
+        if passes(row[hi - 1], cut) {
+            return Some((f, hi - 1));
+        }
+        hi -= 1;
+    }
+    while hi >= f + 5 {
+        let b = bits!(hi - 4);
+        if b != 0 {
+            return Some((f, hi - 4 + 31 - b.leading_zeros() as usize));
+        }
+        hi -= 4;
+    }
+    Some((f, f))
+}
+
 /// Row convolution held in registers: for each of `n` rows,
 /// `dst_row[j] = Σ_b src_row[b] · kern[j − b + base]` over `j < dc`, `b < sc` (rows at strides
 /// `dc` and `ss`; taps outside `kern` are absent), the terms added by decreasing `b` starting
@@ -855,6 +973,52 @@ mod tests {
                 }
             }
             assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn extents_match_the_plain_scans() {
+        for n in 0usize..19 {
+            for pattern in 0u32..64 {
+                // Cells from a few classes: zero, below the cut, at it, above it, NaN, negative.
+                let row: Vec<f64> = (0..n)
+                    .map(
+                        |i| match (pattern >> (i % 6)).wrapping_mul(i as u32 + 7) % 6 {
+                            0 | 1 => 0.0,
+                            2 => 0.01,
+                            3 => 0.5,
+                            4 => f64::NAN,
+                            _ => -1.0,
+                        },
+                    )
+                    .collect();
+                for cut in [0.0, 0.1, 0.5, f64::NAN] {
+                    let want = row
+                        .iter()
+                        .position(|&v| v >= cut && v > 0.0)
+                        .map(|f| (f, row.iter().rposition(|&v| v >= cut && v > 0.0).unwrap()));
+                    assert_eq!(extent(&row, cut), want, "{row:?} {cut}");
+                    assert_eq!(extent_body(&row, cut), want);
+                    // The same row twice as a grid, with a row of zeros between.
+                    let grid: Vec<f64> = row
+                        .iter()
+                        .chain(&vec![0.0; n])
+                        .chain(&row)
+                        .copied()
+                        .collect();
+                    let mut got = Vec::new();
+                    row_extents(&grid, n, cut, |i, a, b| got.push((i, a, b)));
+                    let want: Vec<_> = if n == 0 {
+                        vec![]
+                    } else {
+                        [0, 2]
+                            .iter()
+                            .filter_map(|&i| want.map(|(a, b)| (i, a, b)))
+                            .collect()
+                    };
+                    assert_eq!(got, want);
+                }
+            }
         }
     }
 

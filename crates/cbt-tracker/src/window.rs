@@ -43,7 +43,7 @@ use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, lane_max, lane_sum,
-    lane_sum_inline, mul_sum_rows, peak_candidates, scale_into, with_avx,
+    lane_sum_inline, mul_sum_rows, peak_candidates, row_extents, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -141,6 +141,12 @@ struct Scratch {
     taps: Vec<Tap>,
     /// The y kernel with three zeros on each side (prediction's y pass).
     kpad: Vec<f64>,
+    /// Whether the posterior may hold large regions of exact zeros (its parts cover under
+    /// half its rectangle): the prediction then looks for them (an exact shortcut: false
+    /// only costs time).
+    sparse_post: bool,
+    /// Runs of non-zero posterior rows (sparse prediction).
+    runs: Vec<Run>,
 }
 
 impl PartialEq for Scratch {
@@ -265,6 +271,7 @@ impl WindowState {
         let s: f64 = p.v.iter().sum();
         p.v.iter_mut().for_each(|v| *v /= s);
         self.post = p;
+        self.scratch.sparse_post = false;
         self.cur = marginals(&self.post);
         self.prev = self.cur.clone();
     }
@@ -369,8 +376,7 @@ impl WindowState {
         out: &mut Vec<f64>,
     ) {
         let p = &self.post;
-        out.clear();
-        out.resize(rect.rows() * rect.cols(), u);
+        refill(out, rect.rows() * rect.cols(), u);
         // Rows a of the posterior reaching rect: i = a + δ, δ ∈ [kx.lo, kx.hi].
         let a_lo = (rect.a0 as i64 - kx.hi()).max(p.i0 as i64);
         let a_hi = (rect.a1 as i64 - kx.lo).min((p.i0 + p.h) as i64);
@@ -380,13 +386,48 @@ impl WindowState {
         let (a_lo, a_hi) = (a_lo as usize, a_hi as usize);
         let nc = rect.cols();
         let rows = &mut self.scratch.rows;
-        rows.clear();
-        rows.resize((a_hi - a_lo) * nc, 0.0);
+        refill(rows, (a_hi - a_lo) * nc, 0.0);
         // Along y: rows[a][j] = Σ_δ D_y[δ] q[a, j − δ], the terms by increasing δ (columns
         // b = j − δ − j0 of the posterior row). Kernel long against the rows: four outputs at
         // a time in a register; short: one contiguous axpy per kernel tap (module `simd`;
         // the same values either way).
         let src = &p.v[(a_lo - p.i0) * p.w..(a_hi - p.i0) * p.w];
+        let n = a_hi - a_lo;
+        // A posterior with large regions of exact zeros (parts far apart): each row's
+        // non-zero cells only, and runs of non-zero rows only (see `sparse_prior`).
+        if self.scratch.sparse_post {
+            let runs = &mut self.scratch.runs;
+            runs.clear();
+            let mut cells = 0;
+            row_extents(src, p.w, 0.0, |i, f, l| {
+                cells += l + 1 - f;
+                match runs.last_mut() {
+                    Some(r) if r.end == i => {
+                        r.end = i + 1;
+                        r.ext.push((f, l));
+                    }
+                    _ => runs.push(Run {
+                        start: i,
+                        end: i + 1,
+                        ext: vec![(f, l)],
+                        cols: (0, 0),
+                    }),
+                }
+            });
+            if 2 * cells < n * p.w {
+                let kpad = &mut self.scratch.kpad;
+                kpad.clear();
+                kpad.extend_from_slice(&[0.0; 3]);
+                kpad.extend_from_slice(&ky.v);
+                kpad.extend_from_slice(&[0.0; 3]);
+                let base = rect.b0 as i64 - p.j0 as i64 - ky.lo;
+                let mut runs = std::mem::take(&mut self.scratch.runs);
+                sparse_prior(rows, src, p.w, nc, &mut runs, kpad, base);
+                x_pass_runs(out, rows, nc, &mut runs, kx, keep, a_lo, rect);
+                self.scratch.runs = runs;
+                return;
+            }
+        }
         if 2 * ky.v.len() > p.w {
             let kpad = &mut self.scratch.kpad;
             kpad.clear();
@@ -394,7 +435,7 @@ impl WindowState {
             kpad.extend_from_slice(&ky.v);
             kpad.extend_from_slice(&[0.0; 3]);
             let base = rect.b0 as i64 - p.j0 as i64 - ky.lo;
-            conv_rows(rows, nc, src, p.w, p.w, a_hi - a_lo, kpad, base);
+            conv_rows(rows, nc, src, p.w, p.w, n, kpad, base);
         } else {
             let taps: &mut Vec<Tap> = &mut self.scratch.taps;
             taps.clear();
@@ -408,7 +449,7 @@ impl WindowState {
                 let d0 = (p.j0 as i64 + b_lo + delta - rect.b0 as i64) as usize;
                 taps.push((b_lo as usize, (b_hi - b_lo) as usize, d0, k));
             }
-            axpy_taps(rows, nc, src, p.w, a_hi - a_lo, taps);
+            axpy_taps(rows, nc, src, p.w, n, taps);
         }
         // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
         // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
@@ -657,9 +698,12 @@ impl WindowState {
             rect = Some(full);
         }
         let sig = |m: f64| total > 0.0 && m > eps * total;
+        // Cells of the parts kept (with overlaps): outside them the posterior is zero.
+        let mut cover = if use_floor { area(&full) } else { 0 };
         for &(r, mass, _) in &parts[..n_parts] {
             if sig(mass) {
                 rect = Some(rect.map_or(r, |x| x.union(r)));
+                cover += area(&r);
             }
         }
         let Some(rect) = rect else {
@@ -670,8 +714,7 @@ impl WindowState {
             return Ok(());
         };
         let mut buf = std::mem::take(&mut self.scratch.out);
-        buf.clear();
-        buf.resize(rect.rows() * rect.cols(), 0.0);
+        refill(&mut buf, rect.rows() * rect.cols(), 0.0);
         let mut out = Patch {
             i0: rect.a0,
             j0: rect.b0,
@@ -720,6 +763,7 @@ impl WindowState {
         // goes back to the scratch space.
         let old = std::mem::take(&mut self.post.v);
         self.post = crop_into(&out, CROP, old);
+        self.scratch.sparse_post = 2 * cover < area(&rect);
         self.scratch.out = out.v;
         std::mem::swap(&mut self.prev, &mut self.cur);
         marginals_into(&self.post, &mut self.cur);
@@ -847,27 +891,136 @@ impl WindowState {
     }
 }
 
+/// Clears `v` and fills it with `n` copies of `x`. A buffer too small is replaced by a new
+/// one rather than grown: growing would copy its stale contents (up to a wide posterior's
+/// tens of thousands of cells) only to overwrite them.
+fn refill(v: &mut Vec<f64>, n: usize, x: f64) {
+    v.clear();
+    if v.capacity() < n {
+        *v = vec![x; n];
+    } else {
+        v.resize(n, x);
+    }
+}
+
+/// A run of consecutive posterior rows `start..end` (relative to the first source row of a
+/// prediction) that hold non-zero cells: per row the first and last non-zero column, and the
+/// columns `[c0, c1)` of the prediction's y pass those rows reach.
+#[derive(Debug, Clone, Default)]
+struct Run {
+    start: usize,
+    end: usize,
+    ext: Vec<(usize, usize)>,
+    cols: (usize, usize),
+}
+
+/// The prediction's y pass on a sparse posterior: for each row of each run, the convolution
+/// of its non-zero cells only, into the output columns they reach (`rows` holds zeros
+/// elsewhere; every other source cell is an exact zero, whose `+0` terms leave the
+/// non-negative sums unchanged: the same values as the dense pass). Records each run's
+/// output columns.
+fn sparse_prior(
+    rows: &mut [f64],
+    src: &[f64],
+    ss: usize,
+    nc: usize,
+    runs: &mut [Run],
+    kpad: &[f64],
+    base: i64,
+) {
+    let len = kpad.len() as i64 - 6;
+    for run in runs {
+        let (mut c0, mut c1) = (nc, 0);
+        for (r, &(f, l)) in (run.start..run.end).zip(&run.ext) {
+            // Output j takes source b ∈ [f, l] through tap t = j − b + base ∈ [0, len).
+            let j0 = (f as i64 - base).clamp(0, nc as i64) as usize;
+            let j1 = (l as i64 + len - base).clamp(0, nc as i64) as usize;
+            if j0 >= j1 {
+                continue;
+            }
+            (c0, c1) = (c0.min(j0), c1.max(j1));
+            let row = &src[r * ss + f..=r * ss + l];
+            let dst = &mut rows[r * nc + j0..r * nc + j1];
+            conv_rows(
+                dst,
+                j1 - j0,
+                row,
+                row.len(),
+                row.len(),
+                1,
+                kpad,
+                base + j0 as i64 - f as i64,
+            );
+        }
+        run.cols = (c0, c1.max(c0));
+    }
+}
+
+/// The prediction's x pass over runs of non-zero rows only (the dense pass's terms from zero
+/// rows are `+0`): per tap by decreasing offset, per run, one contiguous axpy over its rows,
+/// or row by row over its output columns when those are under three quarters of the rect's.
+#[allow(clippy::too_many_arguments)]
+fn x_pass_runs(
+    out: &mut [f64],
+    rows: &[f64],
+    nc: usize,
+    runs: &mut [Run],
+    kx: &Kernel1,
+    keep: f64,
+    a_lo: usize,
+    rect: Rect,
+) {
+    with_avx(|| {
+        for (t, &kv) in kx.v.iter().enumerate().rev() {
+            let delta = kx.lo + t as i64;
+            let k = keep * kv;
+            for run in runs.iter() {
+                let lo = ((a_lo + run.start) as i64).max(rect.a0 as i64 - delta);
+                let hi = ((a_lo + run.end) as i64).min(rect.a1 as i64 - delta);
+                if lo >= hi {
+                    continue;
+                }
+                let (c0, c1) = run.cols;
+                let first = lo as usize - a_lo;
+                let dst0 = (lo + delta) as usize - rect.a0;
+                let m = (hi - lo) as usize;
+                if 4 * (c1 - c0) >= 3 * nc {
+                    let src = &rows[first * nc..][..m * nc];
+                    let dst = &mut out[dst0 * nc..][..m * nc];
+                    axpy_inline(dst, src, k);
+                } else {
+                    for r in 0..m {
+                        let src = &rows[(first + r) * nc + c0..(first + r) * nc + c1];
+                        let dst = &mut out[(dst0 + r) * nc + c0..(dst0 + r) * nc + c1];
+                        axpy_inline(dst, src, k);
+                    }
+                }
+            }
+        }
+    });
+}
+
 /// Crops a normalised patch to the bounding box of its cells `≥ eps · max`, into `buf`
 /// (renormalised).
 fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
     let max = lane_max(&p.v);
     let cut = eps * max;
     let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
-    for (i, row) in p.v.chunks_exact(p.w.max(1)).enumerate() {
-        let first = row.iter().position(|&v| v >= cut && v > 0.0);
-        if let Some(f) = first {
-            let l = row.iter().rposition(|&v| v >= cut && v > 0.0).unwrap_or(f);
-            a0 = a0.min(i);
-            a1 = a1.max(i + 1);
-            b0 = b0.min(f);
-            b1 = b1.max(l + 1);
-        }
-    }
+    row_extents(&p.v, p.w, cut, |i, f, l| {
+        a0 = a0.min(i);
+        a1 = a1.max(i + 1);
+        b0 = b0.min(f);
+        b1 = b1.max(l + 1);
+    });
     if a0 == usize::MAX {
         (a0, a1, b0, b1) = (0, p.h, 0, p.w);
     }
     let (h, w) = (a1 - a0, b1 - b0);
     buf.clear();
+    if buf.capacity() < h * w {
+        // A new buffer rather than a grown one (see `refill`).
+        buf = Vec::with_capacity(h * w);
+    }
     for i in a0..a1 {
         buf.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
     }
@@ -879,5 +1032,90 @@ fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
         h,
         w,
         v: buf,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A posterior of three blobs with exact zeros between them: one pair shares rows, one
+    /// is apart in rows.
+    fn sparse_window() -> WindowState {
+        let (h, w) = (40, 50);
+        let mut v = vec![0.0; h * w];
+        for (r0, r1, c0, c1) in [(2, 8, 3, 10), (4, 9, 40, 48), (25, 35, 20, 30)] {
+            for i in r0..r1 {
+                for j in c0..c1 {
+                    v[i * w + j] = ((i * 7 + j * 3) % 11) as f64 * 0.01 + 1e-3;
+                }
+            }
+        }
+        let mut s = WindowState::default();
+        s.start(Patch {
+            i0: 30,
+            j0: 20,
+            h,
+            w,
+            v,
+        });
+        s
+    }
+
+    #[test]
+    fn sparse_prediction_matches_the_dense_one_bit_for_bit() {
+        let mut s = sparse_window();
+        let nonzero = s.post.v.iter().filter(|&&x| x > 0.0).count();
+        assert!(
+            2 * nonzero < s.post.v.len(),
+            "the test posterior must be sparse"
+        );
+        let kern = |lo: i64, n: usize| Kernel1 {
+            lo,
+            v: (0..n).map(|i| 0.05 + ((i * 5) % 7) as f64 * 0.02).collect(),
+        };
+        // Short y kernel (row taps when dense) and long (register convolution), and rects
+        // covering the whole prediction, crossing the blobs, or inside one.
+        for ky in [kern(-2, 5), kern(-14, 30)] {
+            let kx = kern(-4, 9);
+            let full = Rect {
+                a0: 26,
+                a1: 75,
+                b0: 6,
+                b1: 86,
+            };
+            let rects = [
+                full,
+                Rect {
+                    a0: 30,
+                    a1: 45,
+                    b0: 20,
+                    b1: 80,
+                },
+                Rect {
+                    a0: 50,
+                    a1: 70,
+                    b0: 35,
+                    b1: 55,
+                },
+                Rect {
+                    a0: 31,
+                    a1: 36,
+                    b0: 60,
+                    b1: 70,
+                },
+            ];
+            for rect in rects {
+                for u in [0.0, 1e-6] {
+                    s.scratch.sparse_post = false;
+                    let dense = s.prior(&kx, &ky, 0.99, u, rect);
+                    s.scratch.sparse_post = true;
+                    let sparse = s.prior(&kx, &ky, 0.99, u, rect);
+                    assert!(dense.iter().any(|&x| x > u));
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&sparse), bits(&dense), "{rect:?} {}", ky.v.len());
+                }
+            }
+        }
     }
 }
