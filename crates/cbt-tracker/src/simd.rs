@@ -536,6 +536,90 @@ unsafe fn conv_rows_avx(
     }
 }
 
+/// Correlation of two non-negative finite sequences at consecutive shifts:
+/// `out[i] = Σ_a m1[a] · m2[a + d_hi − i]` over the `a` where both exist, the terms added by
+/// increasing `a` from `+0`. The AVX copy computes four shifts per register over the union
+/// of their ranges, reading `m2` reversed and padded with zeros (`rev`, a work buffer): each
+/// lane's extra terms are `+0`, which leave its non-negative sum unchanged, so the values are
+/// the plain loop's.
+pub(crate) fn correlate(out: &mut [f64], m1: &[f64], m2: &[f64], d_hi: i64, rev: &mut Vec<f64>) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") && !out.is_empty() {
+        rev.clear();
+        rev.extend_from_slice(&[0.0; 4]);
+        rev.extend(m2.iter().rev());
+        rev.extend_from_slice(&[0.0; 4]);
+        // SAFETY: the CPU supports AVX (checked just above); `rev` is `m2` reversed with four
+        // zeros on each side.
+        unsafe { correlate_avx(out, m1, m2.len(), d_hi, rev) };
+        return;
+    }
+    let _ = rev;
+    correlate_body(out, m1, m2, d_hi);
+}
+
+#[inline(always)]
+fn correlate_body(out: &mut [f64], m1: &[f64], m2: &[f64], d_hi: i64) {
+    let (n1, n2) = (m1.len() as i64, m2.len() as i64);
+    for (i, o) in out.iter_mut().enumerate() {
+        let d = d_hi - i as i64;
+        let (a_lo, a_hi) = ((-d).max(0), n1.min(n2 - d));
+        let mut c = 0.0;
+        if a_lo < a_hi {
+            let n = (a_hi - a_lo) as usize;
+            for (&x, &y) in m1[a_lo as usize..][..n]
+                .iter()
+                .zip(&m2[(a_lo + d) as usize..][..n])
+            {
+                c += x * y;
+            }
+        }
+        *o = c;
+    }
+}
+
+/// [`correlate`] with AVX intrinsics (no FMA).
+///
+/// # Safety
+/// The CPU must support AVX; `rev` must hold `m2` (of length `n2`) reversed with four zeros
+/// on each side.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn correlate_avx(out: &mut [f64], m1: &[f64], n2: usize, d_hi: i64, rev: &[f64]) {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd,
+    };
+    let (n1, n2i) = (m1.len() as i64, n2 as i64);
+    let mut i0 = 0;
+    while i0 < out.len() {
+        // Lanes l = 0..4: shifts d = d_max − l. Lane l reads m2[a + d_max − l], which is
+        // rev[n2 + 3 − a − d_max + l]: four consecutive cells. Over the union of the lanes'
+        // ranges that index stays in [1, n2 + 7) (at most three cells beyond m2 either side).
+        let d_max = d_hi - i0 as i64;
+        let a_lo = (-d_max).max(0);
+        let a_hi = n1.min(n2i - (d_max - 3));
+        let mut acc = _mm256_setzero_pd();
+        let mut a = a_lo;
+        while a < a_hi {
+            let j = n2i + 3 - a - d_max;
+            // SAFETY: a < n1; j ∈ [1, n2 + 3] (so j + 4 ≤ rev.len() = n2 + 8), as derived above.
+            unsafe {
+                let x = _mm256_broadcast_sd(m1.get_unchecked(a as usize));
+                let y = _mm256_loadu_pd(rev.as_ptr().add(j as usize));
+                acc = _mm256_add_pd(acc, _mm256_mul_pd(x, y));
+            }
+            a += 1;
+        }
+        let mut lanes = [0.0f64; 4];
+        // SAFETY: `lanes` holds four cells.
+        unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
+        let m = (out.len() - i0).min(4);
+        out[i0..i0 + m].copy_from_slice(&lanes[..m]);
+        i0 += 4;
+    }
+}
+
 /// `out[δ] += c · cols[v·stride + δ]` for every `(v, c)` in `cols`, in order (`out.len() ≤
 /// stride`, `stride` a multiple of 16). The AVX copy holds sixteen outputs in four registers
 /// across all the columns: the same products and additions per output, no stores between.
@@ -1017,6 +1101,41 @@ mod tests {
                             .collect()
                     };
                     assert_eq!(got, want);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn correlation_matches_the_plain_loop_bit_for_bit() {
+        let mut rev = Vec::new();
+        for (n1, n2) in [(1usize, 1usize), (3, 12), (12, 3), (9, 9), (17, 5), (6, 23)] {
+            let m1: Vec<f64> = (0..n1)
+                .map(|i| (i as f64 * 0.91).sin().abs() / 3.0)
+                .collect();
+            let mut m2: Vec<f64> = (0..n2)
+                .map(|i| (i as f64 * 0.47).cos().abs() / 7.0)
+                .collect();
+            m2[n2 / 2] = 0.0;
+            // Shifts beyond either end (empty overlaps) included.
+            for d_hi in [-(n1 as i64) - 3, -2, 0, 3, n2 as i64 + 2] {
+                for count in [1usize, 3, 4, 7, 13, n1 + n2 + 6] {
+                    let mut got = vec![f64::NAN; count];
+                    correlate(&mut got, &m1, &m2, d_hi, &mut rev);
+                    let mut want = vec![f64::NAN; count];
+                    correlate_body(&mut want, &m1, &m2, d_hi);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&got), bits(&want), "{n1} {n2} {d_hi} {count}");
+                    for (i, &g) in got.iter().enumerate() {
+                        let d = d_hi - i as i64;
+                        let mut c = 0.0;
+                        for a in 0..n1 as i64 {
+                            if (0..n2 as i64).contains(&(a + d)) {
+                                c += m1[a as usize] * m2[(a + d) as usize];
+                            }
+                        }
+                        assert_eq!(g.to_bits(), c.to_bits());
+                    }
                 }
             }
         }

@@ -42,8 +42,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, lane_max, lane_sum,
-    lane_sum_inline, mul_sum_rows, peak_candidates, row_extents, scale_into, with_avx,
+    Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, correlate, lane_max,
+    lane_sum, lane_sum_inline, mul_sum_rows, peak_candidates, row_extents, scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -135,7 +135,7 @@ struct Scratch {
     enc: Vec<Det>,
     /// The displacement kernels of the step (x, y) and their work buffer.
     kernels: (Kernel1, Kernel1),
-    disp: (Vec<f64>, Vec<(usize, f64)>),
+    disp: DispWork,
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<Tap>,
@@ -153,6 +153,16 @@ impl PartialEq for Scratch {
     fn eq(&self, _: &Scratch) -> bool {
         true
     }
+}
+
+/// Work buffers of the displacement kernel: the kernel before its tails are cut, the
+/// velocity terms `(v + r, c[v])`, the correlation `c` by `v`, and the reversed marginal.
+#[derive(Debug, Clone, Default)]
+struct DispWork {
+    out: Vec<f64>,
+    terms: Vec<(usize, f64)>,
+    corr: Vec<f64>,
+    rev: Vec<f64>,
 }
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
@@ -280,7 +290,7 @@ impl WindowState {
     #[inline(never)]
     fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
         let mut k = Kernel1::default();
-        self.displacement_into(sys, d, order, &mut (Vec::new(), Vec::new()), &mut k);
+        self.displacement_into(sys, d, order, &mut DispWork::default(), &mut k);
         k
     }
 
@@ -290,10 +300,15 @@ impl WindowState {
         sys: &StatSystem,
         d: usize,
         order: Order,
-        work: &mut (Vec<f64>, Vec<(usize, f64)>),
+        work: &mut DispWork,
         k: &mut Kernel1,
     ) {
-        let (out, terms) = work;
+        let DispWork {
+            out,
+            terms,
+            corr,
+            rev,
+        } = work;
         let r = sys.radius() as i64;
         let w = (2 * r + 1) as usize;
         out.clear();
@@ -310,18 +325,12 @@ impl WindowState {
                 // v = n − o with n ∈ [o1, o1 + |m1|), o ∈ [o2, o2 + |m2|).
                 let v_lo = (o1 - o2 - m2.len() as i64 + 1).max(-r);
                 let v_hi = (o1 + m1.len() as i64 - 1 - o2).min(r);
-                for v in v_lo..=v_hi {
-                    // c[v] = Σ_n m1[n] m2[n − v] over the overlap.
-                    let a_lo = (o2 + v - o1).max(0);
-                    let a_hi = (o2 + v + m2.len() as i64 - o1).min(m1.len() as i64);
-                    let mut c = 0.0;
-                    if a_lo < a_hi {
-                        let b_lo = (o1 + a_lo - v - o2) as usize;
-                        let n = (a_hi - a_lo) as usize;
-                        for (&x, &y) in m1[a_lo as usize..][..n].iter().zip(&m2[b_lo..][..n]) {
-                            c += x * y;
-                        }
-                    }
+                // c[v] = Σ_n m1[n] m2[n − v] over the overlap (index a = n − o1 of m1 and
+                // a + o1 − o2 − v of m2), by increasing n, for every v at once (module `simd`).
+                corr.clear();
+                corr.resize((v_hi - v_lo + 1).max(0) as usize, 0.0);
+                correlate(corr, m1, m2, o1 - o2 - v_lo, rev);
+                for (v, &c) in (v_lo..=v_hi).zip(corr.iter()) {
                     if c == 0.0 {
                         continue;
                     }
