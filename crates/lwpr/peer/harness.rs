@@ -116,6 +116,35 @@ pub fn embed(x2: &[f64], q: &[f64], dim: usize) -> Vec<f64> {
     out
 }
 
+/// Setting A of papers.md §4.6 (the reference's cross example, `bench_cross.c`) for `dim`
+/// inputs and one output: `init_D = 50 I`, `init_alpha = 250`, `w_gen = 0.2`, the rest default.
+pub fn setting_a_builder(dim: usize) -> lwpr::LwprBuilder {
+    lwpr::LwprBuilder::new(dim, 1)
+        .init_d_spherical(50.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+}
+
+/// Setting B of papers.md §4.6 (500 samples, 20 epochs) for 2 inputs and one output:
+/// `init_D = 25 I`, `init_alpha = 250`, `w_gen = 0.2`, full metric, meta learning.
+pub fn setting_b_builder() -> lwpr::LwprBuilder {
+    lwpr::LwprBuilder::new(2, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .diag_only(false)
+        .meta(true)
+}
+
+/// One pass of single-output samples (`x` row-major, `y.len()` rows) through `model.update`.
+pub fn train(model: &mut lwpr::Lwpr, x: &[f64], y: &[f64]) -> Result<(), lwpr::LwprError> {
+    let dim = x.len() / y.len().max(1);
+    for (a, b) in x.chunks(dim).zip(y) {
+        model.update(a, &[*b])?;
+    }
+    Ok(())
+}
+
 /// The reference library's 25-D test settings (papers.md §4.6) for `dim` inputs and one output:
 /// `init_D = 0.25 I`, `init_alpha = 250`, `w_gen = 0.2`, `w_prune = 0.7`, full metric, meta
 /// learning. The pruning rule and the arithmetic are left to the caller.

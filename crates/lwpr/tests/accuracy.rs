@@ -11,15 +11,8 @@ use lwpr::{Lwpr, LwprBuilder};
 /// Setting A: 20 000 fresh samples (the stream of the reference's `bench_cross.c`).
 pub fn setting_a(seed: u64) -> (Lwpr, f64) {
     let (x, y) = cross_samples(seed, 20_000, 0.1);
-    let mut m = LwprBuilder::new(2, 1)
-        .init_d_spherical(50.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .build()
-        .unwrap();
-    for (a, b) in x.chunks(2).zip(&y) {
-        m.update(a, &[*b]).unwrap();
-    }
+    let mut m = setting_a_builder(2).build().unwrap();
+    train(&mut m, &x, &y).unwrap();
     let (gx, gy) = cross_grid();
     let e = nmse(&m.predict_batch(&gx, 0.001).unwrap(), &gy);
     (m, e)
@@ -28,15 +21,7 @@ pub fn setting_a(seed: u64) -> (Lwpr, f64) {
 /// Setting B: 500 fixed samples, σ = 0.1, 20 shuffled epochs, full metric with meta learning.
 pub fn setting_b(seed: u64) -> (Lwpr, f64) {
     let (x, y) = cross_samples(seed, 500, 0.1);
-    let mut m = LwprBuilder::new(2, 1)
-        .init_d_spherical(25.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .diag_only(false)
-        .meta(true)
-        .meta_rate(250.0)
-        .build()
-        .unwrap();
+    let mut m = setting_b_builder().build().unwrap();
     let mut rng = Rng::new(seed ^ 0xB);
     let mut order: Vec<usize> = (0..500).collect();
     for _ in 0..20 {

@@ -5,7 +5,7 @@
 mod harness;
 
 use harness::*;
-use lwpr::LwprBuilder;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -39,17 +39,12 @@ fn grown_model_updates_and_predicts_without_allocating() {
         } else {
             embed(&x2, &random_rotation(dim, 7), dim)
         };
-        let mut m = LwprBuilder::new(dim, 1)
-            .init_d_spherical(50.0)
-            .init_alpha(250.0)
-            .w_gen(0.2)
+        let mut m = setting_a_builder(dim)
             .diag_only(diag)
             .meta(meta)
             .build()
             .unwrap();
-        for (a, b) in x.chunks(dim).zip(&y) {
-            m.update(a, &[*b]).unwrap();
-        }
+        train(&mut m, &x, &y).unwrap();
         // Replay seen inputs until a whole pass adds neither fields nor PLS directions.
         let dims = |m: &lwpr::Lwpr| {
             m.receptive_fields(0)

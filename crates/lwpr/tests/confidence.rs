@@ -4,22 +4,14 @@
 mod harness;
 
 use harness::*;
-use lwpr::LwprBuilder;
 
 /// Setting A of the cross function: the noise-free target lies within ±2 confidence bounds
 /// of the prediction on at least 90 % of the 41×41 grid (the share stated in the crate docs).
 #[test]
 fn two_sigma_bounds_cover_at_least_ninety_percent() {
     let (x, y) = cross_samples(1, 20_000, 0.1);
-    let mut m = LwprBuilder::new(2, 1)
-        .init_d_spherical(50.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .build()
-        .unwrap();
-    for (a, b) in x.chunks(2).zip(&y) {
-        m.update(a, &[*b]).unwrap();
-    }
+    let mut m = setting_a_builder(2).build().unwrap();
+    train(&mut m, &x, &y).unwrap();
     let (gx, gy) = cross_grid();
     let (mut inside, mut total_width) = (0usize, 0.0);
     for (p, t) in gx.chunks(2).zip(&gy) {

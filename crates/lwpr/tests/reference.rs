@@ -63,26 +63,14 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
 #[test]
 fn cross_setting_a_matches_reference() {
     let (x, y) = cross_samples(1, 20_000, 0.1);
-    let model = LwprBuilder::new(2, 1)
-        .init_d_spherical(50.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .build()
-        .unwrap();
+    let model = setting_a_builder(2).build().unwrap();
     compare(model, &x, &y, "cross, setting A, seed 1");
 }
 
 #[test]
 fn cross_full_metric_meta_matches_reference() {
     let (x, y) = cross_samples(2, 5_000, 0.1);
-    let model = LwprBuilder::new(2, 1)
-        .init_d_spherical(25.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .diag_only(false)
-        .meta(true)
-        .build()
-        .unwrap();
+    let model = setting_b_builder().build().unwrap();
     compare(model, &x, &y, "cross, full metric + meta, seed 2");
 }
 

@@ -187,10 +187,7 @@ fn defaults_are_the_reference_defaults() {
 #[test]
 fn outliers_of_1e6_produce_no_nan() {
     for kernel in [Kernel::Gaussian, Kernel::BiSquare] {
-        let mut m = LwprBuilder::new(2, 1)
-            .init_d_spherical(50.0)
-            .init_alpha(250.0)
-            .w_gen(0.2)
+        let mut m = setting_a_builder(2)
             .diag_only(false)
             .meta(true)
             .kernel(kernel)

@@ -13,7 +13,7 @@ mod harness;
 use std::time::Instant;
 
 use harness::*;
-use lwpr::{Arithmetic, Lwpr, LwprBuilder, PruneRule};
+use lwpr::{Arithmetic, Lwpr, PruneRule};
 
 use super::BenchArgs;
 use crate::report::{BenchRow, median};
@@ -148,11 +148,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
     // 2-D cross, setting A (the reference's bench_cross.c stream).
     for seed in [1u64, 2, 3] {
         let (x, y) = cross_samples(seed, 20_000, 0.1);
-        let fresh = LwprBuilder::new(2, 1)
-            .init_d_spherical(50.0)
-            .init_alpha(250.0)
-            .w_gen(0.2)
-            .build()?;
+        let fresh = setting_a_builder(2).build()?;
         let (ours, peer) = measure(&driver, &fresh, &x, &y, &gx, &gy)?;
         rows_for(&format!("cross 2-D seed {seed}"), &ours, &peer, &mut rows);
     }
@@ -160,11 +156,7 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
     // Learning curve, seed 1 (the fixture holds ours only; this prints both).
     let (x, y) = cross_samples(1, 20_000, 0.1);
     let checkpoints = [250usize, 500, 1000, 2000, 5000, 10_000, 20_000];
-    let mut model = LwprBuilder::new(2, 1)
-        .init_d_spherical(50.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .build()?;
+    let mut model = setting_a_builder(2).build()?;
     let run = run_peer(
         &driver,
         &PeerSettings::of(&model),

@@ -13,7 +13,7 @@
 mod harness;
 
 use harness::*;
-use lwpr::{Lwpr, LwprBuilder};
+use lwpr::Lwpr;
 use plotters::prelude::*;
 use serde::Serialize;
 
@@ -45,11 +45,7 @@ fn point(m: &Lwpr, samples: usize) -> Result<Point> {
 
 fn setting_a() -> Result<Curve> {
     let (x, y) = cross_samples(1, 20_000, 0.1);
-    let mut m = LwprBuilder::new(2, 1)
-        .init_d_spherical(50.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .build()?;
+    let mut m = setting_a_builder(2).build()?;
     let marks = [50usize, 100, 200, 500, 1000, 2000, 5000, 10_000, 20_000];
     let mut points = Vec::new();
     for (t, (a, b)) in x.chunks(2).zip(&y).enumerate() {
@@ -67,13 +63,7 @@ fn setting_a() -> Result<Curve> {
 
 fn setting_b() -> Result<Curve> {
     let (x, y) = cross_samples(1, 500, 0.1);
-    let mut m = LwprBuilder::new(2, 1)
-        .init_d_spherical(25.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .diag_only(false)
-        .meta(true)
-        .build()?;
+    let mut m = setting_b_builder().build()?;
     let mut rng = Rng::new(1 ^ 0xB);
     let mut order: Vec<usize> = (0..500).collect();
     let mut points = Vec::new();
