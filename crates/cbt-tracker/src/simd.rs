@@ -439,13 +439,26 @@ unsafe fn extent_avx(row: &[f64], cut: f64) -> Option<(usize, usize)> {
     Some((f, f))
 }
 
+/// Zeros on each side of the kernel given to [`conv_rows`].
+pub(crate) const KPAD: usize = 7;
+
+/// `kern` with [`KPAD`] zeros on each side, into `buf` (the form [`conv_rows`] takes).
+pub(crate) fn pad_kernel(buf: &mut Vec<f64>, kern: &[f64]) {
+    buf.clear();
+    buf.extend_from_slice(&[0.0; KPAD]);
+    buf.extend_from_slice(kern);
+    buf.extend_from_slice(&[0.0; KPAD]);
+}
+
 /// Row convolution held in registers: for each of `n` rows,
 /// `dst_row[j] = Σ_b src_row[b] · kern[j − b + base]` over `j < dc`, `b < sc` (rows at strides
 /// `dc` and `ss`; taps outside `kern` are absent), the terms added by decreasing `b` starting
 /// from `+0` — the order of [`axpy_taps`] with taps by increasing offset, so the values are
-/// the same. `kpad` is `kern` with three zeros on each side. The AVX copy keeps four outputs
-/// in a register and adds `src_row[b] · kpad[..]` for every `b` reaching them (an absent tap
-/// adds `+0`, which leaves a non-negative sum unchanged): no stores between the terms.
+/// the same. `kpad` is `kern` with [`KPAD`] zeros on each side ([`pad_kernel`]); `src` must be
+/// non-negative and finite. The AVX copy keeps eight outputs in two registers (four for the
+/// last one to four) and adds `src_row[b] · kpad[..]` for every `b` reaching any of them (an
+/// absent tap adds `+0`, which leaves a non-negative sum unchanged): no stores between the
+/// terms.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn conv_rows(
     dst: &mut [f64],
@@ -457,7 +470,7 @@ pub(crate) fn conv_rows(
     kpad: &[f64],
     base: i64,
 ) {
-    let len = kpad.len() as i64 - 6;
+    let len = kpad.len() as i64 - 2 * KPAD as i64;
     assert!(len >= 1 && sc <= ss && dst.len() >= n * dc && src.len() >= n * ss);
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
@@ -471,7 +484,7 @@ pub(crate) fn conv_rows(
             for b in (0..sc).rev() {
                 let t = j as i64 - b as i64 + base;
                 if (0..len).contains(&t) {
-                    acc += src[r * ss + b] * kpad[(t + 3) as usize];
+                    acc += src[r * ss + b] * kpad[t as usize + KPAD];
                 }
             }
             dst[r * dc + j] = acc;
@@ -500,28 +513,61 @@ unsafe fn conv_rows_avx(
         _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
         _mm256_maskstore_pd, _mm256_mul_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
-    let len = kpad.len() as i64 - 6;
+    let len = kpad.len() as i64 - 2 * KPAD as i64;
+    let p = KPAD as i64;
     for r in 0..n {
         let row = &src[r * ss..r * ss + sc];
+        let d = dst[r * dc..].as_mut_ptr();
         let mut j = 0;
-        while j < dc {
-            // Sources b reaching lanes j..j + 4: t = j + lane − b + base ∈ [0, len).
+        // Eight outputs j..j + 8 while more than four remain (the upper four masked at the
+        // end): sources b with t = j + lane − b + base ∈ [0, len) for some lane.
+        while j + 4 < dc {
+            let b_hi = (j as i64 + base + 7).min(sc as i64 - 1);
+            let b_lo = (j as i64 + base - len + 1).max(0);
+            let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            let mut b = b_hi;
+            while b >= b_lo {
+                // t0 = j − b + base ∈ [−7, len − 1]: the loads at t0 + 7 and t0 + 11 (four
+                // cells each) stay inside kpad (len + 14 cells).
+                let t0 = j as i64 - b + base;
+                // SAFETY: b < sc ≤ row length; kpad indices as derived just above.
+                unsafe {
+                    let q = _mm256_broadcast_sd(row.get_unchecked(b as usize));
+                    let k = kpad.as_ptr().add((t0 + p) as usize);
+                    lo = _mm256_add_pd(lo, _mm256_mul_pd(q, _mm256_loadu_pd(k)));
+                    hi = _mm256_add_pd(hi, _mm256_mul_pd(q, _mm256_loadu_pd(k.add(4))));
+                }
+                b -= 1;
+            }
+            // SAFETY: j + 4 < dc; the upper lanes are masked below dc.
+            unsafe {
+                _mm256_storeu_pd(d.add(j), lo);
+                if j + 8 <= dc {
+                    _mm256_storeu_pd(d.add(j + 4), hi);
+                } else {
+                    let m = _mm256_loadu_si256(TAIL_MASKS[dc - j - 4].as_ptr().cast());
+                    _mm256_maskstore_pd(d.add(j + 4), m, hi);
+                }
+            }
+            j += 8;
+        }
+        if j < dc {
+            // The last one to four outputs.
             let b_hi = (j as i64 + base + 3).min(sc as i64 - 1);
             let b_lo = (j as i64 + base - len + 1).max(0);
             let mut acc = _mm256_setzero_pd();
             let mut b = b_hi;
             while b >= b_lo {
-                // t0 + 3 ∈ [0, len + 3) for the b above: the padded load stays inside kpad.
+                // t0 + 7 ∈ [4, len + 6]: the four-cell load stays inside kpad.
                 let t0 = j as i64 - b + base;
-                // SAFETY: b < sc ≤ row length; t0 + 3 + 4 ≤ len + 6 = kpad.len().
+                // SAFETY: b < sc ≤ row length; kpad index as derived just above.
                 unsafe {
                     let q = _mm256_broadcast_sd(row.get_unchecked(b as usize));
-                    let k = _mm256_loadu_pd(kpad.as_ptr().add((t0 + 3) as usize));
+                    let k = _mm256_loadu_pd(kpad.as_ptr().add((t0 + p) as usize));
                     acc = _mm256_add_pd(acc, _mm256_mul_pd(q, k));
                 }
                 b -= 1;
             }
-            let d = dst[r * dc..].as_mut_ptr();
             // SAFETY: j + 4 ≤ dc, or the mask keeps the lanes below dc.
             unsafe {
                 if j + 4 <= dc {
@@ -531,7 +577,6 @@ unsafe fn conv_rows_avx(
                     _mm256_maskstore_pd(d.add(j), m, acc);
                 }
             }
-            j += 4;
         }
     }
 }
@@ -982,13 +1027,27 @@ mod tests {
     fn register_row_convolution_matches_the_row_taps_bit_for_bit() {
         // One row convolution both ways: taps by increasing offset (axpy_taps) against four
         // outputs in a register (conv_rows); output column j = b + t − 3 for kernel tap t.
-        for (ss, ds) in [(9usize, 14usize), (12, 15), (3, 5), (15, 4)] {
+        let cases = [
+            (9usize, 14usize),
+            (12, 15),
+            (3, 5),
+            (15, 4),
+            (7, 8),
+            (5, 9),
+            (20, 16),
+            (12, 13),
+            (4, 1),
+        ];
+        for ((ss, ds), klen) in cases
+            .into_iter()
+            .flat_map(|c| [1usize, 2, 11, 20].map(|k| (c, k)))
+        {
             let n = 3;
             let src: Vec<f64> = (0..ss * n)
                 .map(|i| (i as f64 * 0.71).sin().abs() / 7.0)
                 .collect();
-            let kern: Vec<f64> = (0..11)
-                .map(|i| (i as f64 * 0.37).cos().abs() / 5.0)
+            let kern: Vec<f64> = (0..klen)
+                .map(|i| (i as f64 * 0.37).cos().abs() / 5.0 + 0.01)
                 .collect();
             let mut taps: Vec<Tap> = Vec::new();
             for (t, &k) in kern.iter().enumerate() {
@@ -1001,16 +1060,17 @@ mod tests {
             }
             let mut a = vec![0.0; ds * n];
             axpy_taps(&mut a, ds, &src, ss, n, &taps);
-            let kpad: Vec<f64> = [0.0; 3]
-                .iter()
-                .chain(&kern)
-                .chain(&[0.0; 3])
-                .copied()
-                .collect();
+            let mut kpad = Vec::new();
+            pad_kernel(&mut kpad, &kern);
             let mut c = vec![f64::NAN; ds * n];
             conv_rows(&mut c, ds, &src, ss, ss, n, &kpad, 3);
             assert_eq!(a, c);
-            assert!(a.iter().any(|&v| v > 0.0));
+            // Some output is reached unless the shift of 3 moves every source before it.
+            assert_eq!(
+                a.iter().any(|&v| v > 0.0),
+                ss + klen > 4,
+                "{ss} {ds} {klen}"
+            );
         }
     }
 

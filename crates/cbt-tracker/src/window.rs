@@ -43,7 +43,8 @@ use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, correlate, lane_max,
-    lane_sum, lane_sum_inline, mul_sum_rows, peak_candidates, row_extents, scale_into, with_avx,
+    lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents, scale_into,
+    with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -139,7 +140,7 @@ struct Scratch {
     /// Kernel taps of the prediction's y pass: (first source column, length, first output
     /// column, weight).
     taps: Vec<Tap>,
-    /// The y kernel with three zeros on each side (prediction's y pass).
+    /// The y kernel with `simd::KPAD` zeros on each side (prediction's y pass).
     kpad: Vec<f64>,
     /// Whether the posterior may hold large regions of exact zeros (its parts cover under
     /// half its rectangle): the prediction then looks for them (an exact shortcut: false
@@ -425,10 +426,7 @@ impl WindowState {
             });
             if 2 * cells < n * p.w {
                 let kpad = &mut self.scratch.kpad;
-                kpad.clear();
-                kpad.extend_from_slice(&[0.0; 3]);
-                kpad.extend_from_slice(&ky.v);
-                kpad.extend_from_slice(&[0.0; 3]);
+                pad_kernel(kpad, &ky.v);
                 let base = rect.b0 as i64 - p.j0 as i64 - ky.lo;
                 let mut runs = std::mem::take(&mut self.scratch.runs);
                 sparse_prior(rows, src, p.w, nc, &mut runs, kpad, base);
@@ -439,10 +437,7 @@ impl WindowState {
         }
         if 2 * ky.v.len() > p.w {
             let kpad = &mut self.scratch.kpad;
-            kpad.clear();
-            kpad.extend_from_slice(&[0.0; 3]);
-            kpad.extend_from_slice(&ky.v);
-            kpad.extend_from_slice(&[0.0; 3]);
+            pad_kernel(kpad, &ky.v);
             let base = rect.b0 as i64 - p.j0 as i64 - ky.lo;
             conv_rows(rows, nc, src, p.w, p.w, n, kpad, base);
         } else {
@@ -937,7 +932,7 @@ fn sparse_prior(
     kpad: &[f64],
     base: i64,
 ) {
-    let len = kpad.len() as i64 - 6;
+    let len = kpad.len() as i64 - 2 * crate::simd::KPAD as i64;
     for run in runs {
         let (mut c0, mut c1) = (nc, 0);
         for (r, &(f, l)) in (run.start..run.end).zip(&run.ext) {
