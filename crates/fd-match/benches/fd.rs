@@ -2,47 +2,16 @@
 //! best-two search (pruned against brute force). `cargo xtask bench fd` runs the 1,000 × 1,000
 //! comparison against the naive method.
 
-use std::f64::consts::PI;
-
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fd_match::{
-    Complex64, Correlator, DescriptorConfig, DescriptorSet, Extractor, Method, Sampling, best_two,
+    Correlator, DescriptorConfig, DescriptorSet, Extractor, Method, Sampling, best_two,
     best_two_brute_force, describe_all,
 };
-use rand::{RngExt, SeedableRng, rngs::StdRng};
 
-/// A random closed curve: Fourier series with random elongation and harmonics 2..=8.
-fn shape(rng: &mut StdRng) -> Vec<(f64, f64)> {
-    let mut coef = vec![(1isize, Complex64::new(1.0, 0.0))];
-    coef.push((
-        -1,
-        Complex64::from_polar(rng.random_range(0.0..0.5), rng.random_range(0.0..2.0 * PI)),
-    ));
-    for n in 2..=8isize {
-        for s in [n, -n] {
-            let amp = rng.random_range(0.0..0.3) / (n as f64).powf(1.3);
-            coef.push((
-                s,
-                Complex64::from_polar(amp, rng.random_range(0.0..2.0 * PI)),
-            ));
-        }
-    }
-    (0..200)
-        .map(|j| {
-            let t = 2.0 * PI * j as f64 / 200.0;
-            let z: Complex64 = coef
-                .iter()
-                .map(|&(n, c)| c * Complex64::from_polar(30.0, n as f64 * t))
-                .sum();
-            (z.re, z.im)
-        })
-        .collect()
-}
+#[path = "common/shapes.rs"]
+mod shapes;
 
-fn contours(n: usize, seed: u64) -> Vec<Vec<(f64, f64)>> {
-    let mut rng = StdRng::seed_from_u64(seed);
-    (0..n).map(|_| shape(&mut rng)).collect()
-}
+use shapes::contours;
 
 fn extraction(c: &mut Criterion) {
     let cs = contours(100, 1);

@@ -26,37 +26,13 @@ use super::BenchArgs;
 use crate::Result;
 use crate::report::{BenchRow, time_median};
 
+// The criterion bench's random shapes (one definition for both measurements).
+#[path = "../../../crates/fd-match/benches/common/shapes.rs"]
+mod shapes;
+
+use shapes::{Contour, shape};
+
 const N: usize = 1000;
-
-type Contour = Vec<(f64, f64)>;
-
-fn shape(rng: &mut StdRng) -> Contour {
-    let mut coef = vec![(1isize, Complex64::new(1.0, 0.0))];
-    coef.push((
-        -1,
-        Complex64::from_polar(rng.random_range(0.0..0.5), rng.random_range(0.0..2.0 * PI)),
-    ));
-    for n in 2..=8isize {
-        for s in [n, -n] {
-            let amp = rng.random_range(0.0..0.3) / (n as f64).powf(1.3);
-            coef.push((
-                s,
-                Complex64::from_polar(amp, rng.random_range(0.0..2.0 * PI)),
-            ));
-        }
-    }
-    let m = 200;
-    (0..m)
-        .map(|j| {
-            let t = 2.0 * PI * j as f64 / m as f64;
-            let z: Complex64 = coef
-                .iter()
-                .map(|&(n, c)| c * Complex64::from_polar(30.0, n as f64 * t))
-                .sum();
-            (z.re, z.im)
-        })
-        .collect()
-}
 
 fn data() -> (Vec<Contour>, Vec<Contour>) {
     let mut rng = StdRng::seed_from_u64(20091201);
