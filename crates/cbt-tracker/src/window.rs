@@ -52,6 +52,12 @@ use crate::{Detection, Space, TrackError};
 
 /// Cells below this share of the posterior's maximum are cropped from the window.
 const CROP: f64 = 1e-4;
+// The peak scan skips cells outside each row's crop extent: they are below its cut.
+const _: () = assert!(crate::decode::MIN_SHARE >= 10.0 * CROP);
+
+/// Windows of at least this many cells keep their rows' crop extents for the peak scan
+/// (below it, the bookkeeping costs more than the scan it saves).
+const EXTENTS_FROM: usize = 1024;
 
 /// Each tail of a displacement kernel holding at most this share of its mass is dropped (the
 /// kernel is renormalised): far below the crop and support thresholds, and it shortens a
@@ -148,6 +154,10 @@ struct Scratch {
     sparse_post: bool,
     /// Runs of non-zero posterior rows (sparse prediction).
     runs: Vec<Run>,
+    /// Per posterior row, the columns `[first, last + 1)` of its cells that passed the crop
+    /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
+    /// candidates (`≥ MIN_SHARE × max`) lie within them.
+    post_ext: Vec<(u32, u32)>,
 }
 
 impl PartialEq for Scratch {
@@ -283,6 +293,7 @@ impl WindowState {
         p.v.iter_mut().for_each(|v| *v /= s);
         self.post = p;
         self.scratch.sparse_post = false;
+        self.scratch.post_ext.clear();
         self.cur = marginals(&self.post);
         self.prev = self.cur.clone();
     }
@@ -766,7 +777,7 @@ impl WindowState {
         // is relative to the maximum, so it needs no normalised input); the uncropped one
         // goes back to the scratch space.
         let old = std::mem::take(&mut self.post.v);
-        self.post = crop_into(&out, CROP, old);
+        self.post = crop_into(&out, CROP, old, &mut self.scratch.post_ext);
         self.scratch.sparse_post = 2 * cover < area(&rect);
         self.scratch.out = out.v;
         std::mem::swap(&mut self.prev, &mut self.cur);
@@ -817,37 +828,13 @@ impl WindowState {
         let max = lane_max(&p.v);
         let cut = crate::decode::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
-        // A cell is a maximum when no neighbour is larger and no neighbour earlier in raster
-        // order (the row above, the cell to the left) is equal.
-        let w = p.w;
-        for i in 0..p.h {
-            let cur = &p.v[i * w..(i + 1) * w];
-            // Absent rows compare as an all-zero row (a candidate is positive).
-            let above = if i > 0 { &p.v[(i - 1) * w..i * w] } else { cur };
-            let below = if i + 1 < p.h {
-                &p.v[(i + 1) * w..(i + 2) * w]
-            } else {
-                cur
-            };
-            let (has_above, has_below) = (i > 0, i + 1 < p.h);
-            // The direct vertical neighbours first, four cells at a time (on a smooth hill,
-            // one of them is higher); the survivors meet the other neighbours here.
-            let (up, down) = (has_above.then_some(above), has_below.then_some(below));
-            peak_candidates(cur, up, down, cut, |j| {
-                let v = cur[j];
-                if (j > 0 && cur[j - 1] >= v) || (j + 1 < w && cur[j + 1] > v) {
-                    return;
-                }
-                if j > 0 && ((has_above && above[j - 1] >= v) || (has_below && below[j - 1] > v)) {
-                    return;
-                }
-                if j + 1 < w
-                    && ((has_above && above[j + 1] >= v) || (has_below && below[j + 1] > v))
-                {
-                    return;
-                }
-                peaks.push((v, i, j));
-            });
+        // Cells below the crop's share of the maximum cannot be candidates: only each row's
+        // crop extent is scanned when known (the same candidates).
+        let ext = &self.scratch.post_ext;
+        if !ext.is_empty() && ext.len() == p.h {
+            peak_scan::<true>(p, ext, cut, &mut peaks);
+        } else {
+            peak_scan::<false>(p, ext, cut, &mut peaks);
         }
         peaks.sort_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
         for &(_, i, j) in &peaks {
@@ -892,6 +879,60 @@ impl WindowState {
         let s: f64 = v.iter().sum();
         v.iter_mut().for_each(|x| *x /= s);
         v
+    }
+}
+
+/// The local maxima of `p` at or above `cut`, in raster order, into `peaks`: a cell is one
+/// when no neighbour is larger and no neighbour earlier in raster order (the row above, the
+/// cell to the left) is equal. With `EXT`, only each row's columns `ext[i]` (widened to the
+/// scan's groups of four cells) are scanned: the caller guarantees no candidate lies outside.
+#[inline(always)]
+fn peak_scan<const EXT: bool>(
+    p: &Patch,
+    ext: &[(u32, u32)],
+    cut: f64,
+    peaks: &mut Vec<(f64, usize, usize)>,
+) {
+    let w = p.w;
+    for i in 0..p.h {
+        let (f, l) = if EXT {
+            let (f, l) = (ext[i].0 as usize, ext[i].1 as usize);
+            if f >= l {
+                continue;
+            }
+            (f & !3, l.next_multiple_of(4).min(w))
+        } else {
+            (0, w)
+        };
+        let cur = &p.v[i * w..(i + 1) * w];
+        // Absent rows compare as an all-zero row (a candidate is positive).
+        let above = if i > 0 { &p.v[(i - 1) * w..i * w] } else { cur };
+        let below = if i + 1 < p.h {
+            &p.v[(i + 1) * w..(i + 2) * w]
+        } else {
+            cur
+        };
+        let (has_above, has_below) = (i > 0, i + 1 < p.h);
+        // The direct vertical neighbours first, four cells at a time (on a smooth hill, one
+        // of them is higher); the survivors meet the other neighbours here.
+        let (up, down) = (
+            has_above.then_some(&above[f..l]),
+            has_below.then_some(&below[f..l]),
+        );
+        peak_candidates(&cur[f..l], up, down, cut, |j| {
+            let j = j + f;
+            let v = cur[j];
+            if (j > 0 && cur[j - 1] >= v) || (j + 1 < w && cur[j + 1] > v) {
+                return;
+            }
+            if j > 0 && ((has_above && above[j - 1] >= v) || (has_below && below[j - 1] > v)) {
+                return;
+            }
+            if j + 1 < w && ((has_above && above[j + 1] >= v) || (has_below && below[j + 1] > v)) {
+                return;
+            }
+            peaks.push((v, i, j));
+        });
     }
 }
 
@@ -1005,19 +1046,37 @@ fn x_pass_runs(
 }
 
 /// Crops a normalised patch to the bounding box of its cells `≥ eps · max`, into `buf`
-/// (renormalised).
-fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>) -> Patch {
+/// (renormalised); `ext` receives, per row of the crop, the columns `[first, last + 1)` of
+/// its cells `≥ eps · max` (`(0, 0)` for none), or nothing when no cell passes or the patch
+/// has fewer than [`EXTENTS_FROM`] cells.
+fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>, ext: &mut Vec<(u32, u32)>) -> Patch {
     let max = lane_max(&p.v);
     let cut = eps * max;
     let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
+    ext.clear();
+    // Worth keeping for large windows only (a wide posterior's peak scan).
+    let keep = p.v.len() >= EXTENTS_FROM;
+    if keep {
+        ext.resize(p.h, (0, 0));
+    }
     row_extents(&p.v, p.w, cut, |i, f, l| {
         a0 = a0.min(i);
         a1 = a1.max(i + 1);
         b0 = b0.min(f);
         b1 = b1.max(l + 1);
+        if keep {
+            ext[i] = (f as u32, l as u32 + 1);
+        }
     });
     if a0 == usize::MAX {
         (a0, a1, b0, b1) = (0, p.h, 0, p.w);
+        ext.clear();
+    } else if keep {
+        ext.truncate(a1);
+        ext.drain(..a0);
+        for e in ext.iter_mut().filter(|e| e.0 < e.1) {
+            *e = (e.0 - b0 as u32, e.1 - b0 as u32);
+        }
     }
     let (h, w) = (a1 - a0, b1 - b0);
     buf.clear();
@@ -1064,6 +1123,50 @@ mod tests {
             v,
         });
         s
+    }
+
+    #[test]
+    fn peak_scan_within_the_crop_extents_finds_the_same_peaks() {
+        // Blobs with bumpy tops, cells between the crop's and the scan's shares, and cells
+        // below the crop's share.
+        let (h, w) = (45, 60);
+        let mut v = vec![0.0; h * w];
+        for (r0, r1, c0, c1, top) in [
+            (3, 12, 5, 17, 1.0),
+            (20, 31, 38, 55, 0.3),
+            (35, 44, 1, 9, 0.05),
+        ] {
+            for i in r0..r1 {
+                for j in c0..c1 {
+                    v[i * w + j] = top * (1.0 + ((i * 13 + j * 7) % 5) as f64 * 0.1);
+                }
+            }
+        }
+        for k in (0..h * w).step_by(37) {
+            if v[k] == 0.0 {
+                v[k] = if k % 2 == 0 { 3e-5 } else { 2e-3 };
+            }
+        }
+        let out = Patch {
+            i0: 4,
+            j0: 9,
+            h,
+            w,
+            v,
+        };
+        let mut ext = Vec::new();
+        let post = crop_into(&out, CROP, Vec::new(), &mut ext);
+        assert_eq!(ext.len(), post.h, "a large window keeps its extents");
+        let cut = crate::decode::MIN_SHARE * lane_max(&post.v);
+        let (mut with, mut without) = (Vec::new(), Vec::new());
+        peak_scan::<true>(&post, &ext, cut, &mut with);
+        peak_scan::<false>(&post, &ext, cut, &mut without);
+        assert!(without.len() > 3);
+        assert_eq!(with, without);
+        assert!(
+            ext.iter().any(|e| e.1 - e.0 < post.w as u32 / 2),
+            "some rows are narrow"
+        );
     }
 
     #[test]
