@@ -581,6 +581,131 @@ unsafe fn conv_rows_avx(
     }
 }
 
+/// Column convolution added in place: for each of `n` output rows `i` (stride `nc`),
+/// `out_row_i += Σ_a kern[i − a + base] · src_row_a` over the `m` source rows `a` (stride
+/// `nc`) with the tap inside `kern`, the terms by increasing `a` — the order of one
+/// contiguous axpy per tap by decreasing offset over all the rows it joins. The AVX copy
+/// keeps eight (then four, then one to three, masked) cells of an output row in registers
+/// across all its terms: the same products and additions per cell, one load and one store.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn conv_cols(
+    out: &mut [f64],
+    n: usize,
+    src: &[f64],
+    m: usize,
+    nc: usize,
+    kern: &[f64],
+    base: i64,
+) {
+    assert!(out.len() >= n * nc && src.len() >= m * nc);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above); buffers as asserted above.
+        unsafe { conv_cols_avx(out, n, src, m, nc, kern, base) };
+        return;
+    }
+    conv_cols_body(out, n, src, m, nc, kern, base);
+}
+
+/// [`conv_cols`] as one axpy per tap, taps by decreasing offset.
+#[inline(always)]
+fn conv_cols_body(
+    out: &mut [f64],
+    n: usize,
+    src: &[f64],
+    m: usize,
+    nc: usize,
+    kern: &[f64],
+    base: i64,
+) {
+    for (t, &k) in kern.iter().enumerate().rev() {
+        // i − a = t − base: sources a with i = a + t − base in [0, n).
+        let shift = t as i64 - base;
+        let lo = 0i64.max(-shift);
+        let hi = (m as i64).min(n as i64 - shift);
+        if lo >= hi {
+            continue;
+        }
+        let len = (hi - lo) as usize * nc;
+        let s = &src[lo as usize * nc..][..len];
+        let d = &mut out[(lo + shift) as usize * nc..][..len];
+        axpy_body(d, s, k);
+    }
+}
+
+/// [`conv_cols`] with AVX intrinsics (no FMA).
+///
+/// # Safety
+/// The CPU must support AVX; the buffers must be as [`conv_cols`] asserts.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn conv_cols_avx(
+    out: &mut [f64],
+    n: usize,
+    src: &[f64],
+    m: usize,
+    nc: usize,
+    kern: &[f64],
+    base: i64,
+) {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
+        _mm256_maskload_pd, _mm256_maskstore_pd, _mm256_mul_pd, _mm256_storeu_pd,
+    };
+    let len = kern.len() as i64;
+    for i in 0..n {
+        // Sources a with t = i − a + base ∈ [0, len), a ∈ [0, m).
+        let a_lo = (i as i64 + base - len + 1).max(0);
+        let a_hi = (i as i64 + base + 1).min(m as i64);
+        if a_lo >= a_hi {
+            continue;
+        }
+        let (a_lo, a_hi) = (a_lo as usize, a_hi as usize);
+        // SAFETY: output row i and source rows a < m lie within the buffers (asserted by the
+        // caller); every tap index t = i − a + base is in [0, len) by the range of a.
+        unsafe {
+            let o = out.as_mut_ptr().add(i * nc);
+            let k = kern.as_ptr().offset(i as isize + base as isize);
+            let mut j = 0;
+            while j + 8 <= nc {
+                let (mut x, mut y) = (_mm256_loadu_pd(o.add(j)), _mm256_loadu_pd(o.add(j + 4)));
+                for a in a_lo..a_hi {
+                    let kv = _mm256_broadcast_sd(&*k.sub(a));
+                    let s = src.as_ptr().add(a * nc + j);
+                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, _mm256_loadu_pd(s)));
+                    y = _mm256_add_pd(y, _mm256_mul_pd(kv, _mm256_loadu_pd(s.add(4))));
+                }
+                _mm256_storeu_pd(o.add(j), x);
+                _mm256_storeu_pd(o.add(j + 4), y);
+                j += 8;
+            }
+            if j + 4 <= nc {
+                let mut x = _mm256_loadu_pd(o.add(j));
+                for a in a_lo..a_hi {
+                    let kv = _mm256_broadcast_sd(&*k.sub(a));
+                    x = _mm256_add_pd(
+                        x,
+                        _mm256_mul_pd(kv, _mm256_loadu_pd(src.as_ptr().add(a * nc + j))),
+                    );
+                }
+                _mm256_storeu_pd(o.add(j), x);
+                j += 4;
+            }
+            if j < nc {
+                let mask = _mm256_loadu_si256(TAIL_MASKS[nc - j].as_ptr().cast());
+                let mut x = _mm256_maskload_pd(o.add(j), mask);
+                for a in a_lo..a_hi {
+                    let kv = _mm256_broadcast_sd(&*k.sub(a));
+                    let s = _mm256_maskload_pd(src.as_ptr().add(a * nc + j), mask);
+                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, s));
+                }
+                _mm256_maskstore_pd(o.add(j), mask, x);
+            }
+        }
+    }
+}
+
 /// Correlation of two non-negative finite sequences at consecutive shifts:
 /// `out[i] = Σ_a m1[a] · m2[a + d_hi − i]` over the `a` where both exist, the terms added by
 /// increasing `a` from `+0`. The AVX copy computes four shifts per register over the union
@@ -1196,6 +1321,43 @@ mod tests {
                         }
                         assert_eq!(g.to_bits(), c.to_bits());
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn column_convolution_matches_the_tap_axpys_bit_for_bit() {
+        for (n, m, nc, klen, base) in [
+            (5usize, 7usize, 15usize, 9usize, 4i64),
+            (12, 12, 16, 24, 13),
+            (3, 9, 1, 5, 6),
+            (9, 4, 13, 3, -2),
+            (6, 6, 8, 30, 20),
+            (4, 5, 3, 2, 0),
+        ] {
+            let src: Vec<f64> = (0..m * nc)
+                .map(|i| (i as f64 * 0.53).sin().abs() / 3.0)
+                .collect();
+            let kern: Vec<f64> = (0..klen)
+                .map(|i| (i as f64 * 0.29).cos().abs() / 9.0)
+                .collect();
+            let start: Vec<f64> = (0..n * nc).map(|i| 1e-4 * (i % 5) as f64).collect();
+            let (mut got, mut want) = (start.clone(), start.clone());
+            conv_cols(&mut got, n, &src, m, nc, &kern, base);
+            conv_cols_body(&mut want, n, &src, m, nc, &kern, base);
+            assert_eq!(got, want, "{n} {m} {nc} {klen} {base}");
+            // Against the definition, term by term in increasing a.
+            for i in 0..n {
+                for j in 0..nc {
+                    let mut x = start[i * nc + j];
+                    for a in 0..m {
+                        let t = i as i64 - a as i64 + base;
+                        if (0..klen as i64).contains(&t) {
+                            x += kern[t as usize] * src[a * nc + j];
+                        }
+                    }
+                    assert_eq!(got[i * nc + j].to_bits(), x.to_bits());
                 }
             }
         }

@@ -42,9 +42,9 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
-    Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_rows, correlate, lane_max,
-    lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents, scale_into,
-    with_avx,
+    Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
+    lane_max, lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents,
+    scale_into, with_avx,
 };
 use crate::stationary::{StatObservation, StatSystem};
 use crate::tracker::{Estimate, Hypothesis};
@@ -154,6 +154,8 @@ struct Scratch {
     sparse_post: bool,
     /// Runs of non-zero posterior rows (sparse prediction).
     runs: Vec<Run>,
+    /// The x kernel times `1 − γ` (prediction's x pass).
+    kk: Vec<f64>,
     /// Per posterior row, the columns `[first, last + 1)` of its cells that passed the crop
     /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
     /// candidates (`≥ MIN_SHARE × max`) lie within them.
@@ -466,9 +468,20 @@ impl WindowState {
             }
             axpy_taps(rows, nc, src, p.w, n, taps);
         }
-        // Along x: out[i][j] += keep · Σ_a D_x[i − a] rows[a][j]. Rows of `rows` and `out`
-        // share the stride `nc`, so one tap δ = i − a is one contiguous axpy over all the rows
-        // it joins; taps by decreasing δ add each cell's terms by increasing a.
+        // Along x: out[i][j] += Σ_a (keep · D_x[i − a]) rows[a][j], each cell's terms by
+        // increasing a (rows of `rows` and `out` share the stride `nc`). Kernel at least
+        // 1.25 × as long as the rect's rows: each output row held in registers across its
+        // terms; shorter: one contiguous axpy per tap δ = i − a over all the rows it joins,
+        // taps by decreasing δ (module `simd`; the same values either way).
+        if 4 * kx.v.len() >= 5 * rect.rows() {
+            let kk = &mut self.scratch.kk;
+            kk.clear();
+            kk.extend(kx.v.iter().map(|&kv| keep * kv));
+            // Tap t = δ − kx.lo with δ = i − a (absolute rows) = i_r − a_r + rect.a0 − a_lo.
+            let base = rect.a0 as i64 - a_lo as i64 - kx.lo;
+            conv_cols(out, rect.rows(), rows, n, nc, kk, base);
+            return;
+        }
         with_avx(|| {
             for (t, &kv) in kx.v.iter().enumerate().rev() {
                 let delta = kx.lo + t as i64;
