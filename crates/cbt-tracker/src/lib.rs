@@ -85,6 +85,7 @@
 mod calibrate;
 mod cbt;
 mod config;
+mod cover;
 pub mod csv;
 mod data;
 mod decode;

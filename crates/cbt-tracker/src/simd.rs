@@ -324,7 +324,7 @@ unsafe fn peak_candidates_avx(
 /// The first and last index of `row` whose value passes `v >= cut && v > 0` (NaN fails), or
 /// `None` when no cell does. The AVX copy tests four cells per comparison from each end (the
 /// same ordered predicates) and returns the same indices.
-#[cfg(test)]
+#[inline]
 pub(crate) fn extent(row: &[f64], cut: f64) -> Option<(usize, usize)> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {

@@ -40,6 +40,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Order};
+use crate::cover::{self, Block};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
@@ -154,6 +155,13 @@ struct Scratch {
     sparse_post: bool,
     /// Runs of non-zero posterior rows (sparse prediction).
     runs: Vec<Run>,
+    /// The blocks of the assembled update outside which it is zero (parts far apart).
+    blocks: Vec<Block>,
+    /// Those blocks within the posterior, valid while `sparse_post`.
+    post_blocks: Vec<Block>,
+    /// The non-zero blocks (relative to its rect) of the last prediction computed without
+    /// `γ/G` by the sparse path; `None` when not known.
+    prior_blocks: Option<Vec<Block>>,
     /// The x kernel times `1 − γ` (prediction's x pass).
     kk: Vec<f64>,
     /// Per posterior row, the columns `[first, last + 1)` of its cells that passed the crop
@@ -398,6 +406,7 @@ impl WindowState {
         rect: Rect,
         out: &mut Vec<f64>,
     ) {
+        self.scratch.prior_blocks = None;
         let p = &self.post;
         refill(out, rect.rows() * rect.cols(), u);
         // Rows a of the posterior reaching rect: i = a + δ, δ ∈ [kx.lo, kx.hi].
@@ -444,6 +453,25 @@ impl WindowState {
                 let mut runs = std::mem::take(&mut self.scratch.runs);
                 sparse_prior(rows, src, p.w, nc, &mut runs, kpad, base);
                 x_pass_runs(out, rows, nc, &mut runs, kx, keep, a_lo, rect);
+                if u == 0.0 {
+                    // Without γ/G the prediction is zero beyond each run's reach.
+                    let (lo, hi) = (rect.a0 as i64, rect.a1 as i64);
+                    let blocks = runs
+                        .iter()
+                        .filter_map(|run| {
+                            let r0 = ((a_lo + run.start) as i64 + kx.lo).clamp(lo, hi);
+                            let r1 = ((a_lo + run.end - 1) as i64 + kx.hi() + 1).clamp(lo, hi);
+                            let (c0, c1) = run.cols;
+                            (r0 < r1 && c0 < c1).then(|| Block {
+                                r0: (r0 - lo) as usize,
+                                r1: (r1 - lo) as usize,
+                                c0,
+                                c1,
+                            })
+                        })
+                        .collect();
+                    self.scratch.prior_blocks = Some(blocks);
+                }
                 self.scratch.runs = runs;
                 return;
             }
@@ -726,12 +754,9 @@ impl WindowState {
             rect = Some(full);
         }
         let sig = |m: f64| total > 0.0 && m > eps * total;
-        // Cells of the parts kept (with overlaps): outside them the posterior is zero.
-        let mut cover = if use_floor { area(&full) } else { 0 };
         for &(r, mass, _) in &parts[..n_parts] {
             if sig(mass) {
                 rect = Some(rect.map_or(r, |x| x.union(r)));
-                cover += area(&r);
             }
         }
         let Some(rect) = rect else {
@@ -750,18 +775,50 @@ impl WindowState {
             w: rect.cols(),
             v: buf,
         };
+        // The blocks of `out` outside which it is zero, relative to `rect`; the floor part's
+        // are its prior's non-zero blocks when known (a sparse prediction without γ/G).
+        let rel = |r: &Rect| Block {
+            r0: r.a0 - rect.a0,
+            r1: r.a1 - rect.a0,
+            c0: r.b0 - rect.b0,
+            c1: r.b1 - rect.b0,
+        };
+        let mut blocks = std::mem::take(&mut self.scratch.blocks);
+        blocks.clear();
         if use_floor {
             let f = if enc.is_empty() { 1.0 } else { floor_mass };
             let pr = if span == Some(full) {
+                self.scratch.prior_blocks = None;
                 std::mem::take(&mut self.scratch.shared)
             } else {
                 let mut pr = std::mem::take(&mut self.scratch.prior);
                 self.prior_into(&kx, &ky, keep, 0.0, full, &mut pr);
                 pr
             };
-            let dst = &mut out.v[(full.a0 - rect.a0) * out.w..];
-            let tap = [(0, full.cols(), full.b0 - rect.b0, f)];
-            axpy_taps(dst, out.w, &pr, full.cols(), full.rows(), &tap);
+            let (di, dj) = (full.a0 - rect.a0, full.b0 - rect.b0);
+            match &self.scratch.prior_blocks {
+                // Elsewhere the prior is zero: `0 + f·0` leaves the zeros of `out` as they are.
+                Some(pb) => {
+                    for b in pb {
+                        let dst = &mut out.v[(di + b.r0) * out.w..];
+                        let src = &pr[b.r0 * full.cols()..];
+                        let tap = [(b.c0, b.c1 - b.c0, dj + b.c0, f)];
+                        axpy_taps(dst, out.w, src, full.cols(), b.r1 - b.r0, &tap);
+                        blocks.push(Block {
+                            r0: di + b.r0,
+                            r1: di + b.r1,
+                            c0: dj + b.c0,
+                            c1: dj + b.c1,
+                        });
+                    }
+                }
+                None => {
+                    let dst = &mut out.v[di * out.w..];
+                    let tap = [(0, full.cols(), dj, f)];
+                    axpy_taps(dst, out.w, &pr, full.cols(), full.rows(), &tap);
+                    blocks.push(rel(&full));
+                }
+            }
             if span == Some(full) {
                 self.scratch.shared = pr;
             } else {
@@ -778,23 +835,61 @@ impl WindowState {
                 axpy_taps(dst, out.w, v, r.cols(), r.rows(), &tap);
             }
         }
-        self.scratch.parts = parts;
         self.scratch.enc = enc;
         self.scratch.kernels = (kx, ky);
-        let s = lane_sum(&out.v);
+        for (r, mass, _) in &parts[..n_parts] {
+            if sig(*mass) {
+                blocks.push(rel(r));
+            }
+        }
+        // Parts far apart (their blocks, overlaps counted twice, cover under half the rect):
+        // the passes below visit the blocks only (module `cover`: the same values).
+        let cover: usize = blocks.iter().map(|b| (b.r1 - b.r0) * (b.c1 - b.c0)).sum();
+        let sparse = 2 * cover < area(&rect);
+        self.scratch.parts = parts;
+        let (s, max) = if sparse {
+            (
+                cover::lane_sum(&out.v, out.w, out.h, &blocks),
+                cover::lane_max(&out.v, out.w, &blocks),
+            )
+        } else {
+            (lane_sum(&out.v), lane_max(&out.v))
+        };
         if !(s > 0.0 && s.is_finite()) {
             self.scratch.out = out.v;
+            self.scratch.blocks = blocks;
             return Ok(());
         }
-        // The old posterior's buffer receives the cropped new one (normalised there: the crop
-        // is relative to the maximum, so it needs no normalised input); the uncropped one
-        // goes back to the scratch space.
+        // The old posterior's buffer receives the cropped new one (the crop is relative to
+        // the maximum, so it needs no normalised input); the uncropped one goes back to the
+        // scratch space.
         let old = std::mem::take(&mut self.post.v);
-        self.post = crop_into(&out, CROP, old, &mut self.scratch.post_ext);
-        self.scratch.sparse_post = 2 * cover < area(&rect);
+        let mut post_blocks = std::mem::take(&mut self.scratch.post_blocks);
+        let cov = sparse.then_some(&blocks[..]);
+        let inv;
+        (self.post, inv) = crop_into(
+            &out,
+            CROP,
+            max,
+            old,
+            &mut self.scratch.post_ext,
+            cov,
+            &mut post_blocks,
+        );
+        self.scratch.sparse_post = sparse;
         self.scratch.out = out.v;
+        self.scratch.blocks = blocks;
         std::mem::swap(&mut self.prev, &mut self.cur);
-        marginals_into(&self.post, &mut self.cur);
+        if sparse {
+            let p = &mut self.post;
+            let [(ox, mx), (oy, my)] = &mut self.cur;
+            (*ox, *oy) = (p.i0, p.j0);
+            cover::normalise_marginals(&mut p.v, p.w, p.h, &post_blocks, inv, mx, my);
+        } else {
+            self.post.v.iter_mut().for_each(|x| *x *= inv);
+            marginals_into(&self.post, &mut self.cur);
+        }
+        self.scratch.post_blocks = post_blocks;
         Ok(())
     }
 
@@ -838,7 +933,11 @@ impl WindowState {
             }
         };
         // Local maxima holding at least MIN_SHARE of the largest cell, by decreasing value.
-        let max = lane_max(&p.v);
+        let max = if self.scratch.sparse_post {
+            cover::lane_max(&p.v, p.w, &self.scratch.post_blocks)
+        } else {
+            lane_max(&p.v)
+        };
         let cut = crate::decode::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
         // Cells below the crop's share of the maximum cannot be candidates: only each row's
@@ -1058,12 +1157,22 @@ fn x_pass_runs(
     });
 }
 
-/// Crops a normalised patch to the bounding box of its cells `≥ eps · max`, into `buf`
-/// (renormalised); `ext` receives, per row of the crop, the columns `[first, last + 1)` of
+/// Crops a patch whose largest cell is `max` to the bounding box of its cells `≥ eps · max`,
+/// into `buf`, returned with the inverse of its sum (not normalised here); with `blocks`
+/// (the patch is zero outside them), only those are visited and `crop_blocks` receives them
+/// clipped to the crop. `ext` receives, per row of the crop, the columns `[first, last + 1)` of
 /// its cells `≥ eps · max` (`(0, 0)` for none), or nothing when no cell passes or the patch
 /// has fewer than [`EXTENTS_FROM`] cells.
-fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>, ext: &mut Vec<(u32, u32)>) -> Patch {
-    let max = lane_max(&p.v);
+#[allow(clippy::too_many_arguments)]
+fn crop_into(
+    p: &Patch,
+    eps: f64,
+    max: f64,
+    mut buf: Vec<f64>,
+    ext: &mut Vec<(u32, u32)>,
+    blocks: Option<&[Block]>,
+    crop_blocks: &mut Vec<Block>,
+) -> (Patch, f64) {
     let cut = eps * max;
     let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
     ext.clear();
@@ -1072,7 +1181,7 @@ fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>, ext: &mut Vec<(u32, u32)>) 
     if keep {
         ext.resize(p.h, (0, 0));
     }
-    row_extents(&p.v, p.w, cut, |i, f, l| {
+    let on_row = |i: usize, f: usize, l: usize| {
         a0 = a0.min(i);
         a1 = a1.max(i + 1);
         b0 = b0.min(f);
@@ -1080,7 +1189,11 @@ fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>, ext: &mut Vec<(u32, u32)>) 
         if keep {
             ext[i] = (f as u32, l as u32 + 1);
         }
-    });
+    };
+    match blocks {
+        Some(bl) => cover::row_extents(&p.v, p.w, p.h, bl, cut, on_row),
+        None => row_extents(&p.v, p.w, cut, on_row),
+    }
     if a0 == usize::MAX {
         (a0, a1, b0, b1) = (0, p.h, 0, p.w);
         ext.clear();
@@ -1100,15 +1213,23 @@ fn crop_into(p: &Patch, eps: f64, mut buf: Vec<f64>, ext: &mut Vec<(u32, u32)>) 
     for i in a0..a1 {
         buf.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
     }
-    let s = 1.0 / lane_sum(&buf);
-    buf.iter_mut().for_each(|x| *x *= s);
-    Patch {
+    crop_blocks.clear();
+    let s = 1.0
+        / match blocks {
+            Some(bl) => {
+                crop_blocks.extend(bl.iter().filter_map(|b| b.clip(a0, a1, b0, b1)));
+                cover::lane_sum(&buf, w, h, crop_blocks)
+            }
+            None => lane_sum(&buf),
+        };
+    let crop = Patch {
         i0: p.i0 + a0,
         j0: p.j0 + b0,
         h,
         w,
         v: buf,
-    }
+    };
+    (crop, s)
 }
 
 #[cfg(test)]
@@ -1168,7 +1289,16 @@ mod tests {
             v,
         };
         let mut ext = Vec::new();
-        let post = crop_into(&out, CROP, Vec::new(), &mut ext);
+        let (mut post, inv) = crop_into(
+            &out,
+            CROP,
+            lane_max(&out.v),
+            Vec::new(),
+            &mut ext,
+            None,
+            &mut Vec::new(),
+        );
+        post.v.iter_mut().for_each(|x| *x *= inv);
         assert_eq!(ext.len(), post.h, "a large window keeps its extents");
         let cut = crate::decode::MIN_SHARE * lane_max(&post.v);
         let (mut with, mut without) = (Vec::new(), Vec::new());
@@ -1231,6 +1361,18 @@ mod tests {
                     let dense = s.prior(&kx, &ky, 0.99, u, rect);
                     s.scratch.sparse_post = true;
                     let sparse = s.prior(&kx, &ky, 0.99, u, rect);
+                    if u == 0.0 {
+                        // The blocks it reports hold every non-zero cell.
+                        let blocks = s.scratch.prior_blocks.clone().expect("sparse path taken");
+                        let w = rect.cols();
+                        for (k, &x) in sparse.iter().enumerate() {
+                            let (i, j) = (k / w, k % w);
+                            let inside = blocks
+                                .iter()
+                                .any(|b| b.r0 <= i && i < b.r1 && b.c0 <= j && j < b.c1);
+                            assert!(inside || x == 0.0, "{rect:?} cell {i},{j}");
+                        }
+                    }
                     assert!(dense.iter().any(|&x| x > u));
                     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&sparse), bits(&dense), "{rect:?} {}", ky.v.len());
