@@ -97,6 +97,7 @@ pub mod metrics;
 mod model;
 mod observation;
 mod particle;
+mod pool;
 pub mod sim;
 mod simd;
 mod space;

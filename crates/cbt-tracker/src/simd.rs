@@ -423,7 +423,7 @@ unsafe fn extent_avx(row: &[f64], cut: f64) -> Option<(usize, usize)> {
     // From the end: the 0–3 cells beyond the last full group of four (counted from the end)
     // one by one, then groups of four down to the first hit.
     let mut hi = n;
-    while hi > f + 1 && (hi - f - 1) % 4 != 0 {
+    while hi > f + 1 && !(hi - f - 1).is_multiple_of(4) {
         if passes(row[hi - 1], cut) {
             return Some((f, hi - 1));
         }

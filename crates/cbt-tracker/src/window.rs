@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Order};
 use crate::cover::{self, Block};
 use crate::integrity::{corrupt, len, nonneg};
+use crate::pool::{self, refill};
 use crate::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
     lane_max, lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents,
@@ -168,6 +169,32 @@ struct Scratch {
     /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
     /// candidates (`≥ MIN_SHARE × max`) lie within them.
     post_ext: Vec<(u32, u32)>,
+}
+
+impl Drop for Scratch {
+    /// The large buffers go back to the thread's pool (module `pool`).
+    fn drop(&mut self) {
+        for v in [
+            &mut self.rows,
+            &mut self.prior,
+            &mut self.bump,
+            &mut self.row,
+            &mut self.shared,
+            &mut self.out,
+        ] {
+            pool::give(std::mem::take(v));
+        }
+        for (_, _, v) in &mut self.parts {
+            pool::give(std::mem::take(v));
+        }
+    }
+}
+
+impl Drop for WindowState {
+    /// The posterior's buffer goes back to the thread's pool (module `pool`).
+    fn drop(&mut self) {
+        pool::give(std::mem::take(&mut self.post.v));
+    }
 }
 
 impl PartialEq for Scratch {
@@ -712,8 +739,13 @@ impl WindowState {
                 sp
             }
         });
+        // Bumps covering little of their span (far apart): the prior on each bump's own
+        // rect instead (the same values per cell); the one on the whole support is then made
+        // only if the floor part needs it.
+        let bump_cells: usize = nears.iter().map(|(_, r)| area(r)).sum();
+        let per_bump = span.is_some_and(|sp| 4 * bump_cells < area(&sp));
         let mut shared = std::mem::take(&mut self.scratch.shared);
-        if let Some(sp) = span {
+        if let Some(sp) = span.filter(|_| !per_bump) {
             self.prior_into(&kx, &ky, keep, u, sp, &mut shared);
         }
         for &(k, near) in &nears {
@@ -721,7 +753,7 @@ impl WindowState {
                 parts.push((near, 0.0, Vec::new()));
             }
             let mut buf = std::mem::take(&mut parts[n_parts].2);
-            let sh = span.map(|sp| (sp, &shared[..]));
+            let sh = span.filter(|_| !per_bump).map(|sp| (sp, &shared[..]));
             let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, near, sh, &mut buf);
             parts[n_parts] = (near, mass, buf);
             n_parts += 1;
@@ -788,8 +820,13 @@ impl WindowState {
         if use_floor {
             let f = if enc.is_empty() { 1.0 } else { floor_mass };
             let pr = if span == Some(full) {
+                let mut pr = std::mem::take(&mut self.scratch.shared);
+                if per_bump {
+                    // Not made above: the same prior on the whole support, γ/G included.
+                    self.prior_into(&kx, &ky, keep, u, full, &mut pr);
+                }
                 self.scratch.prior_blocks = None;
-                std::mem::take(&mut self.scratch.shared)
+                pr
             } else {
                 let mut pr = std::mem::take(&mut self.scratch.prior);
                 self.prior_into(&kx, &ky, keep, 0.0, full, &mut pr);
@@ -1006,6 +1043,8 @@ fn peak_scan<const EXT: bool>(
     peaks: &mut Vec<(f64, usize, usize)>,
 ) {
     let w = p.w;
+    // `ext` is indexed only with EXT (it may be empty otherwise).
+    #[allow(clippy::needless_range_loop)]
     for i in 0..p.h {
         let (f, l) = if EXT {
             let (f, l) = (ext[i].0 as usize, ext[i].1 as usize);
@@ -1045,18 +1084,6 @@ fn peak_scan<const EXT: bool>(
             }
             peaks.push((v, i, j));
         });
-    }
-}
-
-/// Clears `v` and fills it with `n` copies of `x`. A buffer too small is replaced by a new
-/// one rather than grown: growing would copy its stale contents (up to a wide posterior's
-/// tens of thousands of cells) only to overwrite them.
-fn refill(v: &mut Vec<f64>, n: usize, x: f64) {
-    v.clear();
-    if v.capacity() < n {
-        *v = vec![x; n];
-    } else {
-        v.resize(n, x);
     }
 }
 
@@ -1205,11 +1232,7 @@ fn crop_into(
         }
     }
     let (h, w) = (a1 - a0, b1 - b0);
-    buf.clear();
-    if buf.capacity() < h * w {
-        // A new buffer rather than a grown one (see `refill`).
-        buf = Vec::with_capacity(h * w);
-    }
+    pool::reserve_empty(&mut buf, h * w);
     for i in a0..a1 {
         buf.extend_from_slice(&p.v[i * p.w + b0..i * p.w + b1]);
     }
