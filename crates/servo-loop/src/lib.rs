@@ -81,6 +81,7 @@ pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     GripperModel, Localisation, RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipModel,
+    TipRule,
 };
 pub use robot::Robot;
 pub use servo::{

@@ -10,11 +10,14 @@
 //!   servo moved) and its robust centroid, the gripper point.
 //! - [`silhouette`]: the recogniser the servo pipeline uses ([`TipModel`]): the static scene
 //!   learned from frames of random poses, the arm's silhouette in one new image, the end of
-//!   the chain (told by gripper moves) and the tip at sub-pixel precision.
+//!   the chain (told by gripper moves) and the tip at sub-pixel precision by a [`TipRule`].
+//! - `end_face`: the middle of the end face from the outline of the far end (sub-pixel level
+//!   crossings, convex hull, the far cap's outer corners), for [`TipRule::EndFace`].
 //! - [`model`]: the channel-coded appearance model learned from those regions (prototype feature maps around
 //!   the gripper point) and its localisation in a new image with a certainty.
 
 pub mod change;
+mod end_face;
 pub mod features;
 pub mod image;
 mod lighting;
@@ -22,4 +25,4 @@ pub mod model;
 pub mod silhouette;
 
 pub use model::{GripperModel, Localisation, RecognitionConfig, TrainingView};
-pub use silhouette::{SilhouetteConfig, SilhouetteReport, TipModel};
+pub use silhouette::{SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
