@@ -935,8 +935,8 @@ impl WindowState {
     pub fn decode(&self, space: &Space, radius: usize, runner_ups: usize) -> Estimate {
         let p = &self.post;
         let r = radius as i64;
-        let mut chosen: Vec<(usize, usize)> = Vec::new();
-        let mut hyps: Vec<Hypothesis> = Vec::new();
+        let mut chosen: Vec<(usize, usize)> = Vec::with_capacity(runner_ups + 1);
+        let mut hyps: Vec<Hypothesis> = Vec::with_capacity(runner_ups + 1);
         let window = |ci: usize, cj: usize| -> Hypothesis {
             let (mut m, mut sx, mut sy) = (0.0, 0.0, 0.0);
             let i_lo = (ci as i64 - r).max(0) as usize;
@@ -976,7 +976,7 @@ impl WindowState {
             lane_max(&p.v)
         };
         let cut = crate::decode::MIN_SHARE * max;
-        let mut peaks: Vec<(f64, usize, usize)> = Vec::new();
+        let mut peaks: Vec<(f64, usize, usize)> = Vec::with_capacity(16);
         // Cells below the crop's share of the maximum cannot be candidates: only each row's
         // crop extent is scanned when known (the same candidates).
         let ext = &self.scratch.post_ext;
