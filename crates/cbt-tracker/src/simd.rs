@@ -663,18 +663,26 @@ unsafe fn conv_cols_avx(
         }
         let (a_lo, a_hi) = (a_lo as usize, a_hi as usize);
         // SAFETY: output row i and source rows a < m lie within the buffers (asserted by the
-        // caller); every tap index t = i − a + base is in [0, len) by the range of a.
+        // caller); every tap index t = i − a + base is in [0, len) by the range of a. The
+        // terms step the source down one row (nc cells) and the tap back one per `a`.
+        let count = a_hi - a_lo;
         unsafe {
             let o = out.as_mut_ptr().add(i * nc);
-            let k = kern.as_ptr().offset(i as isize + base as isize);
+            // kern[i − a + base] for a = a_lo, a_lo + 1, …: from k0 downwards.
+            let k0 = kern
+                .as_ptr()
+                .offset(i as isize + base as isize - a_lo as isize);
+            let s0 = src.as_ptr().add(a_lo * nc);
             let mut j = 0;
             while j + 8 <= nc {
                 let (mut x, mut y) = (_mm256_loadu_pd(o.add(j)), _mm256_loadu_pd(o.add(j + 4)));
-                for a in a_lo..a_hi {
-                    let kv = _mm256_broadcast_sd(&*k.sub(a));
-                    let s = src.as_ptr().add(a * nc + j);
-                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, _mm256_loadu_pd(s)));
-                    y = _mm256_add_pd(y, _mm256_mul_pd(kv, _mm256_loadu_pd(s.add(4))));
+                let (mut kp, mut sp) = (k0, s0.add(j));
+                for _ in 0..count {
+                    let kv = _mm256_broadcast_sd(&*kp);
+                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, _mm256_loadu_pd(sp)));
+                    y = _mm256_add_pd(y, _mm256_mul_pd(kv, _mm256_loadu_pd(sp.add(4))));
+                    kp = kp.wrapping_sub(1);
+                    sp = sp.wrapping_add(nc);
                 }
                 _mm256_storeu_pd(o.add(j), x);
                 _mm256_storeu_pd(o.add(j + 4), y);
@@ -682,12 +690,12 @@ unsafe fn conv_cols_avx(
             }
             if j + 4 <= nc {
                 let mut x = _mm256_loadu_pd(o.add(j));
-                for a in a_lo..a_hi {
-                    let kv = _mm256_broadcast_sd(&*k.sub(a));
-                    x = _mm256_add_pd(
-                        x,
-                        _mm256_mul_pd(kv, _mm256_loadu_pd(src.as_ptr().add(a * nc + j))),
-                    );
+                let (mut kp, mut sp) = (k0, s0.add(j));
+                for _ in 0..count {
+                    let kv = _mm256_broadcast_sd(&*kp);
+                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, _mm256_loadu_pd(sp)));
+                    kp = kp.wrapping_sub(1);
+                    sp = sp.wrapping_add(nc);
                 }
                 _mm256_storeu_pd(o.add(j), x);
                 j += 4;
@@ -695,10 +703,12 @@ unsafe fn conv_cols_avx(
             if j < nc {
                 let mask = _mm256_loadu_si256(TAIL_MASKS[nc - j].as_ptr().cast());
                 let mut x = _mm256_maskload_pd(o.add(j), mask);
-                for a in a_lo..a_hi {
-                    let kv = _mm256_broadcast_sd(&*k.sub(a));
-                    let s = _mm256_maskload_pd(src.as_ptr().add(a * nc + j), mask);
-                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, s));
+                let (mut kp, mut sp) = (k0, s0.add(j));
+                for _ in 0..count {
+                    let kv = _mm256_broadcast_sd(&*kp);
+                    x = _mm256_add_pd(x, _mm256_mul_pd(kv, _mm256_maskload_pd(sp, mask)));
+                    kp = kp.wrapping_sub(1);
+                    sp = sp.wrapping_add(nc);
                 }
                 _mm256_maskstore_pd(o.add(j), mask, x);
             }
