@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
-    LearnConfig, RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, learn_control,
+    LearnConfig, RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, TipRule, learn_control,
     learn_recognition, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
@@ -393,6 +393,14 @@ pub struct RecognitionResult {
     pub frames: usize,
     pub gripper_changes: Vec<usize>,
     pub tests: usize,
+    /// Per tip rule, on the same images: first the servo percept's rule, then the other.
+    pub rules: Vec<RuleRecognition>,
+}
+
+/// The recognition errors of one tip rule (`servo_loop::TipRule`).
+#[derive(Debug, Clone, Serialize)]
+pub struct RuleRecognition {
+    pub rule: TipRule,
     /// Test images (all cameras) where the tip was found.
     pub found: usize,
     /// Per camera: median distance of the single-image tip to the projected middle of the
@@ -434,14 +442,20 @@ pub fn evaluate_recognition(
 ) -> Result<RecognitionResult> {
     let mut sim = ArmSim::new(config.clone())?;
     let cams = model.num_cameras().min(2);
-    let recogniser = Recogniser::new(model.clone(), p.captures_per_percept);
+    let servo_rule = model.config().tip;
+    let other = match servo_rule {
+        TipRule::FarEnd => TipRule::EndFace,
+        TipRule::EndFace => TipRule::FarEnd,
+    };
+    let models = [model.clone(), model.with_tip_rule(other)];
+    let n = models.len();
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
-    let mut ends = vec![Vec::new(); cams];
-    let mut tool = vec![Vec::new(); cams];
-    let mut repeat = vec![Vec::new(); cams];
-    let mut averaged = vec![Vec::new(); cams];
-    let mut found = 0;
-    let mut certs = Vec::new();
+    let mut ends = vec![vec![Vec::new(); cams]; n];
+    let mut tool = vec![vec![Vec::new(); cams]; n];
+    let mut repeat = vec![vec![Vec::new(); cams]; n];
+    let mut averaged = vec![vec![Vec::new(); cams]; n];
+    let mut found = vec![0; n];
+    let mut certs = vec![Vec::new(); n];
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
         let mut c = p.rest_us;
@@ -450,39 +464,57 @@ pub fn evaluate_recognition(
         }
         sim.command(&c)?;
         let (a, b) = (sim.capture(), sim.capture());
+        // The percept's captures (the arm stands still), as `Recogniser::observe` takes them.
+        let still: Vec<Vec<image::GrayImage>> = (0..p.captures_per_percept.max(1))
+            .map(|_| sim.capture())
+            .collect();
         let pose = sim.inspect().pose().clone();
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
         let tips = sim.inspect().tip_pixels()?;
-        for cam in 0..cams {
-            let truth = sim.inspect().project(cam, &mid)?;
-            let (Ok(la), Ok(lb)) = (model.locate(cam, &a[cam]), model.locate(cam, &b[cam])) else {
-                continue;
-            };
-            found += 1;
-            certs.push(la.certainty);
-            let [u, v] = la.position;
-            ends[cam].push((u - truth[0]).hypot(v - truth[1]));
-            tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
-            repeat[cam].push((u - lb.position[0]).hypot(v - lb.position[1]));
-        }
-        if let Ok(locs) = recogniser.observe(&mut sim, cams) {
-            for (cam, l) in locs.iter().enumerate() {
+        for (r, m) in models.iter().enumerate() {
+            for cam in 0..cams {
                 let truth = sim.inspect().project(cam, &mid)?;
-                averaged[cam].push((l.position[0] - truth[0]).hypot(l.position[1] - truth[1]));
+                if let (Ok(la), Ok(lb)) = (m.locate(cam, &a[cam]), m.locate(cam, &b[cam])) {
+                    found[r] += 1;
+                    certs[r].push(la.certainty);
+                    let [u, v] = la.position;
+                    ends[r][cam].push((u - truth[0]).hypot(v - truth[1]));
+                    tool[r][cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+                    repeat[r][cam].push((u - lb.position[0]).hypot(v - lb.position[1]));
+                }
+                let located: Vec<[f64; 2]> = still
+                    .iter()
+                    .filter_map(|imgs| m.locate(cam, &imgs[cam]).ok().map(|l| l.position))
+                    .collect();
+                if located.len() == still.len() {
+                    let k = located.len() as f64;
+                    let u = located.iter().map(|l| l[0]).sum::<f64>() / k;
+                    let v = located.iter().map(|l| l[1]).sum::<f64>() / k;
+                    averaged[r][cam].push((u - truth[0]).hypot(v - truth[1]));
+                }
             }
         }
     }
+    let per_camera = |v: &[Vec<f64>], f: fn(Vec<f64>) -> f64| -> Vec<f64> {
+        v.iter().map(|c| f(c.clone())).collect()
+    };
+    let rules = (0..n)
+        .map(|r| RuleRecognition {
+            rule: models[r].config().tip,
+            found: found[r],
+            median_px_finger_ends: per_camera(&ends[r], median_of),
+            p90_px_finger_ends: per_camera(&ends[r], p90_of),
+            median_px_tool_point: per_camera(&tool[r], median_of),
+            median_px_repeat: per_camera(&repeat[r], median_of),
+            median_px_averaged: per_camera(&averaged[r], median_of),
+            median_certainty: median_of(certs[r].clone()),
+        })
+        .collect();
     Ok(RecognitionResult {
         frames: report.frames,
         gripper_changes: report.gripper_changes.clone(),
         tests: p.recognition_tests,
-        found,
-        median_px_finger_ends: ends.iter().map(|v| median_of(v.clone())).collect(),
-        p90_px_finger_ends: ends.iter().map(|v| p90_of(v.clone())).collect(),
-        median_px_tool_point: tool.iter().map(|v| median_of(v.clone())).collect(),
-        median_px_repeat: repeat.iter().map(|v| median_of(v.clone())).collect(),
-        median_px_averaged: averaged.iter().map(|v| median_of(v.clone())).collect(),
-        median_certainty: median_of(certs),
+        rules,
     })
 }
 

@@ -226,29 +226,33 @@ pub fn summary(study: &Study) -> String {
         s += "\n## Gripper recognition (learned from gripper moves, single rendered images)\n\n";
         s += &format!(
             "The recogniser learns the static scene from {} frames of random poses, then finds the arm's silhouette in one new image and \
-             the middle of the far end of the chain (the end of the gripper, between the finger ends) at sub-pixel precision; \
-             gripper moves (changes found per camera {:?}) tell which end is the gripper. {} test poses; tip found in {} of {} camera images; \
-             median certainty {:.3}. Errors against the ground truth: the projected middle of the two finger ends (the point the \
-             recogniser defines as the tip) and arm-sim's tool point (8 mm further back, between the finger pads: not visible as such, \
-             so no learner can find it without a model of the gripper).\n\n\
-             | camera | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|\n",
+             the tip at the gripper's far end (the end of the chain; gripper moves, changes found per camera {:?}, tell which end is the \
+             gripper) by one of two rules (`servo_loop::TipRule`), evaluated on the same {} test poses: `far_end`, the far end of the \
+             silhouette from covered areas, centred across by the coverage; `end_face`, the middle of the end face as the mean of the far \
+             cap's two outer corners on the outline. Errors against the ground truth: the projected middle of the two finger ends (the \
+             centre of the gripper's end face, the point both rules aim at) and arm-sim's tool point (8 mm further back, between the \
+             finger pads: not visible as such, so no learner can find it without a model of the gripper). The servo percept uses `{}`.\n\n\
+             | tip rule | camera | found (both cameras) | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|---|---|\n",
             r.frames,
             r.gripper_changes,
             r.tests,
-            r.found,
-            r.tests * r.median_px_finger_ends.len(),
-            r.median_certainty,
+            rule_name(r.rules[0].rule),
             p.captures_per_percept
         );
-        for c in 0..r.median_px_finger_ends.len() {
-            s += &format!(
-                "| {c} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
-                r.median_px_finger_ends[c],
-                r.p90_px_finger_ends[c],
-                r.median_px_averaged[c],
-                r.median_px_repeat[c],
-                r.median_px_tool_point[c]
-            );
+        for rule in &r.rules {
+            for c in 0..rule.median_px_finger_ends.len() {
+                s += &format!(
+                    "| {} | {c} | {} / {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+                    rule_name(rule.rule),
+                    rule.found,
+                    r.tests * rule.median_px_finger_ends.len(),
+                    rule.median_px_finger_ends[c],
+                    rule.p90_px_finger_ends[c],
+                    rule.median_px_averaged[c],
+                    rule.median_px_repeat[c],
+                    rule.median_px_tool_point[c]
+                );
+            }
         }
     }
     // Goal check.
@@ -283,16 +287,36 @@ pub fn summary(study: &Study) -> String {
     );
     match &study.recognition {
         Some(r) => {
-            let worst = r.median_px_finger_ends.iter().copied().fold(0.0, f64::max);
-            let tool = r.median_px_tool_point.iter().copied().fold(0.0, f64::max);
+            let worst = |rule: &super::RuleRecognition| {
+                rule.median_px_finger_ends
+                    .iter()
+                    .copied()
+                    .fold(0.0, f64::max)
+            };
+            let servo = &r.rules[0];
+            let tool = servo
+                .median_px_tool_point
+                .iter()
+                .copied()
+                .fold(0.0, f64::max);
             s += &format!(
-                "- recognition median error ≤ 1 px: {:.2} px to the finger-end middle (worst camera) — {}; {:.1} px to arm-sim's tool point \
-                 (a definitional offset of 8 mm along the fingers); frame-to-frame repeatability {:.2} px\n",
-                worst,
-                verdict(worst, 1.0, "px"),
+                "- recognition median error ≤ 1 px: the servo percept (`{}`) {:.2} px to the finger-end middle (worst camera) — {}; {:.1} px to \
+                 arm-sim's tool point (a definitional offset of 8 mm along the fingers); frame-to-frame repeatability {:.2} px",
+                rule_name(servo.rule),
+                worst(servo),
+                verdict(worst(servo), 1.0, "px"),
                 tool,
-                r.median_px_repeat.iter().copied().fold(0.0, f64::max)
+                servo.median_px_repeat.iter().copied().fold(0.0, f64::max)
             );
+            for other in &r.rules[1..] {
+                s += &format!(
+                    "; the `{}` rule {:.2} px — {} (not the servo percept: its tip changes less smoothly with the pose, see docs/performance.md)",
+                    rule_name(other.rule),
+                    worst(other),
+                    verdict(worst(other), 1.0, "px")
+                );
+            }
+            s += "\n";
         }
         None => s += "- recognition median error ≤ 1 px: not evaluated in this run\n",
     }
@@ -537,4 +561,12 @@ pub fn write_all(ctx: &EvalContext, study: &Study) -> Result<()> {
         strip.save(ctx.out_dir.join("servo-run.png"))?;
     }
     Ok(())
+}
+
+/// The rule's name as in the configuration files.
+fn rule_name(rule: servo_loop::TipRule) -> &'static str {
+    match rule {
+        servo_loop::TipRule::FarEnd => "far_end",
+        servo_loop::TipRule::EndFace => "end_face",
+    }
 }
