@@ -16,13 +16,18 @@
 //! gripper end's size. In one new image the lit scene is subtracted, the largest connected
 //! silhouette is the arm, its pixel farthest from the root is the end of the chain, and the
 //! **tip** (the middle of the gripper's far end, between the finger ends) follows at sub-pixel
-//! precision from the soft coverage of the end: the end position along the gripper's principal
-//! axis from covered areas, the centre across it as the coverage-weighted mean
-//! ([`recognition::silhouette`]). Measured on `arm-sim` (`fixtures/paper-c/summary.md`):
-//! frame-to-frame repeatability 0.04–0.13 px (median per camera), a median error of 2.0–2.9 px
-//! to the projected middle of the finger ends (the goal of ≤ 1 px is missed; the 90th
-//! percentile is 14–32 px, when another part of the arm is taken for the far end), and ≈ 11–12
-//! px to `arm-sim`'s tool point, which lies 8 mm behind the finger ends where nothing marks it.
+//! precision by one of two rules ([`TipRule`], [`recognition::silhouette`]): `FarEnd` (the
+//! default and the servo percept) from the soft coverage of the end — the end position along
+//! the gripper's principal axis from covered areas, the centre across it as the
+//! coverage-weighted mean; `EndFace` as the mean of the far cap's two outer corners on the
+//! outline, which is the end face's centre for any viewing direction. Measured on `arm-sim`
+//! (`fixtures/paper-c/summary.md`, median per camera against the projected middle of the
+//! finger ends): `FarEnd` 2.0–2.9 px (frame-to-frame repeatability 0.04–0.13 px), `EndFace`
+//! 0.28–0.48 px (0.03–0.10 px); the 90th percentile is 2–32 px, when another part of the arm
+//! is taken for the far end; ≈ 10–12 px to `arm-sim`'s tool point, which lies 8 mm behind the
+//! finger ends where nothing marks it. `EndFace` is not the servo percept: it changes less
+//! smoothly with the pose (where an end face has little contrast against the table, the
+//! outline it reads moves with the texture), and the servo ends less accurate on it.
 //! The earlier **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline ×
 //! cos² orientation channels of image gradients, chan-repr; papers.md §1.4) is kept as an
 //! appearance model; it finds the gripper region only to tens of pixels and is not used by the

@@ -82,13 +82,14 @@ pub struct SilhouetteConfig {
 
 /// Which point of the gripper's far end the recogniser reports as the tip.
 ///
-/// The two rules trade accuracy against smoothness (measured on `arm-sim`, seeds the
+/// The two rules trade accuracy against smoothness (measured on `arm-sim` with three seeds the
 /// evaluation does not use; `docs/performance.md`, `## servo-loop`): `EndFace` finds the
-/// middle of the finger ends to a median 0.3–0.5 px (`FarEnd`: 2.2–4.0 px), but the outline
-/// it reads moves with the table's texture where an end face has little contrast, so the tip
-/// changes less smoothly with the pose (cam 1: 90th percentile of the step-to-step
-/// inconsistency 1.6 px against 0.6–0.8 px), and servoing on it ends 0.03–0.19 px less
-/// accurate after 5 corrections. `FarEnd` is the default (the servo percept).
+/// middle of the finger ends to a median 0.26–0.50 px per camera (`FarEnd`: 2.1–5.1 px), but
+/// where an end face has little contrast against the table the outline it reads moves with the
+/// table's texture, so its tip changes less smoothly with the pose (camera 1: 90th percentile
+/// of the step-to-step inconsistency 1.3–1.8 px against 0.75–0.81 px), and servoing on it ends
+/// between 0.03 px more and 0.19 px less accurate after 5 corrections (median, lwpr). `FarEnd`
+/// is the default (the servo percept).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TipRule {
