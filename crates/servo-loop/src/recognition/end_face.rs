@@ -20,7 +20,16 @@
 //! precision as the crossings of that level along the rows and columns of the coverage grid
 //! ([`iso_crossings`]), then the convex hull of the crossings within the end window
 //! ([`convex_hull`]). On the hull, a side is the longest run of edges within `max_angle` of
-//! `d` on either side of the axis; its forward end is the corner ([`cap_corners`]).
+//! `d` on either side of the axis ([`cap_corners`], with `d` first refined from the hull's
+//! edges, [`side_direction`]); the corner at its forward end is the intersection of the side
+//! line with the cap line, both least-squares lines through the crossings of their edges
+//! (`sharpen`: the anti-aliased outline rounds the corner off, so the hull vertex itself lies
+//! behind it).
+//!
+//! **Smoothness.** Where an end face has nearly the table's grey, single pixels of its outline
+//! appear and vanish with the table's texture from one pose to the next; a hull vertex, and the
+//! corner with it, then moves by a few pixels. The centre is accurate on average but less smooth
+//! in the pose than an area-based far end (`docs/performance.md`, `## servo-loop`).
 //!
 //! **Limitation.** When an edge of the end face projects parallel to `d` (a side face seen
 //! edge-on), the outline cannot show where the side line ends: the corner is taken at the
@@ -132,8 +141,8 @@ pub(crate) fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
 /// The outer corners `[c₊, c₋]` of the far cap of a convex outline `hull` whose axis points
 /// along the unit vector `d` (module docs): on each side of the axis (`+` along `n = (−d_y,
 /// d_x)`), the longest run of consecutive hull edges within `max_angle` (radians) of `d`, and
-/// its vertex farthest along `d`. `None` when a side has no such run of at least `min_side`
-/// pixels.
+/// the corner at its end farthest along `d` (`sharpen`, from least-squares lines through the
+/// `crossings`). `None` when a side has no such run of at least `min_side` pixels.
 pub(crate) fn cap_corners(
     hull: &[[f64; 2]],
     crossings: &[[f64; 2]],
@@ -230,12 +239,14 @@ pub(crate) fn side_direction(hull: &[[f64; 2]], d: [f64; 2], max_angle: f64) -> 
 
 /// The corner at hull vertex `vi`, the forward end of the side `run`: the anti-aliased
 /// outline rounds a corner off, so the hull vertex lies slightly behind it; the corner is
-/// where the side line meets the cap line. The side line is the chord of the run from its
-/// back end to its last vertex at least [`ROUNDING`] pixels from `vi`; the cap line, the chord
-/// of the hull leaving the run (by `step`) between the points [`CAP_START`] and [`CAP_CHORD`]
-/// pixels along it from `vi` (chords, as the hull of nearly collinear crossings
-/// breaks a straight edge into many short edges). Falls back to the vertex when the lines
-/// meet at less than [`MIN_CAP_ANGLE`] or more than [`MAX_SHARPEN`] pixels from it.
+/// where the side line meets the cap line. Coarse lines first (chords, as the hull of nearly
+/// collinear crossings breaks a straight edge into many short edges): the side from the run's
+/// back end to the point [`ROUNDING`] pixels back from `vi` along it, the cap from the points
+/// [`CAP_START`] and [`CAP_CHORD`] pixels along the hull leaving the run (by `step`). The cap
+/// edge ends at the last hull vertex whose chord passes within [`CAP_BAND`] of every vertex in
+/// between (the next corner bends the hull away). Each line is then refitted by total least
+/// squares to the crossings within [`CAP_BAND`] of its segment. Falls back to the vertex when
+/// the lines meet at less than [`MIN_CAP_ANGLE`] or more than [`MAX_SHARPEN`] pixels from it.
 fn sharpen(
     hull: &[[f64; 2]],
     crossings: &[[f64; 2]],
