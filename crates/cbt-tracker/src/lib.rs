@@ -45,7 +45,9 @@
 //! noise (spacing [`Scales::fine_spacing`]). Why this layout, and the deviations from the
 //! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`). Its inner
 //! loops run with AVX when the CPU has it (chosen at run time; the same operations in the same
-//! order, so results do not depend on the CPU).
+//! order, so results do not depend on the CPU); a posterior whose parts lie far apart is
+//! processed on its non-zero blocks only (the same values), and large work buffers are
+//! recycled across the trackers of a thread.
 //!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;

@@ -33,9 +33,15 @@
 //! stored padded to the bump's row stride, so that its two separable passes are one axpy per
 //! active channel), and the inner loops run with AVX when the CPU has it (module `simd`,
 //! run-time dispatch, bit-identical to the baseline build). Short rows use AVX intrinsics
-//! with lane-mask tails; the prediction's y pass (kernel long against the rows) and the
-//! displacement sum (`T` zeroed outside its bands, derived) hold their outputs in registers
-//! across all their terms, added in the same order as the plain loops.
+//! with lane-mask tails; the prediction's y pass (kernel long against the rows), its x pass
+//! (kernel long against the rect), the velocity correlation and the displacement sum (`T`
+//! zeroed outside its bands, derived) hold their outputs in registers across all their terms,
+//! added in the same order as the plain loops. A posterior whose parts lie far apart (a
+//! lost-track hypothesis beside the track: a wide window of mostly exact zeros) is predicted
+//! from each row's non-zero extent and runs of non-zero rows only, and its update's sums,
+//! maximum, crop and marginals visit the parts' blocks only (module `cover`); exact zeros add
+//! `+0` to the non-negative sums, so the values are the dense passes'. Large work buffers come
+//! from, and return to, a per-thread pool (module `pool`).
 
 use serde::{Deserialize, Serialize};
 
