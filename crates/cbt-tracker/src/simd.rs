@@ -585,8 +585,9 @@ unsafe fn conv_rows_avx(
 /// `out_row_i += Σ_a kern[i − a + base] · src_row_a` over the `m` source rows `a` (stride
 /// `nc`) with the tap inside `kern`, the terms by increasing `a` — the order of one
 /// contiguous axpy per tap by decreasing offset over all the rows it joins. The AVX copy
-/// keeps eight (then four, then one to three, masked) cells of an output row in registers
-/// across all its terms: the same products and additions per cell, one load and one store.
+/// keeps a row of up to sixteen cells in four registers (lane masks beyond it), or eight
+/// (then four, then one to three, masked) cells of a longer row, across all their terms: the
+/// same products and additions per cell, one load and one store.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn conv_cols(
     out: &mut [f64],
@@ -650,7 +651,7 @@ unsafe fn conv_cols_avx(
     base: i64,
 ) {
     use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
+        __m256d, __m256i, _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
         _mm256_maskload_pd, _mm256_maskstore_pd, _mm256_mul_pd, _mm256_storeu_pd,
     };
     let len = kern.len() as i64;
@@ -673,6 +674,30 @@ unsafe fn conv_cols_avx(
                 .as_ptr()
                 .offset(i as isize + base as isize - a_lo as isize);
             let s0 = src.as_ptr().add(a_lo * nc);
+            if nc <= 16 {
+                // The whole row in four registers (lane masks beyond nc): one broadcast per
+                // term.
+                let masks: [__m256i; 4] = std::array::from_fn(|l| {
+                    let k = nc.saturating_sub(4 * l).min(4);
+                    _mm256_loadu_si256(FULL_MASKS[k].as_ptr().cast())
+                });
+                let mut x: [__m256d; 4] =
+                    std::array::from_fn(|l| _mm256_maskload_pd(o.add(4 * l), masks[l]));
+                let (mut kp, mut sp) = (k0, s0);
+                for _ in 0..count {
+                    let kv = _mm256_broadcast_sd(&*kp);
+                    for l in 0..4 {
+                        let v = _mm256_maskload_pd(sp.add(4 * l), masks[l]);
+                        x[l] = _mm256_add_pd(x[l], _mm256_mul_pd(kv, v));
+                    }
+                    kp = kp.wrapping_sub(1);
+                    sp = sp.wrapping_add(nc);
+                }
+                for l in 0..4 {
+                    _mm256_maskstore_pd(o.add(4 * l), masks[l], x[l]);
+                }
+                continue;
+            }
             let mut j = 0;
             while j + 8 <= nc {
                 let (mut x, mut y) = (_mm256_loadu_pd(o.add(j)), _mm256_loadu_pd(o.add(j + 4)));
@@ -1345,6 +1370,9 @@ mod tests {
             (9, 4, 13, 3, -2),
             (6, 6, 8, 30, 20),
             (4, 5, 3, 2, 0),
+            (4, 6, 21, 7, 3),
+            (7, 9, 17, 12, 8),
+            (3, 3, 4, 4, 1),
         ] {
             let src: Vec<f64> = (0..m * nc)
                 .map(|i| (i as f64 * 0.53).sin().abs() / 3.0)
