@@ -440,7 +440,7 @@ unsafe fn extent_avx(row: &[f64], cut: f64) -> Option<(usize, usize)> {
 }
 
 /// Zeros on each side of the kernel given to [`conv_rows`].
-pub(crate) const KPAD: usize = 7;
+pub(crate) const KPAD: usize = 15;
 
 /// `kern` with [`KPAD`] zeros on each side, into `buf` (the form [`conv_rows`] takes).
 pub(crate) fn pad_kernel(buf: &mut Vec<f64>, kern: &[f64]) {
@@ -455,10 +455,10 @@ pub(crate) fn pad_kernel(buf: &mut Vec<f64>, kern: &[f64]) {
 /// `dc` and `ss`; taps outside `kern` are absent), the terms added by decreasing `b` starting
 /// from `+0` — the order of [`axpy_taps`] with taps by increasing offset, so the values are
 /// the same. `kpad` is `kern` with [`KPAD`] zeros on each side ([`pad_kernel`]); `src` must be
-/// non-negative and finite. The AVX copy keeps eight outputs in two registers (four for the
-/// last one to four) and adds `src_row[b] · kpad[..]` for every `b` reaching any of them (an
-/// absent tap adds `+0`, which leaves a non-negative sum unchanged): no stores between the
-/// terms.
+/// non-negative and finite. The AVX copy keeps a row of 9–16 outputs in four registers (lane
+/// masks beyond it), or eight outputs in two registers (four for the last one to four), and
+/// adds `src_row[b] · kpad[..]` for every `b` reaching any of them (an absent tap adds `+0`,
+/// which leaves a non-negative sum unchanged): no stores between the terms.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn conv_rows(
     dst: &mut [f64],
@@ -510,7 +510,7 @@ unsafe fn conv_rows_avx(
     base: i64,
 ) {
     use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
+        __m256i, _mm256_add_pd, _mm256_broadcast_sd, _mm256_loadu_pd, _mm256_loadu_si256,
         _mm256_maskstore_pd, _mm256_mul_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
     let len = kpad.len() as i64 - 2 * KPAD as i64;
@@ -518,6 +518,38 @@ unsafe fn conv_rows_avx(
     for r in 0..n {
         let row = &src[r * ss..r * ss + sc];
         let d = dst[r * dc..].as_mut_ptr();
+        if (9..=16).contains(&dc) {
+            // The whole row of outputs in four registers (lane masks beyond dc): sources b with
+            // t = lane − b + base ∈ [0, len) for some lane.
+            let b_hi = (base + 15).min(sc as i64 - 1);
+            let b_lo = (base - len + 1).max(0);
+            let masks: [__m256i; 4] = std::array::from_fn(|l| {
+                let k = dc.saturating_sub(4 * l).min(4);
+                // SAFETY: a mask row holds four lanes.
+                unsafe { _mm256_loadu_si256(FULL_MASKS[k].as_ptr().cast()) }
+            });
+            let mut acc = [_mm256_setzero_pd(); 4];
+            let mut b = b_hi;
+            while b >= b_lo {
+                // t0 = −b + base ∈ [−15, len − 1]: the loads at t0 + 15 + 4l (four cells
+                // each, l < 4) stay inside kpad (len + 30 cells).
+                let t0 = base - b;
+                // SAFETY: b < sc ≤ row length; kpad indices as derived just above.
+                unsafe {
+                    let q = _mm256_broadcast_sd(row.get_unchecked(b as usize));
+                    let k = kpad.as_ptr().add((t0 + p) as usize);
+                    for (l, a) in acc.iter_mut().enumerate() {
+                        *a = _mm256_add_pd(*a, _mm256_mul_pd(q, _mm256_loadu_pd(k.add(4 * l))));
+                    }
+                }
+                b -= 1;
+            }
+            for (l, a) in acc.iter().enumerate() {
+                // SAFETY: the masks keep the lanes below dc.
+                unsafe { _mm256_maskstore_pd(d.add(4 * l), masks[l], *a) };
+            }
+            continue;
+        }
         let mut j = 0;
         // Eight outputs j..j + 8 while more than four remain (the upper four masked at the
         // end): sources b with t = j + lane − b + base ∈ [0, len) for some lane.
@@ -527,8 +559,8 @@ unsafe fn conv_rows_avx(
             let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
             let mut b = b_hi;
             while b >= b_lo {
-                // t0 = j − b + base ∈ [−7, len − 1]: the loads at t0 + 7 and t0 + 11 (four
-                // cells each) stay inside kpad (len + 14 cells).
+                // t0 = j − b + base ∈ [−7, len − 1]: the loads at t0 + KPAD and
+                // t0 + KPAD + 4 (four cells each) stay inside kpad (len + 2·KPAD cells).
                 let t0 = j as i64 - b + base;
                 // SAFETY: b < sc ≤ row length; kpad indices as derived just above.
                 unsafe {
@@ -558,7 +590,7 @@ unsafe fn conv_rows_avx(
             let mut acc = _mm256_setzero_pd();
             let mut b = b_hi;
             while b >= b_lo {
-                // t0 + 7 ∈ [4, len + 6]: the four-cell load stays inside kpad.
+                // t0 ∈ [−3, len − 1]: the four-cell load at t0 + KPAD stays inside kpad.
                 let t0 = j as i64 - b + base;
                 // SAFETY: b < sc ≤ row length; kpad index as derived just above.
                 unsafe {
