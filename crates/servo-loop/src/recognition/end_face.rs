@@ -29,7 +29,11 @@
 //! **Smoothness.** Where an end face has nearly the table's grey, single pixels of its outline
 //! appear and vanish with the table's texture from one pose to the next; a hull vertex, and the
 //! corner with it, then moves by a few pixels. The centre is accurate on average but less smooth
-//! in the pose than an area-based far end (`docs/performance.md`, `## servo-loop`).
+//! in the pose than an area-based far end (`docs/performance.md`, `## servo-loop`). On rendered
+//! images the largest jumps are chamfers (several corner pixels below the level at once, so the
+//! cap line is fitted to the cut); on synthetic prisms one cleared outline pixel near a corner
+//! moves the centre by at most 0.6 px, one extra covered pixel beside the outline by up to 3 px
+//! (`a_single_outline_pixel_moves_the_centre_by_a_bounded_amount`).
 //!
 //! **Limitation.** When an edge of the end face projects parallel to `d` (a side face seen
 //! edge-on), the outline cannot show where the side line ends: the corner is taken at the
@@ -513,6 +517,114 @@ mod tests {
             let err = (mid[0] - e[0]).hypot(mid[1] - e[1]);
             assert!(err < 0.15, "angle {angle}: centre {e:?}, found {mid:?}");
         }
+    }
+
+    /// The prism of [`cap_corners_average_to_the_end_face_centre`] (end face half-edges `u`,
+    /// `v` centred on `e`, swept back 60 px along `d`).
+    struct Prism {
+        outline: Vec<[f64; 2]>,
+        d: [f64; 2],
+        e: [f64; 2],
+        /// The face's two outer cap corners (its vertices extreme across the axis).
+        corners: [[f64; 2]; 2],
+    }
+
+    impl Prism {
+        fn new(angle: f64, u: [f64; 2], v: [f64; 2], e: [f64; 2]) -> Prism {
+            let (s, c) = angle.to_radians().sin_cos();
+            let d = [c, s];
+            let face = [
+                [e[0] + u[0] + v[0], e[1] + u[1] + v[1]],
+                [e[0] - u[0] + v[0], e[1] - u[1] + v[1]],
+                [e[0] - u[0] - v[0], e[1] - u[1] - v[1]],
+                [e[0] + u[0] - v[0], e[1] + u[1] - v[1]],
+            ];
+            let mut pts: Vec<[f64; 2]> = face.to_vec();
+            pts.extend(
+                face.iter()
+                    .map(|p| [p[0] - 60.0 * d[0], p[1] - 60.0 * d[1]]),
+            );
+            let across = |p: &&[f64; 2]| -p[0] * d[1] + p[1] * d[0];
+            let by_across = |a: &&[f64; 2], b: &&[f64; 2]| across(a).total_cmp(&across(b));
+            let plus = face.iter().max_by(by_across).copied().unwrap_or(e);
+            let minus = face.iter().min_by(by_across).copied().unwrap_or(e);
+            Prism {
+                outline: convex_hull(&pts),
+                d,
+                e,
+                corners: [plus, minus],
+            }
+        }
+
+        /// The mean of the cap corners found on `grid`, read as in
+        /// [`cap_corners_average_to_the_end_face_centre`].
+        fn centre(&self, grid: &CoverageGrid) -> Option<[f64; 2]> {
+            let (e, d) = (self.e, self.d);
+            let xs: Vec<_> = iso_crossings(grid, 0.5)
+                .into_iter()
+                .filter(|p| (p[0] - e[0]) * d[0] + (p[1] - e[1]) * d[1] > -40.0)
+                .collect();
+            let hull = convex_hull(&xs);
+            let [a, b] = cap_corners(&hull, &xs, d, 12f64.to_radians(), 8.0)?;
+            Some([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])])
+        }
+    }
+
+    /// A single spurious outline pixel within 4 px of a cap corner, as the table's texture
+    /// makes them appear and vanish between nearby poses: a covered outline pixel cleared (a
+    /// dropout) or an empty pixel next to the outline set fully covered (a bump). This
+    /// characterises the limitation of the module docs (**Smoothness**): over four prisms,
+    /// both corners and every such pixel the centre moves by at most 0.60 px for a dropout
+    /// but 2.96 px for a bump (measured); the bounds guard against it getting worse.
+    #[test]
+    fn a_single_outline_pixel_moves_the_centre_by_a_bounded_amount() {
+        let mut worst = [0.0f64; 2]; // [dropout, bump]
+        for (k, (angle, u, v)) in [
+            (20.0f64, [3.0, 8.0], [5.0, -2.0]),
+            (110.0, [6.0, 1.0], [4.0, 2.0]),
+            (200.0, [2.5, -7.0], [4.0, 3.0]),
+            (300.0, [7.0, 7.0], [-3.0, 2.0]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let prism = Prism::new(angle, u, v, [60.3 + 0.13 * k as f64, 55.7]);
+            let g = polygon_coverage(&prism.outline, 120, 110);
+            let clean = prism.centre(&g).expect("two sides");
+            let partial = |i: usize, j: usize| {
+                let c = g.values[j * g.width + i];
+                c > 0.0 && c < 1.0
+            };
+            for c in prism.corners {
+                let (ci, cj) = (c[0].round() as usize, c[1].round() as usize);
+                for j in cj - 4..=cj + 4 {
+                    for i in ci - 4..=ci + 4 {
+                        let val = g.values[j * g.width + i];
+                        let kind = if val >= 0.5 && partial(i, j) {
+                            0
+                        } else if val == 0.0
+                            && (partial(i + 1, j)
+                                || partial(i - 1, j)
+                                || partial(i, j + 1)
+                                || partial(i, j - 1))
+                        {
+                            1
+                        } else {
+                            continue;
+                        };
+                        let mut h = g.clone();
+                        h.values[j * g.width + i] = if kind == 0 { 0.0 } else { 1.0 };
+                        let mid = prism.centre(&h).expect("two sides");
+                        let moved = (mid[0] - clean[0]).hypot(mid[1] - clean[1]);
+                        worst[kind] = worst[kind].max(moved);
+                    }
+                }
+            }
+        }
+        assert!(
+            worst[0] < 0.7 && worst[1] < 3.1,
+            "worst moves (dropout, bump) {worst:?} px"
+        );
     }
 
     #[test]
