@@ -407,15 +407,16 @@ const MIN_CAP_ANGLE: f64 = 20.0;
 const MAX_SHARPEN: f64 = 3.0;
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// Coverage of the convex polygon `poly` (counter-clockwise) over a `w × h` grid, 16×16
-    /// supersampled.
-    fn polygon_coverage(poly: &[[f64; 2]], w: usize, h: usize) -> CoverageGrid {
-        let inside = |p: [f64; 2]| {
-            (0..poly.len()).all(|k| cross(poly[k], poly[(k + 1) % poly.len()], p) >= 0.0)
-        };
+    /// Coverage of the pixels of a `w × h` grid (pixel centres at integer coordinates) by the
+    /// region `inside`, 16×16 supersampled; row-major.
+    pub(crate) fn supersampled_coverage(
+        w: usize,
+        h: usize,
+        inside: impl Fn([f64; 2]) -> bool,
+    ) -> Vec<f32> {
         let mut values = vec![0.0f32; w * h];
         for y in 0..h {
             for x in 0..w {
@@ -432,13 +433,51 @@ mod tests {
                 values[y * w + x] = n as f32 / 256.0;
             }
         }
+        values
+    }
+
+    /// Coverage of the convex polygon `poly` (counter-clockwise) over a `w × h` grid, 16×16
+    /// supersampled.
+    pub(crate) fn polygon_coverage(poly: &[[f64; 2]], w: usize, h: usize) -> CoverageGrid {
+        let inside = |p: [f64; 2]| {
+            (0..poly.len()).all(|k| cross(poly[k], poly[(k + 1) % poly.len()], p) >= 0.0)
+        };
         CoverageGrid {
             x0: 0,
             y0: 0,
             width: w,
             height: h,
-            values,
+            values: supersampled_coverage(w, h, inside),
         }
+    }
+
+    /// The outline (convex hull, counter-clockwise) of the module's gripper-end geometry: the
+    /// end face, a parallelogram with centre `e` and half-edges `u`, `v`, swept back `len`
+    /// pixels along the unit direction `d`.
+    pub(crate) fn swept_face(
+        e: [f64; 2],
+        u: [f64; 2],
+        v: [f64; 2],
+        d: [f64; 2],
+        len: f64,
+    ) -> Vec<[f64; 2]> {
+        let mut pts = face(e, u, v).to_vec();
+        pts.extend(
+            face(e, u, v)
+                .iter()
+                .map(|p| [p[0] - len * d[0], p[1] - len * d[1]]),
+        );
+        convex_hull(&pts)
+    }
+
+    /// The end face's four vertices.
+    fn face(e: [f64; 2], u: [f64; 2], v: [f64; 2]) -> [[f64; 2]; 4] {
+        [
+            [e[0] + u[0] + v[0], e[1] + u[1] + v[1]],
+            [e[0] - u[0] + v[0], e[1] - u[1] + v[1]],
+            [e[0] - u[0] - v[0], e[1] - u[1] - v[1]],
+            [e[0] + u[0] - v[0], e[1] + u[1] - v[1]],
+        ]
     }
 
     #[test]
@@ -489,38 +528,17 @@ mod tests {
         .into_iter()
         .enumerate()
         {
-            let (s, c) = angle.to_radians().sin_cos();
-            let d = [c, s];
             let e = [60.3 + 0.13 * k as f64, 55.7];
-            // Face vertices, and the same swept back 60 px.
-            let face = [
-                [e[0] + u[0] + v[0], e[1] + u[1] + v[1]],
-                [e[0] - u[0] + v[0], e[1] - u[1] + v[1]],
-                [e[0] - u[0] - v[0], e[1] - u[1] - v[1]],
-                [e[0] + u[0] - v[0], e[1] + u[1] - v[1]],
-            ];
-            let mut pts: Vec<[f64; 2]> = face.to_vec();
-            pts.extend(
-                face.iter()
-                    .map(|p| [p[0] - 60.0 * d[0], p[1] - 60.0 * d[1]]),
-            );
-            let poly = convex_hull(&pts);
-            let g = polygon_coverage(&poly, 120, 110);
-            // Keep the end: crossings within 40 px of the face centre along d.
-            let xs: Vec<_> = iso_crossings(&g, 0.5)
-                .into_iter()
-                .filter(|p| (p[0] - e[0]) * d[0] + (p[1] - e[1]) * d[1] > -40.0)
-                .collect();
-            let hull = convex_hull(&xs);
-            let [a, b] = cap_corners(&hull, &xs, d, 12f64.to_radians(), 8.0).expect("two sides");
-            let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+            let prism = Prism::new(angle, u, v, e);
+            let g = polygon_coverage(&prism.outline, 120, 110);
+            let mid = prism.centre(&g).expect("two sides");
             let err = (mid[0] - e[0]).hypot(mid[1] - e[1]);
             assert!(err < 0.15, "angle {angle}: centre {e:?}, found {mid:?}");
         }
     }
 
-    /// The prism of [`cap_corners_average_to_the_end_face_centre`] (end face half-edges `u`,
-    /// `v` centred on `e`, swept back 60 px along `d`).
+    /// The prism geometry of the module docs for the tests: end face half-edges `u`, `v`
+    /// centred on `e`, swept back 60 px along `d` (at `angle` degrees).
     struct Prism {
         outline: Vec<[f64; 2]>,
         d: [f64; 2],
@@ -533,31 +551,21 @@ mod tests {
         fn new(angle: f64, u: [f64; 2], v: [f64; 2], e: [f64; 2]) -> Prism {
             let (s, c) = angle.to_radians().sin_cos();
             let d = [c, s];
-            let face = [
-                [e[0] + u[0] + v[0], e[1] + u[1] + v[1]],
-                [e[0] - u[0] + v[0], e[1] - u[1] + v[1]],
-                [e[0] - u[0] - v[0], e[1] - u[1] - v[1]],
-                [e[0] + u[0] - v[0], e[1] + u[1] - v[1]],
-            ];
-            let mut pts: Vec<[f64; 2]> = face.to_vec();
-            pts.extend(
-                face.iter()
-                    .map(|p| [p[0] - 60.0 * d[0], p[1] - 60.0 * d[1]]),
-            );
+            let face = face(e, u, v);
             let across = |p: &&[f64; 2]| -p[0] * d[1] + p[1] * d[0];
             let by_across = |a: &&[f64; 2], b: &&[f64; 2]| across(a).total_cmp(&across(b));
             let plus = face.iter().max_by(by_across).copied().unwrap_or(e);
             let minus = face.iter().min_by(by_across).copied().unwrap_or(e);
             Prism {
-                outline: convex_hull(&pts),
+                outline: swept_face(e, u, v, d, 60.0),
                 d,
                 e,
                 corners: [plus, minus],
             }
         }
 
-        /// The mean of the cap corners found on `grid`, read as in
-        /// [`cap_corners_average_to_the_end_face_centre`].
+        /// The mean of the cap corners found on `grid` from its 0.5-level crossings within
+        /// 40 px of the face centre along `d` (the end window).
         fn centre(&self, grid: &CoverageGrid) -> Option<[f64; 2]> {
             let (e, d) = (self.e, self.d);
             let xs: Vec<_> = iso_crossings(grid, 0.5)

@@ -806,6 +806,9 @@ fn pixel_median(frames: &[Vec<f32>], n: usize, gains: Option<&[Vec<f32>]>) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::recognition::end_face::tests::{
+        polygon_coverage, supersampled_coverage, swept_face,
+    };
     use crate::recognition::lighting::tests::texture;
 
     fn scene(bg: Vec<f32>, w: usize, h: usize, root: [f64; 2]) -> TipModel {
@@ -830,26 +833,21 @@ mod tests {
         let (dx, dy) = (end[0] - a[0], end[1] - a[1]);
         let len = dx.hypot(dy);
         let d = [dx / len, dy / len];
-        let mut out = bg.to_vec();
-        for y in 0..h {
-            for x in 0..w {
-                let mut inside = 0;
-                for sy in 0..16 {
-                    for sx in 0..16 {
-                        let px = x as f64 - 0.5 + (sx as f64 + 0.5) / 16.0 - a[0];
-                        let py = y as f64 - 0.5 + (sy as f64 + 0.5) / 16.0 - a[1];
-                        let s = px * d[0] + py * d[1];
-                        let t = -px * d[1] + py * d[0];
-                        if (0.0..=len).contains(&s) && t.abs() <= half {
-                            inside += 1;
-                        }
-                    }
-                }
-                let c = inside as f32 / 256.0;
-                out[y * w + x] = c * 230.0 + (1.0 - c) * bg[y * w + x];
-            }
-        }
-        out
+        let inside = |p: [f64; 2]| {
+            let (px, py) = (p[0] - a[0], p[1] - a[1]);
+            let s = px * d[0] + py * d[1];
+            let t = -px * d[1] + py * d[0];
+            (0.0..=len).contains(&s) && t.abs() <= half
+        };
+        over(bg, &supersampled_coverage(w, h, inside))
+    }
+
+    /// The grey-230 object of coverage `c` drawn over `bg`.
+    fn over(bg: &[f32], c: &[f32]) -> Vec<f32> {
+        bg.iter()
+            .zip(c)
+            .map(|(&b, &c)| c * 230.0 + (1.0 - c) * b)
+            .collect()
     }
 
     /// The end of an axis-aligned bar over a textured table is found within 0.2 px wherever it
@@ -908,45 +906,8 @@ mod tests {
         d: [f64; 2],
         len: f64,
     ) -> Vec<f32> {
-        let face = [
-            [e[0] + u[0] + v[0], e[1] + u[1] + v[1]],
-            [e[0] - u[0] + v[0], e[1] - u[1] + v[1]],
-            [e[0] - u[0] - v[0], e[1] - u[1] - v[1]],
-            [e[0] + u[0] - v[0], e[1] + u[1] - v[1]],
-        ];
-        let mut pts = face.to_vec();
-        pts.extend(face.iter().map(|p| [p[0] - len * d[0], p[1] - len * d[1]]));
-        let poly = crate::recognition::end_face::convex_hull(&pts);
-        let m = poly.len();
-        // The hull's orientation sign, then "inside" = on the inner side of every edge.
-        let orient = {
-            let (a, b, c) = (poly[0], poly[1], poly[2]);
-            ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).signum()
-        };
-        let inside = |p: [f64; 2]| {
-            (0..m).all(|k| {
-                let (a, b) = (poly[k], poly[(k + 1) % m]);
-                orient * ((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])) >= 0.0
-            })
-        };
-        let mut out = bg.to_vec();
-        for y in 0..h {
-            for x in 0..w {
-                let mut n = 0;
-                for sy in 0..16 {
-                    for sx in 0..16 {
-                        let p = [
-                            x as f64 - 0.5 + (sx as f64 + 0.5) / 16.0,
-                            y as f64 - 0.5 + (sy as f64 + 0.5) / 16.0,
-                        ];
-                        n += usize::from(inside(p));
-                    }
-                }
-                let c = n as f32 / 256.0;
-                out[y * w + x] = c * 230.0 + (1.0 - c) * bg[y * w + x];
-            }
-        }
-        out
+        let outline = swept_face(e, u, v, d, len);
+        over(bg, &polygon_coverage(&outline, w, h).values)
     }
 
     /// An oblique end face (the prism of the `end_face` module over a textured table): the
