@@ -508,12 +508,15 @@ impl TipModel {
         // the gripper's grey locally for exact fractions was tried: it was more accurate on
         // synthetic bars but three times noisier frame to frame on the rendered arm.)
         let mut covered: Vec<(f64, f64, f64)> = Vec::new();
+        // The whole window's coverage, zeros included, only for the end-face rule's outline.
+        let keep_grid = self.config.tip == TipRule::EndFace;
+        let (gw, gh) = (x1 + 1 - x0, y1 + 1 - y0);
         let mut grid = CoverageGrid {
             x0,
             y0,
-            width: x1 + 1 - x0,
-            height: y1 + 1 - y0,
-            values: Vec::with_capacity((x1 + 1 - x0) * (y1 + 1 - y0)),
+            width: gw,
+            height: gh,
+            values: Vec::with_capacity(if keep_grid { gw * gh } else { 0 }),
         };
         for y in y0..=y1 {
             let row = ca + cc * (y as f32 + 0.5 - hh) / hh;
@@ -521,7 +524,9 @@ impl TipModel {
             for x in x0..=x1 {
                 let g = row + cb * (x as f32 + 0.5 - hw) / hw;
                 let c = (((img[x] - g * bg[x]).abs() - noise) * inv).min(1.0);
-                grid.values.push(c.max(0.0));
+                if keep_grid {
+                    grid.values.push(c.max(0.0));
+                }
                 if c > 0.0 {
                     covered.push((x as f64, y as f64, f64::from(c)));
                 }
