@@ -39,7 +39,8 @@ use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
     LearnConfig, RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, TipRule, learn_control,
-    learn_recognition, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
+    learn_recognition, observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian,
+    servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -464,7 +465,8 @@ pub fn evaluate_recognition(
         }
         sim.command(&c)?;
         let (a, b) = (sim.capture(), sim.capture());
-        // The percept's captures (the arm stands still), as `Recogniser::observe` takes them.
+        // The percept's captures (the arm stands still), as `Recogniser::observe` takes them,
+        // shared by both rules.
         let still: Vec<Vec<image::GrayImage>> = (0..p.captures_per_percept.max(1))
             .map(|_| sim.capture())
             .collect();
@@ -482,15 +484,15 @@ pub fn evaluate_recognition(
                     tool[r][cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
                     repeat[r][cam].push((u - lb.position[0]).hypot(v - lb.position[1]));
                 }
-                let located: Vec<[f64; 2]> = still
-                    .iter()
-                    .filter_map(|imgs| m.locate(cam, &imgs[cam]).ok().map(|l| l.position))
-                    .collect();
-                if located.len() == still.len() {
-                    let k = located.len() as f64;
-                    let u = located.iter().map(|l| l[0]).sum::<f64>() / k;
-                    let v = located.iter().map(|l| l[1]).sum::<f64>() / k;
-                    averaged[r][cam].push((u - truth[0]).hypot(v - truth[1]));
+            }
+            // The percept as the servo loop forms it, from the same still captures.
+            let mut next = still.iter().cloned();
+            let grab = || Ok(next.next().unwrap_or_default());
+            if let Ok((locs, _)) = observe_averaged(m, still.len(), grab) {
+                for (cam, l) in locs.iter().enumerate().take(cams) {
+                    let truth = sim.inspect().project(cam, &mid)?;
+                    averaged[r][cam]
+                        .push((l.position[0] - truth[0]).hypot(l.position[1] - truth[1]));
                 }
             }
         }
