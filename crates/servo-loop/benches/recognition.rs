@@ -8,7 +8,7 @@ use servo_loop::recognition::image::half_resolution;
 use servo_loop::recognition::model::TrainingView;
 use servo_loop::{
     GripperModel, InverseModel, InverseModelConfig, RandomCommands, RecognitionConfig,
-    SilhouetteConfig, TipModel,
+    SilhouetteConfig, TipModel, TipRule,
 };
 
 fn scene(x0: u32, y0: u32, s: u32) -> GrayImage {
@@ -89,7 +89,13 @@ fn bench_tip(c: &mut Criterion) {
         let after = sim.capture();
         views.push(TrainingView { before, after });
     }
-    let (model, _) = TipModel::learn(&SilhouetteConfig::default(), &views).unwrap();
+    // One image, one camera: the far-end rule (the learned rule adds the end-face outline and
+    // a kernel regression over all cameras).
+    let far_end = SilhouetteConfig {
+        tip: TipRule::FarEnd,
+        ..SilhouetteConfig::default()
+    };
+    let (model, _) = TipModel::learn(&far_end, &views).unwrap();
     sim.command(&command(&commands.next_command(), 1500.0))
         .unwrap();
     let img = sim.capture().swap_remove(0);

@@ -16,22 +16,26 @@
 //! gripper end's size. In one new image the lit scene is subtracted, the largest connected
 //! silhouette is the arm, its pixel farthest from the root is the end of the chain, and the
 //! **tip** (the middle of the gripper's far end, between the finger ends) follows at sub-pixel
-//! precision by one of two rules ([`TipRule`], [`recognition::silhouette`]): `FarEnd` (the
-//! default and the servo percept) from the soft coverage of the end — the end position along
-//! the gripper's principal axis from covered areas, the centre across it as the
-//! coverage-weighted mean; `EndFace` as the mean of the far cap's two outer corners on the
-//! outline, which is the end face's centre for any viewing direction. Measured on `arm-sim`
-//! (`fixtures/paper-c/summary.md`, median per camera against the projected middle of the
-//! finger ends): `FarEnd` 2.0–2.9 px (frame-to-frame repeatability 0.04–0.13 px), `EndFace`
-//! 0.28–0.48 px (0.03–0.10 px); the 90th percentile is 2–32 px, when another part of the arm
-//! is taken for the far end; ≈ 10–12 px to `arm-sim`'s tool point, which lies 8 mm behind the
-//! finger ends where nothing marks it. `EndFace` is not the servo percept: it changes less
-//! smoothly with the pose (where an end face has little contrast against the table, the
-//! outline it reads moves with the texture), and the servo ends less accurate on it.
+//! precision by one of three rules ([`TipRule`], [`recognition::silhouette`]): `FarEnd` from
+//! the soft coverage of the end (the end position along the gripper's principal axis from
+//! covered areas, the centre across it as the coverage-weighted mean), smooth in the pose but
+//! ahead of and beside the end face's centre; `EndFace` as the mean of the far cap's two outer
+//! corners on the outline, the end face's centre for any viewing direction, but jumping by
+//! 1–2.5 px where single outline pixels of the cap come and go; and `Learned` (the default and
+//! the servo percept), which takes the far end and learns its offset from the end face: at
+//! further random poses the offsets `e − f` of every camera are regressed on all cameras' far
+//! ends (Nadaraya–Watson, bandwidth by leave-one-out; [`recognition::tip_correction`]), and the
+//! corrected far end moves towards the end-face tip by at most 0.5 px. Measured on `arm-sim`
+//! (`fixtures/paper-c/summary.md`, median per camera against the projected middle of the finger
+//! ends): `Learned` 0.29 / 0.75 px (cameras 0 / 1; frame-to-frame repeatability 0.03–0.12 px),
+//! `FarEnd` 2.0 / 2.9 px, `EndFace` 0.28 / 0.48 px; the 90th percentile is 2–36 px, when another
+//! part of the arm is taken for the far end; ≈ 10 px to `arm-sim`'s tool point, which lies 8 mm
+//! behind the finger ends where nothing marks it.
 //! The earlier **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline ×
 //! cos² orientation channels of image gradients, chan-repr; papers.md §1.4) is kept as an
 //! appearance model; it finds the gripper region only to tens of pixels and is not used by the
 //! servo pipeline.
+//!
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
 //! set-points, see [`ControlSpace`]), the percept `x` each produces (the gripper point in every
@@ -85,8 +89,8 @@ pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
-    GripperModel, Localisation, RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipModel,
-    TipRule,
+    CorrectionReport, CorrectionSample, EndEstimate, GripperModel, Localisation, RecognitionConfig,
+    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
 };
 pub use robot::Robot;
 pub use servo::{

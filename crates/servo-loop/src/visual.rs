@@ -104,7 +104,9 @@ impl ControlSpace {
 /// Learns the gripper recogniser by action (Paper C): at `views` random poses (controlled
 /// servos uniform in `explore`, seeded), capture with the gripper open, close it, capture
 /// again; the frames give the static scene, the gripper change locates the end of the chain
-/// ([`TipModel::learn`]). Leaves the gripper at its `rest` set-point.
+/// ([`TipModel::learn`]). Then, unless `config.correction_poses` is 0, one capture at each
+/// of that many further random poses teaches the `Learned` tip rule's correction
+/// ([`TipModel::learn_correction`]). Leaves the gripper at its `rest` set-point.
 pub fn learn_recognition<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
@@ -132,7 +134,24 @@ pub fn learn_recognition<R: Robot>(
         send(robot, &c)?;
         training.push(TrainingView { before, after });
     }
-    TipModel::learn(config, &training)
+    let (mut model, mut report) = TipModel::learn(config, &training)?;
+    drop(training);
+    if config.correction_poses > 0 {
+        // The learned tip's correction: both single-image rules at further random poses, the
+        // gripper at rest (a pose where a camera finds no arm is skipped).
+        let mut poses = RandomCommands::new(explore, seed ^ 0xC0FF_EE00)?;
+        let mut samples = Vec::with_capacity(config.correction_poses);
+        for _ in 0..config.correction_poses {
+            send(robot, &space.full_command(&poses.next_command()))?;
+            if let Ok(sample) = model.correction_sample(&grab(robot)?) {
+                samples.push(sample);
+            }
+        }
+        let mut correction = model.learn_correction(&samples)?;
+        correction.poses = config.correction_poses;
+        report.correction = Some(correction);
+    }
+    Ok((model, report))
 }
 
 fn send<R: Robot>(robot: &mut R, c: &[f64]) -> Result<()> {
@@ -245,8 +264,7 @@ where
                 got: images.len(),
             });
         }
-        for (cam, img) in images.iter().enumerate() {
-            let l = model.locate(cam, img)?;
+        for (cam, l) in model.locate_all(&images)?.into_iter().enumerate() {
             sum[cam][0] += l.position[0];
             sum[cam][1] += l.position[1];
             cert[cam] = cert[cam].min(l.certainty);

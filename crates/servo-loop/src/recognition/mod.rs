@@ -13,6 +13,8 @@
 //!   the chain (told by gripper moves) and the tip at sub-pixel precision by a [`TipRule`].
 //! - `end_face`: the middle of the end face from the outline of the far end (sub-pixel level
 //!   crossings, convex hull, the far cap's outer corners), for [`TipRule::EndFace`].
+//! - [`tip_correction`]: the [`TipRule::Learned`] tip, the far end corrected by an offset
+//!   learned from the end-face rule at random poses (kernel regression on all cameras' far ends).
 //! - [`model`]: the channel-coded appearance model learned from those regions (prototype feature maps around
 //!   the gripper point) and its localisation in a new image with a certainty.
 
@@ -23,6 +25,8 @@ pub mod image;
 mod lighting;
 pub mod model;
 pub mod silhouette;
+pub mod tip_correction;
 
 pub use model::{GripperModel, Localisation, RecognitionConfig, TrainingView};
-pub use silhouette::{SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
+pub use silhouette::{EndEstimate, SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
+pub use tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};

@@ -35,12 +35,15 @@
 //!   finger ends. Two passes, the second centred on the first estimate, make the result
 //!   independent of the integer position of the farthest pixel.
 //!
-//! This is [`TipRule::FarEnd`] (the default and the servo percept). It measures the far
-//! *outline*, which lies ahead of the end face's centre by up to the face's projected depth,
-//! and its coverage-weighted centre leans to the side of an oblique cap. [`TipRule::EndFace`]
-//! instead takes the middle of the end face from the far cap's two outer corners on the
-//! outline (the 0.5 level of the same coverage; `end_face` module), within `0.6 L` behind the
-//! far end, and falls back to the far end when the outline shows no two sides.
+//! This is [`TipRule::FarEnd`]. It measures the far *outline*, which lies ahead of the end
+//! face's centre by up to the face's projected depth, and its coverage-weighted centre leans
+//! to the side of an oblique cap. [`TipRule::EndFace`] instead takes the middle of the end face
+//! from the far cap's two outer corners on the outline (the 0.5 level of the same coverage;
+//! `end_face` module), within `0.6 L` behind the far end, and falls back to the far end when
+//! the outline shows no two sides. [`TipRule::Learned`] (the default and the servo percept)
+//! corrects the far end by an offset learned from the end-face tips of further training poses
+//! and moves it towards the end-face tip by at most half a pixel (`tip_correction` module);
+//! it locates all cameras together ([`TipModel::locate_all`]).
 //!
 //! The certainty compares the end window's covered area with the median learned one.
 //!
@@ -62,6 +65,7 @@ use crate::recognition::image::{
 };
 use crate::recognition::lighting::{fit_lighting, lighting_field, residual};
 use crate::recognition::model::{Localisation, TrainingView};
+use crate::recognition::tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
 
 /// Settings of the silhouette recogniser.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,30 +82,45 @@ pub struct SilhouetteConfig {
     /// Which point of the gripper's far end is the tip.
     #[serde(default)]
     pub tip: TipRule,
+    /// Random poses [`learn_recognition`](crate::learn_recognition) captures after the gripper
+    /// moves to learn the `Learned` rule's correction (0: none is learned).
+    #[serde(default = "default_correction_poses")]
+    pub correction_poses: usize,
+}
+
+fn default_correction_poses() -> usize {
+    1000
 }
 
 /// Which point of the gripper's far end the recogniser reports as the tip.
 ///
-/// The two rules trade accuracy against smoothness (measured on `arm-sim` with three seeds the
-/// evaluation does not use; `docs/performance.md`, `## servo-loop`): `EndFace` finds the
-/// middle of the finger ends to a median 0.26–0.50 px per camera (`FarEnd`: 2.1–5.1 px), but
-/// where an end face has little contrast against the table the outline it reads moves with the
-/// table's texture, so its tip changes less smoothly with the pose (camera 1: 90th percentile
-/// of the step-to-step inconsistency 1.3–1.8 px against 0.75–0.81 px), and servoing on it ends
-/// between 0.03 px more and 0.19 px less accurate after 5 corrections (median, lwpr). `FarEnd`
-/// is the default (the servo percept).
+/// The single-image rules trade accuracy against smoothness (measured on `arm-sim` with three
+/// seeds the evaluation does not use; `docs/performance.md`, `## servo-loop`): `EndFace` finds
+/// the middle of the finger ends to a median 0.26–0.50 px per camera (`FarEnd`: 2.1–5.1 px),
+/// but where an end face has little contrast against the table the outline it reads moves with
+/// the table's texture, so its tip changes less smoothly with the pose (camera 1: 90th
+/// percentile of the step-to-step inconsistency 1.3–1.8 px against 0.75–0.81 px). `Learned`,
+/// the default (the servo percept), combines them: on the same seeds 0.52–0.87 px on the worse
+/// camera (`FarEnd` 2.8–4.0 px), and servoing on it ends within run-to-run spread of `FarEnd`
+/// (lwpr after 5 corrections: 0.56 / 0.58 / 0.47 px against 0.56 / 0.48 / 0.50 px).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TipRule {
     /// The far end of the silhouette from covered areas, centred across by the coverage:
     /// smooth in the pose, but ahead of the end face by up to its projected depth and
     /// off-centre when the cap is oblique.
-    #[default]
     FarEnd,
     /// The middle of the end face (between the finger ends): the mean of the far cap's two
     /// outer corners on the outline (`end_face`); the far end when the outline shows no two
     /// sides.
     EndFace,
+    /// The far end corrected by an offset learned from the end-face rule at random poses, then
+    /// moved towards the end-face tip by at most half a pixel (`tip_correction`): as smooth as
+    /// the far end, nearly as accurate as the end face. Locates all cameras together
+    /// ([`TipModel::locate_all`]; the far ends of all cameras describe the pose) and needs
+    /// [`TipModel::learn_correction`].
+    #[default]
+    Learned,
 }
 
 impl Default for SilhouetteConfig {
@@ -111,7 +130,8 @@ impl Default for SilhouetteConfig {
             min_threshold: 8.0,
             min_pixels: 50,
             min_certainty: 0.3,
-            tip: TipRule::FarEnd,
+            tip: TipRule::default(),
+            correction_poses: default_correction_poses(),
         }
     }
 }
@@ -188,6 +208,9 @@ pub struct SilhouetteReport {
     /// Fraction of training frames whose gripper change lay within the end window of the
     /// silhouette's far end (the end-of-chain rule agrees with the action), per camera.
     pub end_agrees: Vec<f64>,
+    /// The `Learned` rule's correction, when one was learned.
+    #[serde(default)]
+    pub correction: Option<CorrectionReport>,
 }
 
 /// The silhouette-based gripper-tip recogniser (see the module docs).
@@ -195,6 +218,21 @@ pub struct SilhouetteReport {
 pub struct TipModel {
     config: SilhouetteConfig,
     cameras: Vec<CameraScene>,
+    /// The `Learned` rule's correction (`tip_correction`), once learned.
+    #[serde(default)]
+    correction: Option<TipCorrection>,
+}
+
+/// One camera's measurements of the gripper's far end ([`TipModel::estimate_end`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EndEstimate {
+    /// The far end of the silhouette (the `FarEnd` tip; pixels).
+    pub far_end: [f64; 2],
+    /// The middle of the end face (the `EndFace` tip), when the rule uses it and the outline
+    /// shows two sides.
+    pub end_face: Option<[f64; 2]>,
+    /// Certainty in `[0, 1]`: the end window's covered area against the learned one.
+    pub certainty: f64,
 }
 
 /// The arm's silhouette in one image.
@@ -233,7 +271,10 @@ fn median(v: &mut [f64]) -> f64 {
 /// The end analysis of one silhouette: tip, direction, covered area of the end window.
 #[derive(Debug, Clone, Copy)]
 struct EndFit {
+    /// The far end (the `FarEnd` tip).
     tip: [f64; 2],
+    /// The end-face centre, when asked for and the outline shows two sides.
+    face: Option<[f64; 2]>,
     area: f64,
 }
 
@@ -309,6 +350,7 @@ impl TipModel {
             let model_one = TipModel {
                 config: config.clone(),
                 cameras: vec![scene.clone()],
+                correction: None,
             };
             let mut silhouettes = Vec::with_capacity(frames.len());
             for f in &frames {
@@ -356,9 +398,10 @@ impl TipModel {
             let one = TipModel {
                 config: config.clone(),
                 cameras: vec![scene.clone()],
+                correction: None,
             };
             for s in silhouettes.iter().step_by(2) {
-                if let Some(fit) = one.fit_end(0, s) {
+                if let Some(fit) = one.fit_end(0, s, false) {
                     areas.push(fit.area);
                 }
             }
@@ -369,6 +412,7 @@ impl TipModel {
             TipModel {
                 config: config.clone(),
                 cameras,
+                correction: None,
             },
             report,
         ))
@@ -405,13 +449,142 @@ impl TipModel {
                 ..self.config.clone()
             },
             cameras: self.cameras.clone(),
+            correction: self.correction.clone(),
         }
     }
 
-    /// Finds the gripper tip in camera `cam`'s image. Errors: unknown camera, wrong image
-    /// size, no silhouette or a certainty below the configured minimum
-    /// ([`ServoError::RecognitionFailed`]).
+    /// Finds the gripper tip in camera `cam`'s image by the configured single-image rule
+    /// (`FarEnd` or `EndFace`). Errors: unknown camera, wrong image size, no silhouette or a
+    /// certainty below the configured minimum ([`ServoError::RecognitionFailed`]); the
+    /// `Learned` rule, which needs every camera's image ([`TipModel::locate_all`]).
     pub fn locate(&self, cam: usize, img: &GrayImage) -> Result<Localisation> {
+        if self.config.tip == TipRule::Learned {
+            return Err(ServoError::invalid(
+                "tip",
+                "the learned rule locates every camera's image at once: use locate_all",
+            ));
+        }
+        let end = self.estimate_end(cam, img)?;
+        let position = match self.config.tip {
+            TipRule::EndFace => end.end_face.unwrap_or(end.far_end),
+            _ => end.far_end,
+        };
+        Ok(Localisation {
+            position,
+            certainty: end.certainty,
+        })
+    }
+
+    /// Finds the gripper tip in every camera's image (one image per camera, in camera order)
+    /// by the configured rule. Errors as [`TipModel::locate`] for any camera; for the
+    /// `Learned` rule, a model without a learned correction ([`TipModel::learn_correction`]).
+    pub fn locate_all(&self, images: &[GrayImage]) -> Result<Vec<Localisation>> {
+        if images.len() != self.cameras.len() {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera images",
+                expected: self.cameras.len(),
+                got: images.len(),
+            });
+        }
+        let ends = images
+            .iter()
+            .enumerate()
+            .map(|(cam, img)| self.estimate_end(cam, img))
+            .collect::<Result<Vec<_>>>()?;
+        self.tips(&ends)
+    }
+
+    /// The tips of every camera by the configured rule from their end estimates (in camera
+    /// order; [`TipModel::estimate_end`] of each camera, e.g. computed in parallel). Errors:
+    /// a camera count other than the model's; the `Learned` rule without a correction.
+    pub fn tips(&self, ends: &[EndEstimate]) -> Result<Vec<Localisation>> {
+        if ends.len() != self.cameras.len() {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera end estimates",
+                expected: self.cameras.len(),
+                got: ends.len(),
+            });
+        }
+        let positions: Vec<[f64; 2]> = match self.config.tip {
+            TipRule::FarEnd => ends.iter().map(|e| e.far_end).collect(),
+            TipRule::EndFace => ends
+                .iter()
+                .map(|e| e.end_face.unwrap_or(e.far_end))
+                .collect(),
+            TipRule::Learned => {
+                let correction = self.correction.as_ref().ok_or_else(|| {
+                    ServoError::NotEnoughData(
+                        "the learned tip rule needs a learned correction (learn_correction)".into(),
+                    )
+                })?;
+                let far: Vec<[f64; 2]> = ends.iter().map(|e| e.far_end).collect();
+                let faces: Vec<Option<[f64; 2]>> = ends.iter().map(|e| e.end_face).collect();
+                correction.tips(&far, &faces)?
+            }
+        };
+        Ok(positions
+            .into_iter()
+            .zip(ends)
+            .map(|(position, e)| Localisation {
+                position,
+                certainty: e.certainty,
+            })
+            .collect())
+    }
+
+    /// Learns the `Learned` rule's correction from `samples` ([`TipModel::correction_sample`]
+    /// of images at random poses; `tip_correction` module), replacing any earlier one. Errors:
+    /// fewer than 20 poses with an end face in every camera within its end window.
+    pub fn learn_correction(&mut self, samples: &[CorrectionSample]) -> Result<CorrectionReport> {
+        let windows: Vec<f64> = self
+            .cameras
+            .iter()
+            .map(|c| FACE_WINDOW * c.end_length)
+            .collect();
+        let (correction, report) = TipCorrection::learn(samples, &windows)?;
+        self.correction = Some(correction);
+        Ok(report)
+    }
+
+    /// The learned correction, if any.
+    pub fn correction(&self) -> Option<&TipCorrection> {
+        self.correction.as_ref()
+    }
+
+    /// One training sample of the correction: every camera's far end and end-face tip in
+    /// `images` (one per camera). Errors as [`TipModel::locate_all`].
+    pub fn correction_sample(&self, images: &[GrayImage]) -> Result<CorrectionSample> {
+        if images.len() != self.cameras.len() {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera images",
+                expected: self.cameras.len(),
+                got: images.len(),
+            });
+        }
+        let mut sample = CorrectionSample {
+            far_ends: Vec::with_capacity(images.len()),
+            end_faces: Vec::with_capacity(images.len()),
+        };
+        for (cam, img) in images.iter().enumerate() {
+            let e = self.estimate_end_with(cam, img, true)?;
+            sample.far_ends.push(e.far_end);
+            sample.end_faces.push(e.end_face);
+        }
+        Ok(sample)
+    }
+
+    /// Camera `cam`'s far end, and its end-face tip when the rule uses it (`EndFace`,
+    /// `Learned`). Errors as [`TipModel::locate`], except that any rule is accepted.
+    pub fn estimate_end(&self, cam: usize, img: &GrayImage) -> Result<EndEstimate> {
+        self.estimate_end_with(cam, img, self.config.tip != TipRule::FarEnd)
+    }
+
+    fn estimate_end_with(
+        &self,
+        cam: usize,
+        img: &GrayImage,
+        with_face: bool,
+    ) -> Result<EndEstimate> {
         let scene = self.cameras.get(cam).ok_or(ServoError::DimensionMismatch {
             what: "camera index",
             expected: self.cameras.len(),
@@ -438,14 +611,15 @@ impl TipModel {
         if s.component.len() < self.config.min_pixels {
             return Err(fail(0.0));
         }
-        let fit = self.fit_end(cam, &s).ok_or_else(|| fail(0.0))?;
+        let fit = self.fit_end(cam, &s, with_face).ok_or_else(|| fail(0.0))?;
         let ratio = fit.area / scene.end_area;
         let certainty = if ratio > 1.0 { 1.0 / ratio } else { ratio };
         if certainty.is_nan() || certainty < self.config.min_certainty {
             return Err(fail(certainty.max(0.0)));
         }
-        Ok(Localisation {
-            position: fit.tip,
+        Ok(EndEstimate {
+            far_end: fit.tip,
+            end_face: fit.face,
             certainty,
         })
     }
@@ -476,7 +650,8 @@ impl TipModel {
     }
 
     /// Sub-pixel end analysis around the silhouette's far end (module docs).
-    fn fit_end(&self, cam: usize, s: &Silhouette) -> Option<EndFit> {
+    /// With `with_face`, also the end-face centre (`end_face`).
+    fn fit_end(&self, cam: usize, s: &Silhouette, with_face: bool) -> Option<EndFit> {
         let scene = &self.cameras[cam];
         let (w, h) = (scene.width, scene.height);
         let far = farthest(&s.component, scene.root)?;
@@ -509,7 +684,7 @@ impl TipModel {
         // synthetic bars but three times noisier frame to frame on the rendered arm.)
         let mut covered: Vec<(f64, f64, f64)> = Vec::new();
         // The whole window's coverage, zeros included, only for the end-face rule's outline.
-        let keep_grid = self.config.tip == TipRule::EndFace;
+        let keep_grid = with_face;
         let (gw, gh) = (x1 + 1 - x0, y1 + 1 - y0);
         let mut grid = CoverageGrid {
             x0,
@@ -614,18 +789,22 @@ impl TipModel {
                 return None;
             }
             origin = tip;
-            result = Some(EndFit { tip, area });
+            result = Some(EndFit {
+                tip,
+                face: None,
+                area,
+            });
         }
         let fit = result?;
-        if self.config.tip == TipRule::FarEnd {
+        if !with_face {
             return Some(fit);
         }
         // The end-face centre from the far cap's outer corners (`end_face`), in the end
-        // window behind the area estimate of the end; the area estimate when the outline
-        // shows no two sides (a foreshortened gripper, or another part of the arm).
-        Some(match end_face_centre(&grid, fit.tip, d, l) {
-            Some(tip) => EndFit { tip, ..fit },
-            None => fit,
+        // window behind the area estimate of the end; none when the outline shows no two
+        // sides (a foreshortened gripper, or another part of the arm).
+        Some(EndFit {
+            face: end_face_centre(&grid, fit.tip, d, l),
+            ..fit
         })
     }
 }
@@ -818,7 +997,11 @@ mod tests {
 
     fn scene(bg: Vec<f32>, w: usize, h: usize, root: [f64; 2]) -> TipModel {
         TipModel {
-            config: SilhouetteConfig::default(),
+            config: SilhouetteConfig {
+                tip: TipRule::FarEnd,
+                ..SilhouetteConfig::default()
+            },
+            correction: None,
             cameras: vec![CameraScene {
                 width: w,
                 height: h,
@@ -829,6 +1012,17 @@ mod tests {
                 end_length: 40.0,
                 end_area: 1.0,
             }],
+        }
+    }
+
+    /// The tip of a single-image rule, as `locate` picks it.
+    fn rule_tip(m: &TipModel, s: &Silhouette) -> [f64; 2] {
+        let fit = m
+            .fit_end(0, s, m.config.tip != TipRule::FarEnd)
+            .expect("an end");
+        match m.config.tip {
+            TipRule::EndFace => fit.face.unwrap_or(fit.tip),
+            _ => fit.tip,
         }
     }
 
@@ -867,9 +1061,9 @@ mod tests {
             let end = [150.0 + frac, 60.3];
             let img = bar(&bg, w, h, [20.0, 60.3], end, 6.0);
             let s = model.silhouette(0, img);
-            let fit = model.fit_end(0, &s).expect("a bar");
-            let err = (fit.tip[0] - end[0]).hypot(fit.tip[1] - end[1]);
-            assert!(err < 0.2, "end {end:?}: found {:?}", fit.tip);
+            let tip = rule_tip(&model, &s);
+            let err = (tip[0] - end[0]).hypot(tip[1] - end[1]);
+            assert!(err < 0.2, "end {end:?}: found {tip:?}");
         }
     }
 
@@ -887,13 +1081,9 @@ mod tests {
             let model = scene(bg.clone(), w, h, a);
             let img = bar(&bg, w, h, a, end, 5.0);
             let sil = model.silhouette(0, img);
-            let fit = model.fit_end(0, &sil).expect("a bar");
-            let err = (fit.tip[0] - end[0]).hypot(fit.tip[1] - end[1]);
-            assert!(
-                err < 0.25,
-                "angle {angle}: end {end:?}, found {:?}",
-                fit.tip
-            );
+            let tip = rule_tip(&model, &sil);
+            let err = (tip[0] - end[0]).hypot(tip[1] - end[1]);
+            assert!(err < 0.25, "angle {angle}: end {end:?}, found {tip:?}");
         }
     }
 
@@ -937,8 +1127,8 @@ mod tests {
             let end_face = far_end.with_tip_rule(TipRule::EndFace);
             let err = |m: &TipModel| {
                 let sil = m.silhouette(0, img.clone());
-                let fit = m.fit_end(0, &sil).expect("a prism");
-                (fit.tip[0] - e[0]).hypot(fit.tip[1] - e[1])
+                let tip = rule_tip(m, &sil);
+                (tip[0] - e[0]).hypot(tip[1] - e[1])
             };
             let (good, old) = (err(&end_face), err(&far_end));
             assert!(good < 0.25, "angle {angle}: end-face rule {good} px");
@@ -958,13 +1148,9 @@ mod tests {
             let end = [centre[0] + 50.0 * cs, centre[1] + 50.0 * sn];
             let model = scene(bg.clone(), w, h, a).with_tip_rule(TipRule::EndFace);
             let sil = model.silhouette(0, bar(&bg, w, h, a, end, 6.0));
-            let fit = model.fit_end(0, &sil).expect("a bar");
-            let err = (fit.tip[0] - end[0]).hypot(fit.tip[1] - end[1]);
-            assert!(
-                err < 0.25,
-                "angle {angle}: end {end:?}, found {:?}",
-                fit.tip
-            );
+            let tip = rule_tip(&model, &sil);
+            let err = (tip[0] - end[0]).hypot(tip[1] - end[1]);
+            assert!(err < 0.25, "angle {angle}: end {end:?}, found {tip:?}");
         }
     }
 

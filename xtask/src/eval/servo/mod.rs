@@ -394,7 +394,9 @@ pub struct RecognitionResult {
     pub frames: usize,
     pub gripper_changes: Vec<usize>,
     pub tests: usize,
-    /// Per tip rule, on the same images: first the servo percept's rule, then the other.
+    /// What learning the `learned` rule's correction found.
+    pub correction: Option<servo_loop::CorrectionReport>,
+    /// Per tip rule, on the same images: first the servo percept's rule, then the others.
     pub rules: Vec<RuleRecognition>,
 }
 
@@ -404,14 +406,14 @@ pub struct RuleRecognition {
     pub rule: TipRule,
     /// Test images (all cameras) where the tip was found.
     pub found: usize,
-    /// Per camera: median distance of the single-image tip to the projected middle of the
+    /// Per camera: median distance of the single-capture tip to the projected middle of the
     /// finger ends (the point the recogniser defines as the tip) (px).
     pub median_px_finger_ends: Vec<f64>,
     /// Per camera: 90th percentile of the same (px).
     pub p90_px_finger_ends: Vec<f64>,
     /// Per camera: median distance to arm-sim's tool point (8 mm behind the finger ends) (px).
     pub median_px_tool_point: Vec<f64>,
-    /// Per camera: median distance between two single-image tips of the same pose (px).
+    /// Per camera: median distance between two single-capture tips of the same pose (px).
     pub median_px_repeat: Vec<f64>,
     /// Per camera: median distance of the averaged percept (`captures_per_percept` images) to
     /// the middle of the finger ends (px).
@@ -444,11 +446,17 @@ pub fn evaluate_recognition(
     let mut sim = ArmSim::new(config.clone())?;
     let cams = model.num_cameras().min(2);
     let servo_rule = model.config().tip;
-    let other = match servo_rule {
-        TipRule::FarEnd => TipRule::EndFace,
-        TipRule::EndFace => TipRule::FarEnd,
-    };
-    let models = [model.clone(), model.with_tip_rule(other)];
+    // The servo percept's rule first, then the others in a fixed order.
+    let models: Vec<servo_loop::TipModel> = std::iter::once(model.clone())
+        .chain(
+            [TipRule::FarEnd, TipRule::EndFace, TipRule::Learned]
+                .into_iter()
+                .filter(|&r| {
+                    r != servo_rule && (r != TipRule::Learned || model.correction().is_some())
+                })
+                .map(|r| model.with_tip_rule(r)),
+        )
+        .collect();
     let n = models.len();
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
     let mut ends = vec![vec![Vec::new(); cams]; n];
@@ -474,9 +482,11 @@ pub fn evaluate_recognition(
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
         let tips = sim.inspect().tip_pixels()?;
         for (r, m) in models.iter().enumerate() {
+            let (la, lb) = (m.locate_all(&a), m.locate_all(&b));
             for cam in 0..cams {
                 let truth = sim.inspect().project(cam, &mid)?;
-                if let (Ok(la), Ok(lb)) = (m.locate(cam, &a[cam]), m.locate(cam, &b[cam])) {
+                if let (Ok(la), Ok(lb)) = (la.as_ref().map(|l| l[cam]), lb.as_ref().map(|l| l[cam]))
+                {
                     found[r] += 1;
                     certs[r].push(la.certainty);
                     let [u, v] = la.position;
@@ -516,6 +526,7 @@ pub fn evaluate_recognition(
         frames: report.frames,
         gripper_changes: report.gripper_changes.clone(),
         tests: p.recognition_tests,
+        correction: report.correction,
         rules,
     })
 }

@@ -38,14 +38,13 @@ impl Recogniser {
         let mut cert = vec![1.0f64; cameras];
         for _ in 0..self.captures {
             let images = sim.capture();
-            let locs: Vec<servo_loop::Result<Localisation>> = images
+            let ends = images
                 .par_iter()
                 .take(cameras)
                 .enumerate()
-                .map(|(cam, img)| self.model.locate(cam, img))
-                .collect();
-            for (cam, l) in locs.into_iter().enumerate() {
-                let l = l?;
+                .map(|(cam, img)| self.model.estimate_end(cam, img))
+                .collect::<servo_loop::Result<Vec<_>>>()?;
+            for (cam, l) in self.model.tips(&ends)?.into_iter().enumerate() {
                 sum[cam][0] += l.position[0];
                 sum[cam][1] += l.position[1];
                 cert[cam] = cert[cam].min(l.certainty);

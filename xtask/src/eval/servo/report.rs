@@ -139,8 +139,8 @@ pub fn summary(study: &Study) -> String {
     if p.recogniser.is_some() {
         s += &format!(
             "**Percept:** servo-loop's learned gripper recognition on the rendered images (the complete Paper C pipeline, the default; \
-             `--percept simulated` swaps in the true tip projection + {} px noise): each percept is the mean of {} single-image \
-             localisations per camera with the arm standing still. Targets are the recognised percept at reachable poses. \
+             `--percept simulated` swaps in the true tip projection + {} px noise): each percept is the mean of {} \
+             localisations per camera (each from one capture of every camera) with the arm standing still. Targets are the recognised percept at reachable poses. \
              Errors are measured on ground truth (image error = RMS over both cameras of the true tool point's pixel distance to the \
              target pose's; 3-D = tool point distance in mm).\n\n",
             p.noise_px, p.captures_per_percept
@@ -223,19 +223,26 @@ pub fn summary(study: &Study) -> String {
         );
     }
     if let Some(r) = &study.recognition {
-        s += "\n## Gripper recognition (learned from gripper moves, single rendered images)\n\n";
+        s += "\n## Gripper recognition (learned from gripper moves, single rendered captures)\n\n";
         s += &format!(
             "The recogniser learns the static scene from {} frames of random poses, then finds the arm's silhouette in one new image and \
              the tip at the gripper's far end (the end of the chain; gripper moves, changes found per camera {:?}, tell which end is the \
-             gripper) by one of two rules (`servo_loop::TipRule`), evaluated on the same {} test poses: `far_end`, the far end of the \
-             silhouette from covered areas, centred across by the coverage; `end_face`, the middle of the end face as the mean of the far \
-             cap's two outer corners on the outline. Errors against the ground truth: the projected middle of the two finger ends (the \
-             centre of the gripper's end face, the point both rules aim at) and arm-sim's tool point (8 mm further back, between the \
-             finger pads: not visible as such, so no learner can find it without a model of the gripper). The servo percept uses `{}`.\n\n\
+             gripper) by one of three rules (`servo_loop::TipRule`), evaluated on the same {} test poses: `far_end`, the far end of the \
+             silhouette from covered areas, centred across by the coverage (smooth in the pose, but ahead of and beside the end face's \
+             centre); `end_face`, the middle of the end face as the mean of the far cap's two outer corners on the outline (accurate, but \
+             it jumps where outline pixels of the cap come and go); `learned`, the far end plus an offset learned from the end-face rule \
+             at {} further random poses ({} kept; Nadaraya-Watson regression on both cameras' far ends, bandwidth {} px by \
+             leave-one-out), then moved towards the end-face tip by at most 0.5 px. Errors against the ground truth: the projected middle \
+             of the two finger ends (the centre of the gripper's end face, the point the rules aim at) and arm-sim's tool point (8 mm \
+             further back, between the finger pads: not visible as such, so no learner can find it without a model of the gripper). The \
+             servo percept uses `{}`.\n\n\
              | tip rule | camera | found (both cameras) | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|---|---|\n",
             r.frames,
             r.gripper_changes,
             r.tests,
+            r.correction.map_or(0, |c| c.poses),
+            r.correction.map_or(0, |c| c.samples),
+            r.correction.map_or(f64::NAN, |c| c.bandwidth),
             rule_name(r.rules[0].rule),
             p.captures_per_percept
         );
@@ -310,7 +317,7 @@ pub fn summary(study: &Study) -> String {
             );
             for other in &r.rules[1..] {
                 s += &format!(
-                    "; the `{}` rule {:.2} px — {} (not the servo percept: its tip changes less smoothly with the pose, see docs/performance.md)",
+                    "; the `{}` rule {:.2} px — {} (not the servo percept, see docs/performance.md)",
                     rule_name(other.rule),
                     worst(other),
                     verdict(worst(other), 1.0, "px")
@@ -568,5 +575,6 @@ fn rule_name(rule: servo_loop::TipRule) -> &'static str {
     match rule {
         servo_loop::TipRule::FarEnd => "far_end",
         servo_loop::TipRule::EndFace => "end_face",
+        servo_loop::TipRule::Learned => "learned",
     }
 }
