@@ -98,4 +98,6 @@ pub use servo::{
     ServoStep, image_error, open_loop, open_loop_with, servo_broyden, servo_image_jacobian,
     servo_lwpr,
 };
-pub use visual::{ControlSpace, VisualPlant, learn_recognition, observe_averaged};
+pub use visual::{
+    ControlSpace, VisualPlant, capture_training_views, learn_recognition, observe_averaged,
+};

@@ -101,20 +101,19 @@ impl ControlSpace {
     }
 }
 
-/// Learns the gripper recogniser by action (Paper C): at `views` random poses (controlled
-/// servos uniform in `explore`, seeded), capture with the gripper open, close it, capture
-/// again; the frames give the static scene, the gripper change locates the end of the chain
-/// ([`TipModel::learn`]). Then, unless `config.correction_poses` is 0, one capture at each
-/// of that many further random poses teaches the `Learned` tip rule's correction
-/// ([`TipModel::learn_correction`]). Leaves the gripper at its `rest` set-point.
-pub fn learn_recognition<R: Robot>(
+/// Action precedes perception: at `views` random poses (controlled servos uniform in
+/// `explore`, seeded), capture with the gripper open, close it, capture again. The views teach
+/// [`TipModel::learn`] and the channel-coded appearance model
+/// ([`GripperModel::learn`](crate::GripperModel::learn)). Leaves the gripper at its `rest`
+/// set-point. Errors: a control space that does not fit the robot or has no gripper servo,
+/// robot errors.
+pub fn capture_training_views<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
     explore: &[[f64; 2]],
     views: usize,
     seed: u64,
-    config: &SilhouetteConfig,
-) -> Result<(TipModel, SilhouetteReport)> {
+) -> Result<Vec<TrainingView>> {
     space.validate(robot)?;
     let (g, [open, closed]) = space.gripper.ok_or(ServoError::InvalidParameter {
         name: "gripper",
@@ -134,6 +133,23 @@ pub fn learn_recognition<R: Robot>(
         send(robot, &c)?;
         training.push(TrainingView { before, after });
     }
+    Ok(training)
+}
+
+/// Learns the gripper recogniser by action (Paper C): the training views of
+/// [`capture_training_views`] give the static scene, and the gripper change locates the end of
+/// the chain ([`TipModel::learn`]). Then, unless `config.correction_poses` is 0, one capture at
+/// each of that many further random poses teaches the `Learned` tip rule's correction
+/// ([`TipModel::learn_correction`]). Leaves the gripper at its `rest` set-point.
+pub fn learn_recognition<R: Robot>(
+    robot: &mut R,
+    space: &ControlSpace,
+    explore: &[[f64; 2]],
+    views: usize,
+    seed: u64,
+    config: &SilhouetteConfig,
+) -> Result<(TipModel, SilhouetteReport)> {
+    let training = capture_training_views(robot, space, explore, views, seed)?;
     let (mut model, mut report) = TipModel::learn(config, &training)?;
     drop(training);
     if config.correction_poses > 0 {

@@ -295,6 +295,35 @@ fn recognition_is_learned_and_errors_are_typed() {
         model.locate(0, &blank),
         Err(ServoError::RecognitionFailed { camera: 0, .. })
     ));
+    // All cameras at once: one image per camera, one end estimate per camera.
+    assert!(matches!(
+        model.locate_all(std::slice::from_ref(&img)),
+        Err(ServoError::DimensionMismatch {
+            expected: 2,
+            got: 1,
+            ..
+        })
+    ));
+    assert!(matches!(
+        model.tips(&[]),
+        Err(ServoError::DimensionMismatch {
+            expected: 2,
+            got: 0,
+            ..
+        })
+    ));
+    assert!(matches!(
+        model.correction_sample(&[]),
+        Err(ServoError::DimensionMismatch { .. })
+    ));
+    let both = robot.sim.capture();
+    let ends = [
+        model.estimate_end(0, &both[0]).unwrap(),
+        model.estimate_end(1, &both[1]).unwrap(),
+    ];
+    let tips = model.tips(&ends).unwrap();
+    assert_eq!(tips, model.locate_all(&both).unwrap());
+    assert_eq!(tips[0].position, ends[0].far_end, "the far-end rule");
     // Learning without a gripper servo is refused.
     let mut no_gripper = space();
     no_gripper.gripper = None;

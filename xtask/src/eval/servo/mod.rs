@@ -38,9 +38,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
-    LearnConfig, RandomCommands, ServoConfig, ServoRun, SilhouetteConfig, TipRule, learn_control,
-    learn_recognition, observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian,
-    servo_lwpr,
+    LearnConfig, RandomCommands, RecognitionConfig, ServoConfig, ServoRun, SilhouetteConfig,
+    TipRule, capture_training_views, learn_control, learn_recognition, observe_averaged,
+    open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -388,6 +388,20 @@ pub fn learn_recogniser(
     )?)
 }
 
+/// The channel-coded appearance model (`servo_loop::GripperModel`) learned from the same
+/// gripper moves as the recogniser (a fresh simulator replays them).
+pub fn learn_appearance(config: &SimConfig, p: &Protocol) -> Result<servo_loop::GripperModel> {
+    let mut robot = SimRobot(ArmSim::new(config.clone())?);
+    let views = capture_training_views(
+        &mut robot,
+        &control_space(p),
+        &p.explore_us,
+        p.recognition_views,
+        p.seed ^ 0xBEEF,
+    )?;
+    Ok(servo_loop::GripperModel::learn(&RecognitionConfig::default(), &views)?.0)
+}
+
 /// Recognition on rendered images: learn from gripper moves, localise at random poses.
 #[derive(Debug, Clone, Serialize)]
 pub struct RecognitionResult {
@@ -398,6 +412,23 @@ pub struct RecognitionResult {
     pub correction: Option<servo_loop::CorrectionReport>,
     /// Per tip rule, on the same images: first the servo percept's rule, then the others.
     pub rules: Vec<RuleRecognition>,
+    /// The channel-coded appearance model on the same images (whole-image search).
+    pub appearance: AppearanceRecognition,
+}
+
+/// The errors of the channel-coded appearance model (`servo_loop::GripperModel`), whose point is
+/// the centroid of the gripper move's change (the fingers), not the end face.
+#[derive(Debug, Clone, Serialize)]
+pub struct AppearanceRecognition {
+    /// Test images (all cameras) where the certainty reached the model's minimum.
+    pub found: usize,
+    /// Per camera: median distance to the projected middle of the finger ends (px).
+    pub median_px_finger_ends: Vec<f64>,
+    /// Per camera: 90th percentile of the same (px).
+    pub p90_px_finger_ends: Vec<f64>,
+    /// Per camera: median distance to arm-sim's tool point, between the finger pads (px).
+    pub median_px_tool_point: Vec<f64>,
+    pub median_certainty: f64,
 }
 
 /// The recognition errors of one tip rule (`servo_loop::TipRule`).
@@ -465,6 +496,9 @@ pub fn evaluate_recognition(
     let mut averaged = vec![vec![Vec::new(); cams]; n];
     let mut found = vec![0; n];
     let mut certs = vec![Vec::new(); n];
+    let appearance = learn_appearance(config, p)?;
+    let (mut app_ends, mut app_tool) = (vec![Vec::new(); cams], vec![Vec::new(); cams]);
+    let (mut app_found, mut app_certs) = (0, Vec::new());
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
         let mut c = p.rest_us;
@@ -481,6 +515,19 @@ pub fn evaluate_recognition(
         let pose = sim.inspect().pose().clone();
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
         let tips = sim.inspect().tip_pixels()?;
+        let found_app: Vec<_> = (0..cams)
+            .into_par_iter()
+            .map(|cam| appearance.locate(cam, &a[cam], None))
+            .collect();
+        for (cam, l) in found_app.into_iter().enumerate() {
+            let Ok(l) = l else { continue };
+            let truth = sim.inspect().project(cam, &mid)?;
+            let [u, v] = l.position;
+            app_found += 1;
+            app_certs.push(l.certainty);
+            app_ends[cam].push((u - truth[0]).hypot(v - truth[1]));
+            app_tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+        }
         for (r, m) in models.iter().enumerate() {
             let (la, lb) = (m.locate_all(&a), m.locate_all(&b));
             for cam in 0..cams {
@@ -528,6 +575,13 @@ pub fn evaluate_recognition(
         tests: p.recognition_tests,
         correction: report.correction,
         rules,
+        appearance: AppearanceRecognition {
+            found: app_found,
+            median_px_finger_ends: per_camera(&app_ends, median_of),
+            p90_px_finger_ends: per_camera(&app_ends, p90_of),
+            median_px_tool_point: per_camera(&app_tool, median_of),
+            median_certainty: median_of(app_certs),
+        },
     })
 }
 

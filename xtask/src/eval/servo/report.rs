@@ -261,6 +261,26 @@ pub fn summary(study: &Study) -> String {
                 );
             }
         }
+        let app = &r.appearance;
+        for c in 0..app.median_px_finger_ends.len() {
+            s += &format!(
+                "| ccfm (`GripperModel`) | {c} | {} / {} | {:.2} | {:.2} | – | – | {:.2} |\n",
+                app.found,
+                r.tests * app.median_px_finger_ends.len(),
+                app.median_px_finger_ends[c],
+                app.p90_px_finger_ends[c],
+                app.median_px_tool_point[c]
+            );
+        }
+        s += &format!(
+            "\nThe last rows are the channel-coded feature map model of the issue (`servo_loop::GripperModel`: quadratic B-spline spatial × \
+             cos² orientation and grey-level channels, chan-repr), learned from the changed regions of the same gripper moves and matched \
+             over the whole image, certainty = normalised correlation (median {:.2}). Its point is the centroid of the fingers' change, \
+             between the finger ends and the tool point. On these rendered images it is not reliable (its best match is often clutter or \
+             another part of the arm: medians of tens of pixels, worse than the silhouette's wrong ends), and it costs about 20 times the \
+             silhouette recogniser per image, so the servo percept does not use it (docs/performance.md, `## servo-loop`).\n",
+            app.median_certainty
+        );
     }
     // Goal check.
     s += "\n## Goals\n\n";
