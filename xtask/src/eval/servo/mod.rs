@@ -428,6 +428,9 @@ pub struct AppearanceRecognition {
     pub p90_px_finger_ends: Vec<f64>,
     /// Per camera: median distance to arm-sim's tool point, between the finger pads (px).
     pub median_px_tool_point: Vec<f64>,
+    /// Per camera: median distance to the projected middle of the fingers (half their length
+    /// behind the finger ends: the point its change regions centre on) (px).
+    pub median_px_fingers_middle: Vec<f64>,
     pub median_certainty: f64,
 }
 
@@ -498,6 +501,8 @@ pub fn evaluate_recognition(
     let mut certs = vec![Vec::new(); n];
     let appearance = learn_appearance(config, p)?;
     let (mut app_ends, mut app_tool) = (vec![Vec::new(); cams], vec![Vec::new(); cams]);
+    let mut app_fingers = vec![Vec::new(); cams];
+    let half_finger = 0.5 * config.arm.finger_length_mm;
     let (mut app_found, mut app_certs) = (0, Vec::new());
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
@@ -527,6 +532,10 @@ pub fn evaluate_recognition(
             app_certs.push(l.certainty);
             app_ends[cam].push((u - truth[0]).hypot(v - truth[1]));
             app_tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+            let fingers = sim
+                .inspect()
+                .project(cam, &(mid - pose.approach * half_finger))?;
+            app_fingers[cam].push((u - fingers[0]).hypot(v - fingers[1]));
         }
         for (r, m) in models.iter().enumerate() {
             let (la, lb) = (m.locate_all(&a), m.locate_all(&b));
@@ -580,6 +589,7 @@ pub fn evaluate_recognition(
             median_px_finger_ends: per_camera(&app_ends, median_of),
             p90_px_finger_ends: per_camera(&app_ends, p90_of),
             median_px_tool_point: per_camera(&app_tool, median_of),
+            median_px_fingers_middle: per_camera(&app_fingers, median_of),
             median_certainty: median_of(app_certs),
         },
     })

@@ -276,10 +276,17 @@ pub fn summary(study: &Study) -> String {
             "\nThe last rows are the channel-coded feature map model of the issue (`servo_loop::GripperModel`: quadratic B-spline spatial × \
              cos² orientation and grey-level channels, chan-repr), learned from the changed regions of the same gripper moves and matched \
              over the whole image, certainty = normalised correlation (median {:.2}). Its point is the centroid of the fingers' change, \
-             between the finger ends and the tool point. On these rendered images it is not reliable (its best match is often clutter or \
-             another part of the arm: medians of tens of pixels, worse than the silhouette's wrong ends), and it costs about 20 times the \
-             silhouette recogniser per image, so the servo percept does not use it (docs/performance.md, `## servo-loop`).\n",
-            app.median_certainty
+             so the fair comparison is with the projected middle of the fingers (half their length behind the finger ends): median {} px \
+             per camera. Where its best match is the gripper it finds the fingers' region to a few pixels, not a sub-pixel tip; on these \
+             rendered images its best match is often clutter or another part of the arm (a median of tens of pixels or more shows it), \
+             and it costs about 20 times the silhouette recogniser per image, so the servo percept does not use it (docs/performance.md, \
+             `## servo-loop`).\n",
+            app.median_certainty,
+            app.median_px_fingers_middle
+                .iter()
+                .map(|v| format!("{v:.1}"))
+                .collect::<Vec<_>>()
+                .join(" / ")
         );
     }
     // Goal check.
