@@ -149,12 +149,25 @@ impl TipCorrection {
     }
 
     /// The learned tips from every camera's far end and end-face tip (module docs, step 3).
-    /// Errors: camera counts other than the learned one.
+    /// Errors: camera counts other than the learned one; an inconsistent model (e.g. one read
+    /// from an edited file).
     pub fn tips(
         &self,
         far_ends: &[[f64; 2]],
         end_faces: &[Option<[f64; 2]>],
     ) -> Result<Vec<[f64; 2]>> {
+        let dim = 2 * self.cameras;
+        if dim == 0
+            || self.offsets.is_empty()
+            || self.descriptors.len() != self.offsets.len()
+            || self.offsets.len() % dim != 0
+            || !(self.bandwidth.is_finite() && self.bandwidth > 0.0)
+        {
+            return Err(ServoError::invalid(
+                "correction",
+                "inconsistent sample arrays or bandwidth",
+            ));
+        }
         if far_ends.len() != self.cameras || end_faces.len() != self.cameras {
             return Err(ServoError::DimensionMismatch {
                 what: "camera tips",
@@ -324,6 +337,17 @@ mod tests {
         assert!(matches!(
             model.tips(&[[1.0, 2.0]], &[None]),
             Err(ServoError::DimensionMismatch { .. })
+        ));
+        let broken = TipCorrection {
+            offsets: model.offsets[1..].to_vec(),
+            ..model.clone()
+        };
+        assert!(matches!(
+            broken.tips(&[[1.0, 2.0], [3.0, 4.0]], &[None, None]),
+            Err(ServoError::InvalidParameter {
+                name: "correction",
+                ..
+            })
         ));
     }
 }
