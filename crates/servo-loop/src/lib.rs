@@ -100,4 +100,5 @@ pub use servo::{
 };
 pub use visual::{
     ControlSpace, VisualPlant, capture_training_views, learn_recognition, observe_averaged,
+    observe_averaged_by,
 };

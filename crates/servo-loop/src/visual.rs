@@ -262,10 +262,29 @@ impl<R: Robot> VisualPlant<R> {
 pub fn observe_averaged<F>(
     model: &TipModel,
     captures: usize,
-    mut grab_images: F,
+    grab_images: F,
 ) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
 where
     F: FnMut() -> Result<Vec<GrayImage>>,
+{
+    observe_averaged_by(model, captures, grab_images, |images| {
+        model.locate_all(images)
+    })
+}
+
+/// As [`observe_averaged`], with each capture's images located by `locate` (one localisation
+/// per camera of `model`), e.g. the cameras in parallel through [`TipModel::estimate_end`] and
+/// [`TipModel::tips`]. Errors: a capture or a `locate` result with another camera count, and
+/// any error of `grab_images` or `locate`.
+pub fn observe_averaged_by<F, L>(
+    model: &TipModel,
+    captures: usize,
+    mut grab_images: F,
+    mut locate: L,
+) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
+where
+    F: FnMut() -> Result<Vec<GrayImage>>,
+    L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
 {
     let cams = model.num_cameras();
     let mut sum = vec![[0.0f64; 2]; cams];
@@ -280,7 +299,15 @@ where
                 got: images.len(),
             });
         }
-        for (cam, l) in model.locate_all(&images)?.into_iter().enumerate() {
+        let locs = locate(&images)?;
+        if locs.len() != cams {
+            return Err(ServoError::DimensionMismatch {
+                what: "camera localisations",
+                expected: cams,
+                got: locs.len(),
+            });
+        }
+        for (cam, l) in locs.into_iter().enumerate() {
             sum[cam][0] += l.position[0];
             sum[cam][1] += l.position[1];
             cert[cam] = cert[cam].min(l.certainty);

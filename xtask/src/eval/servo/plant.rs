@@ -10,7 +10,9 @@ use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
-use servo_loop::{Localisation, Observation, Plant, Robot, ServoError, TipModel};
+use servo_loop::{
+    Localisation, Observation, Plant, Robot, ServoError, TipModel, observe_averaged_by,
+};
 
 /// The learned recognition as the percept of a [`SimPlant`]: the mean of `captures`
 /// localisations per camera (the arm stands still between the captures), cameras located in
@@ -28,37 +30,29 @@ impl Recogniser {
         }
     }
 
-    /// Per camera: the averaged localisation.
+    /// Per camera (the first `cameras`): the averaged localisation (servo_loop's
+    /// `observe_averaged_by`, every camera of the model located in parallel).
     pub fn observe(
         &self,
         sim: &mut ArmSim,
         cameras: usize,
     ) -> servo_loop::Result<Vec<Localisation>> {
-        let mut sum = vec![[0.0f64; 2]; cameras];
-        let mut cert = vec![1.0f64; cameras];
-        for _ in 0..self.captures {
-            let images = sim.capture();
-            let ends = images
-                .par_iter()
-                .take(cameras)
-                .enumerate()
-                .map(|(cam, img)| self.model.estimate_end(cam, img))
-                .collect::<servo_loop::Result<Vec<_>>>()?;
-            for (cam, l) in self.model.tips(&ends)?.into_iter().enumerate() {
-                sum[cam][0] += l.position[0];
-                sum[cam][1] += l.position[1];
-                cert[cam] = cert[cam].min(l.certainty);
-            }
-        }
-        let n = self.captures as f64;
-        Ok(sum
-            .iter()
-            .zip(&cert)
-            .map(|(s, &c)| Localisation {
-                position: [s[0] / n, s[1] / n],
-                certainty: c,
-            })
-            .collect())
+        let model = &self.model;
+        let (mut locs, _) = observe_averaged_by(
+            model,
+            self.captures,
+            || Ok(sim.capture()),
+            |images| {
+                let ends = images
+                    .par_iter()
+                    .enumerate()
+                    .map(|(cam, img)| model.estimate_end(cam, img))
+                    .collect::<servo_loop::Result<Vec<_>>>()?;
+                model.tips(&ends)
+            },
+        )?;
+        locs.truncate(cameras);
+        Ok(locs)
     }
 }
 
