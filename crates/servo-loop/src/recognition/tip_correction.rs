@@ -160,7 +160,7 @@ impl TipCorrection {
         if dim == 0
             || self.offsets.is_empty()
             || self.descriptors.len() != self.offsets.len()
-            || self.offsets.len() % dim != 0
+            || !self.offsets.len().is_multiple_of(dim)
             || !(self.bandwidth.is_finite() && self.bandwidth > 0.0)
         {
             return Err(ServoError::invalid(
