@@ -60,6 +60,26 @@ pub struct CorrectionReport {
 }
 
 /// The learned far-end correction (module docs).
+///
+/// ```
+/// use servo_loop::{CorrectionSample, TipCorrection};
+///
+/// // One camera whose end face lies 2 px to the left of the far end, at 100 poses.
+/// let samples: Vec<CorrectionSample> = (0..100)
+///     .map(|k| {
+///         let f = [100.0 + 3.0 * (k % 10) as f64, 80.0 + 3.0 * (k / 10) as f64];
+///         CorrectionSample {
+///             far_ends: vec![f],
+///             end_faces: vec![Some([f[0] - 2.0, f[1]])],
+///         }
+///     })
+///     .collect();
+/// let (correction, report) = TipCorrection::learn(&samples, &[10.0]).unwrap();
+/// assert_eq!(report.samples, 100);
+/// // In a new image without a usable end face, the far end moves by the learned offset.
+/// let tip = correction.tips(&[[112.5, 91.0]], &[None]).unwrap();
+/// assert!((tip[0][0] - 110.5).abs() < 1e-6 && (tip[0][1] - 91.0).abs() < 1e-6);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TipCorrection {
     cameras: usize,
