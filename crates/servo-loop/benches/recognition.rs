@@ -102,6 +102,23 @@ fn bench_tip(c: &mut Criterion) {
     c.bench_function("tip_locate_640x480", |b| {
         b.iter(|| model.locate(0, &img).unwrap())
     });
+    // The learned rule (the servo percept): both cameras' far ends and end faces, and the
+    // correction learned from 300 further poses.
+    let mut learned = model.with_tip_rule(TipRule::Learned);
+    let samples: Vec<_> = (0..300)
+        .filter_map(|_| {
+            sim.command(&command(&commands.next_command(), 1500.0))
+                .unwrap();
+            learned.correction_sample(&sim.capture()).ok()
+        })
+        .collect();
+    learned.learn_correction(&samples).unwrap();
+    sim.command(&command(&commands.next_command(), 1500.0))
+        .unwrap();
+    let both = sim.capture();
+    c.bench_function("tip_locate_all_learned_2x640x480", |b| {
+        b.iter(|| learned.locate_all(&both).unwrap())
+    });
 }
 
 criterion_group!(benches, bench, bench_tip);
