@@ -236,7 +236,7 @@ pub fn summary(study: &Study) -> String {
              of the two finger ends (the centre of the gripper's end face, the point the rules aim at) and arm-sim's tool point (8 mm \
              further back, between the finger pads: not visible as such, so no learner can find it without a model of the gripper). The \
              servo percept uses `{}`.\n\n\
-             | tip rule | camera | found (both cameras) | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|---|---|\n",
+             | tip rule | camera | found (all cameras) | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|---|---|\n",
             r.frames,
             r.gripper_changes,
             r.tests,
