@@ -412,14 +412,17 @@ pub struct RecognitionResult {
     pub correction: Option<servo_loop::CorrectionReport>,
     /// Per tip rule, on the same images: first the servo percept's rule, then the others.
     pub rules: Vec<RuleRecognition>,
-    /// The channel-coded appearance model on the same images (whole-image search).
-    pub appearance: AppearanceRecognition,
+    /// The channel-coded appearance model on the same images: searched over the whole image,
+    /// then within its search radius of the servo percept's tip.
+    pub appearance: Vec<AppearanceRecognition>,
 }
 
 /// The errors of the channel-coded appearance model (`servo_loop::GripperModel`), whose point is
 /// the centroid of the gripper move's change (the fingers), not the end face.
 #[derive(Debug, Clone, Serialize)]
 pub struct AppearanceRecognition {
+    /// Where it searched.
+    pub search: String,
     /// Test images (all cameras) where the certainty reached the model's minimum.
     pub found: usize,
     /// Per camera: median distance to the projected middle of the finger ends (px).
@@ -500,10 +503,26 @@ pub fn evaluate_recognition(
     let mut found = vec![0; n];
     let mut certs = vec![Vec::new(); n];
     let appearance = learn_appearance(config, p)?;
-    let (mut app_ends, mut app_tool) = (vec![Vec::new(); cams], vec![Vec::new(); cams]);
-    let mut app_fingers = vec![Vec::new(); cams];
+    // Per search (whole image, near the tip): distances to the finger ends' middle, the tool
+    // point and the fingers' middle per camera, the certainties.
+    let searches = [
+        "whole image".to_string(),
+        format!(
+            "within {} px of the `{}` tip",
+            appearance.config().search_radius,
+            report::rule_name(servo_rule)
+        ),
+    ];
+    let mut app = vec![
+        [
+            vec![Vec::new(); cams],
+            vec![Vec::new(); cams],
+            vec![Vec::new(); cams]
+        ];
+        2
+    ];
+    let mut app_certs = vec![Vec::new(); 2];
     let half_finger = 0.5 * config.arm.finger_length_mm;
-    let (mut app_found, mut app_certs) = (0, Vec::new());
     for _ in 0..p.recognition_tests {
         let y = commands.next_command();
         let mut c = p.rest_us;
@@ -520,22 +539,31 @@ pub fn evaluate_recognition(
         let pose = sim.inspect().pose().clone();
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
         let tips = sim.inspect().tip_pixels()?;
-        let found_app: Vec<_> = (0..cams)
+        let hints = model.locate_all(&a).ok();
+        let found_app: Vec<_> = (0..2 * cams)
             .into_par_iter()
-            .map(|cam| appearance.locate(cam, &a[cam], None))
+            .map(|k| {
+                let (search, cam) = (k / cams, k % cams);
+                let hint = match search {
+                    0 => None,
+                    _ => Some(hints.as_ref()?[cam].position),
+                };
+                appearance.locate(cam, &a[cam], hint).ok()
+            })
             .collect();
-        for (cam, l) in found_app.into_iter().enumerate() {
-            let Ok(l) = l else { continue };
-            let truth = sim.inspect().project(cam, &mid)?;
+        for (k, l) in found_app.into_iter().enumerate() {
+            let (search, cam) = (k / cams, k % cams);
+            let Some(l) = l else { continue };
             let [u, v] = l.position;
-            app_found += 1;
-            app_certs.push(l.certainty);
-            app_ends[cam].push((u - truth[0]).hypot(v - truth[1]));
-            app_tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+            let truth = sim.inspect().project(cam, &mid)?;
             let fingers = sim
                 .inspect()
                 .project(cam, &(mid - pose.approach * half_finger))?;
-            app_fingers[cam].push((u - fingers[0]).hypot(v - fingers[1]));
+            app_certs[search].push(l.certainty);
+            let [ends, tool, middle] = &mut app[search];
+            ends[cam].push((u - truth[0]).hypot(v - truth[1]));
+            tool[cam].push((u - tips[cam][0]).hypot(v - tips[cam][1]));
+            middle[cam].push((u - fingers[0]).hypot(v - fingers[1]));
         }
         for (r, m) in models.iter().enumerate() {
             let (la, lb) = (m.locate_all(&a), m.locate_all(&b));
@@ -584,14 +612,21 @@ pub fn evaluate_recognition(
         tests: p.recognition_tests,
         correction: report.correction,
         rules,
-        appearance: AppearanceRecognition {
-            found: app_found,
-            median_px_finger_ends: per_camera(&app_ends, median_of),
-            p90_px_finger_ends: per_camera(&app_ends, p90_of),
-            median_px_tool_point: per_camera(&app_tool, median_of),
-            median_px_fingers_middle: per_camera(&app_fingers, median_of),
-            median_certainty: median_of(app_certs),
-        },
+        appearance: searches
+            .into_iter()
+            .zip(app.iter().zip(app_certs))
+            .map(
+                |(search, ([ends, tool, middle], certs))| AppearanceRecognition {
+                    search,
+                    found: certs.len(),
+                    median_px_finger_ends: per_camera(ends, median_of),
+                    p90_px_finger_ends: per_camera(ends, p90_of),
+                    median_px_tool_point: per_camera(tool, median_of),
+                    median_px_fingers_middle: per_camera(middle, median_of),
+                    median_certainty: median_of(certs),
+                },
+            )
+            .collect(),
     })
 }
 

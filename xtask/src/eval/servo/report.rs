@@ -261,32 +261,40 @@ pub fn summary(study: &Study) -> String {
                 );
             }
         }
-        let app = &r.appearance;
-        for c in 0..app.median_px_finger_ends.len() {
-            s += &format!(
-                "| ccfm (`GripperModel`) | {c} | {} / {} | {:.2} | {:.2} | – | – | {:.2} |\n",
-                app.found,
-                r.tests * app.median_px_finger_ends.len(),
-                app.median_px_finger_ends[c],
-                app.p90_px_finger_ends[c],
-                app.median_px_tool_point[c]
-            );
+        for app in &r.appearance {
+            for c in 0..app.median_px_finger_ends.len() {
+                s += &format!(
+                    "| ccfm (`GripperModel`), {} | {c} | {} / {} | {:.2} | {:.2} | – | – | {:.2} |\n",
+                    app.search,
+                    app.found,
+                    r.tests * app.median_px_finger_ends.len(),
+                    app.median_px_finger_ends[c],
+                    app.p90_px_finger_ends[c],
+                    app.median_px_tool_point[c]
+                );
+            }
         }
-        s += &format!(
-            "\nThe last rows are the channel-coded feature map model of the issue (`servo_loop::GripperModel`: quadratic B-spline spatial × \
-             cos² orientation and grey-level channels, chan-repr), learned from the changed regions of the same gripper moves and matched \
-             over the whole image, certainty = normalised correlation (median {:.2}). Its point is the centroid of the fingers' change, \
-             so the fair comparison is with the projected middle of the fingers (half their length behind the finger ends): median {} px \
-             per camera. Where its best match is the gripper it finds the fingers' region to a few pixels, not a sub-pixel tip; on these \
-             rendered images its best match is often clutter or another part of the arm (a median of tens of pixels or more shows it), \
-             and it costs about 20 times the silhouette recogniser per image, so the servo percept does not use it (docs/performance.md, \
-             `## servo-loop`).\n",
-            app.median_certainty,
+        let fingers = |app: &super::AppearanceRecognition| {
             app.median_px_fingers_middle
                 .iter()
                 .map(|v| format!("{v:.1}"))
                 .collect::<Vec<_>>()
                 .join(" / ")
+        };
+        s += &format!(
+            "\nThe `ccfm` rows are the channel-coded feature map model of the issue (`servo_loop::GripperModel`: quadratic B-spline spatial × \
+             cos² orientation and grey-level channels, chan-repr), learned from the changed regions of the same gripper moves, certainty = \
+             normalised correlation (median {:.2}), matched over the whole image and within its search radius of the servo percept's tip \
+             (the silhouette says where the arm is). Its point is the centroid of the fingers' change, so the fair comparison is with the \
+             projected middle of the fingers (half their length behind the finger ends): median {} px per camera over the whole image, \
+             {} px near the tip. It finds the fingers' region, not a sub-pixel tip; over the whole image its best match is at times clutter \
+             or another part of the arm, and it costs about 20 times the silhouette recogniser per image, so the servo percept does not use \
+             it (docs/performance.md, `## servo-loop`).\n",
+            r.appearance
+                .first()
+                .map_or(f64::NAN, |a| a.median_certainty),
+            r.appearance.first().map(fingers).unwrap_or_default(),
+            r.appearance.get(1).map(fingers).unwrap_or_default(),
         );
     }
     // Goal check.
@@ -598,7 +606,7 @@ pub fn write_all(ctx: &EvalContext, study: &Study) -> Result<()> {
 }
 
 /// The rule's name as in the configuration files.
-fn rule_name(rule: servo_loop::TipRule) -> &'static str {
+pub fn rule_name(rule: servo_loop::TipRule) -> &'static str {
     match rule {
         servo_loop::TipRule::FarEnd => "far_end",
         servo_loop::TipRule::EndFace => "end_face",
