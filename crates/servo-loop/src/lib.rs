@@ -31,10 +31,11 @@
 //! `FarEnd` 2.0 / 2.9 px, `EndFace` 0.28 / 0.48 px; the 90th percentile is 2–36 px, when another
 //! part of the arm is taken for the far end; ≈ 10 px to `arm-sim`'s tool point, which lies 8 mm
 //! behind the finger ends where nothing marks it.
-//! The earlier **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline ×
-//! cos² orientation channels of image gradients, chan-repr; papers.md §1.4) is kept as an
-//! appearance model; it finds the gripper region only to tens of pixels and is not used by the
-//! servo pipeline.
+//! The **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline × cos²
+//! orientation channels of image gradients, chan-repr; papers.md §1.4), learned from the same
+//! gripper moves ([`capture_training_views`]), is an appearance model with a certainty: matched
+//! near the silhouette's tip it finds the fingers' region to 6–16 px, over the whole image it at
+//! times matches clutter (`eval servo` reports both), so the servo pipeline does not use it.
 //!
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
