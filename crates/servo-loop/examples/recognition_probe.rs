@@ -1,5 +1,5 @@
 //! Development probe (not part of the evaluation): learns the gripper recogniser on `arm-sim`
-//! with a chosen protocol seed and reports, for both tip rules on the same images,
+//! with a chosen protocol seed and reports, for the two single-image tip rules on the same images,
 //! - the tip's error against the projected middle of the finger ends, and for the tips within
 //!   6 px of it the signed components along and across the projected gripper axis;
 //! - the *step inconsistency*: for small moves (3 µs on one joint, 5 steps from each of the
@@ -79,7 +79,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &explore,
         30,
         seed ^ 0xBEEF,
-        &SilhouetteConfig::default(),
+        &SilhouetteConfig {
+            correction_poses: 0,
+            ..SilhouetteConfig::default()
+        },
     )?;
     eprintln!("learned: {report:?}");
     let rules = [TipRule::FarEnd, TipRule::EndFace];

@@ -8,7 +8,7 @@ use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
 use crate::plant::{Observation, Plant};
 use crate::recognition::model::TrainingView;
-use crate::recognition::{Localisation, SilhouetteConfig, SilhouetteReport, TipModel};
+use crate::recognition::{Localisation, SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
 use crate::robot::Robot;
 
 /// Which servos are controlled, and how the others are held.
@@ -154,18 +154,26 @@ pub fn learn_recognition<R: Robot>(
     drop(training);
     if config.correction_poses > 0 {
         // The learned tip's correction: both single-image rules at further random poses, the
-        // gripper at rest (a pose where a camera finds no arm is skipped).
+        // gripper at rest (a pose where a camera does not recognise the arm is skipped).
         let mut poses = RandomCommands::new(explore, seed ^ 0xC0FF_EE00)?;
-        let mut samples = Vec::with_capacity(config.correction_poses);
+        let mut samples = Vec::new();
         for _ in 0..config.correction_poses {
             send(robot, &space.full_command(&poses.next_command()))?;
-            if let Ok(sample) = model.correction_sample(&grab(robot)?) {
-                samples.push(sample);
+            match model.correction_sample(&grab(robot)?) {
+                Ok(sample) => samples.push(sample),
+                Err(ServoError::RecognitionFailed { .. }) => {}
+                Err(e) => return Err(e),
             }
         }
-        let mut correction = model.learn_correction(&samples)?;
-        correction.poses = config.correction_poses;
-        report.correction = Some(correction);
+        match model.learn_correction(&samples) {
+            Ok(mut correction) => {
+                correction.poses = config.correction_poses;
+                report.correction = Some(correction);
+            }
+            // Only the learned rule needs it; the single-image rules work without.
+            Err(ServoError::NotEnoughData(_)) if config.tip != TipRule::Learned => {}
+            Err(e) => return Err(e),
+        }
     }
     Ok((model, report))
 }
@@ -195,9 +203,12 @@ pub struct VisualPlant<R: Robot> {
 }
 
 impl<R: Robot> VisualPlant<R> {
-    /// Connects a robot, its control space and a gripper recogniser.
+    /// Connects a robot, its control space and a gripper recogniser. Errors: a control space
+    /// that does not fit the robot; a recogniser that cannot locate
+    /// ([`TipModel::check_ready`]: the learned rule without its correction).
     pub fn new(robot: R, space: ControlSpace, model: TipModel) -> Result<Self> {
         space.validate(&robot)?;
+        model.check_ready()?;
         Ok(VisualPlant {
             robot,
             space,

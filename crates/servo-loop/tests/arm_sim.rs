@@ -189,6 +189,21 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
 /// asking it for one camera, or for a tip before any correction is learned, is a typed error.
 #[test]
 fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
+    // Without its correction the learned rule refuses to locate, before looking at images.
+    let mut robot = Sim::new(SimConfig::default());
+    let quick = SilhouetteConfig {
+        correction_poses: 0,
+        ..SilhouetteConfig::default()
+    };
+    let (untrained, _) = learn_recognition(&mut robot, &space(), &EXPLORE, 4, 3, &quick).unwrap();
+    assert!(matches!(
+        untrained.locate_all(&robot.sim.capture()),
+        Err(ServoError::NotEnoughData(_))
+    ));
+    assert!(matches!(
+        VisualPlant::new(robot, space(), untrained),
+        Err(ServoError::NotEnoughData(_))
+    ));
     for config in [SimConfig::default(), harsh()] {
         let mut robot = Sim::new(config);
         let learned = SilhouetteConfig {
@@ -240,20 +255,15 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             model.locate(0, &img[0]),
             Err(ServoError::InvalidParameter { name: "tip", .. })
         ));
-        let untrained = {
-            let mut robot = Sim::new(SimConfig::default());
-            let quick = SilhouetteConfig {
-                correction_poses: 0,
-                ..SilhouetteConfig::default()
-            };
-            learn_recognition(&mut robot, &space(), &EXPLORE, 4, 3, &quick)
-                .unwrap()
-                .0
-        };
-        assert!(matches!(
-            untrained.locate_all(&img),
-            Err(ServoError::NotEnoughData(_))
-        ));
+        // The per-camera pieces give the same tips, and a saved model locates alike.
+        let ends: Vec<_> = (0..2)
+            .map(|cam| model.estimate_end(cam, &img[cam]).unwrap())
+            .collect();
+        let tips = model.tips(&ends).unwrap();
+        assert_eq!(tips, model.locate_all(&img).unwrap());
+        let saved = serde_json::to_string(&model).unwrap();
+        let loaded: servo_loop::TipModel = serde_json::from_str(&saved).unwrap();
+        assert_eq!(loaded.locate_all(&img).unwrap(), tips);
     }
 }
 

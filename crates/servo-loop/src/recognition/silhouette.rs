@@ -79,8 +79,9 @@ pub struct SilhouetteConfig {
     pub min_pixels: usize,
     /// Localisations with a lower certainty are failures.
     pub min_certainty: f64,
-    /// Which point of the gripper's far end is the tip.
-    #[serde(default)]
+    /// Which point of the gripper's far end is the tip. (Files written before the learned rule
+    /// existed have no `tip`; for them it is `far_end`, as it was then.)
+    #[serde(default = "far_end")]
     pub tip: TipRule,
     /// Random poses [`learn_recognition`](crate::learn_recognition) captures after the gripper
     /// moves to learn the `Learned` rule's correction (0: none is learned).
@@ -92,6 +93,10 @@ fn default_correction_poses() -> usize {
     1000
 }
 
+fn far_end() -> TipRule {
+    TipRule::FarEnd
+}
+
 /// Which point of the gripper's far end the recogniser reports as the tip.
 ///
 /// The single-image rules trade accuracy against smoothness (measured on `arm-sim` with three
@@ -101,8 +106,9 @@ fn default_correction_poses() -> usize {
 /// the table's texture, so its tip changes less smoothly with the pose (camera 1: 90th
 /// percentile of the step-to-step inconsistency 1.3–1.8 px against 0.75–0.81 px). `Learned`,
 /// the default (the servo percept), combines them: on the same seeds 0.52–0.87 px on the worse
-/// camera (`FarEnd` 2.8–4.0 px), and servoing on it ends within run-to-run spread of `FarEnd`
-/// (lwpr after 5 corrections: 0.56 / 0.58 / 0.47 px against 0.56 / 0.48 / 0.50 px).
+/// camera (`FarEnd` 2.8–4.0 px), and servoing on it ends, on the mean over the seeds, within
+/// the run-to-run spread of `FarEnd` (lwpr after 5 corrections: 0.56 / 0.58 / 0.47 px against
+/// 0.56 / 0.48 / 0.50 px).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TipRule {
@@ -233,6 +239,17 @@ pub struct EndEstimate {
     pub end_face: Option<[f64; 2]>,
     /// Certainty in `[0, 1]`: the end window's covered area against the learned one.
     pub certainty: f64,
+}
+
+impl EndEstimate {
+    /// The tip of a single-image rule: the far end, or the end face where the outline shows
+    /// one (`Learned` combines the cameras in [`TipModel::tips`]; alone it is the far end).
+    fn single_image_tip(&self, rule: TipRule) -> [f64; 2] {
+        match rule {
+            TipRule::EndFace => self.end_face.unwrap_or(self.far_end),
+            TipRule::FarEnd | TipRule::Learned => self.far_end,
+        }
+    }
 }
 
 /// The arm's silhouette in one image.
@@ -465,12 +482,8 @@ impl TipModel {
             ));
         }
         let end = self.estimate_end(cam, img)?;
-        let position = match self.config.tip {
-            TipRule::EndFace => end.end_face.unwrap_or(end.far_end),
-            _ => end.far_end,
-        };
         Ok(Localisation {
-            position,
+            position: end.single_image_tip(self.config.tip),
             certainty: end.certainty,
         })
     }
@@ -479,13 +492,8 @@ impl TipModel {
     /// by the configured rule. Errors as [`TipModel::locate`] for any camera; for the
     /// `Learned` rule, a model without a learned correction ([`TipModel::learn_correction`]).
     pub fn locate_all(&self, images: &[GrayImage]) -> Result<Vec<Localisation>> {
-        if images.len() != self.cameras.len() {
-            return Err(ServoError::DimensionMismatch {
-                what: "camera images",
-                expected: self.cameras.len(),
-                got: images.len(),
-            });
-        }
+        self.check_ready()?;
+        self.check_image_count(images)?;
         let ends = images
             .iter()
             .enumerate()
@@ -505,22 +513,14 @@ impl TipModel {
                 got: ends.len(),
             });
         }
-        let positions: Vec<[f64; 2]> = match self.config.tip {
-            TipRule::FarEnd => ends.iter().map(|e| e.far_end).collect(),
-            TipRule::EndFace => ends
-                .iter()
-                .map(|e| e.end_face.unwrap_or(e.far_end))
-                .collect(),
-            TipRule::Learned => {
-                let correction = self.correction.as_ref().ok_or_else(|| {
-                    ServoError::NotEnoughData(
-                        "the learned tip rule needs a learned correction (learn_correction)".into(),
-                    )
-                })?;
+        self.check_ready()?;
+        let positions: Vec<[f64; 2]> = match (&self.correction, self.config.tip) {
+            (Some(correction), TipRule::Learned) => {
                 let far: Vec<[f64; 2]> = ends.iter().map(|e| e.far_end).collect();
                 let faces: Vec<Option<[f64; 2]>> = ends.iter().map(|e| e.end_face).collect();
                 correction.tips(&far, &faces)?
             }
+            (_, rule) => ends.iter().map(|e| e.single_image_tip(rule)).collect(),
         };
         Ok(positions
             .into_iter()
@@ -551,16 +551,38 @@ impl TipModel {
         self.correction.as_ref()
     }
 
+    /// Whether the configured rule can locate: the `Learned` rule needs a learned correction
+    /// of every camera. Errors: [`ServoError::NotEnoughData`] otherwise.
+    pub fn check_ready(&self) -> Result<()> {
+        if self.config.tip != TipRule::Learned {
+            return Ok(());
+        }
+        match &self.correction {
+            Some(c) if c.num_cameras() == self.cameras.len() => Ok(()),
+            Some(_) => Err(ServoError::NotEnoughData(
+                "the learned correction was learned for another number of cameras".into(),
+            )),
+            None => Err(ServoError::NotEnoughData(
+                "the learned tip rule needs a learned correction (learn_correction)".into(),
+            )),
+        }
+    }
+
+    fn check_image_count(&self, images: &[GrayImage]) -> Result<()> {
+        if images.len() == self.cameras.len() {
+            return Ok(());
+        }
+        Err(ServoError::DimensionMismatch {
+            what: "camera images",
+            expected: self.cameras.len(),
+            got: images.len(),
+        })
+    }
+
     /// One training sample of the correction: every camera's far end and end-face tip in
     /// `images` (one per camera). Errors as [`TipModel::locate_all`].
     pub fn correction_sample(&self, images: &[GrayImage]) -> Result<CorrectionSample> {
-        if images.len() != self.cameras.len() {
-            return Err(ServoError::DimensionMismatch {
-                what: "camera images",
-                expected: self.cameras.len(),
-                got: images.len(),
-            });
-        }
+        self.check_image_count(images)?;
         let mut sample = CorrectionSample {
             far_ends: Vec::with_capacity(images.len()),
             end_faces: Vec::with_capacity(images.len()),
@@ -1152,6 +1174,20 @@ mod tests {
             let err = (tip[0] - end[0]).hypot(tip[1] - end[1]);
             assert!(err < 0.25, "angle {angle}: end {end:?}, found {tip:?}");
         }
+    }
+
+    /// Settings written before the learned rule (no `tip`, no `correction_poses`) keep the
+    /// far-end rule they had; the current defaults round-trip.
+    #[test]
+    fn settings_files_without_the_new_fields_keep_the_far_end() {
+        let old = r#"{"noise_multiple": 5.0, "min_threshold": 8.0, "min_pixels": 50,
+                      "min_certainty": 0.3}"#;
+        let c: SilhouetteConfig = serde_json::from_str(old).expect("an old file");
+        assert_eq!((c.tip, c.correction_poses), (TipRule::FarEnd, 1000));
+        let now = SilhouetteConfig::default();
+        let back: SilhouetteConfig =
+            serde_json::from_str(&serde_json::to_string(&now).unwrap()).unwrap();
+        assert_eq!((back, now.tip), (now.clone(), TipRule::Learned));
     }
 
     #[test]

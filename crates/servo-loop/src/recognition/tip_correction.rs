@@ -27,7 +27,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Result, ServoError};
+use crate::error::{Result, ServoError, check_finite};
 
 /// Bandwidths (pixels of the descriptor) the leave-one-out choice considers.
 const BANDWIDTHS: [f64; 8] = [4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0];
@@ -92,12 +92,18 @@ pub struct TipCorrection {
 
 impl TipCorrection {
     /// Learns the correction from `samples`, keeping those whose every offset is within
-    /// `windows[c]` pixels. Errors: camera counts that differ from `windows`, fewer than 20
-    /// kept samples.
+    /// `windows[c]` pixels (and whose tips are finite). Errors: a window that is not finite and
+    /// positive, camera counts that differ from `windows`, fewer than 20 kept samples.
     pub fn learn(
         samples: &[CorrectionSample],
         windows: &[f64],
     ) -> Result<(TipCorrection, CorrectionReport)> {
+        if windows.iter().any(|w| !(w.is_finite() && *w > 0.0)) {
+            return Err(ServoError::invalid(
+                "windows",
+                "every end window must be finite and positive",
+            ));
+        }
         let cameras = windows.len();
         let dim = 2 * cameras;
         let mut descriptors = Vec::new();
@@ -153,7 +159,8 @@ impl TipCorrection {
             poses: samples.len(),
             samples: kept,
             bandwidth: best.1,
-            loo_rms_px: (best.0 * cameras as f64).sqrt(),
+            // Mean squared error per offset component, two components per camera.
+            loo_rms_px: (2.0 * best.0).sqrt(),
         };
         Ok((model, report))
     }
@@ -168,26 +175,17 @@ impl TipCorrection {
         self.bandwidth
     }
 
-    /// The learned tips from every camera's far end and end-face tip (module docs, step 3).
-    /// Errors: camera counts other than the learned one; an inconsistent model (e.g. one read
-    /// from an edited file).
+    /// The learned tips from every camera's far end and end-face tip (module docs, step 3; a
+    /// non-finite end-face tip counts as none). Errors: camera counts other than the learned
+    /// one, non-finite far ends, an inconsistent model (e.g. one read from an edited file).
     pub fn tips(
         &self,
         far_ends: &[[f64; 2]],
         end_faces: &[Option<[f64; 2]>],
     ) -> Result<Vec<[f64; 2]>> {
-        let dim = 2 * self.cameras;
-        if dim == 0
-            || self.offsets.is_empty()
-            || self.descriptors.len() != self.offsets.len()
-            || !self.offsets.len().is_multiple_of(dim)
-            || !(self.bandwidth.is_finite() && self.bandwidth > 0.0)
-        {
-            return Err(ServoError::invalid(
-                "correction",
-                "inconsistent sample arrays or bandwidth",
-            ));
-        }
+        self.check()?;
+        let flat: Vec<f64> = far_ends.iter().flatten().copied().collect();
+        check_finite("far ends", &flat)?;
         if far_ends.len() != self.cameras || end_faces.len() != self.cameras {
             return Err(ServoError::DimensionMismatch {
                 what: "camera tips",
@@ -203,13 +201,40 @@ impl TipCorrection {
             .enumerate()
             .map(|(c, (f, e))| {
                 let p = [f[0] + o[2 * c], f[1] + o[2 * c + 1]];
-                let Some(e) = e else { return p };
+                let Some(e) = e.filter(|e| e[0].is_finite() && e[1].is_finite()) else {
+                    return p;
+                };
                 let (rx, ry) = (e[0] - p[0], e[1] - p[1]);
                 let r = rx.hypot(ry);
                 let g = if r > CLIP_PX { CLIP_PX / r } else { 1.0 };
                 [p[0] + g * rx, p[1] + g * ry]
             })
             .collect())
+    }
+
+    /// A model fit to use: cameras, matching finite sample arrays, a positive bandwidth (a
+    /// learned one always is; a deserialised one may not be).
+    fn check(&self) -> Result<()> {
+        let consistent = self.cameras.checked_mul(2).is_some_and(|dim| {
+            dim > 0
+                && !self.offsets.is_empty()
+                && self.descriptors.len() == self.offsets.len()
+                && self.offsets.len().is_multiple_of(dim)
+        }) && self.bandwidth.is_finite()
+            && self.bandwidth > 0.0
+            && self
+                .descriptors
+                .iter()
+                .chain(&self.offsets)
+                .all(|v| v.is_finite());
+        if consistent {
+            Ok(())
+        } else {
+            Err(ServoError::invalid(
+                "correction",
+                "inconsistent sample arrays or bandwidth",
+            ))
+        }
     }
 
     /// The Nadaraya–Watson offsets at descriptor `z`, leaving out sample `skip`. The weights
@@ -270,7 +295,7 @@ mod tests {
     use super::*;
 
     /// A two-camera pose grid whose offsets are a smooth function of the far ends, with the
-    /// end-face tips disturbed by ±1.5 px jumps on every fourth pose.
+    /// end-face tips disturbed on every other pose by jumps of alternately +1.5 and −1.5 px.
     fn samples(jumps: bool) -> Vec<CorrectionSample> {
         let mut out = Vec::new();
         for i in 0..20 {
@@ -279,7 +304,12 @@ mod tests {
                 let f0 = [u, v];
                 let f1 = [0.7 * u + 0.2 * v, 0.5 * v - 0.1 * u + 200.0];
                 let off = |p: [f64; 2]| [2.0 * (p[0] / 60.0).sin(), 1.5 * (p[1] / 50.0).cos()];
-                let jump = if jumps && (i + j) % 4 == 0 { 1.5 } else { 0.0 };
+                // Every other pose jumps, alternately by +1.5 and -1.5 px.
+                let jump = match (jumps, (i + j) % 4) {
+                    (true, 0) => 1.5,
+                    (true, 2) => -1.5,
+                    _ => 0.0,
+                };
                 let (o0, o1) = (off(f0), off(f1));
                 out.push(CorrectionSample {
                     far_ends: vec![f0, f1],
@@ -323,7 +353,7 @@ mod tests {
         let a = model.tips(&f, &[None, None]).expect("tips");
         let b = clean.tips(&f, &[None, None]).expect("tips");
         for (p, q) in a.iter().zip(&b) {
-            assert!((p[0] - q[0]).hypot(p[1] - q[1]) < 0.6, "{p:?} vs {q:?}");
+            assert!((p[0] - q[0]).hypot(p[1] - q[1]) < 0.25, "{p:?} vs {q:?}");
         }
         let far_face = [
             Some([a[0][0] + 3.0, a[0][1]]),
@@ -358,6 +388,26 @@ mod tests {
             model.tips(&[[1.0, 2.0]], &[None]),
             Err(ServoError::DimensionMismatch { .. })
         ));
+        // Non-finite input: a typed error for windows and far ends; a NaN end face is none.
+        assert!(matches!(
+            TipCorrection::learn(&train, &[10.0, f64::NAN]),
+            Err(ServoError::InvalidParameter {
+                name: "windows",
+                ..
+            })
+        ));
+        let f = [[155.0, 124.0], [133.3, 246.5]];
+        assert!(matches!(
+            model.tips(&[[f64::NAN, 1.0], f[1]], &[None, None]),
+            Err(ServoError::NonFinite {
+                what: "far ends",
+                ..
+            })
+        ));
+        assert_eq!(
+            model.tips(&f, &[Some([f64::NAN, 0.0]), None]).unwrap(),
+            model.tips(&f, &[None, None]).unwrap()
+        );
         let broken = TipCorrection {
             offsets: model.offsets[1..].to_vec(),
             ..model.clone()

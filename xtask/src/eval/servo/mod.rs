@@ -539,14 +539,16 @@ pub fn evaluate_recognition(
         let pose = sim.inspect().pose().clone();
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
         let tips = sim.inspect().tip_pixels()?;
-        let hints = model.locate_all(&a).ok();
+        // The servo percept's tips in `a`: its rule's row below, and the appearance model's hints.
+        let first_a = models[0].locate_all(&a);
+        let hints = first_a.as_ref().ok();
         let found_app: Vec<_> = (0..2 * cams)
             .into_par_iter()
             .map(|k| {
                 let (search, cam) = (k / cams, k % cams);
                 let hint = match search {
                     0 => None,
-                    _ => Some(hints.as_ref()?[cam].position),
+                    _ => Some(hints?[cam].position),
                 };
                 appearance.locate(cam, &a[cam], hint).ok()
             })
@@ -566,7 +568,14 @@ pub fn evaluate_recognition(
             middle[cam].push((u - fingers[0]).hypot(v - fingers[1]));
         }
         for (r, m) in models.iter().enumerate() {
-            let (la, lb) = (m.locate_all(&a), m.locate_all(&b));
+            let other_a;
+            let la = if r == 0 {
+                &first_a
+            } else {
+                other_a = m.locate_all(&a);
+                &other_a
+            };
+            let lb = m.locate_all(&b);
             for cam in 0..cams {
                 let truth = sim.inspect().project(cam, &mid)?;
                 if let (Ok(la), Ok(lb)) = (la.as_ref().map(|l| l[cam]), lb.as_ref().map(|l| l[cam]))

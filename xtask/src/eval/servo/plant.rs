@@ -43,12 +43,15 @@ impl Recogniser {
             self.captures,
             || Ok(sim.capture()),
             |images| {
-                let ends = images
+                // Every camera of the model (the learned rule's correction takes them all);
+                // collected per camera first, so the error reported is the first camera's
+                // whatever the thread count.
+                let ends: Vec<servo_loop::Result<_>> = images
                     .par_iter()
                     .enumerate()
                     .map(|(cam, img)| model.estimate_end(cam, img))
-                    .collect::<servo_loop::Result<Vec<_>>>()?;
-                model.tips(&ends)
+                    .collect();
+                model.tips(&ends.into_iter().collect::<servo_loop::Result<Vec<_>>>()?)
             },
         )?;
         locs.truncate(cameras);

@@ -230,9 +230,7 @@ pub fn summary(study: &Study) -> String {
              gripper) by one of three rules (`servo_loop::TipRule`), evaluated on the same {} test poses: `far_end`, the far end of the \
              silhouette from covered areas, centred across by the coverage (smooth in the pose, but ahead of and beside the end face's \
              centre); `end_face`, the middle of the end face as the mean of the far cap's two outer corners on the outline (accurate, but \
-             it jumps where outline pixels of the cap come and go); `learned`, the far end plus an offset learned from the end-face rule \
-             at {} further random poses ({} kept; Nadaraya-Watson regression on both cameras' far ends, bandwidth {} px by \
-             leave-one-out), then moved towards the end-face tip by at most 0.5 px. Errors against the ground truth: the projected middle \
+             it jumps where outline pixels of the cap come and go); `learned`, {}. Errors against the ground truth: the projected middle \
              of the two finger ends (the centre of the gripper's end face, the point the rules aim at) and arm-sim's tool point (8 mm \
              further back, between the finger pads: not visible as such, so no learner can find it without a model of the gripper). The \
              servo percept uses `{}`.\n\n\
@@ -240,9 +238,15 @@ pub fn summary(study: &Study) -> String {
             r.frames,
             r.gripper_changes,
             r.tests,
-            r.correction.map_or(0, |c| c.poses),
-            r.correction.map_or(0, |c| c.samples),
-            r.correction.map_or(f64::NAN, |c| c.bandwidth),
+            match r.correction {
+                Some(c) => format!(
+                    "the far end plus an offset learned from the end-face rule at {} further random poses ({} kept; \
+                     Nadaraya-Watson regression on all cameras' far ends, bandwidth {} px by leave-one-out), then moved towards \
+                     the end-face tip by at most 0.5 px",
+                    c.poses, c.samples, c.bandwidth
+                ),
+                None => "not evaluated (no correction was learned)".to_string(),
+            },
             rule_name(r.rules[0].rule),
             p.captures_per_percept
         );
