@@ -9,7 +9,7 @@ use servo_loop::recognition::image::half_resolution;
 use servo_loop::{
     ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot,
     ServoConfig, ServoError, SilhouetteConfig, TipRule, VisualPlant, learn_control,
-    learn_recognition, servo_lwpr,
+    learn_recognition, observe_averaged_by, servo_lwpr,
 };
 
 struct Sim {
@@ -334,6 +334,18 @@ fn recognition_is_learned_and_errors_are_typed() {
     let tips = model.tips(&ends).unwrap();
     assert_eq!(tips, model.locate_all(&both).unwrap());
     assert_eq!(tips[0].position, ends[0].far_end, "the far-end rule");
+    // The averaged percept with the caller's locator: the model's cameras, or a typed error.
+    let grab = || Ok(both.clone());
+    let (averaged, _) = observe_averaged_by(&model, 2, grab, |i| model.locate_all(i)).unwrap();
+    assert_eq!(averaged, tips);
+    assert!(matches!(
+        observe_averaged_by(&model, 1, grab, |_| Ok(Vec::new())),
+        Err(ServoError::DimensionMismatch {
+            expected: 2,
+            got: 0,
+            ..
+        })
+    ));
     // Learning without a gripper servo is refused.
     let mut no_gripper = space();
     no_gripper.gripper = None;
