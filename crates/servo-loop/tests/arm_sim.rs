@@ -92,6 +92,12 @@ fn far_end_only() -> SilhouetteConfig {
     }
 }
 
+/// The median (upper middle) of non-empty values.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 /// A harder scene: stronger lighting changes and more sensor noise (the default scene already
 /// has four clutter objects and a textured table).
 fn harsh() -> SimConfig {
@@ -171,10 +177,6 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
                 }
             }
         }
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        };
         assert!(errors.len() >= 14, "found in {} of 16 images", errors.len());
         // Measured: median about 3 px from the finger ends' middle, repeatability ≈ 0.1 px.
         let (e, r) = (median(&mut errors), median(&mut repeat));
@@ -239,10 +241,6 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
                 repeat.push(dist(la[cam].position, lb[cam].position));
             }
         }
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        };
         assert!(errors.len() >= 20, "found in {} of 24 images", errors.len());
         let (e, f, r) = (median(&mut errors), median(&mut far), median(&mut repeat));
         assert!(
