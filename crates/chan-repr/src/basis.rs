@@ -7,6 +7,10 @@ use crate::{ChanError, Kernel};
 /// Slack (channel spacings) on the representable-range test.
 const RANGE_SLACK: f64 = 1e-9;
 
+/// Most channels one basis may have (2²⁴ ≈ 16.8 million, 128 MiB as a dense `f64` vector):
+/// larger requests are refused with [`ChanError::TooManyChannels`] before anything is allocated.
+pub const MAX_CHANNELS: usize = 1 << 24;
+
 /// `N` uniformly spaced channels with one kernel: maps values to channel-index space
 /// (`t = (x − first)/spacing`, channel `k` centred at `t = k`, 0-based) and back.
 ///
@@ -85,19 +89,12 @@ impl ChannelBasis {
                 needed: kernel.window(),
             });
         }
-        let step = match kernel {
-            Kernel::Cos2 { m } => {
-                let (s, c) = (std::f64::consts::TAU / f64::from(m)).sin_cos();
-                (c, s)
-            }
-            _ => (1.0, 0.0),
-        };
         Ok(ChannelBasis {
             kernel,
             n,
             first,
             spacing,
-            step,
+            step: kernel.phase_step(),
         })
     }
 
@@ -205,36 +202,10 @@ impl ChannelBasis {
     #[inline]
     pub fn for_each_active(&self, t: f64, mut f: impl FnMut(usize, f64)) {
         let r = self.kernel.support_radius();
-        let lo = (t - r).ceil().max(0.0) as usize;
+        let lo = (t - r).ceil().max(0.0) as i64;
         let hi = ((t + r).floor() as i64).min(self.n as i64 - 1);
-        if hi < 0 {
-            return;
-        }
-        let hi = hi as usize;
-        if let Kernel::Cos2 { m } = self.kernel {
-            // cos²(a·d) = (1 + cos(2a·d))/2; the phase 2a·(t − k) falls by 2a per channel, so
-            // rotate one unit phasor instead of calling cos for every channel.
-            let half = 0.5 * f64::from(m);
-            let (cs, sn) = self.step;
-            let (mut s, mut c) = (std::f64::consts::TAU / f64::from(m) * (t - lo as f64)).sin_cos();
-            for k in lo..=hi {
-                let d = t - k as f64;
-                if d.abs() < half {
-                    let v = 0.5 * (1.0 + c);
-                    if v > 0.0 {
-                        f(k, v);
-                    }
-                }
-                (c, s) = (c * cs + s * sn, s * cs - c * sn);
-            }
-            return;
-        }
-        for k in lo..=hi {
-            let v = self.kernel.value(t - k as f64);
-            if v > 0.0 {
-                f(k, v);
-            }
-        }
+        self.kernel
+            .for_each_in(self.step, t, lo, hi, |k, v| f(k as usize, v));
     }
 
     /// Encodes `x` into a dense channel vector (eq. 2.1).

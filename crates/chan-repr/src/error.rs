@@ -13,6 +13,14 @@ pub enum ChanError {
         /// The decoding window's size.
         needed: usize,
     },
+    /// A basis or grid larger than the documented limit (checked before any allocation).
+    #[error("{got} channels exceed the limit of {max}")]
+    TooManyChannels {
+        /// Channels asked for.
+        got: usize,
+        /// The limit.
+        max: usize,
+    },
     /// A kernel width that leaves too few overlapping channels for local decoding.
     #[error("kernel too narrow: {reason}")]
     TooNarrow {
