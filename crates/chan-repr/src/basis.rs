@@ -9,7 +9,14 @@ const RANGE_SLACK: f64 = 1e-9;
 
 /// Most channels one basis may have (2²⁴ ≈ 16.8 million, 128 MiB as a dense `f64` vector):
 /// larger requests are refused with [`ChanError::TooManyChannels`] before anything is allocated.
+/// Also the limit of a dense n-D channel vector ([`crate::ChannelGrid::encode`],
+/// [`crate::SoftHistogram`]); sparse histograms may span larger grids.
 pub const MAX_CHANNELS: usize = 1 << 24;
+
+/// Largest weight, channel coefficient or histogram total accepted (1e200): sums over any
+/// decoding window (at most ~1e100 channels' worth of mass) then stay finite. Larger finite
+/// numbers are refused with [`ChanError::TooLarge`] rather than left to overflow to infinity.
+pub const MAX_MASS: f64 = 1e200;
 
 /// `N` uniformly spaced channels with one kernel: maps values to channel-index space
 /// (`t = (x − first)/spacing`, channel `k` centred at `t = k`, 0-based) and back.
@@ -87,6 +94,12 @@ impl ChannelBasis {
             return Err(ChanError::TooFewChannels {
                 got: n,
                 needed: kernel.window(),
+            });
+        }
+        if n > MAX_CHANNELS {
+            return Err(ChanError::TooManyChannels {
+                got: n,
+                max: MAX_CHANNELS,
             });
         }
         Ok(ChannelBasis {
@@ -244,7 +257,7 @@ impl ChannelBasis {
     }
 }
 
-/// Checks a certainty weight is finite and non-negative.
+/// Checks a certainty weight is finite, non-negative and at most [`MAX_MASS`].
 pub(crate) fn check_weight(weight: f64) -> Result<(), ChanError> {
     if !weight.is_finite() {
         return Err(ChanError::NonFinite {
@@ -256,6 +269,18 @@ pub(crate) fn check_weight(weight: f64) -> Result<(), ChanError> {
         return Err(ChanError::Negative {
             what: "weight",
             value: weight,
+        });
+    }
+    check_mass("weight", weight)
+}
+
+/// Checks a non-negative amount of mass is at most [`MAX_MASS`].
+pub(crate) fn check_mass(what: &'static str, value: f64) -> Result<(), ChanError> {
+    if value > MAX_MASS {
+        return Err(ChanError::TooLarge {
+            what,
+            value,
+            max: MAX_MASS,
         });
     }
     Ok(())
@@ -276,6 +301,34 @@ mod tests {
         assert!(ChannelBasis::new(f64::NAN, 1.0, 10, k).is_err());
         assert!(ChannelBasis::covering(1.0, 1.0, 10, k).is_err());
         assert!(ChannelBasis::integer(10, Kernel::Cos2 { m: 2 }).is_err());
+    }
+
+    #[test]
+    fn huge_bases_are_refused_before_allocation() {
+        // Issue 24 #11: 10¹⁰ channels used to abort on allocation in `encode`.
+        assert_eq!(
+            ChannelBasis::integer(10_000_000_000, Kernel::Cos2 { m: 3 }),
+            Err(ChanError::TooManyChannels {
+                got: 10_000_000_000,
+                max: MAX_CHANNELS
+            })
+        );
+        assert!(ChannelBasis::covering(0.0, 1.0, MAX_CHANNELS + 1, Kernel::BSpline2).is_err());
+        assert!(ChannelBasis::integer(MAX_CHANNELS, Kernel::BSpline2).is_ok());
+        let json =
+            r#"{"kernel":"b_spline2","channels":10000000000,"first_centre":0.0,"spacing":1.0}"#;
+        assert!(serde_json::from_str::<ChannelBasis>(json).is_err());
+    }
+
+    #[test]
+    fn weights_beyond_the_mass_limit_are_errors() {
+        let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+        assert!(matches!(
+            b.encode_weighted(3.0, 1e308),
+            Err(ChanError::TooLarge { .. })
+        ));
+        let c = b.encode_weighted(3.0, MAX_MASS).unwrap();
+        assert!((b.decode_best(&c).unwrap().unwrap().weight / MAX_MASS - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -57,6 +57,11 @@
 //!
 //! Errors are typed ([`ChanError`]): out-of-range or non-finite values, negative weights or
 //! coefficients, too few channels, kernels too narrow to decode.
+//!
+//! **Limits** (checked before anything is allocated or added): at most [`MAX_CHANNELS`]
+//! (2²⁴) channels per basis and per dense vector or histogram (sparse histograms may span
+//! larger grids); weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
+//! that no window sum can overflow. A rejected value leaves a histogram unchanged.
 #![deny(missing_docs)]
 
 mod basis;
@@ -67,7 +72,7 @@ mod histogram;
 mod kernel;
 mod periodic;
 
-pub use basis::{ChannelBasis, MAX_CHANNELS};
+pub use basis::{ChannelBasis, MAX_CHANNELS, MAX_MASS};
 pub use decode::{Mode, WindowEstimate};
 pub use error::ChanError;
 pub use grid::{ChannelGrid, ModeNd};
