@@ -84,7 +84,7 @@ impl Workspace {
     }
 
     /// As [`run`](Self::run), with each region's pixels: `xy[start .. start + area]` for the
-    /// start pushed onto `starts` beside it.
+    /// start returned beside it.
     fn run_with_pixels(
         &mut self,
         img: &GrayView,
@@ -92,16 +92,11 @@ impl Workspace {
         params: &MserParams,
         polarity: Polarity,
         xy: &mut Vec<(u32, u32)>,
-        out: &mut Vec<Region>,
-        starts: &mut Vec<u32>,
-    ) {
+    ) -> Vec<(Region, u32)> {
         self.analyse(img, hist, params, polarity, Some(xy));
         let mut found: Vec<(Region, u32)> = self.regions(polarity).collect();
         found.sort_by_key(|(r, _)| r.order_key());
-        for (r, s) in found {
-            out.push(r);
-            starts.push(s);
-        }
+        found
     }
 }
 
@@ -209,41 +204,22 @@ impl Mser {
     /// assert_eq!(dark, plain[0].pixels(&img).unwrap());
     /// ```
     pub fn detect_with_pixels(&mut self, img: &GrayView) -> Result<RegionsWithPixels<'_>> {
-        let mut regions = Vec::new();
-        let mut starts = Vec::new();
         let p = &self.params;
         let hist = histogram(img);
         let [dark_xy, bright_xy] = &mut self.pixels;
-        let mut dark_count = 0;
+        let mut dark = Vec::new();
         if matches!(p.polarities, Polarities::Dark | Polarities::Both) {
-            self.work.run_with_pixels(
-                img,
-                &hist,
-                p,
-                Polarity::Dark,
-                dark_xy,
-                &mut regions,
-                &mut starts,
-            );
-            dark_count = regions.len();
+            dark = self
+                .work
+                .run_with_pixels(img, &hist, p, Polarity::Dark, dark_xy);
         }
+        let mut bright = Vec::new();
         if matches!(p.polarities, Polarities::Bright | Polarities::Both) {
-            self.work.run_with_pixels(
-                img,
-                &hist,
-                p,
-                Polarity::Bright,
-                bright_xy,
-                &mut regions,
-                &mut starts,
-            );
+            bright = self
+                .work
+                .run_with_pixels(img, &hist, p, Polarity::Bright, bright_xy);
         }
-        Ok(RegionsWithPixels::new(
-            regions,
-            starts,
-            dark_count,
-            [dark_xy, bright_xy],
-        ))
+        Ok(RegionsWithPixels::new(dark, bright, [dark_xy, bright_xy]))
     }
 
     /// Like [`detect_with_pixels`](Self::detect_with_pixels), with the two polarities on two
@@ -256,28 +232,12 @@ impl Mser {
         let p = &self.params;
         let hist = histogram(img);
         let [dark_xy, bright_xy] = &mut self.pixels;
-        let (dark, bright) = (&mut self.work, &mut self.bright);
-        let ((mut regions, mut starts), (b_regions, b_starts)) = rayon::join(
-            || {
-                let (mut r, mut s) = (Vec::new(), Vec::new());
-                dark.run_with_pixels(img, &hist, p, Polarity::Dark, dark_xy, &mut r, &mut s);
-                (r, s)
-            },
-            || {
-                let (mut r, mut s) = (Vec::new(), Vec::new());
-                bright.run_with_pixels(img, &hist, p, Polarity::Bright, bright_xy, &mut r, &mut s);
-                (r, s)
-            },
+        let (dark_work, bright_work) = (&mut self.work, &mut self.bright);
+        let (dark, bright) = rayon::join(
+            || dark_work.run_with_pixels(img, &hist, p, Polarity::Dark, dark_xy),
+            || bright_work.run_with_pixels(img, &hist, p, Polarity::Bright, bright_xy),
         );
-        let dark_count = regions.len();
-        regions.extend(b_regions);
-        starts.extend(b_starts);
-        Ok(RegionsWithPixels::new(
-            regions,
-            starts,
-            dark_count,
-            [dark_xy, bright_xy],
-        ))
+        Ok(RegionsWithPixels::new(dark, bright, [dark_xy, bright_xy]))
     }
 
     /// Like [`detect`](Self::detect), with the two polarities on two rayon tasks. Same result.

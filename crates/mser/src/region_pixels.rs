@@ -17,24 +17,16 @@ pub struct RegionsWithPixels<'a> {
 }
 
 impl<'a> RegionsWithPixels<'a> {
-    /// Regions `..dark_count` are dark and index `xy[0]`, the rest bright and index `xy[1]`.
+    /// The dark and the bright regions (each with its run's start), dark ones indexing `xy[0]`,
+    /// bright ones `xy[1]`.
     pub(crate) fn new(
-        regions: Vec<Region>,
-        starts: Vec<u32>,
-        dark_count: usize,
+        dark: Vec<(Region, u32)>,
+        bright: Vec<(Region, u32)>,
         xy: [&'a [(u32, u32)]; 2],
     ) -> Self {
-        debug_assert_eq!(regions.len(), starts.len());
-        debug_assert!(
-            regions[..dark_count]
-                .iter()
-                .all(|r| r.polarity == Polarity::Dark)
-        );
-        debug_assert!(
-            regions[dark_count..]
-                .iter()
-                .all(|r| r.polarity == Polarity::Bright)
-        );
+        debug_assert!(dark.iter().all(|(r, _)| r.polarity == Polarity::Dark));
+        debug_assert!(bright.iter().all(|(r, _)| r.polarity == Polarity::Bright));
+        let (regions, starts) = dark.into_iter().chain(bright).unzip();
         RegionsWithPixels {
             regions,
             starts,
