@@ -251,7 +251,7 @@ impl Region {
     /// `img` must be the image the region was detected in.
     pub fn pixels(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
         self.check_seed(img)?;
-        let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox);
+        let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox)?;
         if px.len() != self.area as usize {
             return Err(MserError::RegionImageMismatch {
                 reason: "flood fill from the seed does not give the region's area",
