@@ -66,7 +66,10 @@
 //! ## Data
 //! [`sim`]: the synthetic RC-car-following generator (papers.md §2.5) and the univariate
 //! non-stationary growth model of Arulampalam et al. (§2.4); [`csv`]: the plain
-//! `frame,kind,x,y` sequence format; [`metrics`]: RMSE and track loss.
+//! `frame,kind,x,y` sequence format (any first frame, gaps, a byte-order mark; a bounded frame
+//! span); [`mot`]: MOTChallenge ground truth, one single-target sequence per id;
+//! [`sim::observe`]: simulated detections (misses, noise, clutter) on a given trajectory;
+//! [`metrics`]: RMSE and track loss.
 //!
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
@@ -97,6 +100,7 @@ mod integrity;
 mod kalman;
 pub mod metrics;
 mod model;
+pub mod mot;
 mod observation;
 mod particle;
 mod pool;
