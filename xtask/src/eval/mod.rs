@@ -96,6 +96,13 @@ impl EvalTarget {
         }
     }
 
+    /// Folders the target may write beside its own (e.g. `fixtures/NAME/`), through
+    /// [`EvalContext::sibling`]; each replaces its destination only if the target wrote
+    /// into it, else the destination keeps its contents.
+    pub fn siblings(&self) -> &'static [&'static str] {
+        &[]
+    }
+
     /// Why the target cannot run without (complete) benchmark data, if it needs data.
     fn missing_data(&self, data: Option<&Path>) -> Option<String> {
         match self {
@@ -124,6 +131,15 @@ pub struct EvalContext {
     pub out_dir: PathBuf,
     /// The benchmark data folder, if the user has one (`--data` or `$VISGUIDE_DATA`).
     pub data_dir: Option<PathBuf>,
+}
+
+impl EvalContext {
+    /// The staged folder of the sibling output `name` (one of [`EvalTarget::siblings`]),
+    /// beside [`EvalContext::out_dir`].
+    #[allow(dead_code)] // for targets with sibling outputs (the pedestrian tracking study)
+    pub fn sibling(&self, name: &str) -> PathBuf {
+        crate::output::staging_path(&self.out_dir.with_file_name(name))
+    }
 }
 
 /// Runs `cargo xtask eval`: checks every destination and the data first, stages each target's
@@ -164,7 +180,8 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     } else {
         None
     };
-    let mut destinations = Vec::new();
+    // Per target, its own destination first, then its siblings'.
+    let mut destinations: Vec<Vec<(String, Destination)>> = Vec::new();
     for t in &plan {
         let dest = match (&check_root, &args.out, single) {
             (Some(root), _, _) => Destination::check(&root.path().join(t.name()), true)?,
@@ -172,50 +189,58 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             (None, Some(root), false) => Destination::check(&root.join(t.name()), false)?,
             (None, None, _) => Destination::check(&fixtures.join(t.name()), true)?,
         };
-        if destinations
-            .iter()
-            .any(|d: &Destination| d.path() == dest.path())
-        {
-            return Err(format!("two targets write {}", dest.path().display()).into());
+        let trusted = check_root.is_some() || args.out.is_none();
+        let mut own = vec![(t.name().to_string(), dest)];
+        for s in t.siblings() {
+            let beside = own[0].1.path().with_file_name(s);
+            own.push((s.to_string(), Destination::check(&beside, trusted)?));
         }
-        destinations.push(dest);
+        for (_, d) in &own {
+            if destinations
+                .iter()
+                .flatten()
+                .any(|(_, e)| e.path() == d.path())
+            {
+                return Err(format!("two targets write {}", d.path().display()).into());
+            }
+        }
+        destinations.push(own);
     }
     let data = data_dir
         .as_ref()
         .map_or("none (synthetic data only)".into(), |d| {
             d.display().to_string()
         });
-    let mut staged = Vec::new();
-    for (t, dest) in plan.iter().zip(&destinations) {
-        let stage = Staged::new(dest)?;
+    // (name, staged folder) of every output to move into place or compare.
+    let mut staged: Vec<(String, Staged)> = Vec::new();
+    for (t, own) in plan.iter().zip(&destinations) {
+        let dest = own[0].1.path();
+        let mut stages = Vec::new();
+        for (name, d) in own {
+            stages.push((name.clone(), Staged::new(d)?));
+        }
         let ctx = EvalContext {
-            out_dir: stage.path().to_path_buf(),
+            out_dir: stages[0].1.path().to_path_buf(),
             data_dir: data_dir.clone(),
         };
-        eprintln!(
-            "eval {} -> {} (data: {data})",
-            t.name(),
-            dest.path().display()
-        );
-        t.run(&ctx).map_err(|e| {
-            format!(
-                "{}: {e} ({} left unchanged)",
-                t.name(),
-                dest.path().display()
-            )
-        })?;
-        staged.push(stage);
+        eprintln!("eval {} -> {} (data: {data})", t.name(), dest.display());
+        t.run(&ctx)
+            .map_err(|e| format!("{}: {e} ({} left unchanged)", t.name(), dest.display()))?;
+        // A sibling the target did not write keeps its old contents (it is dropped here).
+        for (i, (name, stage)) in stages.into_iter().enumerate() {
+            if i == 0 || !stage.is_unused() {
+                staged.push((name, stage));
+            }
+        }
     }
     let Some(check_root) = check_root else {
-        output::commit_all(staged)?;
-        return Ok(());
+        return output::commit_all(staged.into_iter().map(|(_, s)| s).collect());
     };
     // The staged folders are named `.NAME.partial-PID` below the check root: compare those.
-    let names: Vec<&str> = plan.iter().map(|t| t.name()).collect();
-    let actual: Vec<(String, PathBuf)> = plan
+    let names: Vec<String> = staged.iter().map(|(n, _)| n.clone()).collect();
+    let actual: Vec<(String, PathBuf)> = staged
         .iter()
-        .zip(&staged)
-        .map(|(t, s)| (t.name().to_string(), s.path().to_path_buf()))
+        .map(|(n, s)| (n.clone(), s.path().to_path_buf()))
         .collect();
     let diffs = fixture_check::compare_folders(&fixtures, &actual)?;
     drop(staged);
@@ -231,7 +256,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         .into());
     }
     eprintln!(
-        "fixtures reproduce ({} target(s): {})",
+        "fixtures reproduce ({} folder(s): {})",
         names.len(),
         names.join(", ")
     );

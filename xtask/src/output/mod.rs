@@ -139,6 +139,12 @@ fn resolve_existing(path: &Path) -> PathBuf {
     }
 }
 
+/// Where a destination is staged: `PARENT/.NAME.partial-PID` (the one home of this naming).
+pub fn staging_path(dest: &Path) -> PathBuf {
+    let name = dest.file_name().unwrap_or_default().to_string_lossy();
+    dest.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+}
+
 /// A temporary folder beside a [`Destination`], registered with [`interrupt`]; removed when
 /// dropped unless committed.
 #[derive(Debug)]
@@ -165,8 +171,7 @@ impl Staged {
         }
         std::fs::create_dir_all(parent)
             .map_err(|e| format!("output folder {}: {e}", dest.path.display()))?;
-        let name = dest.path.file_name().expect("checked").to_string_lossy();
-        let temp = parent.join(format!(".{name}.partial-{}", std::process::id()));
+        let temp = staging_path(&dest.path);
         let staged = Staged {
             dest: dest.clone(),
             temp: temp.clone(),
@@ -186,6 +191,13 @@ impl Staged {
     /// The folder to write into.
     pub fn path(&self) -> &Path {
         &self.temp
+    }
+
+    /// Whether nothing but the marker was written (an optional output that was not produced).
+    pub fn is_unused(&self) -> bool {
+        std::fs::read_dir(&self.temp)
+            .map(|mut d| d.all(|e| e.is_ok_and(|e| e.file_name() == MARKER)))
+            .unwrap_or(false)
     }
 }
 
