@@ -10,7 +10,9 @@ mod bench;
 mod data_fetch;
 mod eval;
 mod fixture_check;
+mod output;
 mod report;
+mod strict_ci;
 
 use std::path::PathBuf;
 
@@ -40,6 +42,10 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    if matches!(cli.command, Command::Eval(_)) {
+        // Before any thread starts: an interrupt then removes the unfinished output.
+        output::interrupt::install();
+    }
     let result = match cli.command {
         Command::Eval(args) => eval::run(&args),
         Command::Bench(args) => bench::run(&args),

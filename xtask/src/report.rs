@@ -46,7 +46,8 @@ impl BenchRow {
     }
 }
 
-/// Prints the rows as a table and writes them to `dir/NAME.json`.
+/// Prints the rows as a table and writes them to `dir/NAME.json` (atomically: a failed write
+/// leaves the previous file).
 pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<()> {
     println!("{name}: ours against {peer} (ratio > 1: ours faster or better)");
     let w = rows.iter().map(|r| r.case.len()).max().unwrap_or(4).max(4);
@@ -60,9 +61,8 @@ pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<
             r.case, r.ours, r.peer, r.unit, r.ratio
         );
     }
-    std::fs::create_dir_all(dir)?;
     let path = dir.join(format!("{name}.json"));
-    std::fs::write(&path, serde_json::to_string_pretty(rows)? + "\n")?;
+    crate::output::write_file(&path, serde_json::to_string_pretty(rows)? + "\n")?;
     println!("wrote {}", path.display());
     Ok(())
 }

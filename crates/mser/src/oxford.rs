@@ -94,10 +94,11 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
             .map(|t| t.parse::<f64>())
             .collect::<std::result::Result<_, _>>()
             .map_err(|_| parse_err(no, "a field is not a number".into()))?;
-        if nums.len() != 5 + dim {
+        // `nums.len() - 5`, not `5 + dim`: a huge announced length must not overflow.
+        if nums.len() < 5 || nums.len() - 5 != dim {
             return Err(parse_err(
                 no,
-                format!("{} fields, expected {}", nums.len(), 5 + dim),
+                format!("{} fields, expected 5 + {dim}", nums.len()),
             ));
         }
         if nums.iter().any(|v| !v.is_finite()) {
