@@ -75,10 +75,34 @@ impl InverseModelConfig {
 }
 
 /// The learned mapping from percept `x` (`n` values) to controlled command `y` (`m` values).
+///
+/// Deserialising goes through [`InverseModel::from_lwpr`]'s checks, and the LWPR part through
+/// [`Lwpr::from_json`]'s loading (its checks and its scratch space): a model read with serde is
+/// either usable or an error, never a model that panics later.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "InverseModelFile")]
 pub struct InverseModel {
     lwpr: Lwpr,
     cutoff: f64,
+}
+
+/// The serialised form of [`InverseModel`], before its checks.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InverseModelFile {
+    lwpr: Lwpr,
+    cutoff: f64,
+}
+
+impl TryFrom<InverseModelFile> for InverseModel {
+    type Error = ServoError;
+
+    fn try_from(file: InverseModelFile) -> Result<Self> {
+        // Plain serde fills the LWPR fields only; its loader validates them and allocates
+        // the model's scratch space.
+        let lwpr = Lwpr::from_json(&file.lwpr.to_json())?;
+        InverseModel::from_lwpr(lwpr, file.cutoff)
+    }
 }
 
 /// A prediction with the inverse image Jacobian.

@@ -90,8 +90,9 @@ pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
-    CorrectionReport, CorrectionSample, EndEstimate, GripperModel, Localisation, RecognitionConfig,
-    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
+    CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry, EpipolarReport,
+    GripperModel, Localisation, Recogniser, RecognitionConfig, SilhouetteConfig, SilhouetteReport,
+    TipCorrection, TipModel, TipRule,
 };
 pub use robot::Robot;
 pub use servo::{
@@ -100,6 +101,6 @@ pub use servo::{
     servo_lwpr,
 };
 pub use visual::{
-    ControlSpace, VisualPlant, capture_training_views, learn_recognition, observe_averaged,
-    observe_averaged_by,
+    ControlSpace, PerceptPolicy, VisualPlant, capture_training_views, learn_recognition,
+    observe_averaged, observe_averaged_by, observe_checked,
 };
