@@ -216,7 +216,10 @@ pub fn write(
 fn records(f: &Features, with_contours: bool) -> Vec<RegionRecord> {
     f.regions
         .iter()
-        .zip(&f.contours)
-        .map(|(r, c)| RegionRecord::new(r, with_contours.then_some(c.as_slice())))
+        .enumerate()
+        .map(|(k, r)| {
+            let c = with_contours.then(|| f.contours.get(k).map(Vec::as_slice)).flatten();
+            RegionRecord::new(r, c)
+        })
         .collect()
 }
