@@ -84,7 +84,9 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     let format: Format = a.format.into();
     let bar = ui.bar(images.len() as u64, "regions");
     let failed = AtomicBool::new(false);
-    let results: Vec<CliResult<(PathBuf, usize)>> = images
+    // Every file is first written under a staging name and renamed only when all images
+    // succeeded, so a failed run leaves no output at all.
+    let results: Vec<CliResult<(Vec<(PathBuf, PathBuf)>, usize)>> = images
         .par_iter()
         .map(|path| {
             if failed.load(Ordering::Relaxed) {
@@ -100,12 +102,28 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         .collect();
     bar.finish_and_clear();
     let mut total = 0;
+    let mut staged = Vec::new();
+    let mut first_error = None;
     for r in results {
         match r {
-            Ok((_, n)) => total += n,
+            Ok((files, n)) => {
+                total += n;
+                staged.extend(files);
+            }
             Err(e) if e.to_string() == "skipped" => {}
-            Err(e) => return Err(e),
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
         }
+    }
+    if let Some(e) = first_error {
+        for (tmp, _) in &staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+        return Err(e);
+    }
+    for (tmp, target) in &staged {
+        std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
     }
     ui.say(format!(
         "{} regions in {} images → {}",
@@ -121,7 +139,7 @@ fn one(
     settings: &visguide::MserSettings,
     format: Format,
     path: &std::path::Path,
-) -> CliResult<(PathBuf, usize)> {
+) -> CliResult<(Vec<(PathBuf, PathBuf)>, usize)> {
     let img = load_gray(path)?;
     let params = settings.resolve(img.width(), img.height())?;
     let features = if a.contours || a.draw {
@@ -135,7 +153,9 @@ fn one(
         }
     };
     let target = output_for(&a.out, path, &format!(".{}", format.extension()));
-    write_atomic(&target, |w| {
+    let mut files = vec![(staging(&target), target)];
+    let staged = &files[0].0;
+    write_atomic(staged, |w| {
         write(
             w,
             format,
@@ -149,7 +169,21 @@ fn one(
     if a.draw {
         let ellipses: Vec<mser::Ellipse> = features.regions.iter().map(mser::Region::ellipse).collect();
         let pic = draw::ellipses(&img, &ellipses, draw::YELLOW);
-        save_png(&output_for(&a.out, path, "-regions.png"), &pic)?;
+        let target = output_for(&a.out, path, "-regions.png");
+        let staged = staging(&target);
+        if let Err(e) = save_png(&staged, &pic) {
+            let _ = std::fs::remove_file(&files[0].0);
+            return Err(e.into());
+        }
+        files.push((staged, target));
     }
-    Ok((target, features.regions.len()))
+    Ok((files, features.regions.len()))
+}
+
+/// The staging name of an output file (same folder, hidden).
+fn staging(target: &std::path::Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    target.with_file_name(format!(".{name}.staged-{}", std::process::id()))
 }
