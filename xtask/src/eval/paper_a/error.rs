@@ -7,12 +7,6 @@ use thiserror::Error;
 /// Everything that can go wrong while reading a sequence or evaluating it.
 #[derive(Debug, Error)]
 pub enum PaperAError {
-    /// A homography file that is not nine finite numbers forming a non-singular matrix.
-    #[error("malformed homography: {reason}")]
-    Homography {
-        /// What is wrong.
-        reason: String,
-    },
     /// A file that could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
@@ -39,18 +33,8 @@ pub enum PaperAError {
         /// What is missing.
         reason: String,
     },
-    /// An ellipse that is not a proper ellipse (non-finite or not positive definite).
-    #[error("degenerate ellipse ({u}, {v}, {a}, {b}, {c})")]
-    Ellipse {
-        /// Centre x.
-        u: f64,
-        /// Centre y.
-        v: f64,
-        /// Coefficient a.
-        a: f64,
-        /// Coefficient b.
-        b: f64,
-        /// Coefficient c.
-        c: f64,
-    },
+    /// From the pipeline (`visguide`): an unreadable image, a malformed homography, a
+    /// degenerate region.
+    #[error(transparent)]
+    Visguide(#[from] visguide::VisguideError),
 }

@@ -2,17 +2,15 @@
 //! samplings, compute each pair's ground truth, match with every combination (with and
 //! without preselection) and sweep the ratio threshold.
 
-use fd_match::{
-    DescriptorConfig, DescriptorSet, Sampling, match_sets, min_errors_within, preselect,
-};
+use fd_match::{DescriptorSet, Sampling};
 use mser::MserParams;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::combination::Combination;
-use super::features::{self, Features};
-use super::ground_truth::{PairTruth, pair_truth};
-use super::pr_sweep::{PAPER_T_R, PrCurve, Scored, sweep};
+use visguide::matching::{describe, match_regions, preselected};
+use visguide::scoring::{PAPER_T_R, PairTruth, PrCurve, Scored, pair_truth, sweep};
+use visguide::{Combination, Features};
+
 use super::progress::Progress;
 use super::sequence::{Protocol, Sequence};
 
@@ -157,17 +155,17 @@ fn score(
     combination: Combination,
     truth: &PairTruth,
 ) -> crate::Result<(Vec<Scored>, Vec<ShownMatch>)> {
-    let matches = match_sets(a, b, combination.method)?;
+    let matches = match_regions(a, b, combination.method)?;
     let mut scored = Vec::with_capacity(matches.len());
     let mut shown = Vec::new();
     for m in &matches {
-        let (i, j) = (a.source(m.query), b.source(m.target));
+        let (i, j) = (m.i, m.j);
         let correct = truth.is_correct(i as u32, j as u32);
         scored.push(Scored {
             ratio: m.ratio,
             correct,
         });
-        if m.accepted(PAPER_T_R) {
+        if m.ratio < PAPER_T_R {
             shown.push(ShownMatch { i, j, correct });
         }
     }
@@ -182,11 +180,11 @@ pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Resu
         .images
         .par_iter()
         .map(|img| {
-            let f = features::detect(img, &plan.mser);
+            let f = visguide::detect(img, &plan.mser);
             bar.inc(1);
             f
         })
-        .collect::<crate::Result<_>>()?;
+        .collect::<visguide::Result<_>>()?;
     bar.finish_and_clear();
 
     let needed: Vec<bool> = SAMPLINGS
@@ -209,7 +207,7 @@ pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Resu
         for (s, &need) in SAMPLINGS.iter().zip(&needed) {
             per.push(if need {
                 bar.inc(1);
-                Some(fd_match::describe_all(DescriptorConfig::with_sampling(*s), &f.contours)?.set)
+                Some(describe(f, *s)?)
             } else {
                 None
             });
@@ -236,8 +234,7 @@ pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Resu
             let t_err = c
                 .preselection_threshold()
                 .ok_or("combination without T_err")?;
-            let keep = preselect(&min_errors_within(set, c.method)?, t_err);
-            per.push(set.select(&keep)?);
+            per.push(preselected(set, c.method, t_err)?);
             bar.inc(1);
         }
         reduced.push(per);
@@ -265,8 +262,8 @@ pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Resu
     let mut pairs = Vec::new();
     for k in seq.pairs() {
         let truth = pair_truth(
-            &features[0].ellipses,
-            &features[k - 1].ellipses,
+            &features[0].frames,
+            &features[k - 1].frames,
             &seq.homographies[k - 2],
         );
         bar.inc(1);

@@ -31,21 +31,16 @@
 //! (OVERLAP.md §6). A reported match is correct when its pair has ε < 50 %; the recall
 //! denominator is the number of greedy one-to-one correspondences ("existing matches").
 
-mod combination;
 pub(crate) mod error;
 mod evaluate;
-mod features;
-mod ground_truth;
-pub(crate) mod homography;
 pub(crate) mod image_io;
-mod overlap;
 mod pictures;
 mod plots;
-mod pr_sweep;
 mod progress;
 mod report;
 mod sensitivity;
 pub(crate) mod sequence;
+mod setting;
 mod summary;
 mod synthetic;
 #[cfg(test)]
@@ -63,6 +58,14 @@ use crate::Result;
 use evaluate::{Plan, evaluate};
 use progress::Progress;
 use sequence::{Sequence, Source};
+pub use setting::MserOptions;
+use visguide::MserSettings;
+
+/// The homography type, under the path `cargo xtask data fetch` uses; its one home is
+/// `visguide::geometry`.
+pub(crate) mod homography {
+    pub use visguide::Homography;
+}
 
 /// Options of `cargo xtask eval paper-a`.
 #[derive(Args, Clone, Debug, Default)]
@@ -75,9 +78,12 @@ pub struct PaperAArgs {
     /// never written into fixtures/). Default: target/paper-a-matches/.
     #[arg(long, value_name = "DIR")]
     pub matches_dir: Option<PathBuf>,
-    /// Skip the delta × diversity sensitivity table.
+    /// Skip the sensitivity table (delta × diversity, and max variation).
     #[arg(long)]
     pub no_sensitivity: bool,
+    /// The MSER setting (default: Paper A's, `larsson2009`).
+    #[command(flatten)]
+    pub mser: MserOptions,
 }
 
 /// The sequences of Paper A.
@@ -142,7 +148,8 @@ pub fn run_synthetic(ctx: &EvalContext) -> Result<()> {
     eprintln!("paper-a-synthetic: evaluating SYNTHETIC scenes");
     let seq = synthetic::generate(&synthetic::SyntheticSpec::default());
     let unused = ctx.out_dir.join("matches");
-    run_study(&[seq], &ctx.out_dir, &unused, false, Progress::stderr())?;
+    let paper = MserSettings::default();
+    run_study(&[seq], &ctx.out_dir, &unused, false, &paper, Progress::stderr())?;
     eprintln!(
         "paper-a-synthetic: done in {:.1} s",
         start.elapsed().as_secs_f64()
@@ -157,11 +164,13 @@ pub fn run_study(
     out: &Path,
     matches_dir: &Path,
     with_sensitivity: bool,
+    settings: &MserSettings,
     progress: Progress,
 ) -> Result<String> {
-    let plan = Plan::paper(mser::MserParams::larsson2009());
     let mut reports = Vec::new();
     for seq in sequences {
+        let (w, h) = seq.images[0].dimensions();
+        let plan = Plan::paper(settings.resolve(w, h)?);
         let result = evaluate(seq, &plan, &progress)?;
         let pictures_dir = match seq.source {
             Source::Synthetic => out.join("matches"),
@@ -185,14 +194,15 @@ pub fn run_study(
         reports.push(report);
     }
     let table = if with_sensitivity {
-        let t = sensitivity::run(sequences, &sensitivity::Grid::default(), &progress)?;
+        let t = sensitivity::run(sequences, &sensitivity::Grid::default(), settings, &progress)?;
         super::write_json(out, "sensitivity.json", &t)?;
         Some(t)
     } else {
         None
     };
     let synthetic = sequences.iter().any(|s| s.source == Source::Synthetic);
-    let text = summary::render(&reports, table.as_ref(), synthetic);
+    let paper_setting = *settings == MserSettings::default();
+    let text = summary::render(&reports, table.as_ref(), synthetic, paper_setting);
     std::fs::write(out.join("summary.md"), &text)?;
     Ok(text)
 }
@@ -211,6 +221,7 @@ pub fn run(ctx: &EvalContext, args: &PaperAArgs) -> Result<()> {
         &ctx.out_dir,
         &matches_dir,
         !args.no_sensitivity,
+        &args.mser.settings(),
         Progress::stderr(),
     )?;
     let real = sequences.iter().any(|s| s.source == Source::Folder);

@@ -6,7 +6,7 @@ use std::path::Path;
 use image::GrayImage;
 
 use super::error::PaperAError;
-use super::homography::Homography;
+use visguide::Homography;
 use super::image_io;
 
 /// Where a sequence's images come from.

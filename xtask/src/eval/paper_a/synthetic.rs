@@ -15,7 +15,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
-use super::homography::Homography;
+use visguide::Homography;
 use super::sequence::{Protocol, Sequence, Source};
 
 /// Generator settings.

@@ -20,7 +20,16 @@ fn temp_dir(tag: &str) -> PathBuf {
 fn synthetic_study_summary_snapshot() {
     let out = temp_dir("synthetic");
     let seq = generate(&SyntheticSpec::default());
-    let text = run_study(&[seq], &out, &out.join("unused"), false, Progress::hidden()).unwrap();
+    let paper = MserSettings::default();
+    let text = run_study(
+        &[seq],
+        &out,
+        &out.join("unused"),
+        false,
+        &paper,
+        Progress::hidden(),
+    )
+    .unwrap();
     assert!(text.contains("**Data: SYNTHETIC scenes**"));
     for f in [
         "summary.md",
@@ -71,6 +80,7 @@ fn oxford_study_summary_snapshot() {
         &out,
         &out.join("matches"),
         true,
+        &MserSettings::default(),
         Progress::hidden(),
     )
     .unwrap();
@@ -112,6 +122,7 @@ fn user_sequences_from_a_data_folder() {
         sequences: vec!["mine".into()],
         matches_dir: Some(out.join("pictures")),
         no_sensitivity: true,
+        mser: MserOptions::default(),
     };
     run(&ctx, &args).unwrap();
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();

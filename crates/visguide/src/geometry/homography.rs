@@ -8,7 +8,7 @@
 
 use nalgebra::{Matrix2, Matrix3};
 
-use super::error::PaperAError;
+use crate::error::VisguideError;
 
 /// A plane projective transformation, kept exactly as read (no normalisation).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,21 +25,21 @@ const HORIZON_EPS: f64 = 1e-12;
 
 impl Homography {
     /// Parses the text of an `H1toNp` file: exactly nine finite numbers separated by whitespace.
-    pub fn parse(text: &str) -> Result<Self, PaperAError> {
+    pub fn parse(text: &str) -> Result<Self, VisguideError> {
         let mut v = Vec::with_capacity(9);
         for tok in text.split_whitespace() {
-            let x: f64 = tok.parse().map_err(|_| PaperAError::Homography {
+            let x: f64 = tok.parse().map_err(|_| VisguideError::Homography {
                 reason: format!("`{tok}` is not a number"),
             })?;
             if !x.is_finite() {
-                return Err(PaperAError::Homography {
+                return Err(VisguideError::Homography {
                     reason: format!("`{tok}` is not finite"),
                 });
             }
             v.push(x);
         }
         if v.len() != 9 {
-            return Err(PaperAError::Homography {
+            return Err(VisguideError::Homography {
                 reason: format!("expected 9 numbers, found {}", v.len()),
             });
         }
@@ -48,26 +48,76 @@ impl Homography {
 
     /// A homography from its nine entries in row-major order; fails if any is non-finite or
     /// the matrix is (numerically) singular.
-    pub fn from_row_major(v: &[f64]) -> Result<Self, PaperAError> {
+    pub fn from_row_major(v: &[f64]) -> Result<Self, VisguideError> {
         if v.len() != 9 || v.iter().any(|x| !x.is_finite()) {
-            return Err(PaperAError::Homography {
+            return Err(VisguideError::Homography {
                 reason: "need nine finite entries".into(),
             });
         }
         let m = Matrix3::from_row_slice(v);
         let scale: f64 = (0..3).map(|r| m.row(r).norm()).product();
         if scale == 0.0 || m.determinant().abs() <= SINGULAR_EPS * scale {
-            return Err(PaperAError::Homography {
+            return Err(VisguideError::Homography {
                 reason: "the matrix is singular".into(),
             });
         }
         Ok(Homography { m })
     }
 
-    /// The matrix as read.
-    #[cfg(test)]
+    /// A homography from a matrix; fails as [`Self::from_row_major`] does.
+    pub fn from_matrix(m: &Matrix3<f64>) -> Result<Self, VisguideError> {
+        let v: Vec<f64> = m.transpose().iter().copied().collect();
+        Self::from_row_major(&v)
+    }
+
+    /// The matrix as read (or estimated).
     pub fn matrix(&self) -> &Matrix3<f64> {
         &self.m
+    }
+
+    /// The nine entries in row-major order.
+    pub fn to_row_major(&self) -> [f64; 9] {
+        let m = &self.m;
+        [
+            m[(0, 0)],
+            m[(0, 1)],
+            m[(0, 2)],
+            m[(1, 0)],
+            m[(1, 1)],
+            m[(1, 2)],
+            m[(2, 0)],
+            m[(2, 1)],
+            m[(2, 2)],
+        ]
+    }
+
+    /// The text of an `H1toNp` file: three rows of three numbers, shortest round-trip
+    /// formatting, so [`Self::parse`] reads back the same matrix.
+    pub fn to_text(&self) -> String {
+        (0..3)
+            .map(|r| {
+                format!(
+                    "{:e} {:e} {:e}\n",
+                    self.m[(r, 0)],
+                    self.m[(r, 1)],
+                    self.m[(r, 2)]
+                )
+            })
+            .collect()
+    }
+
+    /// The largest distance between `self(p)` and `other(p)` over the four corners `p` of a
+    /// `width × height` image (pixel centres `(0, 0)` … `(width − 1, height − 1)`): the usual
+    /// "corner error" of a homography estimate. Infinite when a corner maps to infinity.
+    pub fn corner_error(&self, other: &Homography, width: u32, height: u32) -> f64 {
+        let (w, h) = (width.max(1) as f64 - 1.0, height.max(1) as f64 - 1.0);
+        [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(x, y)| match (self.map(x, y), other.map(x, y)) {
+                (Some(p), Some(q)) => ((p.0 - q.0).powi(2) + (p.1 - q.1).powi(2)).sqrt(),
+                _ => f64::INFINITY,
+            })
+            .fold(0.0, f64::max)
     }
 
     /// The matrix inverse (maps imgN back to img1).
@@ -161,7 +211,7 @@ mod tests {
             "0 0 0 0 0 0 0 0 0",
         ] {
             assert!(
-                matches!(Homography::parse(bad), Err(PaperAError::Homography { .. })),
+                matches!(Homography::parse(bad), Err(VisguideError::Homography { .. })),
                 "{bad:?} accepted"
             );
         }

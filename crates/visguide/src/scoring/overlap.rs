@@ -7,28 +7,28 @@
 
 use nalgebra::Matrix2;
 
-use super::error::PaperAError;
-use super::homography::Homography;
+use crate::error::VisguideError;
+use crate::geometry::Homography;
 
 pub use mser::Ellipse;
 
 /// `e` itself if every number is finite and `M = [[a, b], [b, c]]` is positive definite.
-pub fn checked(e: Ellipse) -> Result<Ellipse, PaperAError> {
+pub fn checked(e: Ellipse) -> Result<Ellipse, VisguideError> {
     let Ellipse { u, v, a, b, c } = e;
     let ok = [u, v, a, b, c].iter().all(|x| x.is_finite()) && a > 0.0 && a * c - b * b > 0.0;
     if ok {
         Ok(e)
     } else {
-        Err(PaperAError::Ellipse { u, v, a, b, c })
+        Err(VisguideError::Ellipse { u, v, a, b, c })
     }
 }
 
 /// The ellipse `dᵀ Σ⁻¹ d = 1` of a covariance `Σ = [σxx, σxy, σyy]` (semi-axes = standard
 /// deviations, the frame convention of VLFeat/VLBenchmarks; [`Ellipse::from_covariance`] with
 /// `k = 1`). `Err` if Σ is not positive definite or a number is not finite.
-pub fn from_covariance(u: f64, v: f64, cov: [f64; 3]) -> Result<Ellipse, PaperAError> {
+pub fn from_covariance(u: f64, v: f64, cov: [f64; 3]) -> Result<Ellipse, VisguideError> {
     let [xx, xy, yy] = cov;
-    let e = Ellipse::from_covariance(u, v, cov, 1.0).ok_or(PaperAError::Ellipse {
+    let e = Ellipse::from_covariance(u, v, cov, 1.0).ok_or(VisguideError::Ellipse {
         u,
         v,
         a: xx,
@@ -71,7 +71,6 @@ pub fn map_linearised(e: &Ellipse, h: &Homography) -> Option<Ellipse> {
 /// How both ellipses are magnified before the area ratio is computed (OVERLAP.md §4.3).
 /// The study uses [`Normalisation::Descriptor`]; the other modes are specified and tested for
 /// completeness (repeatability figures, cross-checks).
-#[cfg_attr(not(test), allow(dead_code))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Normalisation {
     /// Detector repeatability: scale so that A has equal-area radius 30 px.
@@ -84,7 +83,6 @@ pub enum Normalisation {
 
 /// Whether the centre offset is scaled with the shapes (OVERLAP.md §4.3). The study uses
 /// [`Offset::Faithful`].
-#[cfg_attr(not(test), allow(dead_code))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Offset {
     /// Unscaled offset, as the benchmark's code does (the published numbers use this).
@@ -175,7 +173,7 @@ pub(crate) mod tests {
         ellipse(x, y, k, 0.0, k).unwrap()
     }
 
-    pub(crate) fn ellipse(u: f64, v: f64, a: f64, b: f64, c: f64) -> Result<Ellipse, PaperAError> {
+    pub(crate) fn ellipse(u: f64, v: f64, a: f64, b: f64, c: f64) -> Result<Ellipse, VisguideError> {
         checked(Ellipse { u, v, a, b, c })
     }
 
@@ -243,7 +241,7 @@ pub(crate) mod tests {
     /// repository, so this reads them from `$VISGUIDE_DATA` and is skipped without it.
     #[test]
     fn t6_mapping_through_graf_h1to2p() {
-        let Some(dir) = crate::eval::paper_a::test_data::oxford_dir() else {
+        let Some(dir) = crate::test_data::oxford_dir() else {
             return;
         };
         let text = std::fs::read_to_string(dir.join("graf/H1to2p")).unwrap();

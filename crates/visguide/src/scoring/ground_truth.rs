@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::homography::Homography;
+use crate::geometry::Homography;
 use super::overlap::{
     DESCRIPTOR_THRESHOLD, Ellipse, Normalisation, Offset, map_linearised, may_overlap,
     overlap_error, radius,
@@ -93,7 +93,7 @@ pub fn greedy_one_to_one(mut scored: Vec<(f64, u32, u32)>) -> Vec<(u32, u32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::paper_a::overlap::tests::{circ, ellipse};
+    use crate::scoring::overlap::tests::{circ, ellipse};
 
     fn identity() -> Homography {
         Homography::from_row_major(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).unwrap()

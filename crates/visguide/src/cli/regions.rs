@@ -1,0 +1,189 @@
+//! `visguide regions`: MSER regions of many images, in parallel.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use visguide::output::atomic::{save_png, write_atomic};
+use visguide::output::draw;
+use visguide::output::regions::{Format, write};
+use visguide::{Features, load_gray};
+
+use super::CliResult;
+use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for};
+
+/// Region file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// Oxford affine benchmark region file (`.mser`): `1.0`, count, then `u v a b c` per region.
+    Oxford,
+    /// JSON with every region's level, seed, area, box, centroid, ellipse (and contour).
+    Json,
+    /// CSV, one row per region (contour as `x y;x y;…` in the last column).
+    Csv,
+}
+
+impl From<FormatArg> for Format {
+    fn from(f: FormatArg) -> Self {
+        match f {
+            FormatArg::Oxford => Format::Oxford,
+            FormatArg::Json => Format::Json,
+            FormatArg::Csv => Format::Csv,
+        }
+    }
+}
+
+/// Detect MSER regions in images and write one region file per image.
+///
+/// Each IMAGE (PNG, PGM or PPM; colour is converted to grey with BT.601 weights) gives
+/// OUT/<stem>.mser|.json|.csv. A directory stands for all the images in it. Images are processed
+/// in parallel (--threads); the files are identical whatever the number of threads. The
+/// Oxford format writes the ellipse `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` with about the
+/// region's own area (M = (4Σ)⁻¹, Σ the region's second moments), 0-based pixel coordinates,
+/// readable by the Oxford benchmark's repeatability.m and VLBenchmarks.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:
+  visguide regions img1.png                        # writes ./img1.mser
+  visguide regions --preset opencv --format json --contours --out regions/ photos/
+  visguide regions --delta 10 --max-variation 0.5 --draw img1.png")]
+pub struct RegionsArgs {
+    /// Image files or directories of images.
+    #[arg(required = true, value_name = "IMAGE")]
+    pub images: Vec<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "oxford")]
+    pub format: FormatArg,
+    /// Output directory (created if missing).
+    #[arg(long, default_value = ".", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Include each region's outer contour (JSON and CSV).
+    #[arg(long)]
+    pub contours: bool,
+    /// Also write OUT/<stem>-regions.png, the image with every region's ellipse drawn.
+    #[arg(long)]
+    pub draw: bool,
+    #[command(flatten)]
+    pub mser: MserArgs,
+}
+
+/// Runs the subcommand.
+pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
+    if a.contours && a.format == FormatArg::Oxford {
+        return Err("--contours needs --format json or csv (Oxford region files hold ellipses only)".into());
+    }
+    let images = expand_images(&a.images)?;
+    // Two images with the same stem would overwrite each other's output.
+    let mut stems: Vec<PathBuf> = images.iter().map(|p| output_for(&a.out, p, "")).collect();
+    stems.sort();
+    if let Some(w) = stems.windows(2).find(|w| w[0] == w[1]) {
+        return Err(format!("two images would both write {}.*; give them different names", w[0].display()).into());
+    }
+    ensure_dir(&a.out)?;
+    let settings = a.mser.settings();
+    let format: Format = a.format.into();
+    let bar = ui.bar(images.len() as u64, "regions");
+    let failed = AtomicBool::new(false);
+    // Every file is first written under a staging name and renamed only when all images
+    // succeeded, so a failed run leaves no output at all.
+    let results: Vec<CliResult<(Vec<(PathBuf, PathBuf)>, usize)>> = images
+        .par_iter()
+        .map(|path| {
+            if failed.load(Ordering::Relaxed) {
+                return Err("skipped".into());
+            }
+            let r = one(a, &settings, format, path);
+            if r.is_err() {
+                failed.store(true, Ordering::Relaxed);
+            }
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut total = 0;
+    let mut staged = Vec::new();
+    let mut first_error = None;
+    for r in results {
+        match r {
+            Ok((files, n)) => {
+                total += n;
+                staged.extend(files);
+            }
+            Err(e) if e.to_string() == "skipped" => {}
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    if let Some(e) = first_error {
+        for (tmp, _) in &staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+        return Err(e);
+    }
+    for (tmp, target) in &staged {
+        std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
+    }
+    ui.say(format!(
+        "{} regions in {} images → {}",
+        total,
+        images.len(),
+        a.out.display()
+    ));
+    Ok(())
+}
+
+fn one(
+    a: &RegionsArgs,
+    settings: &visguide::MserSettings,
+    format: Format,
+    path: &std::path::Path,
+) -> CliResult<(Vec<(PathBuf, PathBuf)>, usize)> {
+    let img = load_gray(path)?;
+    let params = settings.resolve(img.width(), img.height())?;
+    let features = if a.contours || a.draw {
+        visguide::detect(&img, &params)?
+    } else {
+        // Without contours the library's detector alone is called (no contour tracing).
+        let view = mser::GrayView::from_image(&img)?;
+        Features {
+            regions: mser::detect(&view, &params)?,
+            ..Features::default()
+        }
+    };
+    let target = output_for(&a.out, path, &format!(".{}", format.extension()));
+    let mut files = vec![(staging(&target), target)];
+    let staged = &files[0].0;
+    write_atomic(staged, |w| {
+        write(
+            w,
+            format,
+            &path.display().to_string(),
+            img.dimensions(),
+            &params,
+            &features,
+            a.contours,
+        )
+    })?;
+    if a.draw {
+        let ellipses: Vec<mser::Ellipse> = features.regions.iter().map(mser::Region::ellipse).collect();
+        let pic = draw::ellipses(&img, &ellipses, draw::YELLOW);
+        let target = output_for(&a.out, path, "-regions.png");
+        let staged = staging(&target);
+        if let Err(e) = save_png(&staged, &pic) {
+            let _ = std::fs::remove_file(&files[0].0);
+            return Err(e.into());
+        }
+        files.push((staged, target));
+    }
+    Ok((files, features.regions.len()))
+}
+
+/// The staging name of an output file (same folder, hidden).
+fn staging(target: &std::path::Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    target.with_file_name(format!(".{name}.staged-{}", std::process::id()))
+}

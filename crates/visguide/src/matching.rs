@@ -1,0 +1,186 @@
+//! Descriptors and matches of two images' regions (Paper A §4): each region's outer contour is
+//! resampled and described ([`describe`], crate `fd-match`), optionally preselected (eq. 18,
+//! [`preselected`]), and the two sets are matched symmetrically with the ratio test (eq. 19,
+//! [`match_regions`]). Indices are *region* indices (into [`Features`]), not descriptor
+//! indices, so a match points straight at its regions.
+//!
+//! [`match_images`] runs the whole chain on two images and adds the geometry: for every
+//! accepted match the rotation between the two contours (the FD correlation's φ on
+//! affine-arc-length samples, eq. 12: the match's own when the combination is FD Corr/Affine,
+//! otherwise a correlation of just that pair) and the local affine map of its frames
+//! ([`crate::geometry::local_affine`]); and a robust homography from the accepted matches'
+//! centres ([`crate::geometry::fit_homography`]).
+
+use fd_match::{
+    Alignment, Correlator, DescriptorConfig, DescriptorSet, Method, Sampling, match_sets,
+    min_errors_within, preselect,
+};
+use image::GrayImage;
+use mser::MserParams;
+use serde::{Deserialize, Serialize};
+
+use crate::combination::Combination;
+use crate::error::Result;
+use crate::features::{Features, detect};
+use crate::geometry::{HomographyFit, LocalAffine, RansacConfig, fit_homography, local_affine};
+
+/// One symmetric match between region `i` of image 1 and region `j` of image 2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RegionMatch {
+    /// Region of image 1.
+    pub i: usize,
+    /// Region of image 2.
+    pub j: usize,
+    /// The pair's error (eq. 10 for FD Corr).
+    pub error: f64,
+    /// The larger of the two error ratios `e_min / e_sec` (eq. 19).
+    pub ratio: f64,
+    /// Rotation and start shift (FD Corr only).
+    pub alignment: Option<Alignment>,
+}
+
+/// Describes every region's contour with `sampling` (Paper A's descriptor setting otherwise);
+/// degenerate contours are left out (`set.source(k)` is the region index).
+pub fn describe(features: &Features, sampling: Sampling) -> Result<DescriptorSet> {
+    Ok(fd_match::describe_all(DescriptorConfig::with_sampling(sampling), &features.contours)?.set)
+}
+
+/// The descriptors that survive preselection with threshold `t_err` (eq. 18).
+pub fn preselected(set: &DescriptorSet, method: Method, t_err: f64) -> Result<DescriptorSet> {
+    let keep = preselect(&min_errors_within(set, method)?, t_err);
+    Ok(set.select(&keep)?)
+}
+
+/// All symmetric matches of two descriptor sets, unthresholded, ascending in `i`.
+pub fn match_regions(a: &DescriptorSet, b: &DescriptorSet, method: Method) -> Result<Vec<RegionMatch>> {
+    Ok(match_sets(a, b, method)?
+        .into_iter()
+        .map(|m| RegionMatch {
+            i: a.source(m.query),
+            j: b.source(m.target),
+            error: m.error,
+            ratio: m.ratio,
+            alignment: m.alignment,
+        })
+        .collect())
+}
+
+/// What [`match_images`] does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatchSettings {
+    /// Detector parameters of image 1 and image 2.
+    pub mser: (MserParams, MserParams),
+    /// Descriptor and sampling.
+    pub combination: Combination,
+    /// Ratio threshold `T_r`: a match is accepted when `ratio < T_r`. Paper A: 0.5.
+    pub ratio_threshold: f64,
+    /// Preselection threshold `T_err` (eq. 18), if any.
+    pub preselection: Option<f64>,
+    /// Robust homography fit; `None` skips it.
+    pub ransac: Option<RansacConfig>,
+}
+
+impl MatchSettings {
+    /// Paper A's setting: `larsson2009` regions, FD Corr/Affine, `T_r = 0.5`, no preselection,
+    /// a homography with the default RANSAC setting.
+    pub fn paper() -> Self {
+        MatchSettings {
+            mser: (MserParams::larsson2009(), MserParams::larsson2009()),
+            combination: Combination::SHOWN,
+            ratio_threshold: crate::scoring::pr::PAPER_T_R,
+            preselection: None,
+            ransac: Some(RansacConfig::default()),
+        }
+    }
+}
+
+/// One accepted match with its geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeometricMatch {
+    /// The match.
+    pub m: RegionMatch,
+    /// Rotation between the contours (radians, image coordinates), if it could be measured.
+    pub rotation: Option<f64>,
+    /// Local affine map of the frames with that rotation.
+    pub local: Option<LocalAffine>,
+}
+
+/// Everything [`match_images`] finds.
+#[derive(Debug, Clone)]
+pub struct PairMatches {
+    /// Regions of image 1.
+    pub features1: Features,
+    /// Regions of image 2.
+    pub features2: Features,
+    /// Descriptors that took part (after preselection) in image 1 and image 2.
+    pub described: (usize, usize),
+    /// Every symmetric match, before the ratio test.
+    pub all: Vec<RegionMatch>,
+    /// The accepted matches (`ratio < T_r`) with their geometry, ascending in `i`.
+    pub accepted: Vec<GeometricMatch>,
+    /// The homography from the accepted matches' centres, when asked for and possible.
+    pub homography: Option<HomographyFit>,
+}
+
+/// Rotation `φ` between two contours from their affine-arc-length FDs (eq. 12).
+fn pair_rotation(a: &[(u32, u32)], b: &[(u32, u32)]) -> Option<f64> {
+    let cfg = DescriptorConfig::with_sampling(Sampling::AffineArcLength);
+    let mut ex = fd_match::Extractor::new(cfg).ok()?;
+    let da = ex.describe(a).ok()?;
+    let db = ex.describe(b).ok()?;
+    let mut corr = Correlator::new(cfg.max_frequency(), cfg.samples);
+    Some(corr.correlate(&da.fd, &db.fd).alignment.rotation)
+}
+
+/// Regions, descriptors, matches and geometry of two images.
+pub fn match_images(img1: &GrayImage, img2: &GrayImage, s: &MatchSettings) -> Result<PairMatches> {
+    let (f1, f2) = rayon::join(|| detect(img1, &s.mser.0), || detect(img2, &s.mser.1));
+    let (f1, f2) = (f1?, f2?);
+    let c = s.combination;
+    let (mut a, mut b) = (describe(&f1, c.sampling)?, describe(&f2, c.sampling)?);
+    if let Some(t) = s.preselection {
+        a = preselected(&a, c.method, t)?;
+        b = preselected(&b, c.method, t)?;
+    }
+    let all = match_regions(&a, &b, c.method)?;
+    let own_rotation = c.method == Method::FdCorr && c.sampling == Sampling::AffineArcLength;
+    let accepted: Vec<GeometricMatch> = all
+        .iter()
+        .filter(|m| m.ratio < s.ratio_threshold)
+        .map(|m| {
+            let rotation = if own_rotation {
+                m.alignment.map(|al| al.rotation)
+            } else {
+                pair_rotation(&f1.contours[m.i], &f2.contours[m.j])
+            };
+            let local = rotation.and_then(|r| local_affine(&f1.frames[m.i], &f2.frames[m.j], r));
+            GeometricMatch {
+                m: *m,
+                rotation,
+                local,
+            }
+        })
+        .collect();
+    let homography = match &s.ransac {
+        Some(cfg) if accepted.len() >= 4 => {
+            let src: Vec<(f64, f64)> = accepted
+                .iter()
+                .map(|g| (f1.frames[g.m.i].u, f1.frames[g.m.i].v))
+                .collect();
+            let dst: Vec<(f64, f64)> = accepted
+                .iter()
+                .map(|g| (f2.frames[g.m.j].u, f2.frames[g.m.j].v))
+                .collect();
+            fit_homography(&src, &dst, cfg).ok()
+        }
+        _ => None,
+    };
+    Ok(PairMatches {
+        described: (a.len(), b.len()),
+        features1: f1,
+        features2: f2,
+        all,
+        accepted,
+        homography,
+    })
+}

@@ -1,0 +1,461 @@
+//! End-to-end tests through the built `visguide` binary, on generated images, tables and
+//! tracks: every subcommand and output format read back and compared with the library, and
+//! bad input (one line on stderr, exit code ≠ 0, no output file left behind).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use image::GrayImage;
+use visguide::{Combination, Homography, MatchSettings, match_images};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_visguide"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("the binary runs")
+}
+
+fn ok(args: &[&str]) -> Output {
+    let o = run(args);
+    assert!(
+        o.status.success(),
+        "visguide {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+/// Runs a command that must fail: exit code 1, exactly one line on stderr mentioning `needle`.
+fn fails(args: &[&str], needle: &str) -> String {
+    let o = run(args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "visguide {args:?}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+    assert!(err.starts_with("visguide: error: "), "{err}");
+    assert!(err.contains(needle), "`{needle}` not in: {err}");
+    err
+}
+
+fn temp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("visguide-cli-{tag}-{}", std::process::id()));
+    if d.exists() {
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A scene of distinct blobs on a grid (one per 40-pixel cell): each a star-shaped region
+/// `r(θ) < R (1 + Σₖ aₖ cos(kθ + φₖ))`, k = 2, 3, 4, with radius, harmonics and grey level
+/// varied by `seed`; seen through `h` (maps scene → image).
+fn scene(h: &Homography, w: u32, ht: u32, seed: u32) -> GrayImage {
+    let inv = h.inverse();
+    // splitmix64 of (seed, cell, slot): deterministic, well mixed.
+    let q = |k: u32, m: u32| {
+        let mut z = (seed as u64) << 40 ^ (k as u64) << 16 ^ m as u64;
+        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut shapes = Vec::new();
+    for cy in 0..(ht / 40) {
+        for cx in 0..(w / 40) {
+            let k = cy * 100 + cx;
+            let harm: Vec<(f64, f64)> = (0..3)
+                .map(|n| (0.05 + 0.2 * q(k, 10 + n), 6.3 * q(k, 20 + n)))
+                .collect();
+            shapes.push((
+                cx as f64 * 40.0 + 20.0,
+                cy as f64 * 40.0 + 20.0,
+                9.0 + q(k, 3) * 5.0,
+                harm,
+                [20u8, 70, 190, 240][(q(k, 4) * 4.0) as usize],
+            ));
+        }
+    }
+    GrayImage::from_fn(w, ht, |x, y| {
+        let Some((sx, sy)) = inv.map(x as f64, y as f64) else {
+            return image::Luma([128]);
+        };
+        let mut g = 128u8;
+        for (cx, cy, r, harm, v) in &shapes {
+            let (dx, dy) = (sx - cx, sy - cy);
+            let t = dy.atan2(dx);
+            let f: f64 = harm
+                .iter()
+                .enumerate()
+                .map(|(n, (a, p))| a * ((n as f64 + 2.0) * t + p).cos())
+                .sum();
+            if dx.hypot(dy) < r * (1.0 + f) {
+                g = *v;
+            }
+        }
+        image::Luma([g])
+    })
+}
+
+fn identity() -> Homography {
+    Homography::from_row_major(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).unwrap()
+}
+
+fn warp() -> Homography {
+    Homography::from_row_major(&[0.95, 0.12, 14.0, -0.1, 0.97, 9.0, 1.5e-4, -1e-4, 1.0]).unwrap()
+}
+
+/// `visguide regions` in all three formats, read back and compared with the library; the
+/// region files are byte-identical to `mser::write_regions` of the library's regions, and
+/// identical with one thread and with all.
+#[test]
+fn regions_every_format_matches_the_library() {
+    let dir = temp("regions");
+    let imgs = dir.join("imgs");
+    std::fs::create_dir_all(&imgs).unwrap();
+    let mut images = Vec::new();
+    for k in 0..4 {
+        let img = scene(&identity(), 200, 150, k);
+        img.save(imgs.join(format!("s{k}.png"))).unwrap();
+        images.push(img);
+    }
+    let params = mser::MserParams::larsson2009();
+    // Oxford, default preset, a directory argument, two thread counts.
+    for threads in ["1", "3"] {
+        let out = dir.join(format!("ox{threads}"));
+        ok(&["regions", "--quiet", "--threads", threads, "--out", s(&out), s(&imgs)]);
+        for (k, img) in images.iter().enumerate() {
+            let view = mser::GrayView::from_image(img).unwrap();
+            let regions = mser::detect(&view, &params).unwrap();
+            let ellipses: Vec<mser::Ellipse> = regions.iter().map(mser::Region::ellipse).collect();
+            let mut want = Vec::new();
+            mser::write_regions(&mut want, &ellipses).unwrap();
+            let got = std::fs::read(out.join(format!("s{k}.mser"))).unwrap();
+            assert_eq!(got, want, "image {k}, {threads} threads");
+            assert!(regions.len() >= 8, "only {} regions", regions.len());
+            let back = mser::load_regions(out.join(format!("s{k}.mser"))).unwrap();
+            assert_eq!(back.len(), regions.len());
+        }
+    }
+    // JSON with contours and another preset and overrides.
+    let out = dir.join("json");
+    let first = imgs.join("s0.png");
+    ok(&[
+        "regions", "-q", "--format", "json", "--contours", "--preset", "opencv", "--delta", "7",
+        "--max-variation", "0.4", "--draw", "--out", s(&out), s(&first),
+    ]);
+    let p = mser::MserParams {
+        delta: 7,
+        max_variation: 0.4,
+        ..mser::MserParams::opencv()
+    };
+    let lib = visguide::detect(&images[0], &p).unwrap();
+    let file: visguide::output::regions::RegionFile =
+        serde_json::from_str(&std::fs::read_to_string(out.join("s0.json")).unwrap()).unwrap();
+    assert_eq!(file.size, (200, 150));
+    assert_eq!((file.params.delta, file.params.max_variation), (7, 0.4));
+    assert_eq!(file.regions.len(), lib.len());
+    for (r, (lr, lc)) in file.regions.iter().zip(lib.regions.iter().zip(&lib.contours)) {
+        let e = lr.ellipse();
+        assert_eq!(r.ellipse, (e.u, e.v, e.a, e.b, e.c));
+        assert_eq!((r.seed, r.area, r.level), (lr.seed, lr.area, lr.level));
+        assert_eq!(r.contour.as_ref().unwrap(), lc);
+    }
+    assert!(image::open(out.join("s0-regions.png")).is_ok());
+    // CSV: one row per region, the ellipse columns as the library's.
+    let out = dir.join("csv");
+    ok(&["regions", "-q", "--format", "csv", "--out", s(&out), s(&first)]);
+    let text = std::fs::read_to_string(out.join("s0.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(visguide::output::regions::CSV_HEADER));
+    let view = mser::GrayView::from_image(&images[0]).unwrap();
+    let regions = mser::detect(&view, &params).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), regions.len());
+    for (row, r) in rows.iter().zip(&regions) {
+        let e = r.ellipse();
+        let nums: Vec<f64> = row[13..18].iter().map(|v| v.parse().unwrap()).collect();
+        assert_eq!(nums, vec![e.u, e.v, e.a, e.b, e.c]);
+        assert_eq!(row[5].parse::<u32>().unwrap(), r.area);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `visguide match` in every combination gives exactly the library's matches; in Paper A's
+/// setting the matches are those of the study's calls (describe → match_regions), the
+/// homography is close to the true one and the score is read back from JSON and CSV.
+#[test]
+fn match_equals_library_and_study_and_recovers_the_homography() {
+    let dir = temp("match");
+    let h = warp();
+    let (a, b) = (scene(&identity(), 320, 240, 1), scene(&h, 320, 240, 1));
+    let (pa, pb, ph) = (dir.join("a.png"), dir.join("b.png"), dir.join("H1to2p"));
+    a.save(&pa).unwrap();
+    b.save(&pb).unwrap();
+    std::fs::write(&ph, h.to_text()).unwrap();
+    let json = dir.join("m.json");
+    let pic = dir.join("pair.png");
+    ok(&[
+        "match", "-q", s(&pa), s(&pb), "--homography", s(&ph), "--out", s(&json), "--picture",
+        s(&pic),
+    ]);
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let lib = match_images(&a, &b, &MatchSettings::paper()).unwrap();
+    let got: Vec<(u64, u64, f64)> = doc["matches"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| (m["i"].as_u64().unwrap(), m["j"].as_u64().unwrap(), m["ratio"].as_f64().unwrap()))
+        .collect();
+    let want: Vec<(u64, u64, f64)> =
+        lib.accepted.iter().map(|g| (g.m.i as u64, g.m.j as u64, g.m.ratio)).collect();
+    assert_eq!(got, want);
+    assert!(got.len() >= 6, "only {} matches", got.len());
+    // The study's calls on the same regions give the same symmetric matches.
+    let c = Combination::SHOWN;
+    let (sa, sb) = (
+        visguide::matching::describe(&lib.features1, c.sampling).unwrap(),
+        visguide::matching::describe(&lib.features2, c.sampling).unwrap(),
+    );
+    let study: Vec<(usize, usize)> = visguide::match_regions(&sa, &sb, c.method)
+        .unwrap()
+        .iter()
+        .filter(|m| m.ratio < visguide::scoring::PAPER_T_R)
+        .map(|m| (m.i, m.j))
+        .collect();
+    assert_eq!(study, want.iter().map(|w| (w.0 as usize, w.1 as usize)).collect::<Vec<_>>());
+    // Geometry: a rotation and a local affine per match, the homography near the truth.
+    let m0 = &doc["matches"][0];
+    assert!(m0["rotation"].is_f64() && m0["shift"].is_f64() && m0["affine"].is_array());
+    let corner = doc["homography"]["corner_error"].as_f64().unwrap();
+    assert!(corner < 2.0, "corner error {corner}");
+    let precision = doc["score"]["precision"].as_f64().unwrap();
+    assert!(precision > 0.8, "precision {precision}");
+    assert!(image::open(&pic).is_ok());
+    // Local rotations agree with the true map's rotation at the region (about −6°).
+    for m in doc["matches"].as_array().unwrap() {
+        if m["inlier"] == true {
+            let r = m["rotation"].as_f64().unwrap();
+            assert!((r - (-0.1f64).atan2(0.95)).abs() < 0.15, "rotation {r}");
+        }
+    }
+    // Every combination through the binary equals the library (CSV read back).
+    for method in ["fd-corr", "abs-fd-ssd", "afd0-ssd", "afd1-ssd"] {
+        for sampling in ["affine", "canonical"] {
+            let o = ok(&[
+                "match", "-q", s(&pa), s(&pb), "--method", method, "--sampling", sampling,
+                "--format", "csv", "--ratio", "0.8",
+            ]);
+            let text = String::from_utf8(o.stdout).unwrap();
+            let rows: Vec<(usize, usize, f64)> = text
+                .lines()
+                .skip(1)
+                .map(|l| {
+                    let f: Vec<&str> = l.split(',').collect();
+                    (f[0].parse().unwrap(), f[1].parse().unwrap(), f[7].parse().unwrap())
+                })
+                .collect();
+            let combination = Combination::ALL
+                .into_iter()
+                .find(|c| {
+                    c.label()
+                        == format!(
+                            "{}/{}",
+                            match method {
+                                "fd-corr" => "FD Corr",
+                                "abs-fd-ssd" => "abs(FD) SSD",
+                                "afd0-ssd" => "AFD0 SSD",
+                                _ => "AFD1 SSD",
+                            },
+                            if sampling == "affine" { "Affine" } else { "Canonical" }
+                        )
+                })
+                .unwrap();
+            let settings = MatchSettings {
+                combination,
+                ratio_threshold: 0.8,
+                ..MatchSettings::paper()
+            };
+            let lib = match_images(&a, &b, &settings).unwrap();
+            let want: Vec<(usize, usize, f64)> =
+                lib.accepted.iter().map(|g| (g.m.i, g.m.j, g.m.ratio)).collect();
+            assert_eq!(rows, want, "{method}/{sampling}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The homography from `visguide match` on leuven img1 → img2 is within 5 px (corner error over
+/// the image's corners) of the benchmark's H1to2p (measured: 2.7 px with the larsson2009
+/// preset). Skipped with a note without `VISGUIDE_DATA`; fails under `CI=true`.
+#[test]
+fn leuven_homography_is_close_to_the_benchmark() {
+    let why = match std::env::var_os("VISGUIDE_DATA") {
+        Some(d) if Path::new(&d).join("oxford-affine/leuven/H1to2p").is_file() => None,
+        Some(d) => Some(format!("{}/oxford-affine/leuven is missing", Path::new(&d).display())),
+        None => Some("VISGUIDE_DATA is not set".into()),
+    };
+    if let Some(why) = why {
+        assert!(
+            std::env::var("CI").map_or(true, |v| v != "true"),
+            "leuven data needed under CI=true: {why}"
+        );
+        eprintln!("skipped: {why}");
+        return;
+    }
+    let d = PathBuf::from(std::env::var_os("VISGUIDE_DATA").unwrap()).join("oxford-affine/leuven");
+    let o = ok(&[
+        "match", "-q", s(&d.join("img1.png")), s(&d.join("img2.png")), "--homography",
+        s(&d.join("H1to2p")),
+    ]);
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let corner = doc["homography"]["corner_error"].as_f64().unwrap();
+    assert!(corner < 5.0, "corner error {corner} px");
+    assert!(doc["homography"]["inliers"].as_u64().unwrap() >= 10);
+}
+
+fn write_table(path: &Path, rows: usize) {
+    let mut t = String::from("x1,x2,y\n");
+    for k in 0..rows {
+        let x1 = (k as f64 * 0.618_033_988_75).fract() * 2.0 - 1.0;
+        let x2 = (k as f64 * 0.414_213_562_37).fract() * 2.0 - 1.0;
+        t.push_str(&format!("{x1},{x2},{}\n", (2.0 * x1).sin() + 0.5 * x2));
+    }
+    std::fs::write(path, t).unwrap();
+}
+
+/// `lwpr fit` then `lwpr predict`: the model file loads in the library, the predictions,
+/// confidence bounds and Jacobians are in the CSV and equal the library's.
+#[test]
+fn lwpr_fit_and_predict() {
+    let dir = temp("lwpr");
+    let (data, model, pred) = (dir.join("d.csv"), dir.join("m.json"), dir.join("p.csv"));
+    write_table(&data, 400);
+    ok(&["lwpr", "fit", "-q", s(&data), "--inputs", "2", "--model", s(&model), "--passes", "10"]);
+    ok(&["lwpr", "predict", "-q", s(&model), s(&data), "--out", s(&pred)]);
+    let (file, lib) = visguide::models::LwprFile::load(&model).unwrap();
+    assert_eq!(file.outputs, vec!["y"]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("x1,x2,y,y_conf,dy/dx1,dy/dx2"));
+    let mut worst: f64 = 0.0;
+    for l in lines {
+        let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+        let c = lib.predict_with_confidence(&v[..2], 0.001).unwrap();
+        let j = lib.predict_with_jacobian(&v[..2], 0.001).unwrap();
+        assert_eq!((v[2], v[3], v[4], v[5]), (c.y[0], c.confidence[0], j.jacobian[(0, 0)], j.jacobian[(0, 1)]));
+        worst = worst.max((v[2] - ((2.0 * v[0]).sin() + 0.5 * v[1])).abs());
+    }
+    assert!(worst < 0.3, "worst training error {worst}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `track` in one step and as `learn` + `run` give the same CSV; with `--baselines` three
+/// trackers, each one row per frame; CBT follows the generated car.
+#[test]
+fn track_one_step_equals_learn_then_run() {
+    use cbt_tracker::sim::{Level, Scenario, generate};
+    let dir = temp("track");
+    let train = dir.join("train");
+    std::fs::create_dir_all(&train).unwrap();
+    let sc = Scenario::default();
+    for s in generate(&sc, &Level::preset(1), 4, 150, 11) {
+        cbt_tracker::csv::write(&train, &s).unwrap();
+    }
+    let test = &generate(&sc, &Level::preset(1), 1, 120, 99)[0];
+    let seq = cbt_tracker::csv::write(&dir, test).unwrap();
+    let (one, two, model) = (dir.join("one.csv"), dir.join("two.csv"), dir.join("m.cbt.json"));
+    ok(&["track", "-q", "--train", s(&train), s(&seq), "--out", s(&one), "--baselines"]);
+    ok(&["track", "learn", "-q", "--train", s(&train), "--model", s(&model)]);
+    ok(&["track", "run", "-q", s(&model), s(&seq), "--out", s(&two), "--baselines"]);
+    let (a, b) = (std::fs::read_to_string(&one).unwrap(), std::fs::read_to_string(&two).unwrap());
+    assert_eq!(a, b);
+    let rows: Vec<Vec<&str>> = a.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3 * 120);
+    let mut err = 0.0;
+    for (k, r) in rows.iter().take(120).enumerate() {
+        assert_eq!(r[0].parse::<usize>().unwrap(), k);
+        let t = test.frames[k].truth.unwrap();
+        err += (r[2].parse::<f64>().unwrap() - t[0]).hypot(r[3].parse::<f64>().unwrap() - t[1]);
+    }
+    assert!(err / 120.0 < 6.0, "CBT mean error {}", err / 120.0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Bad input: one clear line on stderr, exit code 1, and no output file (nor a temporary one).
+#[test]
+fn bad_input_fails_cleanly_without_partial_output() {
+    let dir = temp("bad");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let good = dir.join("good.png");
+    scene(&identity(), 120, 90, 3).save(&good).unwrap();
+    let corrupt = dir.join("corrupt.png");
+    std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nthis is not a png").unwrap();
+    let empty = dir.join("empty.pgm");
+    std::fs::write(&empty, b"P5\n0 0\n255\n").unwrap();
+    let missing = dir.join("missing.png");
+    let o = s(&out);
+    fails(&["regions", "--out", o, s(&missing)], "missing.png");
+    fails(&["regions", "--out", o, s(&good), s(&corrupt)], "corrupt.png");
+    fails(&["regions", "--out", o, s(&empty)], "empty.pgm");
+    let m = out.join("m.json");
+    fails(&["match", s(&good), s(&dir), "--out", s(&m)], "is a directory");
+    fails(&["match", s(&good), s(&good), "--homography", s(&corrupt), "--out", s(&m)], "corrupt.png");
+    let bad_csv = dir.join("bad.csv");
+    std::fs::write(&bad_csv, "x,y\n1,2\n3,four\n").unwrap();
+    fails(&["lwpr", "fit", s(&bad_csv), "--inputs", "1", "--model", s(&m)], "bad.csv:3:");
+    let table = dir.join("t.csv");
+    write_table(&table, 50);
+    let model = dir.join("m.lwpr.json");
+    ok(&["lwpr", "fit", "-q", s(&table), "--inputs", "2", "--model", s(&model)]);
+    let text = std::fs::read_to_string(&model).unwrap();
+    std::fs::write(&model, text.replacen("\"version\":1", "\"version\":99", 1)).unwrap();
+    fails(&["lwpr", "predict", s(&model), s(&table), "--out", s(&m)], "version 99");
+    let track_train = dir.join("train");
+    std::fs::create_dir_all(&track_train).unwrap();
+    std::fs::write(track_train.join("s.csv"), "frame,kind,x,y\n0,truth,1,2\n1,det,x,3\n").unwrap();
+    fails(&["track", "--train", s(&track_train), s(&table), "--out", s(&m)], "s.csv");
+    // Nothing was written, not even a temporary file.
+    let left: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    // A usage error is exit code 2.
+    assert_eq!(run(&["regions", "--format", "tiff", s(&good)]).status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Every subcommand's --help has a description and examples.
+#[test]
+fn help_has_examples() {
+    for sub in [&["regions"][..], &["match"], &["track"], &["lwpr"], &["eval"], &[]] {
+        let mut args = sub.to_vec();
+        args.push("--help");
+        let o = ok(&args);
+        let text = String::from_utf8(o.stdout).unwrap();
+        assert!(text.contains("Examples:"), "{sub:?}: {text}");
+    }
+}
+
+/// `visguide eval` on a generated Oxford-layout folder prints one row per pair and combination
+/// and writes the same numbers as JSON.
+#[test]
+fn eval_scores_a_sequence_folder() {
+    let dir = temp("eval");
+    let seq = dir.join("mine");
+    std::fs::create_dir_all(&seq).unwrap();
+    scene(&identity(), 240, 180, 5).save(seq.join("img1.png")).unwrap();
+    let h = warp();
+    scene(&h, 240, 180, 5).save(seq.join("img2.png")).unwrap();
+    std::fs::write(seq.join("H1to2p"), h.to_text()).unwrap();
+    let json = dir.join("scores.json");
+    let o = ok(&["eval", "-q", s(&seq), "--out", s(&json)]);
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(text.lines().count(), 1 + 8);
+    let rows: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(rows.as_array().unwrap().len(), 8);
+    assert!(rows[1]["combination"] == "FD Corr/Affine" && rows[1]["existing"].as_u64().unwrap() > 5);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
