@@ -195,12 +195,99 @@ fn lwpr_cases() -> Value {
     })
 }
 
+/// `np.rot90(image)`: `out[i, j] = image[j, W − 1 − i]`, `W` rows of `H` pixels.
+fn rot90(px: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8; W * H];
+    for i in 0..W {
+        for j in 0..H {
+            out[i * H + j] = px[j * W + (W - 1 - i)];
+        }
+    }
+    out
+}
+
+fn f64_digest(v: impl IntoIterator<Item = f64>) -> Value {
+    let v: Vec<f64> = v.into_iter().collect();
+    json!({"len": v.len(), "fnv1a": fnv1a(v.iter().flat_map(|x| x.to_le_bytes()))})
+}
+
+fn complex_digest(v: impl IntoIterator<Item = fd_match::Complex64>) -> Value {
+    f64_digest(v.into_iter().flat_map(|c| [c.re, c.im]))
+}
+
+/// Contours of the image's regions and of its 90° rotation, described with every sampling and
+/// matched with every method.
+fn fd_cases(px: &[u8]) -> Value {
+    let p = mser::MserParams {
+        min_area: 10,
+        delta: 3,
+        min_diversity: 0.0,
+        ..mser::MserParams::opencv()
+    };
+    let contours = |img: &mser::GrayView| -> Vec<Vec<(u32, u32)>> {
+        mser::detect(img, &p)
+            .unwrap()
+            .iter()
+            .map(|r| r.contour(img).unwrap())
+            .collect()
+    };
+    let rotated = rot90(px);
+    let a = contours(&mser::GrayView::packed(px, W, H).unwrap());
+    let b = contours(&mser::GrayView::packed(&rotated, H, W).unwrap());
+    let mut out = serde_json::Map::new();
+    for (sname, sampling) in [
+        ("arc_length", fd_match::Sampling::ArcLength),
+        ("affine", fd_match::Sampling::AffineArcLength),
+        ("canonical", fd_match::Sampling::Canonical),
+    ] {
+        let cfg = fd_match::DescriptorConfig::with_sampling(sampling);
+        let da = fd_match::describe_all(cfg, &a).unwrap();
+        let db = fd_match::describe_all(cfg, &b).unwrap();
+        let set = &da.set;
+        let k = set.len();
+        let mut methods = serde_json::Map::new();
+        for (mname, method) in [
+            ("fd_corr", fd_match::Method::FdCorr),
+            ("abs_fd_ssd", fd_match::Method::AbsFdSsd),
+            ("afd0_ssd", fd_match::Method::Afd0Ssd),
+            ("afd1_ssd", fd_match::Method::Afd1Ssd),
+            ("fd_ssd", fd_match::Method::FdSsd),
+        ] {
+            let ms = fd_match::match_sets(&da.set, &db.set, method).unwrap();
+            let ms: Vec<Value> = ms
+                .iter()
+                .map(|m| {
+                    let al = m.alignment.map(|a| [a.rotation, a.shift]);
+                    json!([m.query, m.target, m.error, m.ratio, al])
+                })
+                .collect();
+            let min_err = fd_match::min_errors_within(&da.set, method).unwrap();
+            methods.insert(mname.into(), json!({"matches": ms, "min_errors": min_err}));
+        }
+        out.insert(
+            sname.into(),
+            json!({
+                "sources_a": set.sources(),
+                "sources_b": db.set.sources(),
+                "rejected_a": da.rejected.iter().map(|(i, _)| *i).collect::<Vec<_>>(),
+                "fd": complex_digest((0..k).flat_map(|i| set.fd(i).to_vec())),
+                "magnitudes": f64_digest((0..k).flat_map(|i| set.magnitudes(i).to_vec())),
+                "afd0": f64_digest((0..k).flat_map(|i| set.afd0(i).to_vec())),
+                "afd1": complex_digest((0..k).flat_map(|i| set.afd1(i).to_vec())),
+                "methods": methods,
+            }),
+        );
+    }
+    Value::Object(out)
+}
+
 fn reference() -> Value {
     let px = image();
     json!({
         "image": {"width": W, "height": H},
         "mser": mser_cases(&px),
         "lwpr": lwpr_cases(),
+        "fd": fd_cases(&px),
     })
 }
 
