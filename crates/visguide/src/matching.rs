@@ -128,8 +128,8 @@ fn pair_rotation(a: &[(u32, u32)], b: &[(u32, u32)]) -> Option<f64> {
     let mut ex = fd_match::Extractor::new(cfg).ok()?;
     let da = ex.describe(a).ok()?;
     let db = ex.describe(b).ok()?;
-    let mut corr = Correlator::new(cfg.max_frequency(), cfg.samples);
-    Some(corr.correlate(&da.fd, &db.fd).alignment.rotation)
+    let mut corr = Correlator::new(cfg.max_frequency(), cfg.samples).ok()?;
+    Some(corr.correlate(&da.fd, &db.fd).ok()?.alignment.rotation)
 }
 
 /// Regions, descriptors, matches and geometry of two images.
