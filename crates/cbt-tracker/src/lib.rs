@@ -4,7 +4,7 @@
 //! filter (thesis ch. 3) whose bins are smooth, overlapping channels (thesis ch. 2,
 //! [`chan_repr`]), and whose system and observation models are **learned from unordered sets**
 //! of states and detections — no associations needed (Paper B; reconstruction in
-//! `papers.md` §2.2, marked there as inferred: the paper's full text was not available).
+//! docs/methods.md § Tracking, marked there as inferred: the paper's full text was not available).
 //!
 //! ## The filter (eq. 3.1–3.5)
 //! With `x_k = f(x_{k−1}, v_{k−1})` and `z_k = h(x_k, n_k)`, the prediction (eq. 3.3) and the
@@ -64,8 +64,8 @@
 //! the deserialiser, never a panic in a later step.
 //!
 //! ## Data
-//! [`sim`]: the synthetic RC-car-following generator (papers.md §2.5) and the univariate
-//! non-stationary growth model of Arulampalam et al. (§2.4); [`csv`]: the plain
+//! [`sim`]: the synthetic RC-car-following generator (docs/methods.md § Tracking) and the
+//! univariate non-stationary growth model of Arulampalam et al.; [`csv`]: the plain
 //! `frame,kind,x,y` sequence format; [`metrics`]: RMSE and track loss.
 //!
 //! ```

@@ -1,5 +1,5 @@
 //! The vectorised arithmetic of [`crate::Arithmetic::Fast`] for a full distance metric with
-//! `n ≥ 5` inputs: the same formulas as the reference (papers.md §4.4), with the sums
+//! `n ≥ 5` inputs: the same formulas as the reference (docs/methods.md § LWPR), with the sums
 //! reordered so that they run as independent vector lanes instead of one long chain each.
 //!
 //! - activation distance `q = |M(x−c)|²` (triangular factor, half the work of

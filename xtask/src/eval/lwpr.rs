@@ -1,5 +1,5 @@
-//! `cargo xtask eval lwpr`: learning curves of our LWPR on the cross function (papers.md §4.6):
-//! test nMSE on the 41×41 grid and the number of receptive fields against the number of
+//! `cargo xtask eval lwpr`: learning curves of our LWPR on the cross function (docs/methods.md §
+//! LWPR): test nMSE on the 41×41 grid and the number of receptive fields against the number of
 //! training samples, for setting A (20 000 fresh samples, the stream of the reference's
 //! `bench_cross.c`, seed 1) and setting B (500 samples, 20 shuffled epochs, seed 1).
 //!

@@ -4,9 +4,10 @@
 //! **Ellipse convention.** A region's ellipse is its moment ellipse `dᵀ Σ⁻¹ d = 1`, Σ the
 //! second central moments of the region as a union of unit pixel squares
 //! (`mser::Region::ellipse_scaled(1.0)`): the frame VLFeat's MSER gives and VLBenchmarks passes
-//! unchanged to the benchmark's overlap code (OVERLAP.md §1). Descriptor mode then magnifies it
-//! ×3 (OVERLAP.md §6), i.e. about 1.5 times the region's own size. This was chosen from the
-//! benchmark's documented MSER convention before any result was seen.
+//! unchanged to the benchmark's overlap code (docs/methods.md § Paper A evaluation). Descriptor
+//! mode then magnifies it ×3 (docs/methods.md § Overlap error, step 6), i.e. about 1.5 times the
+//! region's own size. This was chosen from the benchmark's documented MSER convention before any
+//! result was seen.
 
 use image::GrayImage;
 use mser::{GrayView, MserParams};
