@@ -10,7 +10,12 @@ mod bench;
 mod data_fetch;
 mod eval;
 mod fixture_check;
+#[cfg(test)]
+mod layering;
+mod markdown;
+mod palette;
 mod report;
+mod stats;
 
 use std::path::PathBuf;
 
