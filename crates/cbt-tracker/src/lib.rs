@@ -43,7 +43,7 @@
 //! coefficients around the best cell. Storage does not grow with the channel count and a
 //! step costs what the posterior's support costs, so the grid can be as fine as the detection
 //! noise (spacing [`Scales::fine_spacing`]). Why this layout, and the deviations from the
-//! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`). Its inner
+//! dense reconstruction it makes, are in docs/methods.md § Tracking. Its inner
 //! loops run with AVX when the CPU has it (chosen at run time; the same operations in the same
 //! order, so results do not depend on the CPU); a posterior whose parts lie far apart is
 //! processed on its non-zero blocks only (the same values), and large work buffers are

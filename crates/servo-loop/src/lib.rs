@@ -25,12 +25,10 @@
 //! the servo percept), which takes the far end and learns its offset from the end face: at
 //! further random poses the offsets `e − f` of every camera are regressed on all cameras' far
 //! ends (Nadaraya–Watson, bandwidth by leave-one-out; [`recognition::tip_correction`]), and the
-//! corrected far end moves towards the end-face tip by at most 0.5 px. Measured on `arm-sim`
-//! (`fixtures/paper-c/summary.md`, median per camera against the projected middle of the finger
-//! ends): `Learned` 0.29 / 0.75 px (cameras 0 / 1; frame-to-frame repeatability 0.03–0.12 px),
-//! `FarEnd` 2.0 / 2.9 px, `EndFace` 0.28 / 0.48 px; the 90th percentile is 2–36 px, when another
-//! part of the arm is taken for the far end; ≈ 10 px to `arm-sim`'s tool point, which lies 8 mm
-//! behind the finger ends where nothing marks it.
+//! corrected far end moves towards the end-face tip by at most 0.5 px. How accurate each rule is
+//! on `arm-sim` (median and 90th percentile per camera against the projected middle of the
+//! finger ends, frame-to-frame repeatability, distance to `arm-sim`'s tool point, which lies
+//! 8 mm behind the finger ends where nothing marks it): `fixtures/paper-c/summary.md`.
 //! The **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline × cos²
 //! orientation channels of image gradients, chan-repr; docs/methods.md § Servoing), learned from
 //! the same gripper moves ([`capture_training_views`]), is an appearance model with a certainty:
