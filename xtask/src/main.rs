@@ -8,6 +8,8 @@
 
 mod bench;
 mod data_fetch;
+#[cfg(test)]
+mod doc_links;
 mod eval;
 mod fixture_check;
 #[cfg(test)]
