@@ -12,8 +12,6 @@ mod data_fetch;
 mod doc_links;
 mod eval;
 mod fixture_check;
-#[cfg(test)]
-mod layering;
 mod markdown;
 mod palette;
 mod report;
