@@ -8,10 +8,15 @@
 
 mod bench;
 mod data_fetch;
+#[cfg(test)]
+mod doc_links;
 mod eval;
 mod fixture_check;
+mod markdown;
 mod output;
+mod palette;
 mod report;
+mod stats;
 mod strict_ci;
 
 use std::path::PathBuf;

@@ -1,6 +1,6 @@
-//! Synthetic data: the RC-car-following generator (papers.md §2.5) and the univariate
-//! non-stationary growth model (UNGM) of Arulampalam et al. (papers.md §2.4). Every draw comes
-//! from a seeded `Xoshiro256++`; sequence `i` of a call uses its own stream derived from
+//! Synthetic data: the RC-car-following generator (docs/methods.md § Tracking) and the univariate
+//! non-stationary growth model (UNGM) of Arulampalam et al. (docs/methods.md § Tracking). Every
+//! draw comes from a seeded `Xoshiro256++`; sequence `i` of a call uses its own stream derived from
 //! `(seed, i)`, so sequences do not depend on how many others are generated.
 
 use rand::rngs::Xoshiro256PlusPlus;
@@ -270,7 +270,7 @@ pub fn observe(track: &Sequence, level: &Level, area: [f64; 4], seed: u64, index
     }
 }
 
-/// The UNGM benchmark (Arulampalam et al. 2002, papers.md §2.4):
+/// The UNGM benchmark (Arulampalam et al. 2002, docs/methods.md § Tracking):
 /// `x_k = x_{k−1}/2 + 25 x_{k−1}/(1 + x_{k−1}²) + 8 cos(1.2 k) + v_{k−1}`,
 /// `z_k = x_k²/20 + n_k`, `v ~ N(0, 10)`, `n ~ N(0, 1)`, `x_0 = 0.1`; one detection per
 /// frame, stored as `[z, 0]`; the truth as `[x, 0]`.

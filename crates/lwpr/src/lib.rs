@@ -4,10 +4,10 @@
 //! Schaal, *Incremental Online Learning in High Dimensions*, Neural Computation 17(12), 2005),
 //! written to reproduce the reference C library (Klanke & Vijayakumar, LWPR 1.2.6) number for
 //! number and to be faster than it. Paper C of Larsson's thesis learns an arm's inverse
-//! kinematics and its Jacobian with it (papers.md §3.2); [`Lwpr::predict_with_jacobian`] is
+//! kinematics and its Jacobian with it (docs/methods.md § LWPR); [`Lwpr::predict_with_jacobian`] is
 //! that Jacobian.
 //!
-//! ## The model (papers.md §4.2)
+//! ## The model (docs/methods.md § LWPR)
 //! One independent sub-model per output. Each holds receptive fields `k` with centre `c_k`,
 //! distance metric `D_k = M_kᵀM_k` (`M_k` upper triangular, or diagonal with `diag_only`) and
 //! activation `w_k = exp(−½ (x−c_k)ᵀD_k(x−c_k))` (Gaussian) or `(1 − q/4)²` (BiSquare). Each
@@ -15,7 +15,7 @@
 //! `ŷ_k = β₀ + Σ_r β_r s_r`, `s_r = u_rᵀz_r`, `z_{r+1} = z_r − p_r s_r`. The prediction is the
 //! normalised weighted mean `ŷ = Σ w_k ŷ_k / Σ w_k` over trustworthy fields with `w_k > cutoff`.
 //!
-//! ## Training (papers.md §4.3–4.4)
+//! ## Training (docs/methods.md § LWPR)
 //! Every update normalises `x` and `y` by `norm_in`/`norm_out`, then for each field with
 //! `w > 0.001`: forgetting-weighted means, one PLS step with its own forgetting factor per
 //! direction (annealed from `init_lambda` to `final_lambda` with `tau_lambda`), a gradient step
@@ -113,11 +113,11 @@
 //! `w_prune` is lowered.
 //!
 //! ## Confidence and Jacobian
-//! [`Lwpr::predict_with_confidence`] returns the reference's bound (papers.md §4.2); it includes
-//! the noise level, and on the cross function (setting A) the noise-free target lies within
-//! ±2 bounds of the prediction on at least 90 % of the test grid (measured: 100 %;
-//! `tests/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and the
-//! analytic `m × n` Jacobian (papers.md §3.2), which matches central finite differences
+//! [`Lwpr::predict_with_confidence`] returns the reference's bound (docs/methods.md § LWPR); it
+//! includes the noise level, and on the cross function (setting A) the noise-free target lies
+//! within ±2 bounds of the prediction on at least 90 % of the test grid (measured: 100 %;
+//! `tests/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and the analytic
+//! `m × n` Jacobian (docs/methods.md § LWPR), which matches central finite differences
 //! (`tests/jacobian.rs`); servo-loop uses it as the inverse image Jacobian.
 //!
 //! ## Robustness

@@ -7,7 +7,7 @@ use crate::linalg::cholesky_upper;
 use crate::model::Lwpr;
 
 /// Locality kernel turning the squared Mahalanobis distance `q = (x−c)ᵀD(x−c)` into an
-/// activation `w` (papers.md §4.2).
+/// activation `w` (docs/methods.md § LWPR).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum Kernel {
     /// `w = exp(−q/2)` (the reference's default).
@@ -18,7 +18,7 @@ pub enum Kernel {
 }
 
 /// Which of the two most active receptive fields is removed when the second-largest activation
-/// exceeds `w_prune` (papers.md §4.3 step 5). The default is the reference C library's rule:
+/// exceeds `w_prune` (docs/methods.md § LWPR). The default is the reference C library's rule:
 /// the published one was less accurate on every sample stream measured (crate docs, "Pruning").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum PruneRule {

@@ -1,6 +1,6 @@
-//! Accuracy on the reference's benchmarks (papers.md §4.6): the cross function in settings A
-//! and B, the reference's 1-D test and the cross function rotated into 25 dimensions.
-//! Thresholds are the reference library's measured ranges (papers.md §4.6), not tuned values.
+//! Accuracy on the reference's benchmarks (docs/methods.md § LWPR): the cross function in settings
+//! A and B, the reference's 1-D test and the cross function rotated into 25 dimensions. Thresholds
+//! are the reference library's measured ranges (docs/methods.md § LWPR), not tuned values.
 
 #[path = "../peer/harness.rs"]
 mod harness;

@@ -103,7 +103,8 @@
 //! integer [`Moments`] (Σx, Σy, Σx², Σxy, Σy² over pixel centres, 0-based, x right, y down).
 //!
 //! **Ellipse** ([`Region::ellipse`]): Oxford `(u, v, a, b, c)` with
-//! `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` (`OVERLAP.md` §1). Centre = centroid. Shape: `M = (4Σ)⁻¹`
+//! `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` (docs/methods.md § MSER). Centre = centroid.
+//! Shape: `M = (4Σ)⁻¹`
 //! where Σ holds the second central moments of the region as a plane figure, i.e. of the union of
 //! its unit pixel squares (pixel-centre covariance + 1/12 on the diagonal). `M = (4Σ)⁻¹` is the
 //! uniformly filled ellipse with those moments, so the ellipse has about the region's area

@@ -119,8 +119,8 @@ impl Moments {
 }
 
 /// An ellipse `a (x − u)² + 2 b (x − u)(y − v) + c (y − v)² = 1`, the convention of the Oxford
-/// affine benchmark's region files (`OVERLAP.md` §1); `(u, v)` in 0-based pixel coordinates, x
-/// right, y down.
+/// affine benchmark's region files (docs/methods.md § MSER); `(u, v)` in 0-based pixel coordinates,
+/// x right, y down.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ellipse {
     /// Centre x.

@@ -1,6 +1,6 @@
 //! The learned inverse kinematics `ŷ = f̂(x)` (percept → command) and its Jacobian, the
 //! inverse image Jacobian `J = ∂ŷ/∂x` of thesis eq. 5.2–5.3, both from one LWPR model
-//! (papers.md §3.2).
+//! (docs/methods.md § LWPR).
 
 use lwpr::{Lwpr, LwprBuilder};
 use nalgebra::DMatrix;
@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError, check_finite, check_len};
 
 /// LWPR settings of the inverse model. Defaults follow the LWPR documentation's rule of thumb
-/// (papers.md §4.5): normalise inputs and outputs by their expected range, start with wide
+/// (docs/methods.md § LWPR): normalise inputs and outputs by their expected range, start with wide
 /// spherical receptive fields and let distance-metric learning narrow them; `init_alpha` and
 /// `w_gen` are the reference library's cross-function settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

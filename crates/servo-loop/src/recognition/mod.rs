@@ -1,4 +1,4 @@
-//! Gripper recognition learned from action (Paper C; papers.md §1.4, §3.1).
+//! Gripper recognition learned from action (Paper C; docs/methods.md § Servoing).
 //!
 //! - [`image`]: grey images to half-resolution float images, and the raster steps of the
 //!   silhouette (box smoothing, largest 8-connected component).

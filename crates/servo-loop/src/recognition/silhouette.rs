@@ -101,7 +101,7 @@ fn far_end() -> TipRule {
 /// Which point of the gripper's far end the recogniser reports as the tip.
 ///
 /// The single-image rules trade accuracy against smoothness (measured on `arm-sim` with three
-/// seeds the evaluation does not use; `docs/performance.md`, `## servo-loop`): `EndFace` finds
+/// seeds the evaluation does not use; `docs/performance.md` at f7d00c4): `EndFace` finds
 /// the middle of the finger ends to a median 0.26–0.50 px per camera (`FarEnd`: 2.1–5.1 px),
 /// but where an end face has little contrast against the table the outline it reads moves with
 /// the table's texture, so its tip changes less smoothly with the pose (camera 1: 90th
