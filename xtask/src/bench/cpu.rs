@@ -31,7 +31,8 @@ pub fn process_seconds() -> Option<f64> {
 /// Which clock [`interleaved`] reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Clock {
-    /// [`thread_seconds`]: for work on the calling thread.
+    /// [`thread_seconds`]: for work on the calling thread (the OpenCV benches use it).
+    #[cfg_attr(not(feature = "opencv"), allow(dead_code))]
     Thread,
     /// [`process_seconds`]: for work spread over a thread pool.
     Process,
