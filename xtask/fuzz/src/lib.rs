@@ -9,8 +9,11 @@
 
 use std::path::Path;
 
+/// A target's body: takes any bytes, panics only on a finding.
+pub type Body = fn(&[u8]);
+
 /// Every target: its name (the binary and the corpus folder) and its body.
-pub const TARGETS: &[(&str, fn(&[u8]))] = &[
+pub const TARGETS: &[(&str, Body)] = &[
     ("oxford_regions", oxford_regions),
     ("tracking_csv", tracking_csv),
     // ("tracking_mot", tracking_mot): the MOT reader of cbt-tracker, once it exists — a body

@@ -96,9 +96,10 @@ impl EvalTarget {
         }
     }
 
-    /// Folders the target may write beside its own (e.g. `fixtures/NAME/`), through
-    /// [`EvalContext::sibling`]; each replaces its destination only if the target wrote
-    /// into it, else the destination keeps its contents.
+    /// Folders the target may write beside its own, named by a suffix to its destination's
+    /// name (`-x`: `fixtures/NAME-x/`, or `DIR-x` for `--out DIR`), through
+    /// [`EvalContext::sibling`]; each replaces its destination only if the target wrote into
+    /// it, else the destination keeps its contents.
     pub fn siblings(&self) -> &'static [&'static str] {
         &[]
     }
@@ -134,11 +135,11 @@ pub struct EvalContext {
 }
 
 impl EvalContext {
-    /// The staged folder of the sibling output `name` (one of [`EvalTarget::siblings`]),
-    /// beside [`EvalContext::out_dir`].
+    /// The staged folder of the sibling output with this suffix (one of
+    /// [`EvalTarget::siblings`]), beside [`EvalContext::out_dir`].
     #[allow(dead_code)] // for targets with sibling outputs (the pedestrian tracking study)
-    pub fn sibling(&self, name: &str) -> PathBuf {
-        crate::output::staging_path(&self.out_dir.with_file_name(name))
+    pub fn sibling(&self, suffix: &str) -> PathBuf {
+        crate::output::staged_sibling(&self.out_dir, suffix)
     }
 }
 
@@ -191,9 +192,14 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         };
         let trusted = check_root.is_some() || args.out.is_none();
         let mut own = vec![(t.name().to_string(), dest)];
-        for s in t.siblings() {
-            let beside = own[0].1.path().with_file_name(s);
-            own.push((s.to_string(), Destination::check(&beside, trusted)?));
+        for suffix in t.siblings() {
+            let main = own[0].1.path();
+            let name = main.file_name().unwrap_or_default().to_string_lossy();
+            let beside = main.with_file_name(format!("{name}{suffix}"));
+            own.push((
+                format!("{}{suffix}", t.name()),
+                Destination::check(&beside, trusted)?,
+            ));
         }
         for (_, d) in &own {
             if destinations

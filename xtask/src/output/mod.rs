@@ -145,6 +145,18 @@ pub fn staging_path(dest: &Path) -> PathBuf {
     dest.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
+/// The staged folder of the destination named like `staged`'s destination plus `suffix`
+/// (`.NAME.partial-PID` → `.NAME{suffix}.partial-PID`, i.e. `NAME{suffix}` beside `NAME`). For a
+/// folder that is not a staged one, `FOLDER{suffix}` beside it.
+pub fn staged_sibling(staged: &Path, suffix: &str) -> PathBuf {
+    let name = staged.file_name().unwrap_or_default().to_string_lossy();
+    let tail = format!(".partial-{}", std::process::id());
+    match name.strip_prefix('.').and_then(|n| n.strip_suffix(&tail)) {
+        Some(dest) => staged.with_file_name(format!(".{dest}{suffix}{tail}")),
+        None => staged.with_file_name(format!("{name}{suffix}")),
+    }
+}
+
 /// A temporary folder beside a [`Destination`], registered with [`interrupt`]; removed when
 /// dropped unless committed.
 #[derive(Debug)]

@@ -165,3 +165,33 @@ fn write_file_replaces_whole_files_and_names_the_path_on_failure() {
     assert_eq!(std::fs::read_dir(d.join("bench")).unwrap().count(), 2);
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+#[test]
+fn a_sibling_is_staged_beside_the_staged_folder() {
+    let pid = std::process::id();
+    let staged = staging_path(Path::new("/x/fixtures/paper-b"));
+    assert_eq!(
+        staged,
+        PathBuf::from(format!("/x/fixtures/.paper-b.partial-{pid}"))
+    );
+    assert_eq!(
+        staged_sibling(&staged, "-pedestrians"),
+        staging_path(Path::new("/x/fixtures/paper-b-pedestrians"))
+    );
+    // A plain folder (a test's own output folder): the sibling lies beside it.
+    assert_eq!(
+        staged_sibling(Path::new("/tmp/out"), "-more"),
+        PathBuf::from("/tmp/out-more")
+    );
+}
+
+#[test]
+fn a_staged_folder_holding_only_the_marker_is_unused() {
+    let d = scratch("unused");
+    let stage = Staged::new(&Destination::check(&d.join("sib"), false).unwrap()).unwrap();
+    assert!(stage.is_unused());
+    std::fs::write(stage.path().join("table.json"), "{}").unwrap();
+    assert!(!stage.is_unused());
+    drop(stage);
+    std::fs::remove_dir_all(&d).unwrap();
+}
