@@ -178,6 +178,14 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             ctx.out_dir.display()
         );
         t.run(&ctx)?;
+        // The tracking target also writes its pedestrian study beside its folder (when the
+        // data is there): check that folder too.
+        if matches!(t, EvalTarget::Tracking(_))
+            && tracking::sibling(&ctx.out_dir).is_dir()
+            && args.check
+        {
+            ran.push(tracking::PEDESTRIANS_DIR);
+        }
     }
     if args.check {
         let names = ran;
