@@ -49,6 +49,29 @@
 //! processed on its non-zero blocks only (the same values), and large work buffers are
 //! recycled across the trackers of a thread.
 //!
+//! ## Which layout, which settings
+//! - **Image tracking** (state and detections in the same pixel units): [`Layout::Stationary`]
+//!   on a grid of spacing [`Scales::fine_spacing`] (0.75 × the training data's detection
+//!   noise), second order. It pools every training frame into every grid position, so it
+//!   learns from a few tracks, and a step costs what the posterior's support costs.
+//! - **Measurement ≠ state** (e.g. UNGM's `z = x²/20`): [`Layout::Separable`] with
+//!   [`ObservationFallback::Uniform`]; [`Layout::SparseJoint`] only when the axes are coupled
+//!   and the grid is small.
+//! - **Real motion** (measured on the ETH/UCY pedestrians, leave-one-scene-out, validation
+//!   scenes `biwi_hotel` and `crowds_zara02`; `fixtures/paper-b-pedestrians/summary.md`):
+//!   the second order beats the first at every detector level (it carries the walking
+//!   velocity); online learning ([`CbtTracker::with_self_learning`]) was better than the
+//!   offline model at every level and most of all when trained on five tracks (validation:
+//!   easy 3.53 against 5.68 px, medium 13.9 against 20.0 px), so use it on real data; the
+//!   library default stays offline because on the synthetic RC-car sets it is not better
+//!   (`fixtures/paper-b`). A start is a position without a velocity: the stationary
+//!   layout's first step predicts with the learned displacement distribution `S`, not with
+//!   `T[· | v = 0]` (real people stand still often enough that `T[· | 0]` is sharp, and a
+//!   walker started from it was left behind). Known limit: with many misses and much
+//!   clutter (P_D 0.7, 6 clutter a frame) CBT loses real walkers far more often than a
+//!   particle filter, whose state carries the velocity through missed frames; the marginal
+//!   approximation re-derives the velocity from the last two posteriors only.
+//!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;
 //! [`ParticleFilter`]: SIR with systematic resampling and the clutter-aware likelihood

@@ -7,8 +7,10 @@
 //! 1. **Displacement kernel.** Per axis `d`, the velocity distribution between the last two
 //!    posteriors under the marginal approximation, `c_d[v] = Σ_n q_{k−1,d}[n] q_{k−2,d}[n − v]`
 //!    (per-axis marginals), gives the predicted displacement
-//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]` (mass of `|v| > r` goes through `S_d`); first order:
-//!    `D_d = S_d`. This decouples the displacement from `x_{k−1}` (the exact marginal
+//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]` (mass of `|v| > r` goes through `S_d`); first order,
+//!    and the first step after a start (a position without a velocity): `D_d = S_d`, the
+//!    learned displacement distribution (the velocities' marginal) rather than
+//!    `T_d[· | v = 0]`, which would claim the target stands still. This decouples the displacement from `x_{k−1}` (the exact marginal
 //!    approximation `Σ_{n,o} T[m − n | n − o] q₁[n] q₂[o]` correlates them, which doubles the
 //!    posterior's spread into the prediction: `2x_{k−1} − x_{k−2}`). Truncations (stated
 //!    approximations, far below the `support` and crop thresholds): each column `T_d[· | v]`
@@ -130,6 +132,12 @@ pub(crate) struct WindowState {
     /// Marginals of `q_k⁺`.
     #[serde(default)]
     cur: [(usize, Vec<f64>); 2],
+    /// Set by [`Self::start`] until the first step: the velocity is unknown (a start gives a
+    /// position only), so that step predicts with the learned displacement distribution
+    /// `S_d` (the velocities' marginal) instead of `T_d[· | v = 0]`, which would claim the
+    /// target stands still.
+    #[serde(default)]
+    fresh: bool,
     #[serde(skip)]
     scratch: Scratch,
 }
@@ -339,6 +347,7 @@ impl WindowState {
         self.scratch.post_ext.clear();
         self.cur = marginals(&self.post);
         self.prev = self.cur.clone();
+        self.fresh = true;
     }
 
     /// Displacement kernel of axis `d` (step 1 of the module doc).
@@ -679,8 +688,10 @@ impl WindowState {
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
         let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
         let mut work = std::mem::take(&mut self.scratch.disp);
-        self.displacement_into(&sys[0], 0, cfg.order, &mut work, &mut kx);
-        self.displacement_into(&sys[1], 1, cfg.order, &mut work, &mut ky);
+        let order = if self.fresh { Order::First } else { cfg.order };
+        self.displacement_into(&sys[0], 0, order, &mut work, &mut kx);
+        self.displacement_into(&sys[1], 1, order, &mut work, &mut ky);
+        self.fresh = false;
         self.scratch.disp = work;
         let gamma = cfg.mixing;
         let keep = 1.0 - gamma;

@@ -234,7 +234,7 @@ fn simulated_detections_follow_the_level() {
         first_frame: 4,
         frames: (0..400)
             .map(|k| Frame {
-                truth: (k % 50 != 7).then(|| [100.0 + 0.1 * k as f64, 80.0]),
+                truth: (k % 50 != 7).then_some([100.0 + 0.1 * k as f64, 80.0]),
                 detections: Vec::new(),
             })
             .collect(),

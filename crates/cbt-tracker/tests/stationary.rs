@@ -312,3 +312,82 @@ proptest! {
         }
     }
 }
+
+/// Half the training targets stand still, half walk +3 channels a frame along x: `T[· | 0]`
+/// says "stays", the displacement distribution `S` says "stays or walks".
+fn standing_and_walking() -> (Space, Vec<Vec<TrainingFrame>>) {
+    let space = integer_space(80);
+    let seqs = (0..6)
+        .map(|i| {
+            let speed = if i % 2 == 0 { 0.0 } else { 3.0 };
+            (0..15)
+                .map(|k| {
+                    let p = [10.0 + speed * k as f64, 10.0 + 8.0 * i as f64];
+                    TrainingFrame {
+                        states: vec![p],
+                        detections: vec![Detection::new(p[0], p[1])],
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (space, seqs)
+}
+
+#[test]
+fn a_start_has_no_velocity_so_the_first_step_predicts_with_the_displacement_distribution() {
+    let (space, seqs) = standing_and_walking();
+    let second = CbtModel::learn(space.clone(), stationary(), &seqs).unwrap();
+    let first = CbtModel::learn(
+        space,
+        CbtConfig {
+            order: Order::First,
+            ..stationary()
+        },
+        &seqs,
+    )
+    .unwrap();
+    let (t2, t1) = (
+        second.stationary_system(0).unwrap(),
+        first.stationary_system(0).unwrap(),
+    );
+    assert_eq!(t2.0, t1.0, "both models learn the same S");
+    let mut a = CbtTracker::new(second);
+    let mut b = CbtTracker::new(first);
+    a.reset([20.0, 40.0]).unwrap();
+    b.reset([20.0, 40.0]).unwrap();
+    // A walker's first detection, 3 channels ahead: the first step of the second-order
+    // tracker is exactly the first-order one (S), and it follows the detection.
+    let det = [Detection::new(23.0, 40.0)];
+    let (ea, eb) = (a.step(&det).unwrap(), b.step(&det).unwrap());
+    assert_eq!(ea, eb);
+    assert_eq!(a.posterior(), b.posterior());
+    assert!((ea.position[0] - 23.0).abs() < 0.5, "{:?}", ea.position);
+    // From the second step on it uses the velocity between its posteriors: T[· | +3] says
+    // "walks on", so a detection straight ahead is followed again, and the two trackers differ.
+    let det = [Detection::new(26.0, 40.0)];
+    let (ea, eb) = (a.step(&det).unwrap(), b.step(&det).unwrap());
+    assert!((ea.position[0] - 26.0).abs() < 0.5, "{:?}", ea.position);
+    assert_ne!(a.posterior(), b.posterior());
+    assert_ne!(ea, eb);
+}
+
+#[test]
+fn a_saved_tracker_remembers_that_it_has_just_started() {
+    let (space, seqs) = standing_and_walking();
+    let model = CbtModel::learn(space, stationary(), &seqs).unwrap();
+    let mut a = CbtTracker::new(model);
+    a.reset([20.0, 40.0]).unwrap();
+    let mut b: CbtTracker = serde_json::from_str(&serde_json::to_string(&a).unwrap()).unwrap();
+    // The same first step (within rounding: a loaded tracker's work buffers start empty):
+    // the loaded one also predicts with S and follows the walker.
+    let det = [Detection::new(23.0, 40.0)];
+    let (ea, eb) = (a.step(&det).unwrap(), b.step(&det).unwrap());
+    for d in 0..2 {
+        assert!(
+            (ea.position[d] - eb.position[d]).abs() < 1e-9,
+            "{ea:?} {eb:?}"
+        );
+    }
+    assert!((eb.position[0] - 23.0).abs() < 0.5, "{eb:?}");
+}

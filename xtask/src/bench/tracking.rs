@@ -9,7 +9,7 @@ use plotters::prelude::*;
 use super::BenchArgs;
 use crate::Result;
 use crate::eval::tracking::study::{SetResult, run_set};
-use crate::eval::tracking::{TEST_PER_LEVEL, synthetic_sets};
+use crate::eval::tracking::{TEST_PER_LEVEL, pedestrians, synthetic_sets};
 use crate::report::BenchRow;
 use crate::workspace_root;
 
@@ -103,6 +103,33 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
         pe,
         "",
     ));
+    // The real-motion study's time per frame, when the pedestrian data is there (wall time of
+    // the steps; the folds run on all cores, both sides alike).
+    let data = std::env::var_os("VISGUIDE_DATA").map(std::path::PathBuf::from);
+    if let Some(dir) = pedestrians::folder(data.as_deref()) {
+        let folds = pedestrians::run(&pedestrians::load(&dir)?)?;
+        let per_frame = |name: &str| -> f64 {
+            let (mut s, mut n) = (0.0, 0usize);
+            for t in folds
+                .iter()
+                .flat_map(|f| &f.trackers)
+                .filter(|t| t.tracker == name)
+            {
+                s += t.seconds;
+                n += t.frames;
+            }
+            s / n.max(1) as f64 * 1e6
+        };
+        let pf = per_frame("PF 1000");
+        for ours in [CBT, "CBT 2nd order online"] {
+            rows.push(BenchRow::lower_is_better(
+                format!("pedestrians: time/frame, {ours} vs PF 1000"),
+                per_frame(ours),
+                pf,
+                "us/frame",
+            ));
+        }
+    }
     plot(
         &image,
         &workspace_root().join("target/bench/tracking-rmse-vs-time.svg"),

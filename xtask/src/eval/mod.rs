@@ -101,7 +101,11 @@ impl EvalTarget {
     /// [`EvalContext::sibling`]; each replaces its destination only if the target wrote into
     /// it, else the destination keeps its contents.
     pub fn siblings(&self) -> &'static [&'static str] {
-        &[]
+        match self {
+            // The pedestrian study (`fixtures/paper-b-pedestrians/`), when its data is there.
+            EvalTarget::Tracking(_) => &["-pedestrians"],
+            _ => &[],
+        }
     }
 
     /// Why the target cannot run without (complete) benchmark data, if it needs data.
@@ -137,7 +141,6 @@ pub struct EvalContext {
 impl EvalContext {
     /// The staged folder of the sibling output with this suffix (one of
     /// [`EvalTarget::siblings`]), beside [`EvalContext::out_dir`].
-    #[allow(dead_code)] // for targets with sibling outputs (the pedestrian tracking study)
     pub fn sibling(&self, suffix: &str) -> PathBuf {
         crate::output::staged_sibling(&self.out_dir, suffix)
     }

@@ -12,14 +12,15 @@
 //! plots (trajectories of two sequences, RMSE against clutter rate). No timings: those are
 //! `cargo xtask bench tracking`'s.
 
+pub mod pedestrians;
 mod plots;
 pub mod study;
 mod summary;
 
 use std::path::{Path, PathBuf};
 
-use cbt_tracker::sim::{Level, Scenario, Ungm, generate};
-use cbt_tracker::{Sequence, csv};
+use cbt_tracker::sim::{Level, Scenario, Ungm, generate, observe};
+use cbt_tracker::{Sequence, csv, mot};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -46,6 +47,57 @@ pub struct TrackingArgs {
     /// Also write the synthetic sequences as CSV below DIR (`<set>/train`, `<set>/test`).
     #[arg(long, value_name = "DIR")]
     pub write_csv: Option<PathBuf>,
+    /// Format of the `--train` / `--test` files: `csv` (`*.csv`, `frame,kind,x,y`) or `mot`
+    /// (MOTChallenge ground truth `*.txt`, one single-target sequence per id, box centre as
+    /// truth).
+    #[arg(long, value_enum, default_value_t = Format::Csv)]
+    pub format: Format,
+    /// Detections simulated on sequences that hold none (MOT ground truth): `easy` (P_D 1,
+    /// σ 2 px, no clutter), `medium` (0.9, 4 px, 2 a frame) or `hard` (0.7, 6 px, 6 a frame).
+    #[arg(long, value_enum, default_value_t = Difficulty::Medium)]
+    pub level: Difficulty,
+}
+
+/// File format of the user's sequences.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Format {
+    /// `frame,kind,x,y` CSV files.
+    #[default]
+    Csv,
+    /// MOTChallenge ground truth.
+    Mot,
+}
+
+/// Simulated detector difficulty (the levels of the pedestrian study).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Difficulty {
+    /// P_D 1, σ 2 px, no clutter.
+    Easy,
+    /// P_D 0.9, σ 4 px, 2 clutter detections a frame.
+    #[default]
+    Medium,
+    /// P_D 0.7, σ 6 px, 6 clutter detections a frame.
+    Hard,
+}
+
+impl Difficulty {
+    /// All three, easy first.
+    pub const ALL: [Difficulty; 3] = [Difficulty::Easy, Difficulty::Medium, Difficulty::Hard];
+
+    /// The detector level.
+    pub fn level(self) -> Level {
+        let (name, clutter_rate, p_detect, noise_sigma) = match self {
+            Difficulty::Easy => ("easy", 0.0, 1.0, 2.0),
+            Difficulty::Medium => ("medium", 2.0, 0.9, 4.0),
+            Difficulty::Hard => ("hard", 6.0, 0.7, 6.0),
+        };
+        Level {
+            name: name.into(),
+            clutter_rate,
+            p_detect,
+            noise_sigma,
+        }
+    }
 }
 
 /// Track-loss radius on the image sets: 2.5 × the largest detection noise σ (8 px).
@@ -221,13 +273,63 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
     if image.len() > 1 {
         plots::rmse_vs_clutter(&image, &ctx.out_dir.join("rmse-vs-clutter.svg"))?;
     }
+    if args.train.is_none() {
+        run_pedestrians(ctx)?;
+    }
+    Ok(())
+}
+
+/// Name of the pedestrian study's fixture folder, beside the target's own.
+pub const PEDESTRIANS_DIR: &str = "paper-b-pedestrians";
+
+/// The real-motion study, when `pedestrians/` is in the data folder: written into
+/// [`PEDESTRIANS_DIR`] beside the target's folder. Without the data it is skipped with a note
+/// (its committed fixtures untouched); under `CI=true` a missing data folder is an error.
+fn run_pedestrians(ctx: &EvalContext) -> Result<()> {
+    let Some(dir) = pedestrians::folder(ctx.data_dir.as_deref()) else {
+        let why = "the pedestrian study needs `pedestrians/eth-ucy/` in the data folder \
+                   (--data or VISGUIDE_DATA)";
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            return Err(format!("{why}; under CI=true it must run").into());
+        }
+        eprintln!("note: skip {PEDESTRIANS_DIR}: {why}");
+        return Ok(());
+    };
+    // Staged beside the target's own folder (`fixtures/paper-b-pedestrians`, `DIR-pedestrians`).
+    let out = ctx.sibling("-pedestrians");
+    let scenes = pedestrians::load(&dir)?;
+    let folds = pedestrians::run(&scenes)?;
+    let text = pedestrians::summary(&scenes, &folds);
+    std::fs::create_dir_all(&out)?;
+    write_json(&out, "folds.json", &folds)?;
+    std::fs::write(out.join("summary.md"), text)?;
     Ok(())
 }
 
 /// The user's CSV sequences as one image set.
 fn user_set(train: &Path, test: &Path, args: &TrackingArgs) -> Result<SetSpec> {
-    let train = csv::read_dir(train)?;
-    let test = csv::read_dir(test)?;
+    let read = |dir: &Path| -> Result<Vec<Sequence>> {
+        Ok(match args.format {
+            Format::Csv => csv::read_dir(dir)?,
+            Format::Mot => mot::read_dir(dir)?,
+        })
+    };
+    let (mut train, mut test) = (read(train)?, read(test)?);
+    for s in &test {
+        let scored = s.start().map_or(0, |k| {
+            s.frames[k + 1..]
+                .iter()
+                .filter(|f| f.truth.is_some())
+                .count()
+        });
+        if scored == 0 {
+            return Err(format!(
+                "test sequence {}: no frame with a truth after its first one (nothing to score)",
+                s.name
+            )
+            .into());
+        }
+    }
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     for s in train.iter().chain(&test) {
@@ -251,15 +353,36 @@ fn user_set(train: &Path, test: &Path, args: &TrackingArgs) -> Result<SetSpec> {
         Some(h) => (0.0, h),
         None => (lo[1].min(0.0), hi[1] + 1.0),
     };
+    // Sequences without a single detection (ground truth only) get simulated ones.
+    let level = args.level.level();
+    let mut simulated = 0;
+    for (part, seqs) in [(0u64, &mut train), (1, &mut test)] {
+        for (i, s) in seqs.iter_mut().enumerate() {
+            if s.frames.iter().all(|f| f.detections.is_empty()) {
+                let seed = 7000 + part;
+                *s = observe(s, &level, [x_lo, x_hi, y_lo, y_hi], seed, i as u64);
+                simulated += 1;
+            }
+        }
+    }
     let frames: usize = test.iter().map(|s: &Sequence| s.frames.len()).sum();
     Ok(SetSpec {
         name: "user".into(),
         description: format!(
             "{} training and {} test sequences ({} test frames) on [{x_lo}, {x_hi}] × \
-             [{y_lo}, {y_hi}].",
+             [{y_lo}, {y_hi}]{}.",
             train.len(),
             test.len(),
-            frames
+            frames,
+            if simulated > 0 {
+                format!(
+                    "; detections simulated at level {} on {simulated} sequences without \
+                     any (seeds 7000 training, 7001 test)",
+                    level.name
+                )
+            } else {
+                String::new()
+            }
         ),
         clutter_rate: None,
         kind: SetKind::Image {
@@ -289,6 +412,97 @@ mod tests {
         insta::assert_snapshot!(summary::render(&results, &protocol(&specs)));
     }
 
+    /// MOTChallenge ground truth (frames from 1, ids starting late) and a CSV file that starts
+    /// at frame 5 with detections before its first truth: read, detections simulated where
+    /// there are none, every tracker run from each sequence's first truth.
+    #[test]
+    fn users_files_as_they_come() {
+        let dir = std::env::temp_dir().join(format!("visguide-mot-{}", std::process::id()));
+        std::fs::remove_dir_all(&dir).ok();
+        for part in ["train", "test"] {
+            std::fs::create_dir_all(dir.join(part)).unwrap();
+        }
+        let walk = |id: usize, from: usize, n: usize, x0: f64| -> String {
+            (0..n)
+                .map(|k| format!("{},{id},{},60,10,20,1,1,1\n", from + k, x0 + 2.0 * k as f64))
+                .collect()
+        };
+        std::fs::write(
+            dir.join("train/gt.txt"),
+            format!("\u{feff}{}{}", walk(1, 1, 60, 20.0), walk(2, 10, 50, 40.0)),
+        )
+        .unwrap();
+        std::fs::write(dir.join("test/gt.txt"), walk(7, 30, 25, 30.0)).unwrap();
+        let args = TrackingArgs {
+            train: Some(dir.join("train")),
+            test: Some(dir.join("test")),
+            width: Some(200.0),
+            height: Some(150.0),
+            format: Format::Mot,
+            level: Difficulty::Easy,
+            ..Default::default()
+        };
+        let set = user_set(&dir.join("train"), &dir.join("test"), &args).unwrap();
+        assert_eq!((set.train.len(), set.test.len()), (2, 1));
+        assert_eq!(set.test[0].first_frame, 30);
+        assert!(
+            set.description
+                .contains("simulated at level easy on 3 sequences")
+        );
+        // Easy level: one detection per frame, near the box centre.
+        for f in &set.test[0].frames {
+            let t = f.truth.unwrap();
+            assert_eq!(f.detections.len(), 1);
+            assert!((f.detections[0].pos[0] - t[0]).abs() < 10.0);
+        }
+        let r = run_set(&set, &ProgressBar::hidden()).unwrap();
+        for run in &r.sequences[0].runs {
+            assert_eq!(run.score.frames, 24, "{}", run.tracker);
+            if run.tracker.starts_with("CBT") {
+                assert!(run.score.rmse < 5.0, "{} {}", run.tracker, run.score.rmse);
+            }
+        }
+        // A one-frame id is refused with its file and line.
+        std::fs::write(dir.join("test/gt.txt"), "3,9,1,1,2,2\n").unwrap();
+        let e = user_set(&dir.join("train"), &dir.join("test"), &args)
+            .err()
+            .expect("a one-frame id is an error");
+        assert!(e.to_string().contains("gt.txt:1:"), "{e}");
+        // CSV: a file starting at frame 5 with a detection before its first truth.
+        let csv_args = TrackingArgs {
+            format: Format::Csv,
+            ..args
+        };
+        let test = dir.join("csvtest");
+        std::fs::create_dir_all(&test).unwrap();
+        let train = dir.join("csvtrain");
+        for q in &set.train {
+            csv::write(&train, q).unwrap();
+        }
+        let mut text = String::from("frame,kind,x,y\n5,det,50,60\n");
+        for k in 6..30 {
+            let x = 30.0 + 2.0 * (k - 6) as f64;
+            text.push_str(&format!("{k},truth,{x},60\n{k},det,{x},60\n"));
+        }
+        std::fs::write(test.join("late.csv"), &text).unwrap();
+        let mut set = user_set(&train, &test, &csv_args).unwrap();
+        assert_eq!((set.test[0].first_frame, set.test[0].start()), (5, Some(1)));
+        set.test.truncate(1);
+        let r = run_set(&set, &ProgressBar::hidden()).unwrap();
+        assert_eq!(r.sequences[0].runs[0].score.frames, 23);
+        // A test file whose only truth is its last frame has nothing to score.
+        std::fs::write(
+            test.join("late.csv"),
+            "frame,kind,x,y\n5,det,1,1\n6,truth,1,1\n",
+        )
+        .unwrap();
+        let e = user_set(&train, &test, &csv_args)
+            .err()
+            .expect("nothing to score is an error");
+        assert!(e.to_string().contains("late"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     #[test]
     fn csv_study_runs_on_written_sequences() {
         let dir = std::env::temp_dir().join(format!("visguide-tracking-{}", std::process::id()));
@@ -304,7 +518,7 @@ mod tests {
             test: Some(dir.join("test")),
             width: Some(320.0),
             height: Some(240.0),
-            write_csv: None,
+            ..Default::default()
         };
         let user = user_set(&dir.join("train"), &dir.join("test"), &args).unwrap();
         let pb = ProgressBar::hidden();

@@ -113,14 +113,17 @@ pub struct SetResult {
 }
 
 /// Makes a fresh tracker from a seed.
-type Maker = Box<dyn Fn(u64) -> Result<Box<dyn Tracker>>>;
+pub type Maker = Box<dyn Fn(u64) -> Result<Box<dyn Tracker>>>;
 
 /// A set's trackers with its CBT grid (spacing, channels) and the baselines' calibration.
-type SetTrackers = (Trackers, Vec<f64>, Vec<usize>, Option<Calibration>);
+pub type SetTrackers = (Trackers, Vec<f64>, Vec<usize>, Option<Calibration>);
 
 /// A factory of fresh trackers for one set.
-struct Trackers {
-    makers: Vec<Maker>,
+pub struct Trackers {
+    /// One maker per tracker, in run order.
+    pub makers: Vec<Maker>,
+    /// Whether each tracker draws random numbers (its result depends on the seed).
+    pub seeded: Vec<bool>,
 }
 
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
@@ -148,7 +151,9 @@ fn cbt_makers(second: CbtModel, first: CbtModel) -> Vec<Maker> {
 }
 
 impl Trackers {
-    fn for_set(spec: &SetSpec) -> Result<SetTrackers> {
+    /// The trackers of a set: CBT (three variants), Kalman (image sets) and the particle
+    /// filters, with the CBT grid and the baselines' calibration.
+    pub fn for_set(spec: &SetSpec) -> Result<SetTrackers> {
         match spec.kind {
             SetKind::Image {
                 x_lo,
@@ -174,6 +179,7 @@ impl Trackers {
                 let cal = Calibration::estimate(&spec.train, extent / 10.0)?;
                 let area = (x_hi - x_lo) * (y_hi - y_lo);
                 let mut makers = cbt_makers(second, first);
+                let mut seeded = vec![false; makers.len() + 1];
                 makers.push(Box::new(move |_| {
                     Ok(
                         Box::new(KalmanTracker::new(KalmanParams::from_calibration(&cal))?)
@@ -185,9 +191,10 @@ impl Trackers {
                     makers.push(Box::new(move |seed| {
                         Ok(Box::new(ParticleFilter::new(model, n, seed)?) as Box<dyn Tracker>)
                     }));
+                    seeded.push(true);
                 }
                 Ok((
-                    Trackers { makers },
+                    Trackers { makers, seeded },
                     vec![
                         space.state_basis(0).spacing(),
                         space.state_basis(1).spacing(),
@@ -223,6 +230,7 @@ impl Trackers {
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
                 let mut makers = cbt_makers(second, first);
+                let mut seeded = vec![false; makers.len()];
                 for n in PARTICLES {
                     let model = PfModel::Ungm {
                         process_var: 10.0,
@@ -232,9 +240,10 @@ impl Trackers {
                     makers.push(Box::new(move |seed| {
                         Ok(Box::new(ParticleFilter::new(model, n, seed)?) as Box<dyn Tracker>)
                     }));
+                    seeded.push(true);
                 }
                 Ok((
-                    Trackers { makers },
+                    Trackers { makers, seeded },
                     vec![state.spacing(), meas.spacing()],
                     vec![state.len()],
                     None,
@@ -246,18 +255,18 @@ impl Trackers {
 
 /// Runs one tracker over a sequence; frames with detections the tracker rejects count as
 /// empty frames.
-fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> Result<Run> {
-    let start = s.frames[0].truth.ok_or_else(|| {
-        format!(
-            "sequence {}: the first frame has no truth to start from",
-            s.name
-        )
-    })?;
+pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> Result<Run> {
+    // A track starts at its first frame with a truth; earlier frames are not scored.
+    let k0 = s
+        .start()
+        .ok_or_else(|| format!("sequence {}: no frame has a truth to start from", s.name))?;
+    let frames = &s.frames[k0..];
+    let start = frames[0].truth.unwrap_or_default();
     t.reset(start)?;
     let mut est = vec![start];
     let mut rejected = 0;
     let t0 = Instant::now();
-    for f in &s.frames[1..] {
+    for f in &frames[1..] {
         let e = match t.step(&f.detections) {
             Ok(e) => e,
             Err(TrackError::OutsideGrid { .. }) => {
@@ -269,7 +278,7 @@ fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> Resul
         est.push(e.position);
     }
     let seconds = t0.elapsed().as_secs_f64();
-    let truths: Vec<Option<Point>> = s.frames.iter().map(|f| f.truth).collect();
+    let truths: Vec<Option<Point>> = frames.iter().map(|f| f.truth).collect();
     Ok(Run {
         tracker: t.name(),
         score: score(&est, &truths, dims, radius),
