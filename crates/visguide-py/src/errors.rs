@@ -29,3 +29,11 @@ pub fn from_lwpr(e: lwpr::LwprError) -> PyErr {
 pub fn from_fd(e: fd_match::FdError) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
+
+/// A tracking error: `OSError` for files, `ValueError` otherwise.
+pub fn from_track(e: cbt_tracker::TrackError) -> PyErr {
+    match e {
+        cbt_tracker::TrackError::Io { .. } => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}

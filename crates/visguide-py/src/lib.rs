@@ -25,6 +25,7 @@ mod fd_py;
 mod image;
 mod lwpr_py;
 mod mser_py;
+mod tracking_py;
 
 /// The compiled part of the `visguide` package (use `visguide.mser`, `visguide.lwpr`, ...).
 #[pymodule]
@@ -36,5 +37,8 @@ fn _visguide(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fd_py::describe, m)?)?;
     m.add_function(wrap_pyfunction!(fd_py::match_sets, m)?)?;
     m.add_class::<fd_py::PyDescriptors>()?;
+    m.add_class::<tracking_py::PyCbt>()?;
+    m.add_class::<tracking_py::PyKalman>()?;
+    m.add_class::<tracking_py::PyParticleFilter>()?;
     Ok(())
 }

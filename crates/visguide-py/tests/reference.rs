@@ -281,6 +281,72 @@ fn fd_cases(px: &[u8]) -> Value {
     Value::Object(out)
 }
 
+fn frames_json(frames: &[cbt_tracker::Frame]) -> Value {
+    frames
+        .iter()
+        .map(|f| {
+            let truths: Vec<[f64; 2]> = f.truth.into_iter().collect();
+            let dets: Vec<[f64; 3]> = f
+                .detections
+                .iter()
+                .map(|d| [d.pos[0], d.pos[1], d.weight])
+                .collect();
+            json!([truths, dets])
+        })
+        .collect()
+}
+
+fn run_json<T: cbt_tracker::Tracker>(t: &mut T, frames: &[cbt_tracker::Frame]) -> Value {
+    t.reset(frames[0].truth.unwrap()).unwrap();
+    frames[1..]
+        .iter()
+        .map(|f| {
+            let e = t.step(&f.detections).unwrap();
+            json!([e.position[0], e.position[1], e.certainty])
+        })
+        .collect()
+}
+
+/// Simulated sequences (stored), a CBT learned from them, and the three trackers' estimates.
+fn tracking_cases() -> Value {
+    use cbt_tracker::{
+        CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ParticleFilter, PfModel,
+        Space, sim,
+    };
+    let level = sim::Level::preset(1);
+    let train = sim::generate(&sim::Scenario::default(), &level, 2, 120, 7);
+    let test = &sim::generate(&sim::Scenario::default(), &level, 1, 40, 8)[0];
+    let space = Space::image(320.0, 240.0, 10.0).unwrap();
+    let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
+    let mut cbt = CbtTracker::new(model);
+    let mut kalman = KalmanTracker::new(KalmanParams {
+        accel_sigma: 2.0,
+        meas_sigma: 3.0,
+        init_vel_sigma: 10.0,
+        gate: cbt_tracker::GATE_99,
+    })
+    .unwrap();
+    let mut pf = ParticleFilter::new(
+        PfModel::ConstantVelocity {
+            accel_sigma: 2.0,
+            meas_sigma: 3.0,
+            p_detect: 0.9,
+            clutter_density: 1e-4,
+            init_vel_sigma: 10.0,
+        },
+        200,
+        3,
+    )
+    .unwrap();
+    json!({
+        "train": train.iter().map(|s| frames_json(&s.frames)).collect::<Vec<_>>(),
+        "test": frames_json(&test.frames),
+        "cbt": run_json(&mut cbt, &test.frames),
+        "kalman": run_json(&mut kalman, &test.frames),
+        "particle_filter": run_json(&mut pf, &test.frames),
+    })
+}
+
 fn reference() -> Value {
     let px = image();
     json!({
@@ -288,6 +354,7 @@ fn reference() -> Value {
         "mser": mser_cases(&px),
         "lwpr": lwpr_cases(),
         "fd": fd_cases(&px),
+        "tracking": tracking_cases(),
     })
 }
 

@@ -5,11 +5,12 @@ Submodules:
 - :mod:`visguide.mser` -- Maximally Stable Extremal Regions on 2-D ``uint8`` arrays.
 - :mod:`visguide.lwpr` -- Locally Weighted Projection Regression (``LWPR``).
 - :mod:`visguide.fd` -- Fourier descriptors of contours, matched by correlation.
+- :mod:`visguide.tracking` -- Channel-based tracking and its Kalman / particle-filter baselines.
 
 Errors: ``ValueError`` for bad input, ``OSError`` for files, ``TypeError`` for arrays of the
 wrong dtype or rank.
 """
 
-from . import fd, lwpr, mser
+from . import fd, lwpr, mser, tracking
 
-__all__ = ["fd", "lwpr", "mser"]
+__all__ = ["fd", "lwpr", "mser", "tracking"]

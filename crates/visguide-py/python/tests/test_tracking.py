@@ -1,0 +1,135 @@
+"""visguide.tracking against the cbt-tracker crate (tests/reference.json): a CBT learned from
+the same simulated sequences, the Kalman and particle-filter baselines, round trips, errors."""
+
+import copy
+import pickle
+
+import numpy as np
+import pytest
+
+from visguide.tracking import CBT, Kalman, ParticleFilter
+
+
+def frames(ref_frames):
+    """(truths, detections) arrays per frame, as the reference stores them."""
+    return [(np.array(t, dtype=float).reshape(-1, 2), np.array(d, dtype=float).reshape(-1, 3)) for t, d in ref_frames]
+
+
+def estimates(tracker, test):
+    start = tuple(test[0][0][0])
+    tracker.reset(start)
+    return [list(tracker.step(d)) for _, d in test[1:]]
+
+
+@pytest.fixture(scope="module")
+def data(reference):
+    ref = reference["tracking"]
+    return ref, [frames(s) for s in ref["train"]], frames(ref["test"])
+
+
+def make_kalman():
+    return Kalman(2.0, 3.0, 10.0)
+
+
+def make_pf():
+    return ParticleFilter(2.0, 3.0, 0.9, 1e-4, 10.0, n=200, seed=3)
+
+
+def test_cbt_learned_in_python_tracks_exactly_as_in_rust(data):
+    ref, train, test = data
+    cbt = CBT.learn(train, 320.0, 240.0, spacing=10.0)
+    assert estimates(cbt, test) == ref["cbt"]
+    assert cbt.posterior.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("name, make", [("kalman", make_kalman), ("particle_filter", make_pf)])
+def test_baselines_track_exactly_as_in_rust(data, name, make):
+    ref, _, test = data
+    assert estimates(make(), test) == ref[name]
+
+
+@pytest.mark.parametrize("make", [make_kalman, make_pf])
+def test_run_equals_step_by_step(data, make):
+    _, _, test = data
+    a, b = make(), make()
+    out = a.run(tuple(test[0][0][0]), [d for _, d in test[1:]])
+    steps = estimates(b, test)
+    assert out.shape == (len(test) - 1, 3)
+    assert out[:, :2].tolist() == [s[:2] for s in steps]
+    assert a == b
+
+
+def test_two_column_detections_have_weight_one(data):
+    _, _, test = data
+    a, b = make_kalman(), make_kalman()
+    start = tuple(test[0][0][0])
+    a.reset(start)
+    b.reset(start)
+    for _, d in test[1:]:
+        assert a.step(d[:, :2]) == b.step(np.c_[d[:, :2], np.ones(len(d))])
+    assert a.step([]) == b.step(np.empty((0, 2)))
+
+
+@pytest.mark.parametrize("make", [make_kalman, make_pf])
+def test_pickle_json_and_file_round_trips(data, make, tmp_path):
+    _, _, test = data
+    t = make()
+    t.reset(tuple(test[0][0][0]))
+    for _, d in test[1:10]:
+        t.step(d)
+    path = tmp_path / "tracker.json"
+    t.save(path)
+    clones = [pickle.loads(pickle.dumps(t)), copy.deepcopy(t), type(t).from_json(t.to_json()), type(t).load(path)]
+    rest = [d for _, d in test[10:]]
+    for c in clones:
+        assert c == t
+    # Continuing from a clone gives what continuing the original gives.
+    ref_steps = [t.step(d) for d in rest]
+    for c in clones:
+        assert [c.step(d) for d in rest] == ref_steps
+
+
+def test_cbt_round_trips(data):
+    _, train, test = data
+    cbt = CBT.learn(train[:1], 320.0, 240.0)
+    cbt.reset(tuple(test[0][0][0]))
+    c = pickle.loads(pickle.dumps(cbt))
+    assert c == cbt
+    assert [c.step(d) for _, d in test[1:6]] == [cbt.step(d) for _, d in test[1:6]]
+
+
+def test_bad_input(data, tmp_path):
+    _, train, test = data
+    k = make_kalman()
+    k.reset((10.0, 10.0))
+    before = k.to_json()
+    for bad in [np.array([[np.nan, 1.0]]), np.array([[1.0, 2.0, -1.0]]), np.zeros((2, 4))]:
+        with pytest.raises(ValueError):
+            k.step(bad)
+    assert k.to_json() == before
+    with pytest.raises(TypeError):
+        k.step(np.zeros(3))
+    with pytest.raises(ValueError):
+        k.reset((np.nan, 0.0))
+    with pytest.raises(ValueError):
+        Kalman(-1.0, 3.0, 10.0)
+    with pytest.raises(ValueError):
+        ParticleFilter(2.0, 3.0, 0.9, 1e-4, 10.0, n=0)
+    with pytest.raises(ValueError):
+        CBT.learn([], 320.0, 240.0)
+    with pytest.raises(ValueError):
+        CBT.learn(train, -1.0, 240.0)
+    with pytest.raises(ValueError):
+        Kalman.from_json('{"not": "a tracker"}')
+    with pytest.raises(OSError):
+        Kalman.load(tmp_path / "missing.json")
+    with pytest.raises(OSError):
+        k.save(tmp_path / "no" / "dir" / "k.json")
+    assert not (tmp_path / "no").exists()
+
+
+def test_kalman_state_attributes():
+    k = make_kalman()
+    k.reset((5.0, 6.0))
+    assert k.x[:2] == [5.0, 6.0] and k.P.shape == (4, 4)
+    assert len(make_pf()) == 200

@@ -1,0 +1,16 @@
+"""Channel-based tracking (Paper B of the thesis) and its baselines, one frame at a time.
+
+- :class:`CBT` -- grid Bayesian filter on channel-coded densities, with system and observation
+  models learned by :meth:`CBT.learn` from lists of ``(truths, detections)`` arrays per frame
+  (no associations needed).
+- :class:`Kalman` -- constant-velocity Kalman filter with nearest-neighbour gating.
+- :class:`ParticleFilter` -- SIR particle filter with a clutter-aware likelihood (seeded).
+
+All three share ``reset((x, y))``, ``step(detections) -> (x, y, certainty)``,
+``run(start, frames) -> (T, 3) array`` (without the GIL), ``estimate()``, ``to_json`` /
+``from_json``, ``save`` / ``load`` and pickling.
+"""
+
+from ._visguide import CBT, Kalman, ParticleFilter
+
+__all__ = ["CBT", "Kalman", "ParticleFilter"]
