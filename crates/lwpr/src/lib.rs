@@ -33,7 +33,10 @@
 //! every prediction returned by `update` is equal, the receptive-field counts are equal and grid
 //! predictions agree to ~4e-16 (`tests/reference.rs`: cross setting A; full metric with meta
 //! learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
-//! metric, meta learning and pruning; also `cargo xtask bench lwpr`). Rust never fuses a
+//! metric, meta learning and pruning; also `cargo xtask bench lwpr`, which fails if that breaks).
+//! Tests and bench build the reference with `cc -O3` (`PEER_CFLAGS` in `peer/harness.rs`), the
+//! optimisation level of our release build, for the same baseline x86-64 target, no fast-math;
+//! with `CI=true` a reference that cannot be built fails those tests instead of skipping them. Rust never fuses a
 //! multiply and an add, so rounding is decided by the order of operations alone, and the
 //! speed-ups of this exact path keep that order for every value:
 //! - the update is compiled separately for input dimensions 1–4 (loops of constant length,
