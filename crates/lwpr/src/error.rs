@@ -32,6 +32,29 @@ pub enum LwprError {
         /// Index of the first offending element.
         index: usize,
     },
+    /// A finite input or output so large that the model's arithmetic (squares and products
+    /// of differences in its statistics and metric gradient) could overflow.
+    #[error("{what}[{index}] = {value:e} exceeds the documented bound of {bound:e}")]
+    TooLarge {
+        /// Which argument (`x`, `y`, `x / norm_in`, `y / norm_out`).
+        what: &'static str,
+        /// Index of the first offending element.
+        index: usize,
+        /// Its value.
+        value: f64,
+        /// The bound ([`crate::MAX_ABS_VALUE`]).
+        bound: f64,
+    },
+    /// A model larger than the documented limits ([`crate::MAX_INPUTS`], [`crate::MAX_OUTPUTS`]).
+    #[error("{what} = {got} exceeds the limit of {max}")]
+    TooBig {
+        /// `n_in` or `n_out`.
+        what: &'static str,
+        /// The size asked for.
+        got: usize,
+        /// The limit.
+        max: usize,
+    },
     /// A saved model could not be read (corrupt, truncated, wrong version or inconsistent).
     #[error("cannot load model: {0}")]
     Format(String),

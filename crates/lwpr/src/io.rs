@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::model::{Lwpr, SubModel};
-use crate::params::{Arithmetic, Kernel, Params, PruneRule};
+use crate::params::{Arithmetic, Kernel, MAX_ABS_VALUE, Params, PruneRule};
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
 
@@ -33,6 +33,36 @@ fn check_version(version: u32) -> Result<()> {
 }
 const MAGIC: &[u8; 8] = b"LWPR-RS\0";
 const JSON_FORMAT: &str = "lwpr-rs";
+
+/// The serialised fields of an [`Lwpr`]: plain serde reads this, then `TryFrom` runs every
+/// check of a loaded model (so a deserialised model is as valid as a trained one).
+#[derive(Deserialize)]
+pub(crate) struct LwprData {
+    params: Params,
+    n_data: u64,
+    mean_x: Vec<f64>,
+    var_x: Vec<f64>,
+    sub: Vec<SubModel>,
+}
+
+impl TryFrom<LwprData> for Lwpr {
+    type Error = LwprError;
+    fn try_from(d: LwprData) -> Result<Self> {
+        Lwpr {
+            params: d.params,
+            n_data: d.n_data,
+            mean_x: d.mean_x,
+            var_x: d.var_x,
+            sub: d.sub,
+            ws: Workspace::default(),
+        }
+        .finish_load()
+    }
+}
+
+/// Relative tolerance of the check `D = MᵀM` on loading: `|D_ij − (MᵀM)_ij| ≤ 1e-9·√(D_ii D_jj)`
+/// (training computes `D` from `M` in several summation orders, all within a few ulp).
+pub const METRIC_TOLERANCE: f64 = 1e-9;
 
 #[derive(Serialize, Deserialize)]
 struct Envelope<M> {
@@ -309,6 +339,46 @@ fn dec_rf(d: &mut Dec) -> Result<ReceptiveField> {
     })
 }
 
+/// Checks a receptive field's metric: `M` upper triangular (diagonal with `diag_only`) with a
+/// positive diagonal, and `D = MᵀM` within [`METRIC_TOLERANCE`]: then `M` is the Cholesky
+/// factor of `D` and `D` is positive definite.
+fn check_metric(
+    n: usize,
+    diag_only: bool,
+    d: &[f64],
+    m: &[f64],
+) -> std::result::Result<(), String> {
+    for j in 0..n {
+        if m[j + j * n] <= 0.0 {
+            return Err(
+                "metric factor M has a non-positive diagonal (D not positive definite)".into(),
+            );
+        }
+        for i in 0..n {
+            let below = i > j;
+            if (below || (diag_only && i != j)) && m[i + j * n] != 0.0 {
+                return Err(
+                    "metric factor M is not upper triangular (diagonal with diag_only)".into(),
+                );
+            }
+        }
+    }
+    for j in 0..n {
+        for i in 0..=j {
+            let mtm: f64 = (0..=i).map(|k| m[k + i * n] * m[k + j * n]).sum();
+            let scale = (d[i + i * n] * d[j + j * n]).sqrt();
+            let err = (d[i + j * n] - mtm).abs();
+            if err.is_nan() || err > METRIC_TOLERANCE * scale || scale.is_nan() {
+                return Err(format!(
+                    "D is not MᵀM at ({i}, {j}): {} against {mtm} (relative tolerance {METRIC_TOLERANCE:e})",
+                    d[i + j * n]
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Lwpr {
     /// The model as JSON (with format name and version).
     pub fn to_json(&self) -> String {
@@ -322,7 +392,7 @@ impl Lwpr {
 
     /// Loads a model from [`to_json`](Self::to_json) output.
     pub fn from_json(s: &str) -> Result<Self> {
-        let env: Envelope<Lwpr> =
+        let env: Envelope<serde_json::Value> =
             serde_json::from_str(s).map_err(|e| fmt_err(format!("invalid JSON model: {e}")))?;
         if env.format != JSON_FORMAT {
             return Err(fmt_err(format!("unknown format `{}`", env.format)));
@@ -330,9 +400,12 @@ impl Lwpr {
         check_version(env.version)?;
         let mut model = env.model;
         if env.version == 1 {
-            model.params.arithmetic = Arithmetic::Reference;
+            // Version 1 had no arithmetic: its models were trained in the reference's.
+            if let Some(p) = model.get_mut("params").and_then(|p| p.as_object_mut()) {
+                p.insert("arithmetic".into(), serde_json::json!("Reference"));
+            }
         }
-        model.finish_load()
+        serde_json::from_value(model).map_err(|e| fmt_err(format!("invalid JSON model: {e}")))
     }
 
     /// The model in the compact binary form: magic, version, payload length, little-endian
@@ -442,14 +515,14 @@ impl Lwpr {
 
     /// Checks every invariant of a deserialised model and rebuilds derived data.
     fn finish_load(mut self) -> Result<Self> {
-        let mut p = self.params.clone();
-        p.validate()
+        let p = self
+            .params
+            .checked_copy()
             .map_err(|e| fmt_err(format!("invalid parameters: {e}")))?;
-        if p.init_m != self.params.init_m {
-            return Err(fmt_err("init_M is not the Cholesky factor of init_D"));
-        }
         let (n, m) = (p.n_in, p.n_out);
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        let within = |v: &[f64]| v.iter().all(|x| x.abs() <= MAX_ABS_VALUE);
+        let non_negative = |v: &[f64]| v.iter().all(|&x| x >= 0.0);
         if self.mean_x.len() != n
             || self.var_x.len() != n
             || !finite(&self.mean_x)
@@ -458,6 +531,11 @@ impl Lwpr {
             return Err(fmt_err(
                 "input statistics have the wrong size or are not finite",
             ));
+        }
+        if !within(&self.mean_x) || !non_negative(&self.var_x) {
+            return Err(fmt_err(format!(
+                "input statistics out of range (|mean| ≤ {MAX_ABS_VALUE:e}, variance ≥ 0)"
+            )));
         }
         if self.sub.len() != m {
             return Err(fmt_err("number of sub-models differs from n_out"));
@@ -515,6 +593,26 @@ impl Lwpr {
                 }
                 if rf.ss_s2.iter().any(|&v| v <= 0.0) || rf.sum_w.iter().any(|&v| v <= 0.0) {
                     return Err(bad("non-positive PLS statistics"));
+                }
+                check_metric(n, p.diag_only, &rf.d, &rf.m).map_err(|e| bad(&e))?;
+                if rf.alpha.iter().any(|&a| a <= 0.0) {
+                    return Err(bad("learning rate not positive"));
+                }
+                if rf.lambda.iter().any(|&l| !(l > 0.0 && l <= 1.0)) {
+                    return Err(bad("forgetting factor lambda outside (0, 1]"));
+                }
+                if !(0.0..=1.0).contains(&rf.w) {
+                    return Err(bad("activation outside [0, 1]"));
+                }
+                if !within(&rf.c) || !within(&rf.mean_x) {
+                    return Err(bad("centre or mean beyond MAX_ABS_VALUE"));
+                }
+                if !non_negative(&rf.var_x)
+                    || !non_negative(&rf.n_data)
+                    || !non_negative(&rf.sum_e_cv2)
+                    || rf.sum_e2 < 0.0
+                {
+                    return Err(bad("negative variance, count or sum of squares"));
                 }
                 // Restore the growth capacity so later updates do not reallocate.
                 for v in [&mut rf.sxy, &mut rf.ssx, &mut rf.u, &mut rf.p] {

@@ -33,7 +33,10 @@
 //! every prediction returned by `update` is equal, the receptive-field counts are equal and grid
 //! predictions agree to ~4e-16 (`tests/reference.rs`: cross setting A; full metric with meta
 //! learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
-//! metric, meta learning and pruning; also `cargo xtask bench lwpr`). Rust never fuses a
+//! metric, meta learning and pruning; also `cargo xtask bench lwpr`, which fails if that breaks).
+//! Tests and bench build the reference with `cc -O3` (`PEER_CFLAGS` in `peer/harness.rs`), the
+//! optimisation level of our release build, for the same baseline x86-64 target, no fast-math;
+//! with `CI=true` a reference that cannot be built fails those tests instead of skipping them. Rust never fuses a
 //! multiply and an add, so rounding is decided by the order of operations alone, and the
 //! speed-ups of this exact path keep that order for every value:
 //! - the update is compiled separately for input dimensions 1–4 (loops of constant length,
@@ -122,8 +125,16 @@
 //!
 //! ## Robustness
 //! Non-finite or wrongly sized inputs and invalid parameters return [`LwprError`] and leave the
-//! model untouched. Models save to JSON or a compact checksummed binary form with a format
-//! version ([`Lwpr::to_json`], [`Lwpr::to_binary`]); loading validates everything.
+//! model untouched. Documented limits, checked before anything is allocated or stored:
+//! `n_in ≤` [`MAX_INPUTS`] (256), `n_out ≤` [`MAX_OUTPUTS`] (4096), and training inputs and
+//! outputs (raw and normalised) of magnitude at most [`MAX_ABS_VALUE`] (1e30; larger finite
+//! values could overflow the squares and products in the model's statistics). Models save to
+//! JSON or a compact checksummed binary form with a format version ([`Lwpr::to_json`],
+//! [`Lwpr::to_binary`]); loading validates everything, and so does plain serde
+//! deserialisation of an [`Lwpr`] or [`Params`] (the same checks, through `try_from`):
+//! sizes, finiteness, ranges of the parameters and statistics, and each receptive field's
+//! metric (`M` upper triangular with a positive diagonal and `D = MᵀM` within a relative
+//! 1e-9, so `D` is positive definite).
 //!
 //! ```
 //! use lwpr::LwprBuilder;
@@ -155,6 +166,8 @@ mod rf;
 mod workspace;
 
 pub use error::{LwprError, Result};
-pub use io::BINARY_FORMAT_VERSION;
+pub use io::{BINARY_FORMAT_VERSION, METRIC_TOLERANCE};
 pub use model::{Lwpr, PredictionWithConfidence, PredictionWithJacobian, RfView};
-pub use params::{Arithmetic, Kernel, LwprBuilder, Params, PruneRule};
+pub use params::{
+    Arithmetic, Kernel, LwprBuilder, MAX_ABS_VALUE, MAX_INPUTS, MAX_OUTPUTS, Params, PruneRule,
+};

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::metric::update_distance_metric;
-use crate::params::{Arithmetic, Kernel, Params, PruneRule};
+use crate::params::{Arithmetic, Kernel, MAX_ABS_VALUE, Params, PruneRule};
 use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, diag_distance, distance, kernel_eval};
 use crate::workspace::Workspace;
 
@@ -21,8 +21,10 @@ pub(crate) struct SubModel {
 /// An LWPR model (create it with [`crate::LwprBuilder`]).
 ///
 /// Every fallible method validates its arguments before touching the model, so an `Err` leaves
-/// the model exactly as it was.
+/// the model exactly as it was. Deserialising one (serde, [`Lwpr::from_json`],
+/// [`Lwpr::from_binary`]) runs every check of a loaded model.
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "crate::io::LwprData")]
 pub struct Lwpr {
     pub(crate) params: Params,
     pub(crate) n_data: u64,
@@ -140,6 +142,22 @@ fn check_vec(what: &'static str, v: &[f64], expected: usize) -> Result<()> {
     }
     if let Some(index) = v.iter().position(|a| !a.is_finite()) {
         return Err(LwprError::NonFinite { what, index });
+    }
+    Ok(())
+}
+
+/// Checks `|v_i / norm_i| ≤ MAX_ABS_VALUE` (or `|v_i|` without norms); `v` is finite.
+fn check_range(what: &'static str, v: &[f64], norm: Option<&[f64]>) -> Result<()> {
+    for (index, &a) in v.iter().enumerate() {
+        let value = norm.map_or(a, |s| a / s[index]);
+        if value.is_nan() || value.abs() > MAX_ABS_VALUE {
+            return Err(LwprError::TooLarge {
+                what,
+                index,
+                value,
+                bound: MAX_ABS_VALUE,
+            });
+        }
     }
     Ok(())
 }
@@ -269,23 +287,11 @@ impl Lwpr {
                 got: y_pred.len(),
             });
         }
-        // Normalised values must stay finite too (tiny norm factors could overflow).
-        for i in 0..n {
-            if !(x[i] / self.params.norm_in[i]).is_finite() {
-                return Err(LwprError::NonFinite {
-                    what: "x / norm_in",
-                    index: i,
-                });
-            }
-        }
-        for i in 0..m {
-            if !(y[i] / self.params.norm_out[i]).is_finite() {
-                return Err(LwprError::NonFinite {
-                    what: "y / norm_out",
-                    index: i,
-                });
-            }
-        }
+        // Raw and normalised values within MAX_ABS_VALUE (tiny norm factors could overflow).
+        check_range("x", x, None)?;
+        check_range("x / norm_in", x, Some(&self.params.norm_in))?;
+        check_range("y", y, None)?;
+        check_range("y / norm_out", y, Some(&self.params.norm_out))?;
 
         // Global statistics of the raw inputs (inspection only).
         let nd = self.n_data as f64;

@@ -51,9 +51,24 @@ pub enum Arithmetic {
     Reference,
 }
 
+/// Largest input dimension `n_in` (each receptive field stores five `n × n` matrices: 2.6 MB
+/// at this limit). Larger models are refused with [`LwprError::TooBig`] before allocating.
+pub const MAX_INPUTS: usize = 256;
+
+/// Largest output dimension `n_out` (one independent sub-model per output).
+pub const MAX_OUTPUTS: usize = 4096;
+
+/// Largest magnitude of an input or output, raw and normalised (1e30), accepted by training.
+/// The model's statistics and its metric gradient hold squares and products of up to four
+/// differences of such values (`e²·(x−c)²` and the like), so larger finite values could
+/// overflow to infinity and poison the model; they are refused with [`LwprError::TooLarge`].
+pub const MAX_ABS_VALUE: f64 = 1e30;
+
 /// All parameters of a model. Names follow the reference library (`init_D` → `init_d` etc.).
-/// Matrices are `n_in × n_in`, stored column-major.
+/// Matrices are `n_in × n_in`, stored column-major. Deserialisation runs
+/// [`Params::validate`] and requires the stored `init_m` to be the factor it computes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ParamsData")]
 pub struct Params {
     /// Input dimension n.
     pub n_in: usize,
@@ -103,8 +118,70 @@ pub struct Params {
     pub arithmetic: Arithmetic,
 }
 
+/// The serialised form of [`Params`] (the same fields), checked on the way in.
+#[derive(Deserialize)]
+struct ParamsData {
+    n_in: usize,
+    n_out: usize,
+    init_d: Vec<f64>,
+    init_m: Vec<f64>,
+    init_alpha: Vec<f64>,
+    w_gen: f64,
+    w_prune: f64,
+    init_lambda: f64,
+    final_lambda: f64,
+    tau_lambda: f64,
+    init_s2: f64,
+    add_threshold: f64,
+    penalty: f64,
+    diag_only: bool,
+    update_d: bool,
+    meta: bool,
+    meta_rate: f64,
+    norm_in: Vec<f64>,
+    norm_out: Vec<f64>,
+    kernel: Kernel,
+    prune_rule: PruneRule,
+    #[serde(default)]
+    arithmetic: Arithmetic,
+}
+
+impl TryFrom<ParamsData> for Params {
+    type Error = LwprError;
+    fn try_from(d: ParamsData) -> Result<Self> {
+        let p = Params {
+            n_in: d.n_in,
+            n_out: d.n_out,
+            init_d: d.init_d,
+            init_m: d.init_m,
+            init_alpha: d.init_alpha,
+            w_gen: d.w_gen,
+            w_prune: d.w_prune,
+            init_lambda: d.init_lambda,
+            final_lambda: d.final_lambda,
+            tau_lambda: d.tau_lambda,
+            init_s2: d.init_s2,
+            add_threshold: d.add_threshold,
+            penalty: d.penalty,
+            diag_only: d.diag_only,
+            update_d: d.update_d,
+            meta: d.meta,
+            meta_rate: d.meta_rate,
+            norm_in: d.norm_in,
+            norm_out: d.norm_out,
+            kernel: d.kernel,
+            prune_rule: d.prune_rule,
+            arithmetic: d.arithmetic,
+        };
+        p.checked_copy()?;
+        Ok(p)
+    }
+}
+
 impl Params {
     /// The reference library's defaults (`lwpr_init_model`) for `n_in` inputs and `n_out` outputs.
+    /// Allocates three `n_in × n_in` matrices without checking the size: use
+    /// [`LwprBuilder::new`], which refuses sizes beyond [`MAX_INPUTS`] before allocating.
     pub fn defaults(n_in: usize, n_out: usize) -> Self {
         let mut init_d = vec![0.0; n_in * n_in];
         let mut init_m = vec![0.0; n_in * n_in];
@@ -138,11 +215,29 @@ impl Params {
         }
     }
 
+    /// Validates a copy and checks that the stored `init_m` is the factor [`validate`]
+    /// computes from `init_d` (as it is in every model we write): the checks of a loaded
+    /// parameter set.
+    ///
+    /// [`validate`]: Self::validate
+    pub(crate) fn checked_copy(&self) -> Result<Params> {
+        let mut p = self.clone();
+        p.validate()?;
+        if p.init_m != self.init_m {
+            return Err(LwprError::InvalidParameter {
+                name: "init_M",
+                reason: "is not the Cholesky factor of init_D".into(),
+            });
+        }
+        Ok(p)
+    }
+
     /// Checks every parameter; on success `init_m` is recomputed from `init_d`.
     pub fn validate(&mut self) -> Result<()> {
         let n = self.n_in;
         let bad =
             |name: &'static str, reason: String| Err(LwprError::InvalidParameter { name, reason });
+        check_sizes(n, self.n_out)?;
         if n == 0 {
             return bad("n_in", "must be at least 1".into());
         }
@@ -225,6 +320,16 @@ impl Params {
     }
 }
 
+/// Checks `n_in ≤ MAX_INPUTS` and `n_out ≤ MAX_OUTPUTS`.
+fn check_sizes(n_in: usize, n_out: usize) -> Result<()> {
+    for (what, got, max) in [("n_in", n_in, MAX_INPUTS), ("n_out", n_out, MAX_OUTPUTS)] {
+        if got > max {
+            return Err(LwprError::TooBig { what, got, max });
+        }
+    }
+    Ok(())
+}
+
 /// Builder of an [`Lwpr`] model with the reference library's parameter names and defaults.
 ///
 /// ```
@@ -246,8 +351,26 @@ pub struct LwprBuilder {
 }
 
 impl LwprBuilder {
-    /// Starts from the reference defaults (see [`Params::defaults`]).
+    /// Starts from the reference defaults (see [`Params::defaults`]). Sizes beyond
+    /// [`MAX_INPUTS`] or [`MAX_OUTPUTS`] allocate nothing and make [`build`](Self::build)
+    /// return [`LwprError::TooBig`].
+    ///
+    /// ```
+    /// use lwpr::{LwprBuilder, LwprError};
+    /// assert!(matches!(
+    ///     LwprBuilder::new(10_000, 1).init_alpha(10.0).build(),
+    ///     Err(LwprError::TooBig { what: "n_in", got: 10_000, .. })
+    /// ));
+    /// ```
     pub fn new(n_in: usize, n_out: usize) -> Self {
+        if let Err(e) = check_sizes(n_in, n_out) {
+            let mut params = Params::defaults(0, 0);
+            (params.n_in, params.n_out) = (n_in, n_out);
+            return LwprBuilder {
+                params,
+                error: Some(e),
+            };
+        }
         LwprBuilder {
             params: Params::defaults(n_in, n_out),
             error: None,
@@ -264,6 +387,9 @@ impl LwprBuilder {
 
     /// `init_D = d·I` (`lwpr_set_init_D_spherical`).
     pub fn init_d_spherical(mut self, d: f64) -> Self {
+        if self.error.is_some() {
+            return self;
+        }
         let n = self.params.n_in;
         self.params.init_d = vec![0.0; n * n];
         for i in 0..n {
@@ -274,6 +400,9 @@ impl LwprBuilder {
 
     /// `init_D = diag(d)` (`lwpr_set_init_D_diagonal`).
     pub fn init_d_diagonal(mut self, d: &[f64]) -> Self {
+        if self.error.is_some() {
+            return self;
+        }
         let n = self.params.n_in;
         if d.len() != n {
             self.error.get_or_insert(LwprError::InvalidParameter {
@@ -298,6 +427,9 @@ impl LwprBuilder {
 
     /// The same initial learning rate for every element of `M`.
     pub fn init_alpha(mut self, alpha: f64) -> Self {
+        if self.error.is_some() {
+            return self;
+        }
         let n = self.params.n_in;
         self.params.init_alpha = vec![alpha; n * n];
         self

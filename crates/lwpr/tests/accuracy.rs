@@ -60,9 +60,7 @@ fn cross_setting_b_reaches_reference_accuracy() {
 /// nMSE of the reference on the same stream, if it can be built (else `None`, printed).
 fn reference_nmse(m: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> Option<f64> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let driver = build_peer(&root)
-        .map_err(|r| eprintln!("reference comparison skipped: {r}"))
-        .ok()?;
+    let driver = peer_or_skip(&root, "reference comparison")?;
     let p = m.params();
     let s = PeerSettings::of(m);
     let run = run_peer(&driver, &s, x, y, tx, &[x.len() / p.n_in]).expect("reference run");

@@ -1,6 +1,6 @@
 //! Faithfulness to the reference C library on the cross function (issue 8): same number of
 //! receptive fields, the same predictions on the 41×41 grid (to 1e-6) and the same prediction
-//! returned by every update. Skipped with a printed reason when the reference cannot be built.
+//! returned by every update. Skipped with a printed reason when the reference cannot be built (a failure with `CI=true`).
 
 #[path = "../peer/harness.rs"]
 mod harness;
@@ -11,12 +11,8 @@ use std::path::Path;
 
 fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let driver = match build_peer(&root) {
-        Ok(d) => d,
-        Err(reason) => {
-            eprintln!("SKIPPED {label}: {reason}");
-            return;
-        }
+    let Some(driver) = peer_or_skip(&root, label) else {
+        return;
     };
     let (gx, _) = cross_grid();
     let n = model.n_in();
@@ -129,12 +125,8 @@ fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
     let (gx, _) = cross_grid();
     let gx = embed(&gx, &q, dim);
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let driver = match build_peer(&root) {
-        Ok(d) => d,
-        Err(reason) => {
-            eprintln!("SKIPPED 25-D fast arithmetic: {reason}");
-            return;
-        }
+    let Some(driver) = peer_or_skip(&root, "25-D fast arithmetic") else {
+        return;
     };
     let mut model = setting_25d(dim)
         .prune_rule(lwpr::PruneRule::ReferenceC)

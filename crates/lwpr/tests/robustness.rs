@@ -69,7 +69,7 @@ fn normalised_overflow_is_rejected() {
     let before = m.clone();
     assert!(matches!(
         m.update(&[1e10], &[0.0]),
-        Err(LwprError::NonFinite {
+        Err(LwprError::TooLarge {
             what: "x / norm_in",
             ..
         })

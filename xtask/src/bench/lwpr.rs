@@ -22,6 +22,8 @@ use crate::{Result, workspace_root};
 const RUNS: usize = 5;
 
 struct Measured {
+    /// Predictions returned by every update of the last run.
+    updates: Vec<f64>,
     updates_per_s: f64,
     predictions_per_s: f64,
     n_rf: usize,
@@ -31,15 +33,25 @@ struct Measured {
 
 /// One timed run of ours: trains a fresh copy, then times repeated passes of `predict_into`
 /// over the test set for at least 0.25 s (as the reference driver does).
-fn run_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> (f64, f64, Lwpr) {
+fn run_ours(
+    fresh: &Lwpr,
+    x: &[f64],
+    y: &[f64],
+    tx: &[f64],
+    ty: &[f64],
+) -> (f64, f64, Lwpr, Vec<f64>) {
     let n = fresh.n_in();
     let mut model = fresh.clone();
     let mut out = [0.0];
+    // Every update's prediction is kept (as the reference driver keeps its own), so that
+    // bit-identity can be checked; the buffer is allocated before the clock starts.
+    let mut updates = vec![0.0; y.len()];
     let t0 = Instant::now();
-    for (a, b) in x.chunks(n).zip(y) {
+    for ((a, b), u) in x.chunks(n).zip(y).zip(&mut updates) {
         model
             .update_into(a, std::slice::from_ref(b), &mut out)
             .expect("valid sample");
+        *u = out[0];
     }
     let updates_per_s = y.len() as f64 / t0.elapsed().as_secs_f64();
     let mut count = 0usize;
@@ -57,6 +69,7 @@ fn run_ours(fresh: &Lwpr, x: &[f64], y: &[f64], tx: &[f64], ty: &[f64]) -> (f64,
         updates_per_s,
         count as f64 / t0.elapsed().as_secs_f64(),
         model,
+        updates,
     )
 }
 
@@ -73,18 +86,19 @@ fn measure(
     let (mut ou, mut op, mut pu, mut pp) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut last = None;
     for _ in 0..RUNS {
-        let (u, p, model) = run_ours(fresh, x, y, tx, ty);
+        let (u, p, model, updates) = run_ours(fresh, x, y, tx, ty);
         ou.push(u);
         op.push(p);
         let run = run_peer(driver, &PeerSettings::of(fresh), x, y, tx, &[y.len()])?;
         pu.push(y.len() as f64 / run.update_seconds);
         pp.push(run.predictions_per_second);
-        last = Some((model, run));
+        last = Some((model, run, updates));
     }
-    let (model, run) = last.expect("RUNS > 0");
+    let (model, run, updates) = last.expect("RUNS > 0");
     let pred = model.predict_batch(tx, 0.001)?;
     let (nrf, peer_pred) = run.checkpoints.into_iter().next().expect("one checkpoint");
     let ours = Measured {
+        updates,
         updates_per_s: median(&mut ou),
         predictions_per_s: median(&mut op),
         n_rf: model.num_rfs()[0],
@@ -92,6 +106,7 @@ fn measure(
         pred,
     };
     let peer = Measured {
+        updates: run.update_predictions,
         updates_per_s: median(&mut pu),
         predictions_per_s: median(&mut pp),
         n_rf: nrf[0],
@@ -101,11 +116,65 @@ fn measure(
     Ok((ours, peer))
 }
 
-fn rows_for(case: &str, ours: &Measured, peer: &Measured, rows: &mut Vec<BenchRow>) {
+/// How closely ours must agree with the reference in a case.
+#[derive(Clone, Copy)]
+enum Agreement {
+    /// The reference's operations in its order: every update's prediction bit-identical, the
+    /// same receptive fields, grid predictions within 1e-14 (ours predicts from cached slopes).
+    BitIdentical,
+    /// `Arithmetic::Fast`: the same fields, update and grid predictions within 1e-6.
+    Rounding,
+}
+
+/// Fails the bench unless ours and the reference did the same work with the claimed agreement.
+fn check_agreement(case: &str, ours: &Measured, peer: &Measured, a: Agreement) -> Result<()> {
+    let grid = max_abs_diff(&ours.pred, &peer.pred);
+    let same_len = ours.updates.len() == peer.updates.len() && ours.pred.len() == peer.pred.len();
+    let ok = same_len
+        && ours.n_rf == peer.n_rf
+        && match a {
+            Agreement::BitIdentical => {
+                ours.updates
+                    .iter()
+                    .zip(&peer.updates)
+                    .all(|(o, p)| o.to_bits() == p.to_bits() || o == p)
+                    && grid <= 1e-14
+            }
+            Agreement::Rounding => {
+                max_abs_diff(&ours.updates, &peer.updates) <= 1e-6 && grid <= 1e-6
+            }
+        };
+    if !ok {
+        return Err(format!(
+            "{case}: outputs disagree with the reference (RFs {} vs {}, largest grid difference {grid:e}, largest update difference {:e})",
+            ours.n_rf,
+            peer.n_rf,
+            max_abs_diff(&ours.updates, &peer.updates)
+        )
+        .into());
+    }
+    Ok(())
+}
+
+fn rows_for(
+    case: &str,
+    ours: &Measured,
+    peer: &Measured,
+    agreement: Agreement,
+    rows: &mut Vec<BenchRow>,
+) -> Result<()> {
     let diff = max_abs_diff(&ours.pred, &peer.pred);
     println!(
         "{case}: RFs {} vs {}, nMSE {:.6} vs {:.6}, largest prediction difference {diff:.2e}",
         ours.n_rf, peer.n_rf, ours.nmse, peer.nmse
+    );
+    check_agreement(case, ours, peer, agreement)?;
+    println!(
+        "  checked: {}",
+        match agreement {
+            Agreement::BitIdentical => "every update prediction bit-identical, same fields",
+            Agreement::Rounding => "same fields, predictions within 1e-6",
+        }
     );
     rows.push(BenchRow::higher_is_better(
         format!("{case}: updates"),
@@ -131,6 +200,7 @@ fn rows_for(case: &str, ours: &Measured, peer: &Measured, rows: &mut Vec<BenchRo
         peer.nmse,
         "nMSE",
     ));
+    Ok(())
 }
 
 /// Runs the bench.
@@ -142,6 +212,10 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
             return Ok(Vec::new());
         }
     };
+    println!(
+        "reference LWPR compiled with `cc {}` (the optimisation level of our release build, baseline x86-64, no fast-math)",
+        PEER_CFLAGS.join(" ")
+    );
     let mut rows = Vec::new();
     let (gx, gy) = cross_grid();
 
@@ -150,7 +224,13 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
         let (x, y) = cross_samples(seed, 20_000, 0.1);
         let fresh = setting_a_builder(2).build()?;
         let (ours, peer) = measure(&driver, &fresh, &x, &y, &gx, &gy)?;
-        rows_for(&format!("cross 2-D seed {seed}"), &ours, &peer, &mut rows);
+        rows_for(
+            &format!("cross 2-D seed {seed}"),
+            &ours,
+            &peer,
+            Agreement::BitIdentical,
+            &mut rows,
+        )?;
     }
 
     // Learning curve, seed 1 (the fixture holds ours only; this prints both).
@@ -188,23 +268,40 @@ pub fn run(_args: &BenchArgs) -> Result<Vec<BenchRow>> {
     let (x2, y) = cross_samples(5, 20_000, 0.1);
     let x = embed(&x2, &q, dim);
     let tx = embed(&gx, &q, dim);
-    // The default arithmetic (vectorised for n ≥ 5) with both pruning rules, and the
-    // reference's order of operations (bit-identical to the C library) for comparison.
-    for (label, rule, arithmetic) in [
-        ("published pruning", PruneRule::Published, Arithmetic::Fast),
-        ("reference pruning", PruneRule::ReferenceC, Arithmetic::Fast),
+    // The default arithmetic (vectorised for n ≥ 5) and the reference's order of operations
+    // (bit-identical to the C library), both with the reference's pruning rule (the default):
+    // only these do the reference's work, so only these are timed against it.
+    for (label, arithmetic, agreement) in [
+        ("default arithmetic", Arithmetic::Fast, Agreement::Rounding),
         (
-            "reference pruning, exact arithmetic",
-            PruneRule::ReferenceC,
+            "exact arithmetic",
             Arithmetic::Reference,
+            Agreement::BitIdentical,
         ),
     ] {
         let fresh = setting_25d(dim)
-            .prune_rule(rule)
+            .prune_rule(PruneRule::ReferenceC)
             .arithmetic(arithmetic)
             .build()?;
         let (ours, peer) = measure(&driver, &fresh, &x, &y, &tx, &gy)?;
-        rows_for(&format!("cross 25-D, {label}"), &ours, &peer, &mut rows);
+        rows_for(
+            &format!("cross 25-D, {label}"),
+            &ours,
+            &peer,
+            agreement,
+            &mut rows,
+        )?;
     }
+    // The published pruning rule does other work than the reference (it removes the other
+    // field): accuracy only, not timed against it.
+    let mut published = setting_25d(dim).prune_rule(PruneRule::Published).build()?;
+    for (a, b) in x.chunks(dim).zip(&y) {
+        published.update(a, &[*b])?;
+    }
+    println!(
+        "cross 25-D, published pruning rule (not timed: other work than the reference): {} RFs, nMSE {:.6}",
+        published.num_rfs()[0],
+        nmse(&published.predict_batch(&tx, 0.001)?, &gy)
+    );
     Ok(rows)
 }

@@ -1,0 +1,246 @@
+//! Issue 24's reproductions for this crate (#4 plain serde, #5 huge finite samples, #6
+//! inconsistent loaded models, #7 size limits): each was a panic, a poisoned model or an
+//! unbounded allocation, and is now a typed error that leaves everything as it was.
+
+#[path = "../peer/harness.rs"]
+mod harness;
+
+use harness::*;
+use lwpr::{Lwpr, LwprBuilder, LwprError, MAX_ABS_VALUE, MAX_INPUTS, MAX_OUTPUTS};
+use serde_json::{Value, json};
+
+/// A 2-D model with a full metric and meta learning, trained on the cross function.
+fn trained(full: bool) -> Lwpr {
+    let mut m = LwprBuilder::new(2, 1)
+        .init_d_spherical(40.0)
+        .w_gen(0.2)
+        .diag_only(!full)
+        .meta(full)
+        .build()
+        .unwrap();
+    let (x, y) = cross_samples(3, 800, 0.05);
+    train(&mut m, &x, &y).unwrap();
+    m
+}
+
+/// The model part of `to_json`'s envelope.
+fn model_json(m: &Lwpr) -> Value {
+    let v: Value = serde_json::from_str(&m.to_json()).unwrap();
+    v["model"].clone()
+}
+
+/// The first receptive field of the first output.
+fn rf(v: &mut Value) -> &mut Value {
+    &mut v["sub"][0]["rfs"][0]
+}
+
+/// Loads an edited model through both routes: `from_json` and plain serde.
+fn load_both(model: &Value) -> (Result<Lwpr, LwprError>, Result<Lwpr, serde_json::Error>) {
+    let env = json!({"format": "lwpr-rs", "version": lwpr::BINARY_FORMAT_VERSION, "model": model});
+    (
+        Lwpr::from_json(&env.to_string()),
+        serde_json::from_value::<Lwpr>(model.clone()),
+    )
+}
+
+#[test]
+fn plain_serde_validates_and_the_loaded_model_predicts() {
+    // #4: a valid model read with plain serde used to lack its derived data (slopes,
+    // workspace) and panic in `predict`.
+    let m = trained(true);
+    let text = serde_json::to_string(&m).unwrap();
+    let mut back: Lwpr = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, m);
+    let (gx, _) = cross_grid();
+    assert_eq!(
+        back.predict_batch(&gx, 0.001).unwrap(),
+        m.predict_batch(&gx, 0.001).unwrap()
+    );
+    back.update(&[0.1, 0.2], &[0.3]).unwrap();
+    // … and an invalid one is refused by plain serde as by `from_json`.
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["params"]["w_gen"] = json!(1.5);
+    assert!(serde_json::from_value::<Lwpr>(v.clone()).is_err());
+    assert!(serde_json::from_value::<lwpr::Params>(v["params"].clone()).is_err());
+    let ok: lwpr::Params = serde_json::from_value(model_json(&m)["params"].clone()).unwrap();
+    assert_eq!(&ok, m.params());
+}
+
+#[test]
+fn huge_finite_samples_are_refused_and_change_nothing() {
+    // #5: `update([1e200, 0], [0])` made var_x infinite (the saved model no longer loaded);
+    // `y = 1e160` made a prediction at a trained point drop to 0.
+    let mut m = trained(false);
+    let before = m.clone();
+    for (x, y) in [
+        ([1e200, 0.0], [0.0]),
+        ([0.1, 0.1], [1e160]),
+        ([-2e30, 0.0], [0.0]),
+        ([0.0, 0.0], [-1.5e30]),
+    ] {
+        let e = m.update(&x, &y).unwrap_err();
+        assert!(
+            matches!(e, LwprError::TooLarge { bound, .. } if bound == MAX_ABS_VALUE),
+            "{e}"
+        );
+        assert!(e.to_string().contains("1e30"), "{e}");
+    }
+    assert_eq!(m, before);
+    // Normalisation counts too: a small norm factor makes a moderate value too large.
+    let mut n = LwprBuilder::new(1, 1).norm_in(&[1e-10]).build().unwrap();
+    assert!(matches!(
+        n.update(&[1e25], &[0.0]),
+        Err(LwprError::TooLarge {
+            what: "x / norm_in",
+            ..
+        })
+    ));
+    assert_eq!(n.n_data(), 0);
+}
+
+#[test]
+fn samples_at_the_bound_keep_the_model_finite_and_loadable() {
+    // The bound is one the arithmetic survives: extreme samples at ±MAX_ABS_VALUE mixed into
+    // ordinary ones, with a full metric and meta learning, leave a finite model that saves,
+    // loads and still predicts the ordinary data.
+    for full in [false, true] {
+        let mut m = trained(full);
+        let b = MAX_ABS_VALUE;
+        let extremes = [
+            ([b, 0.0], [0.0]),
+            ([0.0, 0.0], [b]),
+            ([0.01, -0.01], [-b]),
+            ([-b, b], [b]),
+            ([0.5, 0.5], [b]),
+        ];
+        let (x, y) = cross_samples(9, 400, 0.05);
+        for (k, (p, q)) in x.chunks(2).zip(&y).enumerate() {
+            m.update(p, &[*q]).unwrap();
+            if k % 40 == 0 {
+                let (ex, ey) = extremes[(k / 40) % extremes.len()];
+                let yp = m.update(&ex, &ey).unwrap();
+                assert!(yp[0].is_finite());
+            }
+        }
+        assert!(m.var_x().iter().all(|v| v.is_finite()));
+        let back = Lwpr::from_json(&m.to_json()).expect("a model trained on bounded samples loads");
+        assert_eq!(back, m);
+        assert_eq!(Lwpr::from_binary(&m.to_binary()).unwrap(), m);
+        let p = m.predict(&[0.0, 0.0], 0.001).unwrap();
+        assert!(p[0].is_finite());
+    }
+}
+
+/// A named edit of a saved model.
+type Edit = (&'static str, Box<dyn Fn(&mut Value)>);
+
+#[test]
+fn inconsistent_models_are_refused_on_loading() {
+    // #6: from_json accepted a non-positive-definite D, an M that is not chol(D), a negative
+    // var_x and lambda = 5.
+    let m = trained(true);
+    let good = model_json(&m);
+    let edits: Vec<Edit> = vec![
+        (
+            "D not positive definite (M with a negative diagonal, D = MᵀM)",
+            Box::new(|v| {
+                let r = rf(v);
+                let m0 = r["m"][0].as_f64().unwrap();
+                r["m"][0] = json!(-m0);
+            }),
+        ),
+        (
+            "D indefinite, M unchanged",
+            Box::new(|v| {
+                let r = rf(v);
+                r["d"][0] = json!(-1.0);
+            }),
+        ),
+        (
+            "M not chol(D)",
+            Box::new(|v| {
+                let r = rf(v);
+                let m3 = r["m"][3].as_f64().unwrap();
+                r["m"][3] = json!(m3 * 1.01);
+            }),
+        ),
+        (
+            "M not upper triangular",
+            Box::new(|v| {
+                let r = rf(v);
+                r["m"][1] = json!(0.5);
+            }),
+        ),
+        (
+            "negative model var_x",
+            Box::new(|v| v["var_x"][0] = json!(-1.0)),
+        ),
+        (
+            "negative field var_x",
+            Box::new(|v| rf(v)["var_x"][1] = json!(-0.5)),
+        ),
+        ("lambda = 5", Box::new(|v| rf(v)["lambda"][0] = json!(5.0))),
+        (
+            "init_lambda = 5",
+            Box::new(|v| v["params"]["init_lambda"] = json!(5.0)),
+        ),
+        (
+            "zero learning rate",
+            Box::new(|v| rf(v)["alpha"][0] = json!(0.0)),
+        ),
+        ("activation 3", Box::new(|v| rf(v)["w"] = json!(3.0))),
+        (
+            "centre beyond the bound",
+            Box::new(|v| rf(v)["c"][0] = json!(1e200)),
+        ),
+        (
+            "init_M not chol(init_D)",
+            Box::new(|v| v["params"]["init_m"][0] = json!(1.0)),
+        ),
+        (
+            "n_in beyond the limit",
+            Box::new(|v| v["params"]["n_in"] = json!(1_000_000)),
+        ),
+    ];
+    assert!(load_both(&good).0.is_ok());
+    for (what, edit) in edits {
+        let mut v = good.clone();
+        edit(&mut v);
+        let (a, b) = load_both(&v);
+        assert!(a.is_err(), "from_json accepted: {what}");
+        assert!(b.is_err(), "serde accepted: {what}");
+    }
+}
+
+#[test]
+fn sizes_beyond_the_limits_fail_before_allocating() {
+    // #7: `LwprBuilder::new(10_000, 1).build()` ran for minutes and took ~1 GB.
+    let e = LwprBuilder::new(10_000, 1)
+        .init_d_spherical(2.0)
+        .init_alpha(10.0)
+        .build()
+        .unwrap_err();
+    assert_eq!(
+        e,
+        LwprError::TooBig {
+            what: "n_in",
+            got: 10_000,
+            max: MAX_INPUTS
+        }
+    );
+    assert!(matches!(
+        LwprBuilder::new(1, MAX_OUTPUTS + 1).build(),
+        Err(LwprError::TooBig { what: "n_out", .. })
+    ));
+    assert!(matches!(
+        LwprBuilder::new(usize::MAX, usize::MAX).build(),
+        Err(LwprError::TooBig { .. })
+    ));
+    let mut p = lwpr::Params::defaults(2, 1);
+    p.n_in = MAX_INPUTS + 1;
+    assert!(matches!(
+        LwprBuilder::from_params(p).build(),
+        Err(LwprError::TooBig { .. })
+    ));
+    assert!(LwprBuilder::new(MAX_INPUTS, 1).build().is_ok());
+}
