@@ -138,7 +138,7 @@ pub fn summary(study: &Study) -> String {
         p.success_px
     );
     s += &format!(
-        "**Actions** (every command the learner sends before servoing): {} for recognition ({} views × 3: a pose, the gripper closed,          opened; then {} correction poses) + {} for control (training moves and their approach pre-positions) = **{}**.\n\n",
+        "**Actions** (every command the learner sends before servoing): {} for recognition ({} views × 3: a pose, the gripper closed, opened; then {} correction poses) + {} for control (training moves and their approach pre-positions) = **{}**.\n\n",
         study.actions.recognition,
         p.recognition_views,
         p.correction_poses,
@@ -437,7 +437,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
         let p90: Vec<String> = (0..cams)
             .map(|c| {
                 let o = over_seeds(&per_seed(st, arm, |r| r.recognition.p90_px[c]));
-                if !(o.max <= 2.0) {
+                if o.max.is_nan() || o.max > 2.0 {
                     recognition_ok = false;
                 }
                 if o.max > recognition_worst.0 || o.max.is_nan() {
