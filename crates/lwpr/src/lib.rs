@@ -79,16 +79,8 @@
 //! The 25-D update takes about half the CPU time of the exact order.
 //!
 //! Deliberate differences:
-//! - **Pruning**: the reference removes the *wider* field ("TODO: ORIGINAL LOGIC WAS REVERSED"
-//!   in its code); we follow the published rule (remove the narrower, larger `tr D`) unless
-//!   [`PruneRule::ReferenceC`] is chosen. With the default `w_prune = 1` and a Gaussian kernel
-//!   pruning never fires. Where it does fire (the 25-D benchmark, `w_prune = 0.7`), the
-//!   published rule removes fields that metric learning has shrunk and keeps wide untrained
-//!   ones, and is systematically *worse*: 25-D cross, 20 000 samples, eight sample streams
-//!   (seeds 1–8, same settings), nMSE higher in all eight (median 0.036 against 0.025; the
-//!   bench's seed 5: 0.0253 against 0.0242), and in one (seed 7) the wide field survives every
-//!   pruning, no field is created again and the model ends with a single field (nMSE 1.02
-//!   against 0.022). Choose [`PruneRule::ReferenceC`] when pruning is enabled.
+//! - **Pruning** follows the reference library, not the published algorithm, by default; see
+//!   "Pruning" below.
 //! - **Prediction** (`predict`, `predict_batch`) uses the triangular factor for the distance,
 //!   `q = |M(x−c)|²` (half the work of `(x−c)ᵀD(x−c)`), and a cached slope `∂ŷ_k/∂z` per field
 //!   (updated after every change) instead of recomputing the PLS projections, as the reference
@@ -101,6 +93,24 @@
 //!   (never used afterwards); we use the first element.
 //! - Where no trustworthy field is active, the confidence bound is `+∞` (reference: 1e20).
 //! - `init_D` must be diagonal when `diag_only` is set (the reference silently mixes them).
+//!
+//! ## Pruning: the reference library's rule is the default
+//! When the second-largest activation of an update exceeds `w_prune`, one of the two most
+//! active fields is removed. The published algorithm (the 2005 paper, the library's own
+//! documentation and its Matlab code) removes the *narrower* field, the one with the larger
+//! `tr D`; the reference C library removes the *wider* one (its source says "TODO: ORIGINAL
+//! LOGIC WAS REVERSED -- CHECK"). [`PruneRule::ReferenceC`] is the default and
+//! [`PruneRule::Published`] an option, because the published rule was the less accurate one
+//! on every sample stream measured: it removes fields that metric learning has shrunk onto
+//! the data and keeps wide untrained ones, which then suppress the creation of new fields. On
+//! the 25-D rotated cross (20 000 samples, full metric, meta learning, `w_prune = 0.7`; eight
+//! sample streams, seeds 1–8, same settings, nothing tuned) its nMSE was higher in all eight
+//! (median 0.036 against 0.025), and in one (seed 7) the wide field survived every pruning, no
+//! field was created again and the model ended with a single field (nMSE 1.02 against 0.022);
+//! the per-seed table is in `docs/performance.md` (lwpr). With the reference's rule the model
+//! also stays bit-identical to the C library when pruning fires. With the default
+//! `w_prune = 1` and a Gaussian kernel pruning never fires, so the choice matters only when
+//! `w_prune` is lowered.
 //!
 //! ## Confidence and Jacobian
 //! [`Lwpr::predict_with_confidence`] returns the reference's bound (papers.md §4.2); it includes
