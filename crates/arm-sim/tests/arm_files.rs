@@ -4,7 +4,9 @@
 use arm_sim::SimConfig;
 
 fn arm(name: &str) -> SimConfig {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("arms").join(name);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("arms")
+        .join(name);
     SimConfig::read_file(path).expect("a shipped arm file loads")
 }
 
@@ -15,7 +17,12 @@ fn the_worn_arm_has_more_backlash_noise_and_sag() {
         assert!(b.backlash_deg >= 2.0 * a.backlash_deg);
         assert!(b.end_noise_deg >= 2.0 * a.end_noise_deg);
     }
-    for (a, b) in d.sag.compliance_deg_per_nm.iter().zip(&w.sag.compliance_deg_per_nm) {
+    for (a, b) in d
+        .sag
+        .compliance_deg_per_nm
+        .iter()
+        .zip(&w.sag.compliance_deg_per_nm)
+    {
         assert!(*b >= 2.0 * *a);
     }
     assert_eq!(d.cameras, w.cameras);

@@ -68,6 +68,21 @@ pub enum ServoError {
         /// Image height.
         height: u32,
     },
+    /// An image target whose cameras' points are not views of one 3-D point (by the learned
+    /// epipolar geometry).
+    #[error(
+        "target inconsistent between camera 0 and camera {camera}: {distance_px:.1} px from the epipolar geometry (consistency {consistency:.3} below {min:.3})"
+    )]
+    TargetInconsistent {
+        /// The camera whose point disagrees with camera 0's.
+        camera: usize,
+        /// Sampson distance of the pair (pixels).
+        distance_px: f64,
+        /// Its consistency.
+        consistency: f64,
+        /// The required consistency.
+        min: f64,
+    },
     /// A number that must be finite is not.
     #[error("non-finite value in {what} at index {index}")]
     NonFinite {

@@ -2,7 +2,6 @@
 //! the percept each one produces, and train the inverse model on the (percept → command)
 //! pairs, one at a time (LWPR is incremental, so the model is usable after every move).
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
@@ -24,8 +23,6 @@ pub struct LearnConfig {
     pub explore: Vec<[f64; 2]>,
     /// Seed of the random moves.
     pub seed: u64,
-    /// Draw a progress bar on stderr (indicatif; hidden when stderr is not a terminal).
-    pub progress: bool,
     /// Execute every move with the unidirectional approach ([`crate::approach`]), as the
     /// servo loop will, so that the learned map describes where the joints end when
     /// approached that way (`None`: send each command as it is).
@@ -85,7 +82,8 @@ impl RandomCommands {
 
 /// Applies `config.moves` random commands to `plant` and trains `model` on every recognised
 /// (percept, command) pair. `on_move(k, model)` is called after move `k` (1-based) — e.g. to
-/// keep snapshots of the model at chosen training sizes.
+/// keep snapshots of the model at chosen training sizes, or to draw the caller's progress bar
+/// (the library draws none).
 ///
 /// Recognition failures skip the move (counted in [`LearnReport::not_recognised`]); any other
 /// error stops learning and is returned, with the model holding every completed move.
@@ -122,7 +120,6 @@ pub fn learn_control<P: Plant + ?Sized>(
     if let Some(a) = &config.approach {
         a.validate()?;
     }
-    let bar = progress_bar(config.moves as u64, config.progress);
     let mut report = LearnReport::default();
     let mut state = ApproachState::new();
     for k in 1..=config.moves {
@@ -148,28 +145,11 @@ pub fn learn_control<P: Plant + ?Sized>(
             Err(e) => return Err(e),
         }
         on_move(k, model);
-        bar.inc(1);
     }
-    bar.finish_and_clear();
     if report.used == 0 && config.moves > 0 {
         return Err(ServoError::NotEnoughData(
             "no move produced a recognised percept".into(),
         ));
     }
     Ok(report)
-}
-
-/// A progress bar on stderr, or a hidden one.
-pub(crate) fn progress_bar(len: u64, visible: bool) -> ProgressBar {
-    if !visible {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    bar.set_message("learning to control");
-    bar
 }

@@ -48,6 +48,20 @@
 //! executed move. Baselines: [`open_loop`], [`servo_broyden`] (uncalibrated, rank-one updated image
 //! Jacobian) and [`servo_image_jacobian`] (a known analytic Jacobian).
 //!
+//! ## Knowing when the percept is wrong ([`Recogniser`], [`PerceptPolicy`], [`recognition::epipolar`])
+//! The loops see a recogniser only through the [`Recogniser`] trait (a user's own detector plugs
+//! in; the learned [`TipModel`] is the default), and every localisation carries a certainty.
+//! The learned recogniser caps it by the cross-camera consistency: the fundamental matrix `F`
+//! of each camera pair (`bᵀ F a = 0` for two views of one point) is estimated from the tips it
+//! found at its own correction poses (normalised 8-point in a seeded RANSAC), and a pair's
+//! consistency is `exp(−½ (d/s)²)` for its Sampson distance `d` and a scale `s` from the fit's
+//! robust residuals, so a tip found at the wrong end of the silhouette or on clutter in one
+//! camera is doubted (unless it lies on the other view's epipolar line). A [`VisualPlant`]
+//! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
+//! counted): learning skips it and the servo loop stops rather than move on it.
+//! [`check_image_target`] checks a user's pixel target the same way (one 3-D point, inside
+//! the learned model) before any move.
+//!
 //! ## 4. Executing moves on hobby servos ([`approach`])
 //! A servo with a deadband and gear backlash ends where the direction it came from says, and
 //! ignores reversing corrections smaller than its deadband: a plain loop stalls there (on
@@ -80,6 +94,7 @@ mod plant;
 pub mod recognition;
 mod robot;
 mod servo;
+mod target;
 mod visual;
 
 pub use approach::{Approach, ApproachDirection, ApproachState};
@@ -98,6 +113,7 @@ pub use servo::{
     ServoStep, image_error, open_loop, open_loop_with, servo_broyden, servo_image_jacobian,
     servo_lwpr,
 };
+pub use target::check_image_target;
 pub use visual::{
     ControlSpace, PerceptPolicy, VisualPlant, capture_training_views, learn_recognition,
     observe_averaged, observe_averaged_by, observe_checked,

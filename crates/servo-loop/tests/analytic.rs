@@ -97,7 +97,6 @@ fn trained(moves: usize) -> InverseModel {
         moves,
         explore: RANGE.to_vec(),
         seed: 11,
-        progress: false,
         approach: None,
     };
     let report = learn_control(&mut arm, &mut model, &cfg, |_, _| {}).unwrap();
@@ -384,7 +383,6 @@ fn invalid_settings_are_rejected() {
         moves: 10,
         explore: vec![[0.0, 3.0], [0.3, 2.0]],
         seed: 1,
-        progress: false,
         approach: None,
     };
     let e = learn_control(&mut Arm::new(), &mut model, &lc, |_, _| {}).unwrap_err();

@@ -246,7 +246,6 @@ fn learned_loop_with_approach_beats_the_plain_loop_on_the_hobby_arm() {
             moves: 3000,
             explore: EXPLORE.to_vec(),
             seed: 5,
-            progress: false,
             approach,
         };
         learn_control(&mut arm, &mut model, &lc, |_, _| {}).unwrap();

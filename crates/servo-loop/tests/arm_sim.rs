@@ -8,8 +8,8 @@ use servo_loop::recognition::change::changed_region;
 use servo_loop::recognition::image::half_resolution;
 use servo_loop::{
     ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot,
-    ServoConfig, ServoError, SilhouetteConfig, TipRule, VisualPlant, learn_control,
-    learn_recognition, observe_averaged_by, servo_lwpr,
+    ServoConfig, ServoError, SilhouetteConfig, TipRule, VisualPlant, check_image_target,
+    learn_control, learn_recognition, observe_averaged_by, servo_lwpr,
 };
 
 #[path = "common/stats.rs"]
@@ -215,6 +215,17 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             learn_recognition(&mut robot, &space(), &EXPLORE, 8, 11, &learned).unwrap();
         let correction = report.correction.expect("a correction");
         assert!(correction.samples >= 60, "{correction:?}");
+        // The cameras' epipolar geometry, learned from the same poses' tips.
+        let [consistency] = report.consistency[..] else {
+            panic!("one camera pair: {:?}", report.consistency)
+        };
+        assert!(
+            consistency.inliers * 10 >= consistency.pairs * 7 && consistency.median_px < 2.0,
+            "{consistency:?}"
+        );
+        let geometry = &model.consistency()[0];
+        let empty = InverseModel::new(4, 3, &InverseModelConfig::default()).unwrap();
+        let mut checked = 0;
         let far_end = model.with_tip_rule(TipRule::FarEnd);
         let mut commands = RandomCommands::new(&EXPLORE, 21).unwrap();
         let (mut errors, mut far, mut repeat) = (Vec::new(), Vec::new(), Vec::new());
@@ -231,6 +242,30 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             ) else {
                 continue;
             };
+            // Image targets: the true views of the finger ends' middle are one 3-D point (then
+            // only the empty inverse model refuses them); moved 40 px across the epipolar line
+            // in camera 1 they are not.
+            let (t0, t1) = (
+                robot.sim.inspect().project(0, &mid).unwrap(),
+                robot.sim.inspect().project(1, &mid).unwrap(),
+            );
+            assert!(
+                geometry.consistency(t0, t1) > 0.3,
+                "{}",
+                geometry.distance(t0, t1)
+            );
+            assert_eq!(
+                check_image_target(&model, &empty, &[t0[0], t0[1], t1[0], t1[1]], 0.05),
+                Err(ServoError::OutsideModel)
+            );
+            let line = geometry.matrix() * nalgebra::Vector3::new(t0[0], t0[1], 1.0);
+            let n = line[0].hypot(line[1]);
+            let moved = [t1[0] + 40.0 * line[0] / n, t1[1] + 40.0 * line[1] / n];
+            assert!(matches!(
+                check_image_target(&model, &empty, &[t0[0], t0[1], moved[0], moved[1]], 0.05),
+                Err(ServoError::TargetInconsistent { camera: 1, .. })
+            ));
+            checked += 1;
             for cam in 0..2 {
                 let t = robot.sim.inspect().project(cam, &mid).unwrap();
                 let dist = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
@@ -240,6 +275,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             }
         }
         assert!(errors.len() >= 20, "found in {} of 24 images", errors.len());
+        assert_eq!(checked, errors.len() / 2);
         let (e, f, r) = (median(&mut errors), median(&mut far), median(&mut repeat));
         assert!(
             e < 1.5 && e < f,
@@ -370,7 +406,6 @@ fn robot_failing_mid_run_is_a_typed_error_and_the_model_stays_intact() {
         moves: 6,
         explore: EXPLORE.to_vec(),
         seed: 1,
-        progress: false,
         approach: None,
     };
     let report = learn_control(&mut plant, &mut model, &lc, |_, _| {}).unwrap();

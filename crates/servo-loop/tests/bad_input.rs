@@ -52,7 +52,6 @@ fn trained() -> InverseModel {
         moves: 300,
         explore: vec![[0.0, 1.0]; 2],
         seed: 3,
-        progress: false,
         approach: None,
     };
     learn_control(&mut plant, &mut model, &learn, |_, _| {}).unwrap();

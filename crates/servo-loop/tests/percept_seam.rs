@@ -158,7 +158,6 @@ fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
         moves: 200,
         explore: vec![[20.0, 200.0]; 2],
         seed: 5,
-        progress: false,
         approach: None,
     };
     learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();

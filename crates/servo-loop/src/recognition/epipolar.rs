@@ -59,7 +59,7 @@ impl TryFrom<EpipolarFile> for EpipolarGeometry {
     fn try_from(file: EpipolarFile) -> Result<Self> {
         check_finite("fundamental matrix", &file.f)?;
         let norm = file.f.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(norm > 0.0) {
+        if !(norm.is_finite() && norm > 0.0) {
             return Err(ServoError::invalid("f", "the fundamental matrix is zero"));
         }
         if !(file.sigma.is_finite() && file.sigma >= 0.0) {
@@ -218,7 +218,7 @@ fn normaliser(points: &[[f64; 2]]) -> Option<Matrix3<f64>> {
         .map(|p| (p[0] - cx).hypot(p[1] - cy))
         .sum::<f64>()
         / n;
-    if !(mean > 1e-12) {
+    if mean.is_nan() || mean <= 1e-12 {
         return None;
     }
     let s = std::f64::consts::SQRT_2 / mean;

@@ -1,15 +1,16 @@
 //! `cargo xtask eval servo` (fixtures in `fixtures/paper-c/`): Paper C's learned visual
 //! servoing on the simulated arm of `arm-sim`.
 //!
-//! Protocol (docs/methods.md § Servoing): the learner controls base, shoulder and elbow (wrist
-//! pitch, wrist roll and gripper held at fixed set-points: the redundancy resolution of
-//! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both cameras
-//! → set-points); 200 targets are the true tip projections of random commands from the same
-//! exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and runs `K =
-//! 10` corrections: `lwpr` (learned Jacobian at the current percept, online refinement),
-//! `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and `true-jacobian`
-//! (analytic Jacobian of the ideal arm). Errors are measured on the simulator's ground truth: image
-//! error of the true tip (RMS over the cameras of the pixel distance) and 3-D tip distance (mm).
+//! Protocol (docs/methods.md § Servoing): the learner controls base, shoulder and elbow (wrist pitch,
+//! wrist roll and gripper held at fixed set-points: the redundancy resolution of
+//! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both
+//! cameras → set-points); 100 targets are the true tip projections of random commands from the
+//! same exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and
+//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the current percept, online
+//! refinement), `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and
+//! `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
+//! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
+//! distance) and 3-D tip distance (mm).
 //!
 //! **Percept.** By default (and in the fixtures) the percept is `servo-loop`'s learned
 //! recognition on the rendered images: the recogniser learns the static scene and which end
@@ -26,6 +27,7 @@
 
 mod plant;
 mod report;
+mod seeds;
 #[cfg(test)]
 mod tests;
 
@@ -37,9 +39,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
-    LearnConfig, RandomCommands, RecognitionConfig, ServoConfig, ServoRun, SilhouetteConfig,
-    TipRule, capture_training_views, learn_control, learn_recognition, observe_averaged,
-    open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
+    LearnConfig, PerceptPolicy, RandomCommands, RecognitionConfig, ServoConfig, ServoRun,
+    SilhouetteConfig, TipRule, capture_training_views, learn_control, learn_recognition,
+    observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -61,6 +63,13 @@ pub struct ServoArgs {
     /// projection + 0.5 px noise; a control-only check).
     #[arg(long, value_enum, default_value_t = PerceptMode::Recognised)]
     pub percept: PerceptMode,
+    /// Run the study over arms and seeds on the development seeds (where settings are chosen)
+    /// instead of the evaluation seeds (scored once, for the fixtures).
+    #[arg(long)]
+    pub development: bool,
+    /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
+    #[arg(long)]
+    pub no_seeds: bool,
 }
 
 /// Where the servo percept comes from.
@@ -79,6 +88,8 @@ impl Default for ServoArgs {
             seed: 2009,
             arm: None,
             percept: PerceptMode::Recognised,
+            development: false,
+            no_seeds: false,
         }
     }
 }
@@ -92,6 +103,12 @@ pub struct Protocol {
     pub recogniser: Option<servo_loop::TipModel>,
     /// Captures averaged per recognised percept (the arm stands still between them).
     pub captures_per_percept: usize,
+    /// A recognised percept whose lowest camera certainty (cross-camera consistency included)
+    /// is below this is re-captured once, then refused (`servo_loop::PerceptPolicy`).
+    pub min_certainty: f64,
+    /// Random poses captured to learn the `learned` tip rule's correction and the cameras'
+    /// epipolar geometry.
+    pub correction_poses: usize,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -118,13 +135,15 @@ impl Protocol {
             percept: PerceptMode::Recognised,
             recogniser: None,
             captures_per_percept: 2,
+            min_certainty: PerceptPolicy::default().min_certainty,
+            correction_poses: 500,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
             training_moves: 2000,
-            curve_moves: vec![100, 200, 500, 1000, 2000, 5000],
+            curve_moves: vec![100, 200, 500, 1000, 2000],
             curve_targets: 50,
-            targets: 200,
+            targets: 100,
             iterations: 10,
             tolerance_px: 0.3,
             success_px: 1.0,
@@ -133,6 +152,17 @@ impl Protocol {
             recognition_views: 30,
             recognition_tests: 40,
             approach: Some(Approach::hobby_servo()),
+        }
+    }
+}
+
+impl Protocol {
+    /// The percept policy of servo moves (`captures_per_percept` captures).
+    pub fn policy(&self) -> PerceptPolicy {
+        PerceptPolicy {
+            captures: self.captures_per_percept.max(1),
+            min_certainty: self.min_certainty,
+            recaptures: 1,
         }
     }
 }
@@ -157,6 +187,8 @@ pub struct TargetResult {
     pub converged_at: Option<usize>,
     /// The typed error that stopped the run, if any.
     pub error: Option<String>,
+    /// Whether that error was a refused percept (the loop stopped instead of moving on it).
+    pub refused: bool,
 }
 
 fn image_error_true(a: &Truth, b: &Truth, cameras: usize) -> f64 {
@@ -187,7 +219,7 @@ fn make_plant(config: &SimConfig, p: &Protocol, seed: u64) -> Result<SimPlant> {
     let sim = ArmSim::new(config.clone())?;
     let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
     if let Some(m) = &p.recogniser {
-        plant.recogniser = Some(Recogniser::new(m.clone(), p.captures_per_percept));
+        plant.recogniser = Some(Recogniser::new(m.clone(), p.policy()));
     }
     Ok(plant)
 }
@@ -245,9 +277,12 @@ pub fn run_method(
             },
             other => return Err(format!("unknown method {other}").into()),
         };
-        let (run, error) = match result {
-            Ok(run) => (run, None),
-            Err(a) => (a.run, Some(a.error.to_string())),
+        let (run, error, refused) = match result {
+            Ok(run) => (run, None, false),
+            Err(a) => {
+                let refused = matches!(a.error, servo_loop::ServoError::PerceptRefused { .. });
+                (a.run, Some(a.error.to_string()), refused)
+            }
         };
         let mut px = Vec::with_capacity(iterations + 1);
         let mut mm = Vec::with_capacity(iterations + 1);
@@ -265,6 +300,7 @@ pub fn run_method(
             mm,
             converged_at,
             error,
+            refused,
         });
     }
     Ok(out)
@@ -277,6 +313,28 @@ pub fn make_targets(
     p: &Protocol,
     count: usize,
     seed: u64,
+) -> Result<Vec<Target>> {
+    targets_of(config, p, count, seed, false)
+}
+
+/// As [`make_targets`], but image targets: `x_w` is the projection of the point the recogniser
+/// defines as the tip (the middle of the finger ends) in every camera, a pixel position per
+/// camera that the learner never visited (the simulator poses the arm only to know the truth).
+pub fn make_image_targets(
+    config: &SimConfig,
+    p: &Protocol,
+    count: usize,
+    seed: u64,
+) -> Result<Vec<Target>> {
+    targets_of(config, p, count, seed, true)
+}
+
+fn targets_of(
+    config: &SimConfig,
+    p: &Protocol,
+    count: usize,
+    seed: u64,
+    image: bool,
 ) -> Result<Vec<Target>> {
     let mut plant = make_plant(config, p, seed ^ 0x0B5E)?;
     let mut commands = RandomCommands::new(&p.explore_us, seed)?;
@@ -313,7 +371,15 @@ pub fn make_targets(
         }
         // The target is what the learner would see at that pose: the true projection, or
         // with `--percept recognised` the recognised gripper point.
-        let x_w = if p.recogniser.is_some() {
+        let x_w = if image {
+            let pose = plant.sim.inspect().pose().clone();
+            let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+            let mut x = Vec::with_capacity(2 * cams);
+            for k in 0..cams {
+                x.extend(plant.sim.inspect().project(k, &mid)?);
+            }
+            x
+        } else if p.recogniser.is_some() {
             match servo_loop::Plant::observe(&mut plant) {
                 Ok(o) => o.x,
                 Err(_) => continue,
@@ -326,16 +392,25 @@ pub fn make_targets(
     Ok(out)
 }
 
+/// What learning cost and skipped.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Training {
+    pub learn: servo_loop::LearnReport,
+    /// Commands sent while learning to control (`max(curve_moves, training_moves)` training
+    /// moves and their approach pre-positions).
+    pub commands: usize,
+}
+
 /// Trains the inverse model with `max(curve_moves)` random moves, keeping snapshots.
 pub fn train(
     config: &SimConfig,
     p: &Protocol,
     progress: bool,
-) -> Result<(Vec<(usize, InverseModel)>, servo_loop::LearnReport)> {
+) -> Result<(Vec<(usize, InverseModel)>, Training)> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
     // Training moves use one capture per percept (LWPR averages the noise itself).
     if let Some(r) = plant.recogniser.as_mut() {
-        r.captures = 1;
+        r.policy.captures = 1;
     }
     let n_in = 2 * plant.cameras;
     let mut model = InverseModel::new(n_in, p.controlled.len(), &InverseModelConfig::default())?;
@@ -350,16 +425,36 @@ pub fn train(
         moves: total,
         explore: p.explore_us.clone(),
         seed: p.seed,
-        progress,
         approach: p.approach.clone(),
     };
     let mut snaps = Vec::new();
-    let report = learn_control(&mut plant, &mut model, &lc, |k, m| {
+    // The library reports progress through the callback; the xtask draws the bar.
+    let bar = if progress {
+        let bar = indicatif::ProgressBar::new(total as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_message("learning to control");
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let learn = learn_control(&mut plant, &mut model, &lc, |k, m| {
+        bar.inc(1);
         if p.curve_moves.contains(&k) || k == p.training_moves {
             snaps.push((k, m.clone()));
         }
     })?;
-    Ok((snaps, report))
+    bar.finish_and_clear();
+    Ok((
+        snaps,
+        Training {
+            learn,
+            commands: plant.commands,
+        },
+    ))
 }
 
 /// The control space of the protocol, with the gripper servo's two learning states.
@@ -371,26 +466,32 @@ pub fn control_space(p: &Protocol) -> ControlSpace {
     }
 }
 
-/// Learns the gripper recogniser on the simulator (gripper moves at random poses).
-pub fn learn_recogniser(
-    config: &SimConfig,
-    p: &Protocol,
-) -> Result<(servo_loop::TipModel, servo_loop::SilhouetteReport)> {
-    let mut robot = SimRobot(ArmSim::new(config.clone())?);
-    Ok(learn_recognition(
+/// A learned recogniser, what learning found and the commands it cost (gripper moves and
+/// correction poses).
+pub type LearnedRecogniser = (servo_loop::TipModel, servo_loop::SilhouetteReport, usize);
+
+/// Learns the gripper recogniser on the simulator (gripper moves at random poses, then the
+/// correction poses).
+pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecogniser> {
+    let mut robot = SimRobot(ArmSim::new(config.clone())?, 0);
+    let (model, report) = learn_recognition(
         &mut robot,
         &control_space(p),
         &p.explore_us,
         p.recognition_views,
         p.seed ^ 0xBEEF,
-        &SilhouetteConfig::default(),
-    )?)
+        &SilhouetteConfig {
+            correction_poses: p.correction_poses,
+            ..SilhouetteConfig::default()
+        },
+    )?;
+    Ok((model, report, robot.1))
 }
 
 /// The channel-coded appearance model (`servo_loop::GripperModel`) learned from the same
 /// gripper moves as the recogniser (a fresh simulator replays them).
 pub fn learn_appearance(config: &SimConfig, p: &Protocol) -> Result<servo_loop::GripperModel> {
-    let mut robot = SimRobot(ArmSim::new(config.clone())?);
+    let mut robot = SimRobot(ArmSim::new(config.clone())?, 0);
     let views = capture_training_views(
         &mut robot,
         &control_space(p),
@@ -654,6 +755,9 @@ enum Job {
 pub struct Study {
     pub protocol: Protocol,
     pub learn: servo_loop::LearnReport,
+    /// Every command of the learner: recognition (gripper moves, correction poses) and
+    /// training (moves and approach pre-positions).
+    pub actions: Actions,
     pub per_method: Vec<(String, Vec<TargetResult>)>,
     pub curve: Vec<(usize, Vec<TargetResult>)>,
     pub recognition: Option<RecognitionResult>,
@@ -665,9 +769,14 @@ pub fn run_study(
     p: &Protocol,
     progress: bool,
     with_images: bool,
-    recognition_model: Option<(servo_loop::TipModel, servo_loop::SilhouetteReport)>,
+    recognition_model: Option<LearnedRecogniser>,
 ) -> Result<Study> {
-    let (snaps, learn) = train(config, p, progress)?;
+    let (snaps, training) = train(config, p, progress)?;
+    let learn = training.learn;
+    let actions = Actions {
+        recognition: recognition_model.as_ref().map_or(0, |r| r.2),
+        training: training.commands,
+    };
     let main = snaps
         .iter()
         .find(|(k, _)| *k == p.training_moves)
@@ -716,9 +825,9 @@ pub fn run_study(
     }
     let (recognition, strip) = if with_images {
         let recognition = match &recognition_model {
-            Some((m, r)) => Some(evaluate_recognition(config, p, m, r)?),
+            Some((m, r, _)) => Some(evaluate_recognition(config, p, m, r)?),
             None => {
-                let (m, r) = learn_recogniser(config, p)?;
+                let (m, r, _) = learn_recogniser(config, p)?;
                 Some(evaluate_recognition(config, p, &m, &r)?)
             }
         };
@@ -732,11 +841,28 @@ pub fn run_study(
     Ok(Study {
         protocol: p.clone(),
         learn,
+        actions,
         per_method,
         curve,
         recognition,
         strip,
     })
+}
+
+/// Every command the learner sends before servoing.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Actions {
+    /// Learning recognition: per view a pose, the gripper closed and opened again, then the
+    /// correction poses.
+    pub recognition: usize,
+    /// Learning to control: the training moves and their approach pre-positions.
+    pub training: usize,
+}
+
+impl Actions {
+    pub fn total(&self) -> usize {
+        self.recognition + self.training
+    }
 }
 
 /// Runs `cargo xtask eval servo`.
@@ -748,13 +874,18 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
     let learned = if args.percept == PerceptMode::Recognised {
-        let (model, report) = learn_recogniser(&config, &p)?;
-        p.recogniser = Some(model.clone());
-        Some((model, report))
+        let learned = learn_recogniser(&config, &p)?;
+        p.recogniser = Some(learned.0.clone());
+        Some(learned)
     } else {
         None
     };
     let study = run_study(&config, &p, true, true, learned)?;
-    report::write_all(ctx, &study)?;
+    let seeds = if args.percept == PerceptMode::Recognised && !args.no_seeds {
+        Some(seeds::run_all(args)?)
+    } else {
+        None
+    };
+    report::write_all(ctx, &study, seeds.as_ref())?;
     Ok(())
 }

@@ -11,36 +11,43 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 use servo_loop::{
-    Localisation, Observation, Plant, Robot, ServoError, TipModel, observe_averaged_by,
+    Localisation, Observation, PerceptPolicy, Plant, Robot, ServoError, TipModel, observe_checked,
 };
 
-/// The learned recognition as the percept of a [`SimPlant`]: the mean of `captures`
+/// The learned recognition as the percept of a [`SimPlant`]: the mean of `policy.captures`
 /// localisations per camera (the arm stands still between the captures), cameras located in
-/// parallel.
+/// parallel, re-captured and refused by the policy (servo_loop's `observe_checked`, as its
+/// `VisualPlant` does).
 pub struct Recogniser {
     pub model: TipModel,
-    pub captures: usize,
+    pub policy: PerceptPolicy,
+    /// Percepts refused and doubted attempts re-captured so far.
+    pub refused: usize,
+    pub recaptured: usize,
 }
 
 impl Recogniser {
-    pub fn new(model: TipModel, captures: usize) -> Self {
+    pub fn new(model: TipModel, policy: PerceptPolicy) -> Self {
         Recogniser {
             model,
-            captures: captures.max(1),
+            policy,
+            refused: 0,
+            recaptured: 0,
         }
     }
 
     /// Per camera (the first `cameras`): the averaged localisation (servo_loop's
-    /// `observe_averaged_by`, every camera of the model located in parallel).
+    /// `observe_checked`, every camera of the model located in parallel).
     pub fn observe(
-        &self,
+        &mut self,
         sim: &mut ArmSim,
         cameras: usize,
     ) -> servo_loop::Result<Vec<Localisation>> {
         let model = &self.model;
-        let (mut locs, _) = observe_averaged_by(
+        let recaptured = &mut self.recaptured;
+        let result = observe_checked(
             model,
-            self.captures,
+            &self.policy,
             || Ok(sim.capture()),
             |images| {
                 // Every camera of the model (the learned rule's correction takes them all);
@@ -53,14 +60,20 @@ impl Recogniser {
                     .collect();
                 model.tips(&ends.into_iter().collect::<servo_loop::Result<Vec<_>>>()?)
             },
-        )?;
+            || *recaptured += 1,
+        );
+        if let Err(ServoError::PerceptRefused { .. }) = &result {
+            self.refused += 1;
+        }
+        let (mut locs, _) = result?;
         locs.truncate(cameras);
         Ok(locs)
     }
 }
 
-/// `ArmSim` as a [`Robot`] (a newtype: both the trait and the type are foreign here).
-pub struct SimRobot(pub ArmSim);
+/// `ArmSim` as a [`Robot`] (a newtype: both the trait and the type are foreign here), counting
+/// the commands it is sent.
+pub struct SimRobot(pub ArmSim, pub usize);
 
 impl Robot for SimRobot {
     type Error = ArmSimError;
@@ -71,6 +84,7 @@ impl Robot for SimRobot {
         self.0.servo_range(i).unwrap_or([0.0, 0.0])
     }
     fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), ArmSimError> {
+        self.1 += 1;
         self.0.command(set_points)
     }
     fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, ArmSimError> {
@@ -115,6 +129,8 @@ pub struct SimPlant {
     pub log: Vec<Truth>,
     /// With a recogniser the percept comes from rendered images, not from the projection.
     pub recogniser: Option<Recogniser>,
+    /// Commands sent (every `act`, approach pre-positions included).
+    pub commands: usize,
 }
 
 impl SimPlant {
@@ -138,6 +154,7 @@ impl SimPlant {
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             log: Vec::new(),
             recogniser: None,
+            commands: 0,
         }
     }
 
@@ -163,6 +180,7 @@ impl Plant for SimPlant {
             .unwrap_or([0.0, 0.0])
     }
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.commands += 1;
         let c = self.full_command(y);
         self.sim.command(&c).map_err(|e| ServoError::Robot {
             during: "command",
@@ -173,7 +191,7 @@ impl Plant for SimPlant {
         let t = truth(&self.sim);
         self.log.push(t);
         let cams = self.cameras;
-        if let Some(r) = self.recogniser.as_ref() {
+        if let Some(r) = self.recogniser.as_mut() {
             let locs = r.observe(&mut self.sim, cams)?;
             let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
             let x = locs.iter().flat_map(|l| l.position).collect();

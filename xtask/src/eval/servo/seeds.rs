@@ -1,0 +1,343 @@
+//! The servo study over several arms and seeds: per (arm, seed) the whole pipeline (learn
+//! recognition, learn control, servo to reachable targets), so the goals are judged on the
+//! median over seeds with its spread and worst seed, not on one lucky run.
+//!
+//! **Seeds.** [`DEVELOPMENT_SEEDS`] were used to make every design decision (the percept
+//! policy, the consistency scale, the protocol's sizes); [`EVALUATION_SEEDS`] are scored once,
+//! by the fixtures, and were not looked at before. The arms: the default arm and the arm files
+//! shipped in `crates/arm-sim/arms/` (a worn arm; a second rig).
+
+use std::path::{Path, PathBuf};
+
+use arm_sim::SimConfig;
+use rayon::prelude::*;
+use serde::Serialize;
+use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
+
+use super::{
+    Actions, Protocol, ServoArgs, Target, TargetResult, learn_recogniser, make_image_targets,
+    make_plant, make_targets, run_method, train,
+};
+use crate::Result;
+
+/// Seeds every setting was chosen on.
+pub const DEVELOPMENT_SEEDS: [u64; 3] = [101, 102, 103];
+/// Seeds scored once for the fixtures.
+pub const EVALUATION_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
+/// Targets per (arm, seed).
+pub const TARGETS: usize = 30;
+/// Image targets per (arm, seed).
+pub const IMAGE_TARGETS: usize = 20;
+/// Least cross-camera consistency of an accepted image target.
+pub const MIN_TARGET_CONSISTENCY: f64 = 0.05;
+/// Recognition test poses per (arm, seed).
+pub const RECOGNITION_TESTS: usize = 40;
+/// The methods compared per seed.
+pub const METHODS: [&str; 3] = ["lwpr", "broyden", "true-jacobian"];
+/// Broyden's probe moves (one per controlled joint).
+const PROBES: usize = 3;
+/// The iteration (= executed corrections after the first guess) the goals are judged at.
+pub const AT: usize = 5;
+
+/// The arms of the study: the default and the shipped arm files.
+pub fn shipped_arms() -> Vec<(String, Option<PathBuf>)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../crates/arm-sim/arms");
+    vec![
+        ("default".into(), None),
+        ("worn-arm".into(), Some(dir.join("worn-arm.json"))),
+        ("second-rig".into(), Some(dir.join("second-rig.json"))),
+    ]
+}
+
+/// Recognition at random poses (single captures, the servo percept's policy otherwise).
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedRecognition {
+    pub tests: usize,
+    /// Poses whose percept was refused (doubted after the re-capture).
+    pub refused: usize,
+    /// Poses where no gripper was found in some camera.
+    pub not_found: usize,
+    /// Per camera, over the accepted percepts: median and 90th percentile of the distance to
+    /// the projected middle of the finger ends (px).
+    pub median_px: Vec<f64>,
+    pub p90_px: Vec<f64>,
+}
+
+/// One method's figures on one seed.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedMethod {
+    pub method: String,
+    /// Median true image error (px) and 3-D error (mm) after [`AT`] moves after the first
+    /// guess (for Broyden: its probes included).
+    pub median_px: f64,
+    pub median_mm: f64,
+    pub p90_px: f64,
+    /// Share of targets within 1 px after [`AT`] moves.
+    pub success: f64,
+    /// For Broyden: the median after [`AT`] corrections after its probes (`AT + 3` moves).
+    pub median_px_after_corrections: Option<f64>,
+    /// Runs stopped because a percept was refused, and by any other typed error.
+    pub refused_runs: usize,
+    pub other_errors: usize,
+}
+
+/// Everything one (arm, seed) gives.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedResult {
+    pub arm: String,
+    pub seed: u64,
+    pub actions: Actions,
+    /// Training moves skipped because their percept was refused or not found.
+    pub training_refused: usize,
+    pub training_not_found: usize,
+    pub consistency: Vec<EpipolarReport>,
+    pub recognition: SeedRecognition,
+    pub methods: Vec<SeedMethod>,
+    /// Image targets offered, and refused by `servo_loop::check_image_target` (inconsistent
+    /// between the cameras, or outside the learned model).
+    pub image_targets: usize,
+    pub image_targets_refused: usize,
+    /// LWPR on the accepted image targets (error against the target pose's tool point).
+    pub image: Option<SeedMethod>,
+}
+
+/// The whole multi-seed study.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedStudy {
+    /// `evaluation` or `development`.
+    pub seeds_role: String,
+    pub seeds: Vec<u64>,
+    pub targets_per_seed: usize,
+    pub results: Vec<SeedResult>,
+}
+
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s.sort_by(f64::total_cmp);
+    let pos = q * (s.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    s[lo] + (pos - lo as f64) * (s[hi] - s[lo])
+}
+
+/// Runs every (arm, seed) of `args` in parallel (one job each; results do not depend on the
+/// thread count).
+pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
+    let (role, seeds) = if args.development {
+        ("development", DEVELOPMENT_SEEDS.to_vec())
+    } else {
+        ("evaluation", EVALUATION_SEEDS.to_vec())
+    };
+    let arms = shipped_arms();
+    let mut configs = Vec::new();
+    for (name, path) in &arms {
+        let config = match path {
+            Some(p) => SimConfig::read_file(p)?,
+            None => SimConfig::default(),
+        };
+        configs.push((name.clone(), config));
+    }
+    let jobs: Vec<(&str, &SimConfig, u64)> = configs
+        .iter()
+        .flat_map(|(n, c)| seeds.iter().map(move |&s| (n.as_str(), c, s)))
+        .collect();
+    let results = jobs
+        .par_iter()
+        .map(|&(name, config, seed)| run_seed(name, config, seed))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(SeedStudy {
+        seeds_role: role.into(),
+        seeds,
+        targets_per_seed: TARGETS,
+        results,
+    })
+}
+
+/// The whole pipeline on one arm and seed.
+pub fn run_seed(arm: &str, config: &SimConfig, seed: u64) -> Result<SeedResult> {
+    let mut p = Protocol::default_for(seed);
+    p.curve_moves = vec![p.training_moves];
+    p.targets = TARGETS;
+    let (model, report, recognition_commands) = learn_recogniser(config, &p)?;
+    p.recogniser = Some(model);
+    let recognition = recognition(config, &p)?;
+    let (snaps, training) = train(config, &p, false)?;
+    let main = &snaps.last().ok_or("no trained model")?.1;
+    let targets = make_targets(config, &p, p.targets, p.seed ^ 0x7A26)?;
+    let mut methods = Vec::new();
+    for (i, m) in METHODS.iter().enumerate() {
+        let r = run_method(
+            m,
+            config,
+            &p,
+            main,
+            &targets,
+            p.iterations,
+            seed ^ ((i as u64) << 24),
+        )?;
+        methods.push(method_figures(m, &r));
+    }
+    // Image targets: checked against the learned workspace before any move.
+    let recogniser = p.recogniser.as_ref().ok_or("a recogniser")?;
+    let offered = make_image_targets(config, &p, IMAGE_TARGETS, seed ^ 0x1A6E)?;
+    let accepted: Vec<Target> = offered
+        .iter()
+        .filter(|t| {
+            servo_loop::check_image_target(recogniser, main, &t.x_w, MIN_TARGET_CONSISTENCY).is_ok()
+        })
+        .cloned()
+        .collect();
+    let image = if accepted.is_empty() {
+        None
+    } else {
+        let r = run_method(
+            "lwpr",
+            config,
+            &p,
+            main,
+            &accepted,
+            p.iterations,
+            seed ^ 0x1A6F,
+        )?;
+        Some(method_figures("lwpr-image-targets", &r))
+    };
+    Ok(SeedResult {
+        arm: arm.into(),
+        seed,
+        actions: Actions {
+            recognition: recognition_commands,
+            training: training.commands,
+        },
+        training_refused: training.learn.refused,
+        training_not_found: training.learn.not_recognised,
+        consistency: report.consistency,
+        recognition,
+        methods,
+        image_targets: offered.len(),
+        image_targets_refused: offered.len() - accepted.len(),
+        image,
+    })
+}
+
+fn method_figures(method: &str, r: &[TargetResult]) -> SeedMethod {
+    let at = |k: usize| -> Vec<f64> { r.iter().map(|t| t.px[k.min(t.px.len() - 1)]).collect() };
+    let px = at(AT);
+    let mm: Vec<f64> = r.iter().map(|t| t.mm[AT.min(t.mm.len() - 1)]).collect();
+    SeedMethod {
+        method: method.into(),
+        median_px: quantile(&px, 0.5),
+        median_mm: quantile(&mm, 0.5),
+        p90_px: quantile(&px, 0.9),
+        success: px.iter().filter(|&&e| e <= 1.0).count() as f64 / px.len().max(1) as f64,
+        median_px_after_corrections: (method == "broyden").then(|| quantile(&at(AT + PROBES), 0.5)),
+        refused_runs: r.iter().filter(|t| t.refused).count(),
+        other_errors: r.iter().filter(|t| t.error.is_some() && !t.refused).count(),
+    }
+}
+
+/// The servo percept (single captures) at random poses against the projected middle of the
+/// finger ends.
+fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
+    let mut plant = make_plant(config, p, p.seed ^ 0xFACE)?;
+    if let Some(r) = plant.recogniser.as_mut() {
+        r.policy = PerceptPolicy {
+            captures: 1,
+            ..p.policy()
+        };
+    }
+    let cams = plant.cameras;
+    let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
+    let (mut refused, mut not_found) = (0, 0);
+    let mut errors = vec![Vec::new(); cams];
+    for _ in 0..RECOGNITION_TESTS {
+        let y = commands.next_command();
+        plant.act(&y)?;
+        match plant.observe() {
+            Ok(o) => {
+                let pose = plant.sim.inspect().pose().clone();
+                let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+                for (cam, e) in errors.iter_mut().enumerate() {
+                    let t = plant.sim.inspect().project(cam, &mid)?;
+                    e.push((o.x[2 * cam] - t[0]).hypot(o.x[2 * cam + 1] - t[1]));
+                }
+            }
+            Err(ServoError::PerceptRefused { .. }) => refused += 1,
+            Err(ServoError::RecognitionFailed { .. }) => not_found += 1,
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Ok(SeedRecognition {
+        tests: RECOGNITION_TESTS,
+        refused,
+        not_found,
+        median_px: errors.iter().map(|e| quantile(e, 0.5)).collect(),
+        p90_px: errors.iter().map(|e| quantile(e, 0.9)).collect(),
+    })
+}
+
+/// A value over seeds: the median of the per-seed values, their min and max, and the worst
+/// seed (the largest value).
+#[derive(Debug, Clone, Serialize)]
+pub struct OverSeeds {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    pub worst_seed: u64,
+}
+
+pub fn over_seeds(values: &[(u64, f64)]) -> OverSeeds {
+    let v: Vec<f64> = values.iter().map(|x| x.1).collect();
+    let (worst_seed, max) = values
+        .iter()
+        .copied()
+        .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+    OverSeeds {
+        median: quantile(&v, 0.5),
+        min: v.iter().copied().fold(f64::INFINITY, f64::min),
+        max,
+        worst_seed,
+    }
+}
+
+/// Per-seed values of `f` for `arm`.
+pub fn per_seed(study: &SeedStudy, arm: &str, f: impl Fn(&SeedResult) -> f64) -> Vec<(u64, f64)> {
+    study
+        .results
+        .iter()
+        .filter(|r| r.arm == arm)
+        .map(|r| (r.seed, f(r)))
+        .collect()
+}
+
+/// The figure of `method` in a seed's result.
+pub fn method<'a>(r: &'a SeedResult, name: &str) -> &'a SeedMethod {
+    r.methods
+        .iter()
+        .find(|m| m.method == name)
+        .expect("every method runs on every seed")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use arm_sim::ArmSim;
+
+    #[test]
+    fn every_shipped_arm_builds_a_simulator() {
+        for (name, path) in shipped_arms() {
+            let config = match path {
+                Some(p) => SimConfig::read_file(p).unwrap(),
+                None => SimConfig::default(),
+            };
+            assert!(ArmSim::new(config).is_ok(), "{name}");
+        }
+    }
+
+    #[test]
+    fn over_seeds_names_the_worst_seed() {
+        let o = over_seeds(&[(1, 0.4), (2, 0.9), (3, 0.5)]);
+        assert_eq!((o.median, o.min, o.max, o.worst_seed), (0.5, 0.4, 0.9, 2));
+    }
+}
