@@ -15,15 +15,15 @@ pub const ABS_TOL: f64 = 1e-9;
 /// Relative tolerance for numbers in JSON fixtures.
 pub const REL_TOL: f64 = 1e-6;
 
-/// Compares `expected/<target>` with `actual/<target>` for each target; returns one line per
-/// difference (missing, extra or differing files).
-pub fn compare_trees(expected: &Path, actual: &Path, targets: &[&str]) -> Result<Vec<String>> {
+/// Compares `expected/<name>` with each freshly generated `(name, folder)`; returns one line
+/// per difference (missing, extra or differing files).
+pub fn compare_folders(expected: &Path, actual: &[(String, PathBuf)]) -> Result<Vec<String>> {
     let mut diffs = Vec::new();
-    for t in targets {
+    for (t, actual_dir) in actual {
         let e = files_below(&expected.join(t))?;
-        let a = files_below(&actual.join(t))?;
+        let a = files_below(actual_dir)?;
         for rel in e.union(&a) {
-            let (ep, ap) = (expected.join(t).join(rel), actual.join(t).join(rel));
+            let (ep, ap) = (expected.join(t).join(rel), actual_dir.join(rel));
             let shown = Path::new(t).join(rel);
             match (e.contains(rel), a.contains(rel)) {
                 (true, false) => diffs.push(format!("{} is no longer produced", shown.display())),

@@ -8,9 +8,16 @@
 
 mod bench;
 mod data_fetch;
+#[cfg(test)]
+mod doc_links;
 mod eval;
 mod fixture_check;
+mod markdown;
+mod output;
+mod palette;
 mod report;
+mod stats;
+mod strict_ci;
 
 use std::path::PathBuf;
 
@@ -40,6 +47,10 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    if matches!(cli.command, Command::Eval(_)) {
+        // Before any thread starts: an interrupt then removes the unfinished output.
+        output::interrupt::install();
+    }
     let result = match cli.command {
         Command::Eval(args) => eval::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -5,6 +5,8 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::Result;
+use crate::markdown::Table;
+pub use crate::stats::median;
 
 /// One measured case: our figure, the peer's, and their ratio (> 1 means we are faster or better).
 #[derive(Debug, Clone, Serialize)]
@@ -46,36 +48,25 @@ impl BenchRow {
     }
 }
 
-/// Prints the rows as a table and writes them to `dir/NAME.json`.
+/// Prints the rows as a Markdown table (ready for `docs/performance.md`) and writes them to
+/// `dir/NAME.json` (atomically: a failed write leaves the previous file).
 pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<()> {
-    println!("{name}: ours against {peer} (ratio > 1: ours faster or better)");
-    let w = rows.iter().map(|r| r.case.len()).max().unwrap_or(4).max(4);
-    println!(
-        "{:<w$}  {:>14}  {:>14}  {:<10}  {:>8}",
-        "case", "ours", "peer", "unit", "ratio"
-    );
+    println!("{name}: ours against {peer} (ratio > 1: ours faster or better)\n");
+    let mut table = Table::new(["case", "ours", "peer", "unit", "ratio"]).right([1, 2, 4]);
     for r in rows {
-        println!(
-            "{:<w$}  {:>14.4}  {:>14.4}  {:<10}  {:>8.2}",
-            r.case, r.ours, r.peer, r.unit, r.ratio
-        );
+        table.row([
+            r.case.clone(),
+            format!("{:.4}", r.ours),
+            format!("{:.4}", r.peer),
+            r.unit.clone(),
+            format!("{:.2}", r.ratio),
+        ]);
     }
-    std::fs::create_dir_all(dir)?;
+    print!("{table}");
     let path = dir.join(format!("{name}.json"));
-    std::fs::write(&path, serde_json::to_string_pretty(rows)? + "\n")?;
+    crate::output::write_file(&path, serde_json::to_string_pretty(rows)? + "\n")?;
     println!("wrote {}", path.display());
     Ok(())
-}
-
-/// Median of a non-empty sample (sorts in place).
-pub fn median(xs: &mut [f64]) -> f64 {
-    xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    if n % 2 == 1 {
-        xs[n / 2]
-    } else {
-        0.5 * (xs[n / 2 - 1] + xs[n / 2])
-    }
 }
 
 /// Median wall time in seconds of `runs` calls of `f`, after `warmup` calls.
@@ -101,11 +92,5 @@ mod tests {
     fn ratios_point_the_right_way() {
         assert_eq!(BenchRow::lower_is_better("t", 2.0, 6.0, "ms").ratio, 3.0);
         assert_eq!(BenchRow::higher_is_better("r", 6.0, 2.0, "1/s").ratio, 3.0);
-    }
-
-    #[test]
-    fn median_of_odd_and_even_samples() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
     }
 }

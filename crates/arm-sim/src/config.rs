@@ -47,9 +47,9 @@ pub struct SimConfig {
 ///
 /// Defaults follow the Lynxmotion Lynx-6 kit as far as it is documented (two 4.75-inch
 /// aluminium links, a base about 3 inches tall, a small two-finger gripper; none of these
-/// figures were confirmed for Paper C's arm, see `papers.md` §3.3), rounded to millimetres:
-/// shoulder axis 75 mm above the table, upper arm 120 mm, forearm 120 mm, wrist-pitch axis to
-/// the tool point 100 mm. Reach from the base axis is therefore 340 mm.
+/// figures were confirmed for Paper C's arm, see docs/methods.md § Simulated arm), rounded to
+/// millimetres: shoulder axis 75 mm above the table, upper arm 120 mm, forearm 120 mm, wrist-pitch
+/// axis to the tool point 100 mm. Reach from the base axis is therefore 340 mm.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmGeometry {

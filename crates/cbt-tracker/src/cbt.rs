@@ -1,4 +1,4 @@
-//! The Channel Based Tracking filter (papers.md §2.2 steps 3–5): grid-based Bayesian
+//! The Channel Based Tracking filter (docs/methods.md § Tracking): grid-based Bayesian
 //! filtering (eq. 3.3, 3.4) on channel-coded densities with learned models.
 
 use serde::{Deserialize, Serialize};

@@ -41,10 +41,11 @@ pub enum Layout {
 #[serde(rename_all = "snake_case")]
 pub enum Clutter {
     /// Keep it: wrong within-frame pairings spread into a broad floor, so the learned
-    /// `p(z | x)` models the clutter (papers.md §2.2 step 1). The default.
+    /// `p(z | x)` models the clutter (docs/methods.md § Tracking). The default.
     Model,
     /// Remove it: subtract the product of the detection and state marginals, scaled by the
-    /// expected share of wrong pairs, and clamp at zero (papers.md §2.2 "optional refinement").
+    /// expected share of wrong pairs, and clamp at zero (docs/methods.md § Tracking, the clutter
+    /// options).
     Subtract,
     /// Remove it as [`Clutter::Subtract`] does, and model clutter instead as a uniform
     /// component over the joint measurement grid with the learned share `π` of wrong pairs:
@@ -83,7 +84,7 @@ pub enum SystemFallback {
 }
 
 /// Parameters of Channel Based Tracking. The defaults ([`CbtConfig::default`]) are those of
-/// the second-order, separable tracker of Paper B as reconstructed in papers.md §2.2.
+/// the second-order, separable tracker of Paper B as reconstructed in docs/methods.md § Tracking.
 ///
 /// **Fallback for empty cells.** Every learned column (observation: per state cell; system:
 /// per previous state or pair of previous states) is a Dirichlet-smoothed estimate

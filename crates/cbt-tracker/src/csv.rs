@@ -1,17 +1,28 @@
 //! The plain sequence format: one CSV file per sequence, header `frame,kind,x,y`, rows
 //! `FRAME,truth,X,Y` (at most one per frame: the true position) or `FRAME,det,X,Y` (zero or
-//! more per frame: the detections, clutter included). Frames are non-negative integers; a
-//! frame without rows is an empty frame (no truth, no detection). Blank lines are ignored.
-//! Every malformed row is an error naming the file and the line; nothing is skipped silently.
+//! more per frame: the detections, clutter included). Frames are non-negative integers in any
+//! order; the sequence runs from the smallest frame number in the file
+//! ([`Sequence::first_frame`]) to the largest, and a frame without rows is an empty frame (no
+//! truth, no detection), so a file may start at frame 1 (as MOTChallenge files do) or at
+//! frame 10,000,000 and have gaps. A track starts at its first frame with a truth row
+//! ([`Sequence::start`]); detections before it are kept and not scored. A UTF-8 byte-order
+//! mark and blank lines are ignored.
+//!
+//! **Limits.** A file may span at most [`MAX_SPAN`] frames (largest minus smallest frame
+//! number plus one): the check runs on the rows before any frame is allocated, so a typo in a
+//! frame number is a typed error, never a huge allocation. Every malformed row is an error
+//! naming the file and the line; nothing is skipped silently. MOTChallenge ground truth is
+//! read by [`crate::mot`].
 //!
 //! ```
 //! use cbt_tracker::{csv, Detection, Frame, Sequence};
 //! let s = Sequence {
 //!     name: "demo".into(),
+//!     first_frame: 3,
 //!     frames: vec![Frame { truth: Some([1.5, 2.0]), detections: vec![Detection::new(1.0, 2.25)] }],
 //! };
 //! let text = csv::to_string(&s);
-//! assert_eq!(text, "frame,kind,x,y\n0,truth,1.5,2\n0,det,1,2.25\n");
+//! assert_eq!(text, "frame,kind,x,y\n3,truth,1.5,2\n3,det,1,2.25\n");
 //! let back = csv::parse(&text, "demo", std::path::Path::new("demo.csv")).unwrap();
 //! assert_eq!(back, s);
 //! ```
@@ -23,8 +34,9 @@ use crate::{Detection, Frame, Sequence, TrackError};
 /// The header line.
 pub const HEADER: &str = "frame,kind,x,y";
 
-/// Largest frame number accepted (guards against a typo allocating a huge sequence).
-pub const MAX_FRAME: usize = 10_000_000;
+/// Largest number of frames one sequence file may span (largest frame number − smallest + 1):
+/// a million frames, over nine hours at 30 Hz.
+pub const MAX_SPAN: u64 = 1_000_000;
 
 /// Formats a sequence (numbers in Rust's shortest round-trip form, so reading gives back
 /// exactly the same values; detection weights are not stored).
@@ -32,6 +44,7 @@ pub fn to_string(s: &Sequence) -> String {
     let mut out = String::from(HEADER);
     out.push('\n');
     for (k, f) in s.frames.iter().enumerate() {
+        let k = s.first_frame + k as u64;
         if let Some(t) = f.truth {
             out.push_str(&format!("{k},truth,{},{}\n", t[0], t[1]));
         }
@@ -42,111 +55,195 @@ pub fn to_string(s: &Sequence) -> String {
     out
 }
 
-/// Parses the text of one sequence file; `path` is used in error messages.
-pub fn parse(text: &str, name: &str, path: &Path) -> Result<Sequence, TrackError> {
-    let err = |line: usize, reason: String| TrackError::Csv {
+/// An error at `line` (1-based; 0: the file as a whole) of `path`.
+pub(crate) fn line_error(path: &Path, line: usize, reason: String) -> TrackError {
+    TrackError::Csv {
         path: path.to_path_buf(),
         line,
         reason,
-    };
-    let mut lines = text.lines().enumerate();
-    let header = lines
-        .by_ref()
-        .find(|(_, l)| !l.trim().is_empty())
-        .ok_or_else(|| {
-            err(
-                0,
-                "empty file: the header `frame,kind,x,y` is missing".into(),
-            )
-        })?;
-    let cols: Vec<&str> = header.1.split(',').map(str::trim).collect();
-    if cols != ["frame", "kind", "x", "y"] {
-        return Err(err(
-            header.0 + 1,
-            format!(
-                "expected the header `{HEADER}`, found `{}`",
-                header.1.trim()
-            ),
+    }
+}
+
+/// The non-blank lines of a text with their 1-based numbers, a leading UTF-8 byte-order mark
+/// removed.
+pub(crate) fn lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l))
+        .filter(|(_, l)| !l.trim().is_empty())
+}
+
+/// A frame number field: a non-negative integer.
+pub(crate) fn frame_number(path: &Path, line: usize, s: &str) -> Result<u64, TrackError> {
+    s.parse().map_err(|_| {
+        line_error(
+            path,
+            line,
+            format!("frame `{s}` is not a non-negative integer"),
+        )
+    })
+}
+
+/// A finite number field.
+pub(crate) fn number(path: &Path, line: usize, s: &str, what: &str) -> Result<f64, TrackError> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| line_error(path, line, format!("{what} `{s}` is not a number")))?;
+    if !v.is_finite() {
+        return Err(line_error(
+            path,
+            line,
+            format!("{what} `{s}` is not finite"),
         ));
     }
-    let mut frames: Vec<Frame> = Vec::new();
-    for (i, line) in lines {
-        let ln = i + 1;
-        if line.trim().is_empty() {
-            continue;
+    Ok(v)
+}
+
+/// Tracks the smallest and largest frame number of a file and refuses a span beyond
+/// [`MAX_SPAN`] at the row that causes it.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct Span {
+    range: Option<(u64, u64)>,
+}
+
+impl Span {
+    /// Adds frame `k` of row `line`.
+    pub fn add(&mut self, path: &Path, line: usize, k: u64) -> Result<(), TrackError> {
+        let (lo, hi) = self.range.map_or((k, k), |(a, b)| (a.min(k), b.max(k)));
+        if hi - lo >= MAX_SPAN {
+            return Err(line_error(
+                path,
+                line,
+                format!(
+                    "frame {k} makes the sequence span frames {lo}..={hi}, more than the \
+                     limit of {MAX_SPAN} frames"
+                ),
+            ));
         }
+        self.range = Some((lo, hi));
+        Ok(())
+    }
+
+    /// Smallest frame number and number of frames spanned (`(0, 0)` when empty).
+    pub fn first_and_len(&self) -> (u64, usize) {
+        self.range
+            .map_or((0, 0), |(lo, hi)| (lo, (hi - lo + 1) as usize))
+    }
+}
+
+/// One parsed row of the plain format.
+struct Row {
+    line: usize,
+    frame: u64,
+    truth: bool,
+    pos: [f64; 2],
+}
+
+/// Parses the text of one sequence file; `path` is used in error messages.
+pub fn parse(text: &str, name: &str, path: &Path) -> Result<Sequence, TrackError> {
+    let err = |line: usize, reason: String| line_error(path, line, reason);
+    let mut lines = lines(text);
+    let (hl, header) = lines.next().ok_or_else(|| {
+        err(
+            0,
+            "empty file: the header `frame,kind,x,y` is missing".into(),
+        )
+    })?;
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    if cols != ["frame", "kind", "x", "y"] {
+        return Err(err(
+            hl,
+            format!("expected the header `{HEADER}`, found `{}`", header.trim()),
+        ));
+    }
+    let mut rows = Vec::new();
+    let mut span = Span::default();
+    for (ln, line) in lines {
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
         if f.len() != 4 {
             return Err(err(ln, format!("expected 4 fields, found {}", f.len())));
         }
-        let k: usize = f[0].parse().map_err(|_| {
-            err(
-                ln,
-                format!("frame `{}` is not a non-negative integer", f[0]),
-            )
-        })?;
-        if k > MAX_FRAME {
-            return Err(err(ln, format!("frame {k} exceeds the limit {MAX_FRAME}")));
-        }
-        let num = |s: &str, what: &str| -> Result<f64, TrackError> {
-            let v: f64 = s
-                .parse()
-                .map_err(|_| err(ln, format!("{what} `{s}` is not a number")))?;
-            if !v.is_finite() {
-                return Err(err(ln, format!("{what} `{s}` is not finite")));
-            }
-            Ok(v)
-        };
-        let (x, y) = (num(f[2], "x")?, num(f[3], "y")?);
-        if frames.len() <= k {
-            frames.resize(k + 1, Frame::default());
-        }
-        match f[1] {
-            "truth" => {
-                if frames[k].truth.is_some() {
-                    return Err(err(ln, format!("a second truth row for frame {k}")));
-                }
-                frames[k].truth = Some([x, y]);
-            }
-            "det" => frames[k].detections.push(Detection::new(x, y)),
+        let k = frame_number(path, ln, f[0])?;
+        let truth = match f[1] {
+            "truth" => true,
+            "det" => false,
             other => {
                 return Err(err(
                     ln,
                     format!("kind `{other}` is neither `truth` nor `det`"),
                 ));
             }
+        };
+        let pos = [number(path, ln, f[2], "x")?, number(path, ln, f[3], "y")?];
+        span.add(path, ln, k)?;
+        rows.push(Row {
+            line: ln,
+            frame: k,
+            truth,
+            pos,
+        });
+    }
+    let (first, n) = span.first_and_len();
+    let mut frames = vec![Frame::default(); n];
+    for r in rows {
+        let f = &mut frames[(r.frame - first) as usize];
+        if r.truth {
+            if f.truth.is_some() {
+                return Err(err(
+                    r.line,
+                    format!("a second truth row for frame {}", r.frame),
+                ));
+            }
+            f.truth = Some(r.pos);
+        } else {
+            f.detections.push(Detection::new(r.pos[0], r.pos[1]));
         }
     }
     Ok(Sequence {
         name: name.to_string(),
+        first_frame: first,
         frames,
     })
 }
 
 /// Reads one sequence file (name: the file stem).
 pub fn read(path: &Path) -> Result<Sequence, TrackError> {
-    let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
-    let name = path
-        .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    parse(&text, &name, path)
+    let text = read_text(path)?;
+    parse(&text, &stem(path), path)
+}
+
+/// The text of a file (an I/O error naming it).
+pub(crate) fn read_text(path: &Path) -> Result<String, TrackError> {
+    std::fs::read_to_string(path).map_err(|e| io(path, e))
+}
+
+/// A file's stem as a sequence name.
+pub(crate) fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned())
 }
 
 /// Reads every `*.csv` file of a folder, sorted by file name; an error if there is none.
 pub fn read_dir(dir: &Path) -> Result<Vec<Sequence>, TrackError> {
+    files(dir, "csv")?.iter().map(|p| read(p)).collect()
+}
+
+/// The files of a folder with the extension `ext`, sorted; an error if there is none.
+pub(crate) fn files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>, TrackError> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| io(dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .filter(|p| p.extension().is_some_and(|x| x == ext))
         .collect();
     paths.sort();
     if paths.is_empty() {
         return Err(TrackError::Io {
             path: dir.to_path_buf(),
-            reason: "no .csv sequence files in this folder".into(),
+            reason: format!("no .{ext} sequence files in this folder"),
         });
     }
-    paths.iter().map(|p| read(p)).collect()
+    Ok(paths)
 }
 
 /// Writes a sequence to `dir/<name>.csv`.

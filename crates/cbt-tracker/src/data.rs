@@ -69,7 +69,11 @@ pub struct TrainingFrame {
 pub struct Sequence {
     /// A name (file stem, generator label).
     pub name: String,
-    /// The frames, in time order.
+    /// The frame number of `frames[0]` in the source (a file's smallest frame number;
+    /// MOTChallenge files start at 1). Generated sequences start at 0.
+    #[serde(default)]
+    pub first_frame: u64,
+    /// The frames, in time order (`frames[k]` is frame number `first_frame + k`).
     pub frames: Vec<Frame>,
 }
 
@@ -83,6 +87,12 @@ pub struct Frame {
 }
 
 impl Sequence {
+    /// Index of the first frame with a truth: where a tracker starts (earlier frames are
+    /// not scored); `None` when no frame has one.
+    pub fn start(&self) -> Option<usize> {
+        self.frames.iter().position(|f| f.truth.is_some())
+    }
+
     /// The sequence as training frames (the truth, when present, is the frame's one state).
     pub fn training_frames(&self) -> Vec<TrainingFrame> {
         self.frames

@@ -4,7 +4,7 @@
 //! filter (thesis ch. 3) whose bins are smooth, overlapping channels (thesis ch. 2,
 //! [`chan_repr`]), and whose system and observation models are **learned from unordered sets**
 //! of states and detections — no associations needed (Paper B; reconstruction in
-//! `papers.md` §2.2, marked there as inferred: the paper's full text was not available).
+//! docs/methods.md § Tracking, marked there as inferred: the paper's full text was not available).
 //!
 //! ## The filter (eq. 3.1–3.5)
 //! With `x_k = f(x_{k−1}, v_{k−1})` and `z_k = h(x_k, n_k)`, the prediction (eq. 3.3) and the
@@ -43,7 +43,7 @@
 //! coefficients around the best cell. Storage does not grow with the channel count and a
 //! step costs what the posterior's support costs, so the grid can be as fine as the detection
 //! noise (spacing [`Scales::fine_spacing`]). Why this layout, and the deviations from the
-//! dense reconstruction it makes, are in `docs/performance.md` (`cbt-tracker`). Its inner
+//! dense reconstruction it makes, are in docs/methods.md § Tracking. Its inner
 //! loops run with AVX when the CPU has it (chosen at run time; the same operations in the same
 //! order, so results do not depend on the CPU); a posterior whose parts lie far apart is
 //! processed on its non-zero blocks only (the same values), and large work buffers are
@@ -64,9 +64,12 @@
 //! the deserialiser, never a panic in a later step.
 //!
 //! ## Data
-//! [`sim`]: the synthetic RC-car-following generator (papers.md §2.5) and the univariate
-//! non-stationary growth model of Arulampalam et al. (§2.4); [`csv`]: the plain
-//! `frame,kind,x,y` sequence format; [`metrics`]: RMSE and track loss.
+//! [`sim`]: the synthetic RC-car-following generator (docs/methods.md § Tracking) and the univariate
+//! non-stationary growth model of Arulampalam et al.; [`csv`]: the plain
+//! `frame,kind,x,y` sequence format (any first frame, gaps, a byte-order mark; a bounded frame
+//! span); [`mot`]: MOTChallenge ground truth, one single-target sequence per id;
+//! [`sim::observe`]: simulated detections (misses, noise, clutter) on a given trajectory;
+//! [`metrics`]: RMSE and track loss.
 //!
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
@@ -97,6 +100,7 @@ mod integrity;
 mod kalman;
 pub mod metrics;
 mod model;
+pub mod mot;
 mod observation;
 mod particle;
 mod pool;

@@ -233,7 +233,7 @@ impl CbtModel {
     }
 
     /// Learns both models from training sequences, each a list of frames with unordered state
-    /// and detection sets (papers.md §2.2 steps 1–2). Every state and detection must lie on
+    /// and detection sets (docs/methods.md § Tracking). Every state and detection must lie on
     /// the grid; errors name the first that does not.
     pub fn learn(
         space: Space,

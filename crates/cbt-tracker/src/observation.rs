@@ -1,4 +1,4 @@
-//! The observation model `p(z | x)`, learned without correspondences (papers.md §2.2 step 1):
+//! The observation model `p(z | x)`, learned without correspondences (docs/methods.md § Tracking):
 //! the soft joint histogram `C_zx = Σ_t (Σ_i b(z_t^i)) (Σ_j b(x_t^j))ᵀ` of every within-frame
 //! pairing of a detection with a state, column-normalised with the Dirichlet fallback of
 //! [`CbtConfig`] and the floor `ε`:

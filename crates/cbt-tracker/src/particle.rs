@@ -32,7 +32,7 @@ pub enum PfModel {
         /// Initial velocity spread (standard deviation).
         init_vel_sigma: f64,
     },
-    /// The univariate non-stationary growth model (papers.md §2.4):
+    /// The univariate non-stationary growth model (docs/methods.md § Tracking):
     /// `x_k = x/2 + 25x/(1 + x²) + 8 cos(1.2 k) + v`, `z = x²/20 + n`, likelihood
     /// `Σ_i w_i N(z_i; x²/20, σ_n²)`.
     Ungm {

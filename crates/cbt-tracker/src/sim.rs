@@ -1,6 +1,6 @@
-//! Synthetic data: the RC-car-following generator (papers.md §2.5) and the univariate
-//! non-stationary growth model (UNGM) of Arulampalam et al. (papers.md §2.4). Every draw comes
-//! from a seeded `Xoshiro256++`; sequence `i` of a call uses its own stream derived from
+//! Synthetic data: the RC-car-following generator (docs/methods.md § Tracking) and the univariate
+//! non-stationary growth model (UNGM) of Arulampalam et al. (docs/methods.md § Tracking). Every
+//! draw comes from a seeded `Xoshiro256++`; sequence `i` of a call uses its own stream derived from
 //! `(seed, i)`, so sequences do not depend on how many others are generated.
 
 use rand::rngs::Xoshiro256PlusPlus;
@@ -205,11 +205,72 @@ pub fn generate_one(
     }
     Sequence {
         name: format!("{}-{seed}-{index}", level.name),
+        first_frame: 0,
         frames: out,
     }
 }
 
-/// The UNGM benchmark (Arulampalam et al. 2002, papers.md §2.4):
+/// Simulated detections on a given trajectory (e.g. real motion): per frame, Poisson clutter
+/// uniform over `[x_lo, x_hi] × [y_lo, y_hi]` (`area`), and for a frame with a truth a
+/// detection with probability `P_D` at the truth plus Gaussian noise, dropped when it falls
+/// outside the area; detections are in random order. The truths are kept; the sequence's
+/// own detections are replaced. Stream `(seed, index)` as [`generate`] uses.
+///
+/// ```
+/// use cbt_tracker::sim::{observe, Level};
+/// use cbt_tracker::{Frame, Sequence};
+/// let track = Sequence {
+///     name: "walk".into(),
+///     first_frame: 1,
+///     frames: (0..5).map(|k| Frame { truth: Some([10.0 + k as f64, 20.0]), detections: vec![] }).collect(),
+/// };
+/// let s = observe(&track, &Level::preset(0), [0.0, 100.0, 0.0, 100.0], 7, 0);
+/// assert_eq!(s.frames.len(), 5);
+/// assert!(s.frames.iter().all(|f| f.detections.len() == 1));
+/// ```
+pub fn observe(track: &Sequence, level: &Level, area: [f64; 4], seed: u64, index: u64) -> Sequence {
+    let mut rng = rng_for(seed, index);
+    let [x_lo, x_hi, y_lo, y_hi] = area;
+    let poisson = (level.clutter_rate > 0.0)
+        .then(|| Poisson::new(level.clutter_rate).expect("finite positive clutter rate"));
+    let frames = track
+        .frames
+        .iter()
+        .map(|f| {
+            let mut dets = Vec::new();
+            let n_clutter = poisson.as_ref().map_or(0, |d| d.sample(&mut rng) as usize);
+            for _ in 0..n_clutter {
+                dets.push(Detection::new(
+                    x_lo + rng.random::<f64>() * (x_hi - x_lo),
+                    y_lo + rng.random::<f64>() * (y_hi - y_lo),
+                ));
+            }
+            if let Some(t) = f.truth
+                && rng.random::<f64>() < level.p_detect
+            {
+                let z = [
+                    t[0] + level.noise_sigma * normal(&mut rng),
+                    t[1] + level.noise_sigma * normal(&mut rng),
+                ];
+                if (x_lo..=x_hi).contains(&z[0]) && (y_lo..=y_hi).contains(&z[1]) {
+                    let at = (rng.random::<f64>() * (dets.len() + 1) as f64) as usize;
+                    dets.insert(at.min(dets.len()), Detection::new(z[0], z[1]));
+                }
+            }
+            Frame {
+                truth: f.truth,
+                detections: dets,
+            }
+        })
+        .collect();
+    Sequence {
+        name: track.name.clone(),
+        first_frame: track.first_frame,
+        frames,
+    }
+}
+
+/// The UNGM benchmark (Arulampalam et al. 2002, docs/methods.md § Tracking):
 /// `x_k = x_{k−1}/2 + 25 x_{k−1}/(1 + x_{k−1}²) + 8 cos(1.2 k) + v_{k−1}`,
 /// `z_k = x_k²/20 + n_k`, `v ~ N(0, 10)`, `n ~ N(0, 1)`, `x_0 = 0.1`; one detection per
 /// frame, stored as `[z, 0]`; the truth as `[x, 0]`.
@@ -259,6 +320,7 @@ impl Ungm {
                 }
                 Sequence {
                     name: format!("ungm-{seed}-{i}"),
+                    first_frame: 0,
                     frames: out,
                 }
             })

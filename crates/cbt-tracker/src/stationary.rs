@@ -1,5 +1,5 @@
 //! Shift-invariant ("stationary") CBT models ([`Layout::Stationary`](crate::Layout)): the same
-//! correspondence-free soft counts as the dense models (papers.md §2.2 steps 1–2), pooled
+//! correspondence-free soft counts as the dense models (docs/methods.md § Tracking), pooled
 //! over the grid by displacement, so that a model depends on `m − n` (and `n − o`) only:
 //!
 //! ```text

@@ -1,5 +1,5 @@
 //! The system model, learned from the unordered state sets of consecutive frames
-//! (papers.md §2.2 step 2):
+//! (docs/methods.md § Tracking):
 //!
 //! ```text
 //! first order:   C₁[m, n]    = Σ_t a_t[m] · a_{t−1}[n]

@@ -44,6 +44,7 @@ fn linear_sequences(count: usize, frames: usize, seed: u64) -> Vec<Sequence> {
         if inside {
             out.push(Sequence {
                 name: format!("linear-{index}"),
+                first_frame: 0,
                 frames: fs,
             });
         }
@@ -202,6 +203,7 @@ fn online_learning_updates_both_models_and_chains_frames() {
         .map(|f| {
             Sequence {
                 name: String::new(),
+                first_frame: 0,
                 frames: f,
             }
             .training_frames()

@@ -2,8 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
+use cbt_tracker::sim::observe;
 use cbt_tracker::sim::{Level, Scenario, Ungm, generate};
-use cbt_tracker::{TrackError, csv};
+use cbt_tracker::{Frame, Sequence, TrackError, csv, mot};
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("cbt-io-{}-{name}", std::process::id()));
@@ -49,7 +50,10 @@ fn malformed_rows_name_their_line() {
     assert!(reason.contains("ghost"));
     assert_eq!(err(&format!("{h}0,det,nan,2\n")).0, 2);
     assert_eq!(err(&format!("{h}0,det,1,abc\n")).0, 2);
-    assert_eq!(err(&format!("{h}99999999999,det,1,2\n")).0, 2);
+    // A frame span beyond the limit is refused at the row that causes it, before any frame
+    // is allocated.
+    assert_eq!(err(&format!("{h}0,truth,1,2\n99999999999,det,1,2\n")).0, 3);
+    assert_eq!(err(&format!("{h}10000000,truth,1,2\n0,det,1,2\n")).0, 3);
     // The error message shows file and line.
     let e = csv::parse(&format!("{h}0,det,1\n"), "s", Path::new("dir/s.csv")).unwrap_err();
     assert!(e.to_string().starts_with("dir/s.csv:2:"), "{e}");
@@ -79,4 +83,194 @@ fn unreadable_folders_are_errors() {
     std::fs::create_dir_all(&dir).unwrap();
     assert!(matches!(csv::read_dir(&dir), Err(TrackError::Io { .. })));
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn files_start_at_any_frame_and_may_have_a_byte_order_mark() {
+    // MOTChallenge-style numbering from 1, a gap, a BOM.
+    let text = "\u{feff}frame,kind,x,y\n1,det,0.5,0.5\n2,truth,3,4\n2,det,3,4\n5,truth,6,7\n";
+    let s = csv::parse(text, "s", Path::new("s.csv")).unwrap();
+    assert_eq!(s.first_frame, 1);
+    assert_eq!(s.frames.len(), 5);
+    assert_eq!(s.start(), Some(1));
+    assert_eq!(s.frames[1].truth, Some([3.0, 4.0]));
+    assert!(s.frames[2].truth.is_none() && s.frames[3].detections.is_empty());
+    assert_eq!(s.frames[4].truth, Some([6.0, 7.0]));
+    // Written back with the same frame numbers (the BOM is not written).
+    assert_eq!(
+        csv::parse(&csv::to_string(&s), "s", Path::new("s.csv")).unwrap(),
+        s
+    );
+    assert!(csv::to_string(&s).starts_with("frame,kind,x,y\n1,det,0.5,0.5\n"));
+    // Frame ten million alone is one frame, not ten million.
+    let far = csv::parse(
+        "frame,kind,x,y\n10000000,truth,1,2\n",
+        "f",
+        Path::new("f.csv"),
+    )
+    .unwrap();
+    assert_eq!((far.first_frame, far.frames.len()), (10_000_000, 1));
+    // The span limit itself: exactly MAX_SPAN frames is accepted.
+    let last = csv::MAX_SPAN - 1;
+    let ok = format!("frame,kind,x,y\n0,truth,1,2\n{last},det,1,2\n");
+    assert_eq!(
+        csv::parse(&ok, "m", Path::new("m.csv"))
+            .unwrap()
+            .frames
+            .len() as u64,
+        csv::MAX_SPAN
+    );
+    // A file without truth has no start.
+    let none = csv::parse("frame,kind,x,y\n3,det,1,2\n", "n", Path::new("n.csv")).unwrap();
+    assert_eq!(none.start(), None);
+}
+
+fn mot_err(text: &str) -> (usize, String) {
+    match mot::parse(text, "gt", Path::new("dir/gt.txt")) {
+        Err(e @ TrackError::Csv { .. }) => {
+            let TrackError::Csv {
+                line,
+                ref reason,
+                ref path,
+            } = e
+            else {
+                unreachable!()
+            };
+            assert_eq!(path, Path::new("dir/gt.txt"));
+            assert!(
+                e.to_string().starts_with(&format!("dir/gt.txt:{line}:")),
+                "{e}"
+            );
+            (line, reason.clone())
+        }
+        other => panic!("expected a CSV error, got {other:?}"),
+    }
+}
+
+#[test]
+fn mot_ground_truth_is_one_sequence_per_id() {
+    let text = "\u{feff}1,2,10,20,4,6,1,1,1\n2,2,12,20,4,6,1,1,1\n\n4,2,16,20,4,6,1,1,1\n\
+                3,1.0,0,0,2,2,-1,-1,-1\n4,1,2,0,2,2,-1,-1,-1\n1,9,0,0,2,2,0,3,1\n";
+    let seqs = mot::parse(text, "gt", Path::new("gt.txt")).unwrap();
+    // Ids in increasing order; the ignored (flag 0) row of id 9 is no track.
+    let names: Vec<&str> = seqs.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["gt-id1", "gt-id2"]);
+    assert_eq!(seqs[0].first_frame, 3);
+    assert_eq!(seqs[0].frames[0].truth, Some([1.0, 1.0]));
+    assert_eq!(seqs[0].frames[1].truth, Some([3.0, 1.0]));
+    let s = &seqs[1];
+    assert_eq!((s.first_frame, s.frames.len()), (1, 4));
+    assert_eq!(s.frames[0].truth, Some([12.0, 23.0]));
+    assert_eq!(s.frames[2].truth, None);
+    assert_eq!(s.frames[3].truth, Some([18.0, 23.0]));
+    assert!(s.frames.iter().all(|f| f.detections.is_empty()));
+}
+
+#[test]
+fn bad_mot_rows_name_file_and_line() {
+    let ok = "1,1,0,0,2,2\n2,1,1,0,2,2\n";
+    // An id annotated in one frame: the line of its row.
+    let (line, reason) = mot_err(&format!("{ok}5,3,0,0,2,2\n"));
+    assert_eq!(line, 3);
+    assert!(
+        reason.contains("id 3") && reason.contains("single frame"),
+        "{reason}"
+    );
+    // NaN, infinite, negative sizes, too few fields, bad frame or id.
+    assert_eq!(mot_err(&format!("{ok}3,1,NaN,0,2,2\n")).0, 3);
+    assert_eq!(mot_err(&format!("{ok}3,1,0,inf,2,2\n")).0, 3);
+    let (line, reason) = mot_err(&format!("{ok}3,1,0,0,-2,2\n"));
+    assert_eq!(line, 3);
+    assert!(reason.contains("negative"), "{reason}");
+    assert_eq!(mot_err(&format!("{ok}3,1,0,0,2,-0.5\n")).0, 3);
+    assert_eq!(mot_err(&format!("{ok}3,1,0,0,2\n")).0, 3);
+    assert_eq!(mot_err(&format!("{ok}-3,1,0,0,2,2\n")).0, 3);
+    assert_eq!(mot_err(&format!("{ok}3,1.5,0,0,2,2\n")).0, 3);
+    // A duplicate row of an id in a frame: the second row's line.
+    let (line, reason) = mot_err(&format!("{ok}\n2,1,5,5,2,2\n"));
+    assert_eq!(line, 4);
+    assert!(reason.contains("second row"), "{reason}");
+    // A duplicate of a single frame is a duplicate, not a one-frame track.
+    assert!(
+        mot_err("7,4,0,0,1,1\n7,4,0,0,1,1\n")
+            .1
+            .contains("second row")
+    );
+    // Huge frame numbers: refused by span at the row, never allocated.
+    assert_eq!(mot_err(&format!("{ok}10000001,1,0,0,2,2\n")).0, 3);
+    let far = mot::parse(
+        "10000000,1,0,0,2,2\n10000001,1,0,0,2,2\n",
+        "g",
+        Path::new("g.txt"),
+    );
+    assert_eq!(far.unwrap()[0].frames.len(), 2);
+}
+
+#[test]
+fn mot_folders_read_every_txt_file() {
+    let dir = temp_dir("mot");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("a.txt"), "1,1,0,0,2,2\n2,1,1,0,2,2\n").unwrap();
+    std::fs::write(dir.join("b.txt"), "1,4,0,0,2,2\n2,4,1,0,2,2\n").unwrap();
+    std::fs::write(dir.join("notes.md"), "not a sequence").unwrap();
+    let seqs = mot::read_dir(&dir).unwrap();
+    let names: Vec<&str> = seqs.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["a-id1", "b-id4"]);
+    std::fs::write(dir.join("c.txt"), "1,4,0,0,2,2\n").unwrap();
+    match mot::read_dir(&dir) {
+        Err(TrackError::Csv { path, line, .. }) => {
+            assert_eq!(path, dir.join("c.txt"));
+            assert_eq!(line, 1);
+        }
+        other => panic!("expected a CSV error, got {other:?}"),
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn simulated_detections_follow_the_level() {
+    let track = Sequence {
+        name: "t".into(),
+        first_frame: 4,
+        frames: (0..400)
+            .map(|k| Frame {
+                truth: (k % 50 != 7).then(|| [100.0 + 0.1 * k as f64, 80.0]),
+                detections: Vec::new(),
+            })
+            .collect(),
+    };
+    let area = [0.0, 300.0, 0.0, 200.0];
+    let level = Level {
+        name: "x".into(),
+        clutter_rate: 2.0,
+        p_detect: 0.8,
+        noise_sigma: 3.0,
+    };
+    let s = observe(&track, &level, area, 5, 1);
+    assert_eq!(s, observe(&track, &level, area, 5, 1));
+    assert_ne!(s, observe(&track, &level, area, 5, 2));
+    assert_eq!((s.first_frame, s.frames.len()), (4, 400));
+    let (mut near, mut total, mut truths) = (0usize, 0usize, 0usize);
+    for (f, t) in s.frames.iter().zip(&track.frames) {
+        assert_eq!(f.truth, t.truth);
+        total += f.detections.len();
+        for d in &f.detections {
+            assert!(d.pos[0] >= 0.0 && d.pos[0] <= 300.0 && d.pos[1] >= 0.0 && d.pos[1] <= 200.0);
+        }
+        if let Some(t) = t.truth {
+            truths += 1;
+            if f.detections
+                .iter()
+                .any(|d| (d.pos[0] - t[0]).hypot(d.pos[1] - t[1]) < 12.0)
+            {
+                near += 1;
+            }
+        }
+    }
+    // About P_D of the truth frames have a detection near the truth (clutter adds a little);
+    // about clutter + P_D detections a frame.
+    let rate = near as f64 / truths as f64;
+    assert!((0.74..0.88).contains(&rate), "{rate}");
+    let per_frame = total as f64 / 400.0;
+    assert!((2.5..3.1).contains(&per_frame), "{per_frame}");
 }

@@ -7,6 +7,17 @@ use crate::{ChanError, Kernel};
 /// Slack (channel spacings) on the representable-range test.
 const RANGE_SLACK: f64 = 1e-9;
 
+/// Most channels one basis may have (2²⁴ ≈ 16.8 million, 128 MiB as a dense `f64` vector):
+/// larger requests are refused with [`ChanError::TooManyChannels`] before anything is allocated.
+/// Also the limit of a dense n-D channel vector ([`crate::ChannelGrid::encode`],
+/// [`crate::SoftHistogram`]); sparse histograms may span larger grids.
+pub const MAX_CHANNELS: usize = 1 << 24;
+
+/// Largest weight, channel coefficient or histogram total accepted (1e200): sums over any
+/// decoding window (at most ~1e100 channels' worth of mass) then stay finite. Larger finite
+/// numbers are refused with [`ChanError::TooLarge`] rather than left to overflow to infinity.
+pub const MAX_MASS: f64 = 1e200;
+
 /// `N` uniformly spaced channels with one kernel: maps values to channel-index space
 /// (`t = (x − first)/spacing`, channel `k` centred at `t = k`, 0-based) and back.
 ///
@@ -85,19 +96,18 @@ impl ChannelBasis {
                 needed: kernel.window(),
             });
         }
-        let step = match kernel {
-            Kernel::Cos2 { m } => {
-                let (s, c) = (std::f64::consts::TAU / f64::from(m)).sin_cos();
-                (c, s)
-            }
-            _ => (1.0, 0.0),
-        };
+        if n > MAX_CHANNELS {
+            return Err(ChanError::TooManyChannels {
+                got: n,
+                max: MAX_CHANNELS,
+            });
+        }
         Ok(ChannelBasis {
             kernel,
             n,
             first,
             spacing,
-            step,
+            step: kernel.phase_step(),
         })
     }
 
@@ -205,36 +215,10 @@ impl ChannelBasis {
     #[inline]
     pub fn for_each_active(&self, t: f64, mut f: impl FnMut(usize, f64)) {
         let r = self.kernel.support_radius();
-        let lo = (t - r).ceil().max(0.0) as usize;
+        let lo = (t - r).ceil().max(0.0) as i64;
         let hi = ((t + r).floor() as i64).min(self.n as i64 - 1);
-        if hi < 0 {
-            return;
-        }
-        let hi = hi as usize;
-        if let Kernel::Cos2 { m } = self.kernel {
-            // cos²(a·d) = (1 + cos(2a·d))/2; the phase 2a·(t − k) falls by 2a per channel, so
-            // rotate one unit phasor instead of calling cos for every channel.
-            let half = 0.5 * f64::from(m);
-            let (cs, sn) = self.step;
-            let (mut s, mut c) = (std::f64::consts::TAU / f64::from(m) * (t - lo as f64)).sin_cos();
-            for k in lo..=hi {
-                let d = t - k as f64;
-                if d.abs() < half {
-                    let v = 0.5 * (1.0 + c);
-                    if v > 0.0 {
-                        f(k, v);
-                    }
-                }
-                (c, s) = (c * cs + s * sn, s * cs - c * sn);
-            }
-            return;
-        }
-        for k in lo..=hi {
-            let v = self.kernel.value(t - k as f64);
-            if v > 0.0 {
-                f(k, v);
-            }
-        }
+        self.kernel
+            .for_each_in(self.step, t, lo, hi, |k, v| f(k as usize, v));
     }
 
     /// Encodes `x` into a dense channel vector (eq. 2.1).
@@ -273,7 +257,7 @@ impl ChannelBasis {
     }
 }
 
-/// Checks a certainty weight is finite and non-negative.
+/// Checks a certainty weight is finite, non-negative and at most [`MAX_MASS`].
 pub(crate) fn check_weight(weight: f64) -> Result<(), ChanError> {
     if !weight.is_finite() {
         return Err(ChanError::NonFinite {
@@ -285,6 +269,18 @@ pub(crate) fn check_weight(weight: f64) -> Result<(), ChanError> {
         return Err(ChanError::Negative {
             what: "weight",
             value: weight,
+        });
+    }
+    check_mass("weight", weight)
+}
+
+/// Checks a non-negative amount of mass is at most [`MAX_MASS`].
+pub(crate) fn check_mass(what: &'static str, value: f64) -> Result<(), ChanError> {
+    if value > MAX_MASS {
+        return Err(ChanError::TooLarge {
+            what,
+            value,
+            max: MAX_MASS,
         });
     }
     Ok(())
@@ -305,6 +301,34 @@ mod tests {
         assert!(ChannelBasis::new(f64::NAN, 1.0, 10, k).is_err());
         assert!(ChannelBasis::covering(1.0, 1.0, 10, k).is_err());
         assert!(ChannelBasis::integer(10, Kernel::Cos2 { m: 2 }).is_err());
+    }
+
+    #[test]
+    fn huge_bases_are_refused_before_allocation() {
+        // Issue 24 #11: 10¹⁰ channels used to abort on allocation in `encode`.
+        assert_eq!(
+            ChannelBasis::integer(10_000_000_000, Kernel::Cos2 { m: 3 }),
+            Err(ChanError::TooManyChannels {
+                got: 10_000_000_000,
+                max: MAX_CHANNELS
+            })
+        );
+        assert!(ChannelBasis::covering(0.0, 1.0, MAX_CHANNELS + 1, Kernel::BSpline2).is_err());
+        assert!(ChannelBasis::integer(MAX_CHANNELS, Kernel::BSpline2).is_ok());
+        let json =
+            r#"{"kernel":"b_spline2","channels":10000000000,"first_centre":0.0,"spacing":1.0}"#;
+        assert!(serde_json::from_str::<ChannelBasis>(json).is_err());
+    }
+
+    #[test]
+    fn weights_beyond_the_mass_limit_are_errors() {
+        let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap();
+        assert!(matches!(
+            b.encode_weighted(3.0, 1e308),
+            Err(ChanError::TooLarge { .. })
+        ));
+        let c = b.encode_weighted(3.0, MAX_MASS).unwrap();
+        assert!((b.decode_best(&c).unwrap().unwrap().weight / MAX_MASS - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -129,7 +129,7 @@ pub(crate) fn check_channels(c: &[f64], expected: usize) -> Result<(), ChanError
     Ok(())
 }
 
-/// Checks one channel coefficient is finite and non-negative.
+/// Checks one channel coefficient is finite, non-negative and at most [`crate::MAX_MASS`].
 pub(crate) fn check_coefficient(v: f64) -> Result<(), ChanError> {
     if !v.is_finite() {
         return Err(ChanError::NonFinite {
@@ -143,7 +143,7 @@ pub(crate) fn check_coefficient(v: f64) -> Result<(), ChanError> {
             value: v,
         });
     }
-    Ok(())
+    crate::basis::check_mass("channel coefficient", v)
 }
 
 /// Sorts by decreasing certainty, ties broken by increasing key (deterministic order).
@@ -184,6 +184,9 @@ mod tests {
         assert!(matches!(b.decode(&c), Err(ChanError::NonFinite { .. })));
         c[3] = -0.5;
         assert!(matches!(b.decode(&c), Err(ChanError::Negative { .. })));
+        // Three coefficients of 1e308 would sum to infinity in a window.
+        let huge = vec![1e308; 10];
+        assert!(matches!(b.decode(&huge), Err(ChanError::TooLarge { .. })));
     }
 
     #[test]

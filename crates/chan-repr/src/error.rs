@@ -13,6 +13,35 @@ pub enum ChanError {
         /// The decoding window's size.
         needed: usize,
     },
+    /// A basis or grid larger than the documented limit (checked before any allocation).
+    #[error("{got} channels exceed the limit of {max}")]
+    TooManyChannels {
+        /// Channels asked for.
+        got: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// A finite number so large that sums of it could overflow (weights, coefficients and
+    /// histogram totals are limited to [`crate::MAX_MASS`]).
+    #[error("{what} {value} exceeds the limit of {max}")]
+    TooLarge {
+        /// What was too large.
+        what: &'static str,
+        /// The offending number.
+        value: f64,
+        /// The limit.
+        max: f64,
+    },
+    /// A channel index outside its dimension.
+    #[error("channel index {index} of dimension {dim} is outside 0..{len}")]
+    IndexOutOfBounds {
+        /// The dimension.
+        dim: usize,
+        /// The index given.
+        index: usize,
+        /// The dimension's number of channels.
+        len: usize,
+    },
     /// A kernel width that leaves too few overlapping channels for local decoding.
     #[error("kernel too narrow: {reason}")]
     TooNarrow {

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::basis::check_weight;
+use crate::basis::{MAX_CHANNELS, check_weight};
 use crate::decode::{VALID_SLACK, check_channels, sort_modes};
 use crate::{ChanError, ChannelBasis};
 
@@ -111,9 +111,51 @@ impl ChannelGrid {
         &self.strides
     }
 
-    /// Flat index of the channel with per-dimension indices `k`.
-    pub fn flat_index(&self, k: &[usize]) -> usize {
+    /// Flat index of the channel with per-dimension indices `k` (one per dimension, each
+    /// below its basis's channel count).
+    ///
+    /// ```
+    /// use chan_repr::{ChannelBasis, ChannelGrid, Kernel};
+    /// let b = ChannelBasis::integer(5, Kernel::BSpline2).unwrap();
+    /// let g = ChannelGrid::new(vec![b.clone(), b]).unwrap();
+    /// assert_eq!(g.flat_index(&[2, 3]).unwrap(), 13);
+    /// assert!(g.flat_index(&[0, 5]).is_err() && g.flat_index(&[1]).is_err());
+    /// ```
+    pub fn flat_index(&self, k: &[usize]) -> Result<usize, ChanError> {
+        if k.len() != self.dims() {
+            return Err(ChanError::LengthMismatch {
+                what: "channel indices",
+                expected: self.dims(),
+                got: k.len(),
+            });
+        }
+        for (dim, (&index, b)) in k.iter().zip(&self.bases).enumerate() {
+            if index >= b.len() {
+                return Err(ChanError::IndexOutOfBounds {
+                    dim,
+                    index,
+                    len: b.len(),
+                });
+            }
+        }
+        Ok(self.flat_index_unchecked(k))
+    }
+
+    /// [`flat_index`](Self::flat_index) for indices known to be in bounds.
+    #[inline]
+    fn flat_index_unchecked(&self, k: &[usize]) -> usize {
         k.iter().zip(&self.strides).map(|(k, s)| k * s).sum()
+    }
+
+    /// Checks the grid is small enough for a dense channel vector ([`crate::MAX_CHANNELS`]).
+    pub(crate) fn check_dense(&self) -> Result<(), ChanError> {
+        if self.len > MAX_CHANNELS {
+            return Err(ChanError::TooManyChannels {
+                got: self.len,
+                max: MAX_CHANNELS,
+            });
+        }
+        Ok(())
     }
 
     /// Checks `x` has `D` finite, representable coordinates; writes their index coordinates.
@@ -169,7 +211,9 @@ impl ChannelGrid {
     }
 
     /// Encodes `x` with certainty `weight ≥ 0`.
+    /// Grids of more than [`crate::MAX_CHANNELS`] channels are refused before allocating.
     pub fn encode_weighted(&self, x: &[f64], weight: f64) -> Result<Vec<f64>, ChanError> {
+        self.check_dense()?;
         let mut c = vec![0.0; self.len];
         self.accumulate(x, weight, &mut c)?;
         Ok(c)
@@ -227,7 +271,7 @@ impl ChannelGrid {
             m.clear();
             m.resize(b.kernel().window(), 0.0);
         }
-        let base = self.flat_index(start);
+        let base = self.flat_index_unchecked(start);
         let mut total = 0.0;
         s.pos.iter_mut().for_each(|p| *p = 0);
         loop {
@@ -342,7 +386,7 @@ mod tests {
         );
         for i in 0..12 {
             for j in 0..12 {
-                assert_eq!(c[g.flat_index(&[i, j])], c0[i] * c1[j]);
+                assert_eq!(c[g.flat_index(&[i, j]).unwrap()], c0[i] * c1[j]);
             }
         }
     }
@@ -366,6 +410,37 @@ mod tests {
                 assert!((modes[0].weight - 2.0).abs() < 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn flat_index_checks_bounds() {
+        // Issue 24 #11: out-of-range indices used to give another channel's flat index.
+        let g = grid2(Kernel::BSpline2);
+        assert_eq!(g.flat_index(&[1, 2]), Ok(14));
+        assert_eq!(
+            g.flat_index(&[0, 12]),
+            Err(ChanError::IndexOutOfBounds {
+                dim: 1,
+                index: 12,
+                len: 12
+            })
+        );
+        assert!(g.flat_index(&[12, 0]).is_err());
+        assert!(g.flat_index(&[1, 2, 3]).is_err());
+    }
+
+    #[test]
+    fn dense_vectors_of_huge_grids_are_refused() {
+        let b = ChannelBasis::integer(1000, Kernel::Cos2 { m: 3 }).unwrap();
+        let g = ChannelGrid::new(vec![b.clone(), b.clone(), b]).unwrap(); // 10⁹ channels
+        assert!(matches!(
+            g.encode(&[10.0, 10.0, 10.0]),
+            Err(ChanError::TooManyChannels { .. })
+        ));
+        assert!(matches!(
+            crate::SoftHistogram::new(g),
+            Err(ChanError::TooManyChannels { .. })
+        ));
     }
 
     #[test]

@@ -5,7 +5,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 
-use crate::basis::check_weight;
+use crate::basis::{MAX_MASS, check_weight};
 use crate::decode::check_coefficient;
 use crate::grid::{WindowScratch, advance, finish_modes};
 use crate::{ChanError, ChannelBasis, ChannelGrid, ModeNd};
@@ -15,7 +15,7 @@ use crate::{ChanError, ChannelBasis, ChannelGrid, ModeNd};
 /// ```
 /// use chan_repr::{ChannelBasis, ChannelGrid, Kernel, SoftHistogram};
 /// let b = ChannelBasis::covering(0.0, 1.0, 16, Kernel::BSpline2).unwrap();
-/// let mut h = SoftHistogram::new(ChannelGrid::new(vec![b]).unwrap());
+/// let mut h = SoftHistogram::new(ChannelGrid::new(vec![b]).unwrap()).unwrap();
 /// for x in [0.20, 0.21, 0.19, 0.80] {
 ///     h.add(&[x], 1.0).unwrap();
 /// }
@@ -29,6 +29,11 @@ pub struct SoftHistogram {
     grid: ChannelGrid,
     counts: Vec<f64>,
     total_weight: f64,
+    /// Upper bound on every coefficient and on the total weight (each added value raises no
+    /// coefficient by more than its weight, as kernel values are at most 1): adding is refused
+    /// when it would pass [`MAX_MASS`], in O(1).
+    #[serde(skip)]
+    ceiling: f64,
     #[serde(skip)]
     t: Vec<f64>,
     #[serde(skip)]
@@ -74,19 +79,38 @@ impl From<SoftHistogram> for DenseSpec {
     }
 }
 
+/// Checks that adding `weight` to a histogram whose coefficients and total are at most
+/// `ceiling` keeps them within [`MAX_MASS`]; returns the new ceiling.
+fn raise_ceiling(ceiling: f64, weight: f64) -> Result<f64, ChanError> {
+    let raised = ceiling + weight;
+    if raised > MAX_MASS {
+        return Err(ChanError::TooLarge {
+            what: "histogram total weight",
+            value: raised,
+            max: MAX_MASS,
+        });
+    }
+    Ok(raised)
+}
+
 impl SoftHistogram {
-    /// An empty histogram over `grid`.
-    pub fn new(grid: ChannelGrid) -> Self {
+    /// An empty histogram over `grid` (at most [`crate::MAX_CHANNELS`] channels, checked before
+    /// allocating).
+    pub fn new(grid: ChannelGrid) -> Result<Self, ChanError> {
+        grid.check_dense()?;
         let counts = vec![0.0; grid.len()];
-        SoftHistogram::with(grid, counts, 0.0)
+        Ok(SoftHistogram::with(grid, counts, 0.0))
     }
 
-    /// An empty 1-D histogram over `basis`.
+    /// An empty 1-D histogram over `basis` (never too large: a basis has at most
+    /// [`crate::MAX_CHANNELS`] channels).
     pub fn one_d(basis: ChannelBasis) -> Self {
-        SoftHistogram::new(ChannelGrid::new(vec![basis]).expect("one dimension is a valid grid"))
+        let grid = ChannelGrid::new(vec![basis]).expect("one dimension is a valid grid");
+        SoftHistogram::new(grid).expect("a basis fits in a dense vector")
     }
 
-    /// A histogram with given channel coefficients (checked: length, finite, non-negative).
+    /// A histogram with given channel coefficients (checked: length, finite, non-negative, at
+    /// most [`MAX_MASS`]).
     pub fn from_counts(
         grid: ChannelGrid,
         counts: Vec<f64>,
@@ -99,24 +123,29 @@ impl SoftHistogram {
 
     fn with(grid: ChannelGrid, counts: Vec<f64>, total_weight: f64) -> Self {
         let dims = grid.dims();
+        let ceiling = counts.iter().copied().fold(total_weight, f64::max);
         SoftHistogram {
             grid,
             counts,
             total_weight,
+            ceiling,
             t: Vec::with_capacity(dims),
             scratch: vec![Vec::new(); dims],
         }
     }
 
     /// Adds the value `x` (one coordinate per dimension) with certainty `weight`. Costs
-    /// O(active channels) and allocates nothing after the first call.
+    /// O(active channels) and allocates nothing after the first call. Refused, leaving the
+    /// histogram unchanged, when the total would pass [`MAX_MASS`].
     pub fn add(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
         check_weight(weight)?;
+        let ceiling = raise_ceiling(self.ceiling, weight)?;
         self.grid.checked_indices(x, &mut self.t)?;
         let counts = &mut self.counts;
         self.grid
             .for_each_active(&self.t, &mut self.scratch, |k, v| counts[k] += weight * v);
         self.total_weight += weight;
+        self.ceiling = ceiling;
         Ok(())
     }
 
@@ -133,9 +162,11 @@ impl SoftHistogram {
         let basis = self.grid.basis(0);
         let counts = &mut self.counts;
         for &x in xs {
+            let ceiling = raise_ceiling(self.ceiling, 1.0)?;
             let t = basis.checked_index(x)?;
             basis.for_each_active(t, |k, v| counts[k] += v);
             self.total_weight += 1.0;
+            self.ceiling = ceiling;
         }
         Ok(())
     }
@@ -159,6 +190,7 @@ impl SoftHistogram {
     pub fn clear(&mut self) {
         self.counts.iter_mut().for_each(|c| *c = 0.0);
         self.total_weight = 0.0;
+        self.ceiling = 0.0;
     }
 
     /// All modes, by decreasing certainty.
@@ -183,6 +215,8 @@ pub struct SparseHistogram {
     grid: ChannelGrid,
     counts: BTreeMap<usize, f64>,
     total_weight: f64,
+    /// Upper bound on every coefficient and the total (as in [`SoftHistogram`]).
+    ceiling: f64,
     t: Vec<f64>,
     scratch: Vec<Vec<(usize, f64)>>,
 }
@@ -195,14 +229,17 @@ impl SparseHistogram {
             grid,
             counts: BTreeMap::new(),
             total_weight: 0.0,
+            ceiling: 0.0,
             t: Vec::with_capacity(dims),
             scratch: vec![Vec::new(); dims],
         }
     }
 
-    /// Adds the value `x` with certainty `weight` (O(active channels · log stored)).
+    /// Adds the value `x` with certainty `weight` (O(active channels · log stored)). Refused,
+    /// leaving the histogram unchanged, when the total would pass [`MAX_MASS`].
     pub fn add(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
         check_weight(weight)?;
+        let ceiling = raise_ceiling(self.ceiling, weight)?;
         self.grid.checked_indices(x, &mut self.t)?;
         let counts = &mut self.counts;
         self.grid
@@ -210,6 +247,7 @@ impl SparseHistogram {
                 *counts.entry(k).or_insert(0.0) += weight * v
             });
         self.total_weight += weight;
+        self.ceiling = ceiling;
         Ok(())
     }
 
@@ -238,13 +276,18 @@ impl SparseHistogram {
         &self.grid
     }
 
-    /// The dense equivalent.
-    pub fn to_dense(&self) -> SoftHistogram {
+    /// The dense equivalent (refused for grids of more than [`crate::MAX_CHANNELS`]).
+    pub fn to_dense(&self) -> Result<SoftHistogram, ChanError> {
+        self.grid.check_dense()?;
         let mut counts = vec![0.0; self.grid.len()];
         for (k, v) in self.iter() {
             counts[k] = v;
         }
-        SoftHistogram::with(self.grid.clone(), counts, self.total_weight)
+        Ok(SoftHistogram::with(
+            self.grid.clone(),
+            counts,
+            self.total_weight,
+        ))
     }
 
     /// All modes, by decreasing certainty: only windows containing a stored channel are
@@ -326,16 +369,53 @@ mod tests {
     }
 
     #[test]
+    fn weights_that_would_overflow_are_refused() {
+        // Issue 24 #11: 1e308 added twice made the histogram infinite and every later decode
+        // fail. Now such weights are refused and the histogram stays decodable.
+        let b = ChannelBasis::integer(10, Kernel::BSpline2).unwrap();
+        let grid = ChannelGrid::new(vec![b.clone()]).unwrap();
+        let mut h = SoftHistogram::one_d(b);
+        let mut s = SparseHistogram::new(grid);
+        assert!(matches!(
+            h.add(&[4.0], 1e308),
+            Err(ChanError::TooLarge { .. })
+        ));
+        h.add(&[4.0], 0.6 * MAX_MASS).unwrap();
+        s.add(&[4.0], 0.6 * MAX_MASS).unwrap();
+        let (before, sparse_before) = (h.clone(), s.clone());
+        assert!(matches!(
+            h.add(&[6.0], 0.6 * MAX_MASS),
+            Err(ChanError::TooLarge { .. })
+        ));
+        assert!(matches!(
+            s.add(&[6.0], 0.6 * MAX_MASS),
+            Err(ChanError::TooLarge { .. })
+        ));
+        assert_eq!(h, before);
+        assert_eq!(s, sparse_before);
+        let modes = h.decode().unwrap();
+        assert!((modes[0].weight / (0.6 * MAX_MASS) - 1.0).abs() < 1e-12);
+        assert_eq!(s.decode().unwrap(), modes);
+        // The bound survives a round trip through serde and from_counts.
+        let mut back: SoftHistogram =
+            serde_json::from_str(&serde_json::to_string(&h).unwrap()).unwrap();
+        assert!(back.add(&[6.0], 0.6 * MAX_MASS).is_err());
+        let mut full = SoftHistogram::one_d(ChannelBasis::integer(10, Kernel::BSpline2).unwrap());
+        assert!(full.extend_1d(&[4.0; 3]).is_ok());
+        assert_eq!(full.total_weight(), 3.0);
+    }
+
+    #[test]
     fn sparse_matches_dense() {
         let b = ChannelBasis::covering(0.0, 20.0, 24, Kernel::Gaussian { sigma: 0.8 }).unwrap();
         let grid = ChannelGrid::new(vec![b.clone(), b]).unwrap();
-        let mut dense = SoftHistogram::new(grid.clone());
+        let mut dense = SoftHistogram::new(grid.clone()).unwrap();
         let mut sparse = SparseHistogram::new(grid);
         for (x, w) in [([2.0, 3.0], 1.0), ([15.5, 9.25], 0.7), ([2.2, 3.1], 0.4)] {
             dense.add(&x, w).unwrap();
             sparse.add(&x, w).unwrap();
         }
-        assert_eq!(sparse.to_dense().counts(), dense.counts());
+        assert_eq!(sparse.to_dense().unwrap().counts(), dense.counts());
         assert_eq!(sparse.decode().unwrap(), dense.decode().unwrap());
     }
 

@@ -112,6 +112,60 @@ impl Kernel {
         }
     }
 
+    /// `(cos, sin)` of the cos² kernel's phase step `2a = 2π/m` between neighbouring channels
+    /// (`(1, 0)` for the other kernels, which do not use it): cached by the bases so that
+    /// encoding evaluates one `sin_cos` per value, not per channel.
+    pub(crate) fn phase_step(&self) -> (f64, f64) {
+        match *self {
+            Kernel::Cos2 { m } => {
+                let (s, c) = (std::f64::consts::TAU / f64::from(m)).sin_cos();
+                (c, s)
+            }
+            _ => (1.0, 0.0),
+        }
+    }
+
+    /// Calls `f(k, B(t − k))` for every integer `k` in `lo..=hi` where the kernel is non-zero,
+    /// in increasing `k`; `step` is [`phase_step`](Self::phase_step). The one encoding loop of
+    /// the crate: bounded bases clip `lo..=hi` to their channels, periodic ones wrap `k`.
+    #[inline]
+    pub(crate) fn for_each_in(
+        &self,
+        step: (f64, f64),
+        t: f64,
+        lo: i64,
+        hi: i64,
+        mut f: impl FnMut(i64, f64),
+    ) {
+        if hi < lo {
+            return;
+        }
+        if let Kernel::Cos2 { m } = *self {
+            // cos²(a·d) = (1 + cos(2a·d))/2; the phase 2a·(t − k) falls by 2a per channel, so
+            // rotate one unit phasor instead of calling cos for every channel.
+            let half = 0.5 * f64::from(m);
+            let (cs, sn) = step;
+            let (mut s, mut c) = (std::f64::consts::TAU / f64::from(m) * (t - lo as f64)).sin_cos();
+            for k in lo..=hi {
+                let d = t - k as f64;
+                if d.abs() < half {
+                    let v = 0.5 * (1.0 + c);
+                    if v > 0.0 {
+                        f(k, v);
+                    }
+                }
+                (c, s) = (c * cs + s * sn, s * cs - c * sn);
+            }
+            return;
+        }
+        for k in lo..=hi {
+            let v = self.value(t - k as f64);
+            if v > 0.0 {
+                f(k, v);
+            }
+        }
+    }
+
     /// Radius (channel spacings) beyond which the kernel is exactly zero.
     #[inline]
     pub fn support_radius(&self) -> f64 {

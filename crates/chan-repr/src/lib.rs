@@ -30,6 +30,12 @@
 //! **Certainty:** encoding with a weight scales the vector by it; decoded modes report the raw
 //! window sum `r_l` (eq. 2.5) and the `weight` it corresponds to.
 //!
+//! **Periodic channels** ([`PeriodicBasis`]): for angles and orientations, `N` channels on a
+//! circle of period `P`, channel `k` centred at `k·P/N`; a value's distance to a centre is
+//! measured around the circle, so encoding is the same for `x` and `x + P` and decoding looks
+//! at all `N` windows modulo `N`, returning values in `[0, P)`. Line orientations use `P = π`
+//! (or the double angle `2φ` on `P = 2π`, as the thesis's orientation channels do).
+//!
 //! **n-D and soft histograms:** [`ChannelGrid`] encodes vectors by the outer product of 1-D
 //! channel vectors (separable), and decodes window by window using the window's per-dimension
 //! marginals (exact for separable encodings). Summing channel vectors gives a soft histogram
@@ -51,6 +57,11 @@
 //!
 //! Errors are typed ([`ChanError`]): out-of-range or non-finite values, negative weights or
 //! coefficients, too few channels, kernels too narrow to decode.
+//!
+//! **Limits** (checked before anything is allocated or added): at most [`MAX_CHANNELS`]
+//! (2²⁴) channels per basis and per dense vector or histogram (sparse histograms may span
+//! larger grids); weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
+//! that no window sum can overflow. A rejected value leaves a histogram unchanged.
 #![deny(missing_docs)]
 
 mod basis;
@@ -59,10 +70,12 @@ mod error;
 mod grid;
 mod histogram;
 mod kernel;
+mod periodic;
 
-pub use basis::ChannelBasis;
+pub use basis::{ChannelBasis, MAX_CHANNELS, MAX_MASS};
 pub use decode::{Mode, WindowEstimate};
 pub use error::ChanError;
 pub use grid::{ChannelGrid, ModeNd};
 pub use histogram::{SoftHistogram, SparseHistogram};
 pub use kernel::{GAUSSIAN_MIN_SIGMA, GAUSSIAN_SUPPORT_SIGMAS, Kernel};
+pub use periodic::{PERIODIC_MAX_TURNS, PeriodicBasis};

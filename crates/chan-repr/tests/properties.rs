@@ -82,7 +82,7 @@ proptest! {
     fn sparse_histogram_equals_dense(bases in prop::collection::vec(basis(), 1..=2),
                                      pts in prop::collection::vec((0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..5.0), 1..20)) {
         let grid = ChannelGrid::new(bases.clone()).unwrap();
-        let mut dense = SoftHistogram::new(grid.clone());
+        let mut dense = SoftHistogram::new(grid.clone()).unwrap();
         let mut sparse = SparseHistogram::new(grid);
         for (u, v, w) in pts {
             let x: Vec<f64> = bases.iter().zip([u, v]).map(|(b, s)| {
@@ -92,7 +92,7 @@ proptest! {
             dense.add(&x, w).unwrap();
             sparse.add(&x, w).unwrap();
         }
-        let as_dense = sparse.to_dense();
+        let as_dense = sparse.to_dense().unwrap();
         prop_assert_eq!(as_dense.counts(), dense.counts());
         prop_assert_eq!(sparse.decode().unwrap(), dense.decode().unwrap());
     }

@@ -41,9 +41,9 @@ fn matching(c: &mut Criterion) {
     let cfg = DescriptorConfig::with_sampling(Sampling::Canonical);
     let a = describe_all(cfg, &contours(300, 2)).unwrap().set;
     let b = describe_all(cfg, &contours(300, 3)).unwrap().set;
-    let mut cor = Correlator::new(cfg.max_frequency(), cfg.samples);
+    let mut cor = Correlator::new(cfg.max_frequency(), cfg.samples).unwrap();
     c.bench_function("correlate_pair", |bch| {
-        bch.iter(|| cor.correlate(a.fd(0), b.fd(1)))
+        bch.iter(|| cor.correlate(a.fd(0), b.fd(1)).unwrap())
     });
     let mut g = c.benchmark_group("best_two_300x300");
     g.throughput(Throughput::Elements((a.len() * b.len()) as u64));

@@ -1,7 +1,7 @@
 //! Affine-invariant Fourier descriptors of orders 0 and 1 (AFD0, AFD1), after Arbter et al.
-//! (PAMI 1990), as reconstructed in `docs/papers.md` §5.3 (Arbter's exact formulas were not
-//! available; the construction below is invariant by derivation and verified by the property
-//! test `afd_is_invariant_to_random_affine_maps`).
+//! (PAMI 1990), as reconstructed in docs/methods.md § Fourier descriptors (Arbter's exact formulas
+//! were not available; the construction below is invariant by derivation and verified by the
+//! property test `afd_is_invariant_to_random_affine_maps`).
 //!
 //! From the complex FD `C(n)` of `c = x + i·y` (real `x, y`), the coordinate spectra are
 //! `X_n = (C(n) + conj C(−n)) / 2` and `Y_n = (C(n) − conj C(−n)) / 2i`. With

@@ -7,6 +7,14 @@
 //! image with y pointing down this is clockwise on screen). Orientation matters: reversing a
 //! contour mirrors its Fourier spectrum (`C(n) ↦ C(−n)` up to a shift), so both images of a
 //! match must use the same convention, which this normalisation guarantees.
+//!
+//! **Range.** Every finite coordinate is accepted. The geometry (areas, second moments, the
+//! affine arc length's cross products) takes up to fourth powers of coordinates, which overflow
+//! beyond about 1e77 and underflow below about 1e-77; so a contour whose largest coordinate
+//! magnitude lies outside `[2⁻⁶⁴, 2⁶⁴]` is scaled by a power of two to bring it near 1. Such a
+//! scaling is exact in floating point and every step is homogeneous in the scale (the smoothing
+//! σ is scaled with it), so the descriptors are those of the unscaled computation, without its
+//! overflow; [`crate::Extractor::resample`] scales its samples back.
 
 use rustfft::num_complex::Complex64;
 
@@ -16,13 +24,24 @@ use crate::point::ContourPoint;
 /// Relative area below which a polygon counts as enclosing nothing (`|A| ≤ ε·P²`).
 const ZERO_AREA_EPS: f64 = 1e-12;
 
+/// Largest coordinate magnitudes left unscaled (module docs, "Range").
+const UNSCALED: std::ops::RangeInclusive<f64> = 5.421010862427522e-20..=1.8446744073709552e19;
+
+/// `x · 2^e`, exact unless the result leaves the normal range (two steps, so that `2^e` itself
+/// need not be representable).
+pub(crate) fn scale_pow2(x: f64, e: i32) -> f64 {
+    let half = e / 2;
+    x * 2f64.powi(half) * 2f64.powi(e - half)
+}
+
 /// Validates `contour` into `out` (cleared first; its capacity is reused). On success `out`
 /// holds at least three points, pairwise distinct from their successors, with positive signed
-/// area. Returns the signed area of the input orientation (negative when it was reversed).
+/// area, scaled by `2^e` where `e` is the returned exponent (0 unless the coordinates lie
+/// outside the range of the module docs).
 pub(crate) fn load<P: ContourPoint>(
     contour: &[P],
     out: &mut Vec<Complex64>,
-) -> Result<f64, FdError> {
+) -> Result<i32, FdError> {
     out.clear();
     for (index, p) in contour.iter().enumerate() {
         let (x, y) = p.xy();
@@ -33,6 +52,16 @@ pub(crate) fn load<P: ContourPoint>(
     }
     if out.len() > 1 && out[0] == out[out.len() - 1] {
         out.pop(); // explicit closing point
+    }
+    let largest = out
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.re.abs()).max(p.im.abs()));
+    let mut exponent = 0;
+    if largest > 0.0 && !UNSCALED.contains(&largest) {
+        exponent = -(largest.log2().floor() as i32);
+        for p in out.iter_mut() {
+            *p = Complex64::new(scale_pow2(p.re, exponent), scale_pow2(p.im, exponent));
+        }
     }
     let n = out.len();
     for i in 1..n {
@@ -58,7 +87,7 @@ pub(crate) fn load<P: ContourPoint>(
     if area < 0.0 {
         out.reverse();
     }
-    Ok(area)
+    Ok(exponent)
 }
 
 /// Validates a contour without describing it: `Ok(())` exactly when [`crate::Extractor`]
@@ -181,8 +210,8 @@ mod tests {
     #[test]
     fn load_orients_and_drops_closing_point() {
         let mut out = Vec::new();
-        let a = load(&[(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (0.0, 0.0)], &mut out).unwrap();
-        assert_eq!(a, -0.5);
+        let e = load(&[(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (0.0, 0.0)], &mut out).unwrap();
+        assert_eq!(e, 0);
         assert_eq!(out.len(), 3);
         assert!(signed_area(&out) > 0.0);
     }

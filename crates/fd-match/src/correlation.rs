@@ -32,7 +32,8 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-use crate::descriptor::fd_frequency;
+use crate::descriptor::{MAX_SAMPLES, fd_frequency};
+use crate::error::FdError;
 
 /// The rigid part of a correlation match: `c₂(l) ≈ e^{iφ} c₁(l − Δl)` after normalisation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -84,13 +85,36 @@ pub(crate) const ROUNDING_MARGIN: f64 = 1e-9;
 impl Correlator {
     /// A correlator for FDs with highest frequency `k` (`K`) from contours resampled to
     /// `samples` points (`L`, the unit of [`Alignment::shift`]), with the default grid.
-    pub fn new(k: usize, samples: usize) -> Self {
-        Self::with_grid(k, samples, 2 * (2 * k + 1).next_power_of_two())
+    /// `1 ≤ k < samples ≤` [`crate::MAX_SAMPLES`], else [`FdError::InvalidParameter`] (before
+    /// anything is allocated).
+    pub fn new(k: usize, samples: usize) -> Result<Self, FdError> {
+        let m = if k <= MAX_SAMPLES {
+            2 * (2 * k + 1).next_power_of_two()
+        } else {
+            0
+        };
+        Self::with_grid(k, samples, m)
     }
 
     /// As [`Self::new`] with an explicit FFT grid size `m` (at least `2K + 1`; larger grids
-    /// need fewer refinements but cost more per FFT).
-    pub fn with_grid(k: usize, samples: usize, m: usize) -> Self {
+    /// need fewer refinements but cost more per FFT; at most `4 ·` [`crate::MAX_SAMPLES`]).
+    pub fn with_grid(k: usize, samples: usize, m: usize) -> Result<Self, FdError> {
+        let bad = |name, value: usize, reason| {
+            Err(FdError::InvalidParameter {
+                name,
+                value: value as f64,
+                reason,
+            })
+        };
+        if samples > MAX_SAMPLES {
+            return bad("samples", samples, "must be at most MAX_SAMPLES = 2^20");
+        }
+        if k == 0 || k >= samples {
+            return bad("k", k, "must be at least 1 and below `samples`");
+        }
+        if m > 4 * MAX_SAMPLES {
+            return bad("m", m, "must be at most 4 MAX_SAMPLES = 2^22");
+        }
         let m = m.max(2 * k + 1);
         let m0 = (2 * k + 1).next_power_of_two();
         let mut planner = FftPlanner::new();
@@ -102,7 +126,7 @@ impl Correlator {
                 .map(|i| fd_frequency(i, k).rem_euclid(m as isize) as usize)
                 .collect()
         };
-        Correlator {
+        Ok(Correlator {
             k,
             samples,
             buf: vec![z; m],
@@ -122,7 +146,7 @@ impl Correlator {
             coarse_pos: bins(m0),
             coarse_ifft,
             ifft,
-        }
+        })
     }
 
     /// Grid size `M` of the zero-padded inverse FFT.
@@ -131,9 +155,33 @@ impl Correlator {
     }
 
     /// Correlates `a` and `b` (FDs in the layout of [`crate::DescriptorSet::fd`], unit norm).
-    pub fn correlate(&mut self, a: &[Complex64], b: &[Complex64]) -> Correlation {
-        self.correlate_below(a, b, f64::INFINITY)
-            .expect("every error is below infinity")
+    /// Both must hold `2K` finite values ([`FdError::LengthMismatch`],
+    /// [`FdError::NonFiniteDescriptor`] otherwise).
+    pub fn correlate(&mut self, a: &[Complex64], b: &[Complex64]) -> Result<Correlation, FdError> {
+        Ok(self
+            .correlate_below(a, b, f64::INFINITY)?
+            .expect("every error is below infinity"))
+    }
+
+    /// Checks that `a` and `b` are FDs this correlator can compare.
+    fn check(&self, a: &[Complex64], b: &[Complex64]) -> Result<(), FdError> {
+        let want = 2 * self.k;
+        if a.len() != want || b.len() != want {
+            return Err(FdError::LengthMismatch {
+                left: a.len(),
+                right: b.len(),
+                expected: want,
+            });
+        }
+        for (part, v) in [("a", a), ("b", b)] {
+            if let Some(index) = v
+                .iter()
+                .position(|c| !(c.re.is_finite() && c.im.is_finite()))
+            {
+                return Err(FdError::NonFiniteDescriptor { part, index });
+            }
+        }
+        Ok(())
     }
 
     /// As [`Self::correlate`], but returns `None` early when the error provably exceeds
@@ -141,13 +189,14 @@ impl Correlator {
     /// tried first on the smallest grid `M₀ ≥ 2K + 1` (64 for K = 25, a quarter of the cost),
     /// then on the fine grid before refinement, and after the refinement of the best sample
     /// the remaining lobes are refined only if one could still beat `max_error`. A `Some`
-    /// result is bit-identical to [`Self::correlate`].
+    /// result is bit-identical to [`Self::correlate`]. Input errors as for [`Self::correlate`].
     pub fn correlate_below(
         &mut self,
         a: &[Complex64],
         b: &[Complex64],
         max_error: f64,
-    ) -> Option<Correlation> {
+    ) -> Result<Option<Correlation>, FdError> {
+        self.check(a, b)?;
         let mut mags = std::mem::take(&mut self.mags);
         mags.clear();
         // `|C(n)|` exactly as the extractor stores it in a `DescriptorSet`.
@@ -155,7 +204,7 @@ impl Correlator {
         let (ma, mb) = mags.split_at(a.len());
         let out = self.correlate_known(a, b, ma, mb, max_error);
         self.mags = mags;
-        out
+        Ok(out)
     }
 
     /// [`Self::correlate_below`] with the magnitudes `ma = |a(n)|`, `mb = |b(n)|` given (as a
@@ -456,12 +505,12 @@ mod tests {
     #[test]
     fn peak_matches_dense_search() {
         let k = 25;
-        let mut cor = Correlator::new(k, 256);
+        let mut cor = Correlator::new(k, 256).unwrap();
         for seed in 0..24 {
             let decay = [0.0, 0.5, 1.0, 2.0][seed as usize % 4];
             let a = pseudo_fd(seed, k, decay);
             let b = pseudo_fd(seed + 1000, k, decay);
-            let c = cor.correlate(&a, &b);
+            let c = cor.correlate(&a, &b).unwrap();
             let dense = dense_max(&a, &b, k);
             assert!(
                 c.peak >= dense - 1e-12,
@@ -478,16 +527,16 @@ mod tests {
     #[test]
     fn early_exit_is_sound_and_bit_identical() {
         let k = 25;
-        let mut cor = Correlator::new(k, 256);
+        let mut cor = Correlator::new(k, 256).unwrap();
         let mut exits = 0;
         for seed in 0..60 {
             let a = pseudo_fd(seed, k, 1.0);
             let b = pseudo_fd(seed + 77, k, 1.0);
-            let full = cor.correlate(&a, &b);
+            let full = cor.correlate(&a, &b).unwrap();
             // Thresholds just below the error reach the refinement stage before exiting.
             let e = full.error;
             for t in [0.0, 0.5 * e, e - 1e-3, e - 1e-5, e, e + 1e-3, 3.0] {
-                match cor.correlate_below(&a, &b, t) {
+                match cor.correlate_below(&a, &b, t).unwrap() {
                     None => {
                         exits += 1;
                         assert!(full.error > t, "exit although {} <= {t}", full.error);
@@ -513,7 +562,7 @@ mod tests {
                 c * Complex64::from_polar(1.0, phi - 2.0 * PI * n * dl / l as f64)
             })
             .collect();
-        let c = Correlator::new(k, l).correlate(&a, &b);
+        let c = Correlator::new(k, l).unwrap().correlate(&a, &b).unwrap();
         assert!(c.error < 1e-13, "error {}", c.error);
         assert!(
             (c.alignment.shift - dl).abs() < 1e-9,

@@ -6,8 +6,27 @@ use serde::{Deserialize, Serialize};
 use crate::error::FdError;
 use crate::sampling::Sampling;
 
-/// How contours are turned into descriptors.
+/// Largest accepted [`DescriptorConfig::samples`] (`L`): 2²⁰. A larger value is an
+/// [`FdError::InvalidParameter`] before anything is allocated (every extractor holds a few
+/// buffers of `L` complex numbers).
+pub const MAX_SAMPLES: usize = 1 << 20;
+
+/// Largest accepted [`DescriptorConfig::dense_samples`] (`L₀`): 2²². Larger values are rejected
+/// before anything is allocated (the affine sampler holds five buffers of `L₀` values).
+pub const MAX_DENSE_SAMPLES: usize = 1 << 22;
+
+/// How contours are turned into descriptors. Deserialising validates (the same checks as
+/// [`DescriptorConfig::validate`]), so a configuration read from a file is never invalid.
+///
+/// ```
+/// use fd_match::DescriptorConfig;
+/// let ok = serde_json::to_string(&DescriptorConfig::default()).unwrap();
+/// assert!(serde_json::from_str::<DescriptorConfig>(&ok).is_ok());
+/// let huge = ok.replace("\"samples\":256", "\"samples\":1000000000000");
+/// assert!(serde_json::from_str::<DescriptorConfig>(&huge).is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawConfig")]
 pub struct DescriptorConfig {
     /// Resampling method (section 3 of Paper A).
     pub sampling: Sampling,
@@ -22,6 +41,32 @@ pub struct DescriptorConfig {
     /// `L₀`, the dense uniform resampling used to compute regularised derivatives for
     /// [`Sampling::AffineArcLength`] (≥ `samples`).
     pub dense_samples: usize,
+}
+
+/// The serialised form of [`DescriptorConfig`], validated on the way in.
+#[derive(Deserialize)]
+struct RawConfig {
+    sampling: Sampling,
+    samples: usize,
+    coefficients: usize,
+    smoothing: f64,
+    dense_samples: usize,
+}
+
+impl TryFrom<RawConfig> for DescriptorConfig {
+    type Error = FdError;
+
+    fn try_from(r: RawConfig) -> Result<Self, FdError> {
+        let c = DescriptorConfig {
+            sampling: r.sampling,
+            samples: r.samples,
+            coefficients: r.coefficients,
+            smoothing: r.smoothing,
+            dense_samples: r.dense_samples,
+        };
+        c.validate()?;
+        Ok(c)
+    }
 }
 
 impl Default for DescriptorConfig {
@@ -52,7 +97,9 @@ impl DescriptorConfig {
         (self.coefficients - 1) / 2
     }
 
-    /// Checks the configuration.
+    /// Checks the configuration: `coefficients` odd and ≥ 5, `coefficients ≤ samples ≤`
+    /// [`MAX_SAMPLES`], `samples ≤ dense_samples ≤` [`MAX_DENSE_SAMPLES`], `smoothing` finite
+    /// and non-negative.
     pub fn validate(&self) -> Result<(), FdError> {
         let bad = |name, value: usize, reason| {
             Err(FdError::InvalidParameter {
@@ -70,6 +117,20 @@ impl DescriptorConfig {
         }
         if self.samples < self.coefficients {
             return bad("samples", self.samples, "must be at least `coefficients`");
+        }
+        if self.samples > MAX_SAMPLES {
+            return bad(
+                "samples",
+                self.samples,
+                "must be at most MAX_SAMPLES = 2^20",
+            );
+        }
+        if self.dense_samples > MAX_DENSE_SAMPLES {
+            return bad(
+                "dense_samples",
+                self.dense_samples,
+                "must be at most MAX_DENSE_SAMPLES = 2^22",
+            );
         }
         if self.dense_samples < self.samples {
             return bad(
@@ -230,7 +291,10 @@ impl DescriptorSet {
         })
     }
 
-    /// Appends a descriptor (e.g. one made by [`crate::Extractor::describe`]).
+    /// Appends a descriptor (e.g. one made by [`crate::Extractor::describe`]). The descriptor
+    /// must be what the extractor makes: rows of the set's lengths, every value finite, and
+    /// each of `fd`, `afd0`, `afd1` of unit norm (within [`UNIT_NORM_TOLERANCE`]); otherwise a
+    /// typed error and the set is unchanged.
     pub fn push(&mut self, d: &Descriptor, source: usize) -> Result<(), FdError> {
         if d.fd.len() != self.fd_len()
             || d.afd0.len() != self.afd_len()
@@ -240,6 +304,9 @@ impl DescriptorSet {
                 reason: "descriptor length differs from the set's configuration",
             });
         }
+        check_unit(d.fd.iter().map(|c| [c.re, c.im]), "fd")?;
+        check_unit(d.afd0.iter().map(|&v| [v, 0.0]), "afd0")?;
+        check_unit(d.afd1.iter().map(|c| [c.re, c.im]), "afd1")?;
         self.fd.extend_from_slice(&d.fd);
         // As the extractor computes them (and `Correlator::correlate_below`).
         self.mag.extend(d.fd.iter().map(|c| c.norm_sqr().sqrt()));
@@ -316,6 +383,26 @@ impl DescriptorSet {
         }
         Ok(out)
     }
+}
+
+/// Largest accepted deviation of a pushed descriptor's norm from 1 (the extractor's are within
+/// ~1e-15).
+pub const UNIT_NORM_TOLERANCE: f64 = 1e-6;
+
+/// Checks that the values are finite and of unit norm.
+fn check_unit(values: impl Iterator<Item = [f64; 2]>, part: &'static str) -> Result<(), FdError> {
+    let mut sq = 0.0;
+    for (index, [re, im]) in values.enumerate() {
+        if !(re.is_finite() && im.is_finite()) {
+            return Err(FdError::NonFiniteDescriptor { part, index });
+        }
+        sq += re * re + im * im;
+    }
+    let norm = sq.sqrt();
+    if (norm - 1.0).abs() > UNIT_NORM_TOLERANCE {
+        return Err(FdError::NotUnitNorm { part, norm });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

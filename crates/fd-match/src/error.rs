@@ -67,4 +67,30 @@ pub enum FdError {
         /// Size of the set.
         len: usize,
     },
+    /// Two vectors that must have the same length (descriptors, descriptor rows) do not.
+    #[error("length mismatch: {left} values against {right}, expected {expected}")]
+    LengthMismatch {
+        /// Length of the first vector.
+        left: usize,
+        /// Length of the second vector.
+        right: usize,
+        /// Length required (the configuration's, or `left` when any common length will do).
+        expected: usize,
+    },
+    /// A descriptor value that is NaN or infinite.
+    #[error("descriptor value {index} of `{part}` is not finite")]
+    NonFiniteDescriptor {
+        /// Which part of the descriptor (`fd`, `afd0`, `afd1`, or `a`/`b` of a pair).
+        part: &'static str,
+        /// Index of the value.
+        index: usize,
+    },
+    /// A descriptor whose norm is not 1 (descriptors are normalised by their energy).
+    #[error("descriptor `{part}` has norm {norm}, expected 1")]
+    NotUnitNorm {
+        /// Which part of the descriptor.
+        part: &'static str,
+        /// Its Euclidean norm.
+        norm: f64,
+    },
 }

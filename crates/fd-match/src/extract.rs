@@ -7,11 +7,11 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
 use crate::afd::affine_invariants;
-use crate::contour::load;
+use crate::contour::{load, scale_pow2};
 use crate::descriptor::{Descriptor, DescriptorConfig, DescriptorSet};
 use crate::error::FdError;
 use crate::point::ContourPoint;
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, Sampling};
 
 /// Turns contours into descriptors. Holds the FFT plans (made once) and every work buffer, so
 /// describing a contour allocates nothing once the buffers have grown to the largest contour
@@ -51,12 +51,29 @@ impl Extractor {
     }
 
     /// Validates `contour` and resamples it to `L` points with the configured sampling; returns
-    /// the samples `c(l)`, `l = 0..L` (eq. 1). Useful for plotting the canonical frame.
+    /// the samples `c(l)`, `l = 0..L` (eq. 1), in the input's coordinates (the canonical frame's
+    /// for [`Sampling::Canonical`]). Useful for plotting the canonical frame.
     pub fn resample<P: ContourPoint>(&mut self, contour: &[P]) -> Result<&[Complex64], FdError> {
-        load(contour, &mut self.poly)?;
-        self.sampler
-            .sample(&self.poly, self.config.sampling, &mut self.samples);
+        let exponent = self.resample_scaled(contour)?;
+        if exponent != 0 && self.config.sampling != Sampling::Canonical {
+            for c in self.samples.iter_mut() {
+                *c = Complex64::new(scale_pow2(c.re, -exponent), scale_pow2(c.im, -exponent));
+            }
+        }
         Ok(&self.samples)
+    }
+
+    /// Resamples into `self.samples`, scaled by `2^e` for the returned `e` (module `contour`,
+    /// "Range"); the descriptors are scale invariant, so they use the scaled samples.
+    fn resample_scaled<P: ContourPoint>(&mut self, contour: &[P]) -> Result<i32, FdError> {
+        let exponent = load(contour, &mut self.poly)?;
+        self.sampler.sample(
+            &self.poly,
+            exponent,
+            self.config.sampling,
+            &mut self.samples,
+        );
+        Ok(exponent)
     }
 
     /// Describes one contour (allocates the returned vectors; see [`Self::describe_into`]).
@@ -88,7 +105,7 @@ impl Extractor {
                 reason: "the set was made with another configuration",
             });
         }
-        self.resample(contour)?;
+        self.resample_scaled(contour)?;
         self.spectrum.copy_from_slice(&self.samples);
         self.fft
             .process_with_scratch(&mut self.spectrum, &mut self.scratch);

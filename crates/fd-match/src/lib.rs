@@ -76,6 +76,12 @@
 //!
 //! Bad contours (fewer than 3 points, NaN, repeated consecutive points, zero area) give a typed
 //! [`FdError`]; [`describe_all`] collects them per contour instead of failing.
+//! Every finite coordinate is accepted: contours far from unit size (beyond 2^±64) are scaled by
+//! an exact power of two before the geometry, whose fourth powers would otherwise overflow
+//! (module `contour`). Sizes are bounded before anything is allocated ([`MAX_SAMPLES`],
+//! [`MAX_DENSE_SAMPLES`], also when a [`DescriptorConfig`] is deserialised); descriptors pushed
+//! into a set must be finite and of unit norm, and pair errors of vectors of different lengths
+//! are an [`FdError::LengthMismatch`], never a number.
 #![deny(missing_docs)]
 
 mod afd;
@@ -93,7 +99,10 @@ mod search;
 
 pub use contour::validate_contour;
 pub use correlation::{Alignment, Correlation, Correlator};
-pub use descriptor::{Descriptor, DescriptorConfig, DescriptorSet, afd_frequency, fd_frequency};
+pub use descriptor::{
+    Descriptor, DescriptorConfig, DescriptorSet, MAX_DENSE_SAMPLES, MAX_SAMPLES,
+    UNIT_NORM_TOLERANCE, afd_frequency, fd_frequency,
+};
 pub use error::FdError;
 pub use extract::{Described, Extractor, describe_all};
 pub use matching::{DEFAULT_RATIO_THRESHOLD, Match, match_sets, mutual_matches, preselect};

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::correlation::{Alignment, Correlator};
 use crate::descriptor::DescriptorSet;
+use crate::error::FdError;
 use crate::sampling::Sampling;
 
 /// A descriptor and the error used to compare two of them. All errors are in `[0, 4]` for
@@ -68,15 +69,45 @@ impl Method {
     }
 }
 
-/// Sum of squared differences of complex vectors.
+/// Sum of squared differences of complex vectors; [`FdError::LengthMismatch`] when the lengths
+/// differ.
+pub fn ssd_complex(a: &[Complex64], b: &[Complex64]) -> Result<f64, FdError> {
+    same_len(a.len(), b.len())?;
+    Ok(ssd_complex_unchecked(a, b))
+}
+
+/// Sum of squared differences of real vectors; [`FdError::LengthMismatch`] when the lengths
+/// differ.
+///
+/// ```
+/// assert_eq!(fd_match::ssd_real(&[1.0, 2.0], &[1.0, 4.0]), Ok(4.0));
+/// assert!(fd_match::ssd_real(&[1.0, 2.0, 3.0], &[1.0]).is_err());
+/// ```
+pub fn ssd_real(a: &[f64], b: &[f64]) -> Result<f64, FdError> {
+    same_len(a.len(), b.len())?;
+    Ok(ssd_real_unchecked(a, b))
+}
+
+fn same_len(left: usize, right: usize) -> Result<(), FdError> {
+    if left != right {
+        return Err(FdError::LengthMismatch {
+            left,
+            right,
+            expected: left,
+        });
+    }
+    Ok(())
+}
+
+/// [`ssd_complex`] for rows of one set (equal lengths by construction).
 #[inline]
-pub fn ssd_complex(a: &[Complex64], b: &[Complex64]) -> f64 {
+fn ssd_complex_unchecked(a: &[Complex64], b: &[Complex64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).norm_sqr()).sum()
 }
 
-/// Sum of squared differences of real vectors.
+/// [`ssd_real`] for rows of one set (equal lengths by construction).
 #[inline]
-pub fn ssd_real(a: &[f64], b: &[f64]) -> f64 {
+fn ssd_real_unchecked(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
@@ -92,7 +123,8 @@ impl PairError {
         let c = set.config();
         PairError {
             method,
-            corr: Correlator::new(c.max_frequency(), c.samples),
+            corr: Correlator::new(c.max_frequency(), c.samples)
+                .expect("a validated configuration has 2 <= K < L <= MAX_SAMPLES"),
         }
     }
 
@@ -118,10 +150,10 @@ impl PairError {
                 )?;
                 (c.error, Some(c.alignment))
             }
-            Method::AbsFdSsd => (ssd_real(a.magnitudes(i), b.magnitudes(j)), None),
-            Method::Afd0Ssd => (ssd_real(a.afd0(i), b.afd0(j)), None),
-            Method::Afd1Ssd => (ssd_complex(a.afd1(i), b.afd1(j)), None),
-            Method::FdSsd => (ssd_complex(a.fd(i), b.fd(j)), None),
+            Method::AbsFdSsd => (ssd_real_unchecked(a.magnitudes(i), b.magnitudes(j)), None),
+            Method::Afd0Ssd => (ssd_real_unchecked(a.afd0(i), b.afd0(j)), None),
+            Method::Afd1Ssd => (ssd_complex_unchecked(a.afd1(i), b.afd1(j)), None),
+            Method::FdSsd => (ssd_complex_unchecked(a.fd(i), b.fd(j)), None),
         })
     }
 

@@ -135,15 +135,24 @@ impl Sampler {
         }
     }
 
-    /// Resamples the validated, positively oriented polygon `poly` into `out`.
-    pub(crate) fn sample(&mut self, poly: &[Complex64], how: Sampling, out: &mut [Complex64]) {
+    /// Resamples the validated, positively oriented polygon `poly` into `out`; `poly` is the
+    /// input scaled by `2^exponent` (module `contour`, "Range"), so the smoothing is scaled too.
+    pub(crate) fn sample(
+        &mut self,
+        poly: &[Complex64],
+        exponent: i32,
+        how: Sampling,
+        out: &mut [Complex64],
+    ) {
         match how {
             Sampling::ArcLength => {
                 cumulative(poly, &mut self.cum);
                 sample_arc_length(poly, &self.cum, 0.0, out);
             }
             Sampling::Canonical => self.canonical(poly, out),
-            Sampling::AffineArcLength => self.affine(poly, out),
+            Sampling::AffineArcLength => {
+                self.affine(poly, crate::contour::scale_pow2(self.sigma, exponent), out)
+            }
         }
     }
 
@@ -164,7 +173,7 @@ impl Sampler {
         sample_arc_length(&self.frame, &self.cum, start, out);
     }
 
-    fn affine(&mut self, poly: &[Complex64], out: &mut [Complex64]) {
+    fn affine(&mut self, poly: &[Complex64], sigma: f64, out: &mut [Complex64]) {
         let m = moments(poly);
         cumulative(poly, &mut self.cum);
         let l0 = self.dense.len();
@@ -178,7 +187,7 @@ impl Sampler {
         self.fwd
             .process_with_scratch(&mut self.smooth, &mut self.scratch);
         let h = per / l0 as f64;
-        let sigma = self.sigma.max(h);
+        let sigma = sigma.max(h);
         // Gaussian exp(−½(ω_n σ)²) with ω_n = 2πn/P by the recurrence g_{n+1} = g_n·ρ_n,
         // ρ_{n+1} = ρ_n·exp(−2a) (a = ½(2πσ/P)²): two exp calls instead of one per bin.
         let a = 0.5 * (2.0 * std::f64::consts::PI * sigma / per).powi(2);
@@ -278,7 +287,7 @@ mod tests {
         let p = square();
         let mut s = Sampler::new(&mut FftPlanner::new(), 64, 1.0);
         let mut out = vec![Complex64::new(0.0, 0.0); 8];
-        s.sample(&p, Sampling::ArcLength, &mut out);
+        s.sample(&p, 0, Sampling::ArcLength, &mut out);
         let want = [
             (0.0, 0.0),
             (1.0, 0.0),
@@ -308,7 +317,7 @@ mod tests {
             .collect();
         let mut s = Sampler::new(&mut FftPlanner::new(), 64, 1.0);
         let mut out = vec![Complex64::new(0.0, 0.0); 10];
-        s.sample(&p, Sampling::Canonical, &mut out);
+        s.sample(&p, 0, Sampling::Canonical, &mut out);
         // Either sign of the axis is allowed for a symmetric rectangle; start is on the axis.
         assert!((out[0].re.abs() - 1.0).abs() < 1e-9 && out[0].im.abs() < 1e-9);
         for o in &out {
@@ -325,7 +334,7 @@ mod tests {
             .collect();
         let mut s = Sampler::new(&mut FftPlanner::new(), 1024, 1.0);
         let mut out = vec![Complex64::new(0.0, 0.0); 16];
-        s.sample(&p, Sampling::AffineArcLength, &mut out);
+        s.sample(&p, 0, Sampling::AffineArcLength, &mut out);
         for (k, o) in out.iter().enumerate() {
             let want = 2.0 * std::f64::consts::PI * k as f64 / 16.0;
             let d = (o.arg() - want + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)

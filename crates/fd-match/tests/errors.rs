@@ -119,6 +119,245 @@ fn pixel_contours_of_all_integer_types_are_accepted() {
     // Clockwise input is reoriented: same descriptor.
     let rev: Vec<(u32, u32)> = sq32.iter().rev().copied().collect();
     let c = ex().describe(&rev).unwrap();
-    let e = Correlator::new(25, 256).correlate(&a.fd, &c.fd).error;
+    let e = Correlator::new(25, 256)
+        .unwrap()
+        .correlate(&a.fd, &c.fd)
+        .unwrap()
+        .error;
     assert!(e < 1e-9, "{e}");
+}
+
+/// Issue 24 #8: a sample count that would need a huge allocation is a typed error from
+/// `validate()`, before anything is allocated; deserialising applies the same checks.
+#[test]
+fn huge_sample_counts_are_rejected_before_allocating() {
+    for cfg in [
+        DescriptorConfig {
+            samples: usize::MAX,
+            dense_samples: usize::MAX,
+            ..DescriptorConfig::default()
+        },
+        DescriptorConfig {
+            samples: MAX_SAMPLES + 1,
+            dense_samples: MAX_DENSE_SAMPLES,
+            ..DescriptorConfig::default()
+        },
+        DescriptorConfig {
+            dense_samples: MAX_DENSE_SAMPLES + 1,
+            ..DescriptorConfig::default()
+        },
+    ] {
+        assert!(
+            matches!(cfg.validate(), Err(FdError::InvalidParameter { .. })),
+            "{cfg:?}"
+        );
+        assert!(Extractor::new(cfg).is_err());
+        assert!(DescriptorSet::new(cfg).is_err());
+        let json = serde_json::to_string(&cfg).unwrap();
+        assert!(
+            serde_json::from_str::<DescriptorConfig>(&json).is_err(),
+            "{json}"
+        );
+    }
+    // The limits themselves are accepted.
+    let edge = DescriptorConfig {
+        samples: MAX_SAMPLES,
+        dense_samples: MAX_DENSE_SAMPLES,
+        ..DescriptorConfig::default()
+    };
+    assert!(edge.validate().is_ok());
+    let json = serde_json::to_string(&edge).unwrap();
+    assert_eq!(
+        serde_json::from_str::<DescriptorConfig>(&json).unwrap(),
+        edge
+    );
+    // Every other check of `validate` also runs on deserialisation.
+    let even = serde_json::to_string(&DescriptorConfig {
+        coefficients: 50,
+        ..DescriptorConfig::default()
+    })
+    .unwrap();
+    assert!(serde_json::from_str::<DescriptorConfig>(&even).is_err());
+}
+
+/// Issue 24 #9: NaN, infinite or non-normalised descriptors are refused by `push`, which leaves
+/// the set unchanged.
+#[test]
+fn push_refuses_non_finite_and_unnormalised_descriptors() {
+    let good = ex().describe(&[(0, 0), (9, 0), (9, 4), (0, 4)]).unwrap();
+    let mut set = DescriptorSet::new(DescriptorConfig::default()).unwrap();
+    set.push(&good, 7).unwrap();
+    let before = set.clone();
+    let mut nan = good.clone();
+    nan.fd[3].re = f64::NAN;
+    assert_eq!(
+        set.push(&nan, 8),
+        Err(FdError::NonFiniteDescriptor {
+            part: "fd",
+            index: 3
+        })
+    );
+    let mut inf = good.clone();
+    inf.afd0[0] = f64::INFINITY;
+    assert!(matches!(
+        set.push(&inf, 8),
+        Err(FdError::NonFiniteDescriptor { part: "afd0", .. })
+    ));
+    let mut nan1 = good.clone();
+    nan1.afd1[5].im = f64::NAN;
+    assert!(matches!(
+        set.push(&nan1, 8),
+        Err(FdError::NonFiniteDescriptor { part: "afd1", .. })
+    ));
+    let mut big = good.clone();
+    big.fd.iter_mut().for_each(|c| *c *= 2.0);
+    assert!(matches!(
+        set.push(&big, 8),
+        Err(FdError::NotUnitNorm { part: "fd", .. })
+    ));
+    assert_eq!(set, before);
+}
+
+/// Issue 24 #9: correlating FDs of different (or wrong) lengths or with NaN is a typed error,
+/// not an error value of 2.0; the SSDs refuse different lengths instead of comparing a prefix.
+#[test]
+fn pair_errors_refuse_mismatched_inputs() {
+    let a = ex().describe(&[(0, 0), (9, 0), (9, 4), (0, 4)]).unwrap();
+    let mut cor = Correlator::new(25, 256).unwrap();
+    assert!(matches!(
+        cor.correlate(&a.fd, &a.fd[..10]),
+        Err(FdError::LengthMismatch {
+            left: 50,
+            right: 10,
+            expected: 50
+        })
+    ));
+    assert!(matches!(
+        cor.correlate(&a.fd[..10], &a.fd[..10]),
+        Err(FdError::LengthMismatch { .. })
+    ));
+    let mut nan = a.fd.clone();
+    nan[0].im = f64::NAN;
+    assert!(matches!(
+        cor.correlate(&a.fd, &nan),
+        Err(FdError::NonFiniteDescriptor {
+            part: "b",
+            index: 0
+        })
+    ));
+    assert!(matches!(
+        cor.correlate_below(&a.fd, &a.fd[..1], 0.1),
+        Err(FdError::LengthMismatch { .. })
+    ));
+    assert!(cor.correlate(&a.fd, &a.fd).unwrap().error < 1e-12);
+    assert!(matches!(
+        ssd_real(&[1.0, 2.0, 3.0], &[1.0]),
+        Err(FdError::LengthMismatch {
+            left: 3,
+            right: 1,
+            ..
+        })
+    ));
+    assert!(matches!(
+        ssd_complex(&a.fd, &a.fd[1..]),
+        Err(FdError::LengthMismatch { .. })
+    ));
+    assert_eq!(ssd_real(&[1.0, 2.0], &[1.0, 4.0]), Ok(4.0));
+}
+
+/// Issue 24 #10: a valid square with coordinates near 1e200 (or 1e-200) is described like the
+/// same square at unit size, not called "zero area"; `resample` returns the input's scale.
+#[test]
+fn extreme_coordinates_are_described_like_moderate_ones() {
+    let unit: Vec<(f64, f64)> = vec![(0.0, 0.0), (3.0, 0.0), (3.0, 1.0), (1.0, 2.0), (0.0, 1.0)];
+    for sampling in [
+        Sampling::ArcLength,
+        Sampling::AffineArcLength,
+        Sampling::Canonical,
+    ] {
+        // σ = 0 (one dense sample spacing): every sampling is then scale invariant.
+        let cfg = DescriptorConfig {
+            smoothing: 0.0,
+            ..DescriptorConfig::with_sampling(sampling)
+        };
+        let mut e = Extractor::new(cfg).unwrap();
+        let want = e.describe(&unit).unwrap();
+        for s in [1e200f64, 1e-200, 1e300, 1e-300, 1e30] {
+            // A power-of-two scale is exact, so the shape is exactly the unit one...
+            let p2 = 2f64.powi(s.log2().round() as i32);
+            let scaled: Vec<(f64, f64)> = unit.iter().map(|&(x, y)| (x * p2, y * p2)).collect();
+            let got = e
+                .describe(&scaled)
+                .unwrap_or_else(|err| panic!("{sampling:?} scale {s}: {err}"));
+            let d = got
+                .fd
+                .iter()
+                .zip(&want.fd)
+                .map(|(a, b)| (a - b).norm())
+                .fold(0.0, f64::max);
+            assert!(d < 1e-12, "{sampling:?} scale {s}: FD differs by {d}");
+            // ... and a decimal scale gives the same shape up to rounding.
+            let dec: Vec<(f64, f64)> = unit.iter().map(|&(x, y)| (x * s, y * s)).collect();
+            let got = e.describe(&dec).unwrap();
+            let c = Correlator::new(25, 256)
+                .unwrap()
+                .correlate(&got.fd, &want.fd)
+                .unwrap();
+            assert!(c.error < 1e-9, "{sampling:?} scale {s}: error {}", c.error);
+            if sampling != Sampling::Canonical {
+                let r = e.resample(&scaled).unwrap();
+                let top = r
+                    .iter()
+                    .map(|c| c.re.abs().max(c.im.abs()))
+                    .fold(0.0, f64::max);
+                assert!(
+                    top > 0.3 * p2 && top < 4.0 * p2,
+                    "{sampling:?}: {top} vs {p2}"
+                );
+            }
+        }
+    }
+    // With the default σ of one pixel the affine sampling depends on the size (σ is in pixels):
+    // a huge contour (σ far below a sample spacing) is described like one of 2^40 pixels.
+    let mut e = Extractor::new(DescriptorConfig::default()).unwrap();
+    let at = |p2: f64| -> Vec<(f64, f64)> { unit.iter().map(|&(x, y)| (x * p2, y * p2)).collect() };
+    let big = e.describe(&at(2f64.powi(40))).unwrap();
+    let huge = e.describe(&at(2f64.powi(660))).unwrap();
+    let d = big
+        .fd
+        .iter()
+        .zip(&huge.fd)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    assert!(d < 1e-12, "affine, default σ: FD differs by {d}");
+    // The square of the issue.
+    let sq = [
+        (1e200, 1e200),
+        (2e200, 1e200),
+        (2e200, 2e200),
+        (1e200, 2e200),
+    ];
+    assert!(validate_contour(&sq).is_ok());
+    assert!(ex().describe(&sq).is_ok());
+}
+
+/// A correlator's sizes are bounded like a configuration's: typed errors before allocating.
+#[test]
+fn correlator_sizes_are_bounded() {
+    for (k, l) in [
+        (0, 256),
+        (256, 256),
+        (usize::MAX / 2, usize::MAX),
+        (25, MAX_SAMPLES + 1),
+    ] {
+        assert!(
+            matches!(Correlator::new(k, l), Err(FdError::InvalidParameter { .. })),
+            "k {k}, L {l}"
+        );
+    }
+    assert!(matches!(
+        Correlator::with_grid(25, 256, usize::MAX),
+        Err(FdError::InvalidParameter { name: "m", .. })
+    ));
+    assert_eq!(Correlator::new(25, 256).unwrap().grid(), 128);
 }

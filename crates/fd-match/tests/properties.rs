@@ -16,7 +16,10 @@ fn corr(cfg: DescriptorConfig, a: &[(f64, f64)], b: &[(f64, f64)]) -> Correlatio
     let mut ex = Extractor::new(cfg).unwrap();
     let da = ex.describe(a).unwrap();
     let db = ex.describe(b).unwrap();
-    Correlator::new(cfg.max_frequency(), cfg.samples).correlate(&da.fd, &db.fd)
+    Correlator::new(cfg.max_frequency(), cfg.samples)
+        .unwrap()
+        .correlate(&da.fd, &db.fd)
+        .unwrap()
 }
 
 proptest! {
@@ -53,7 +56,7 @@ proptest! {
         // The magnitude bound holds and the abs(FD) error is ≈ 0 too.
         let mut ex = Extractor::new(cfg).unwrap();
         let (da, db) = (ex.describe(&a).unwrap(), ex.describe(&b).unwrap());
-        let abs = ssd_real(&da.magnitudes(), &db.magnitudes());
+        let abs = ssd_real(&da.magnitudes(), &db.magnitudes()).unwrap();
         prop_assert!(abs <= c.error + 1e-12);
     }
 
@@ -81,7 +84,7 @@ proptest! {
         // Same start and frame: plain FD SSD works in the canonical frame.
         let mut ex = Extractor::new(cfg).unwrap();
         let (da, db) = (ex.describe(&a).unwrap(), ex.describe(&b).unwrap());
-        prop_assert!(ssd_complex(&da.fd, &db.fd) < 1e-5);
+        prop_assert!(ssd_complex(&da.fd, &db.fd).unwrap() < 1e-5);
     }
 
     /// AFD0/AFD1 (affine-arc-length sampling) are invariant to random affine maps with start
@@ -107,16 +110,16 @@ proptest! {
             ..DescriptorConfig::with_sampling(Sampling::AffineArcLength)
         };
         let set = set_of(cfg, &[p, q]);
-        let e0 = ssd_real(set.afd0(0), set.afd0(1));
-        let e1 = ssd_complex(set.afd1(0), set.afd1(1));
+        let e0 = ssd_real(set.afd0(0), set.afd0(1)).unwrap();
+        let e1 = ssd_complex(set.afd1(0), set.afd1(1)).unwrap();
         prop_assert!(e0 < 1e-6, "AFD0 {e0:e}");
         prop_assert!(e1 < 1e-3, "AFD1 {e1:e}");
         // Default σ = 1 (pixel units; not affine covariant) on a pixel-scale region of radius 200.
         let p = star(seed, 1200, 200.0);
         let q = rotate_start(&affine(&p, a, (tx, -tx)), 3 * m);
         let set = set_of(DescriptorConfig::with_sampling(Sampling::AffineArcLength), &[p, q]);
-        let e0 = ssd_real(set.afd0(0), set.afd0(1));
-        let e1 = ssd_complex(set.afd1(0), set.afd1(1));
+        let e0 = ssd_real(set.afd0(0), set.afd0(1)).unwrap();
+        let e1 = ssd_complex(set.afd1(0), set.afd1(1)).unwrap();
         prop_assert!(e0 < 1e-4, "AFD0 σ=1 {e0:e}");
         prop_assert!(e1 < 1e-3, "AFD1 σ=1 {e1:e}");
     }
@@ -132,10 +135,12 @@ fn afd_separates_affine_from_similarity_invariance() {
         ..DescriptorConfig::with_sampling(Sampling::AffineArcLength)
     };
     let set = set_of(cfg, &[p, q]);
-    let afd0 = ssd_real(set.afd0(0), set.afd0(1));
-    let afd1 = ssd_complex(set.afd1(0), set.afd1(1));
+    let afd0 = ssd_real(set.afd0(0), set.afd0(1)).unwrap();
+    let afd1 = ssd_complex(set.afd1(0), set.afd1(1)).unwrap();
     let corr = Correlator::new(25, 256)
+        .unwrap()
         .correlate(set.fd(0), set.fd(1))
+        .unwrap()
         .error;
     assert!(afd0 < 1e-6 && afd1 < 1e-5, "{afd0:e} {afd1:e}");
     assert!(corr > 0.05, "{corr}");
@@ -167,8 +172,11 @@ fn figure1_magnitude_matching_is_blind_to_phase() {
     norm(&mut fd_a);
     norm(&mut fd_b);
     let mag = |v: &[Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
-    assert!(ssd_real(&mag(&fd_a), &mag(&fd_b)) < 1e-30);
-    let c = Correlator::new(k, 256).correlate(&fd_a, &fd_b);
+    assert!(ssd_real(&mag(&fd_a), &mag(&fd_b)).unwrap() < 1e-30);
+    let c = Correlator::new(k, 256)
+        .unwrap()
+        .correlate(&fd_a, &fd_b)
+        .unwrap();
     assert!(c.error > 0.05, "correlation error {}", c.error);
 
     // Contour level: the two curves synthesised from these FDs, described from polygons.
@@ -255,11 +263,14 @@ fn pixel_contour_rotated_by_90_degrees() {
         let cfg = DescriptorConfig::with_sampling(sampling);
         let mut ex = Extractor::new(cfg).unwrap();
         let (a, b) = (ex.describe(&c).unwrap(), ex.describe(&r).unwrap());
-        let m = Correlator::new(cfg.max_frequency(), cfg.samples).correlate(&a.fd, &b.fd);
+        let m = Correlator::new(cfg.max_frequency(), cfg.samples)
+            .unwrap()
+            .correlate(&a.fd, &b.fd)
+            .unwrap();
         assert!(m.error < 1e-9, "{sampling:?}: {}", m.error);
         if sampling == Sampling::ArcLength {
             assert!(wrap(m.alignment.rotation - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
         }
-        assert!(ssd_real(&a.afd0, &b.afd0) < 1e-9);
+        assert!(ssd_real(&a.afd0, &b.afd0).unwrap() < 1e-9);
     }
 }

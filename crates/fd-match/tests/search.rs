@@ -87,11 +87,11 @@ fn search_results_equal_the_public_correlator_bit_for_bit() {
         pushed.push(&b.get(j).unwrap(), b.source(j)).unwrap();
     }
     let k = a.config().max_frequency();
-    let mut cor = Correlator::new(k, a.config().samples);
+    let mut cor = Correlator::new(k, a.config().samples).unwrap();
     for t in [&b, &pushed] {
         for (i, r) in best_two(&a, t, Method::FdCorr).unwrap().iter().enumerate() {
             for c in [r.best, r.second].into_iter().flatten() {
-                let direct = cor.correlate(a.fd(i), t.fd(c.index));
+                let direct = cor.correlate(a.fd(i), t.fd(c.index)).unwrap();
                 assert_eq!(c.error, direct.error);
                 assert_eq!(c.alignment, Some(direct.alignment));
             }

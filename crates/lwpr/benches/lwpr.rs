@@ -1,5 +1,5 @@
 //! Criterion benches of `update` and `predict` on the cross function (setting A of
-//! papers.md §4.6) and on its 25-D embedding.
+//! docs/methods.md § LWPR) and on its 25-D embedding.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lwpr::{Lwpr, LwprBuilder};

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The cross function of papers.md §4.6.
+/// The cross function of docs/methods.md § LWPR.
 pub fn cross(x1: f64, x2: f64) -> f64 {
     let a = (-10.0 * x1 * x1).exp();
     let b = (-50.0 * x2 * x2).exp();
@@ -116,7 +116,7 @@ pub fn embed(x2: &[f64], q: &[f64], dim: usize) -> Vec<f64> {
     out
 }
 
-/// Setting A of papers.md §4.6 (the reference's cross example, `bench_cross.c`) for `dim`
+/// Setting A of docs/methods.md § LWPR (the reference's cross example, `bench_cross.c`) for `dim`
 /// inputs and one output: `init_D = 50 I`, `init_alpha = 250`, `w_gen = 0.2`, the rest default.
 pub fn setting_a_builder(dim: usize) -> lwpr::LwprBuilder {
     lwpr::LwprBuilder::new(dim, 1)
@@ -125,7 +125,7 @@ pub fn setting_a_builder(dim: usize) -> lwpr::LwprBuilder {
         .w_gen(0.2)
 }
 
-/// Setting B of papers.md §4.6 (500 samples, 20 epochs) for 2 inputs and one output:
+/// Setting B of docs/methods.md § LWPR (500 samples, 20 epochs) for 2 inputs and one output:
 /// `init_D = 25 I`, `init_alpha = 250`, `w_gen = 0.2`, full metric, meta learning.
 pub fn setting_b_builder() -> lwpr::LwprBuilder {
     lwpr::LwprBuilder::new(2, 1)
@@ -145,8 +145,8 @@ pub fn train(model: &mut lwpr::Lwpr, x: &[f64], y: &[f64]) -> Result<(), lwpr::L
     Ok(())
 }
 
-/// The reference library's 25-D test settings (papers.md §4.6) for `dim` inputs and one output:
-/// `init_D = 0.25 I`, `init_alpha = 250`, `w_gen = 0.2`, `w_prune = 0.7`, full metric, meta
+/// The reference library's 25-D test settings (docs/methods.md § LWPR) for `dim` inputs and one
+/// output: `init_D = 0.25 I`, `init_alpha = 250`, `w_gen = 0.2`, `w_prune = 0.7`, full metric, meta
 /// learning. The pruning rule and the arithmetic are left to the caller.
 pub fn setting_25d(dim: usize) -> lwpr::LwprBuilder {
     lwpr::LwprBuilder::new(dim, 1)

@@ -1,5 +1,5 @@
 //! The vectorised arithmetic of [`crate::Arithmetic::Fast`] for a full distance metric with
-//! `n ≥ 5` inputs: the same formulas as the reference (papers.md §4.4), with the sums
+//! `n ≥ 5` inputs: the same formulas as the reference (docs/methods.md § LWPR), with the sums
 //! reordered so that they run as independent vector lanes instead of one long chain each.
 //!
 //! - activation distance `q = |M(x−c)|²` (triangular factor, half the work of
@@ -17,6 +17,16 @@
 //! the results do not depend on the vector width (AVX2 or not) or the number of threads; they
 //! differ from the reference order only by rounding. (The activation's `exp(−q/2)` still comes
 //! from the platform's libm, as on the exact path.)
+//!
+//! **Why this order.** Kept in the reference's order, each `O(n²)`–`O(n³)` sum is one long chain
+//! of dependent additions. A profile of the exact 25-D update with meta learning showed the CPU
+//! waiting on add latencies, on store-to-load forwarding of short accumulator arrays (the meta
+//! suffix sums), and on the library `exp` of the `n(n+1)/2` learning rates per active field (a
+//! fifth of the time, and it kept the element loop scalar); memory was secondary. The order above
+//! removes those chains and halves the CPU time of the 25-D update. Tried and dropped: two
+//! accumulator chains per block, padding the metric step's columns to whole vectors, explicit
+//! groups of four in the metric step, `MᵀM` blocks written transposed (all slower), and fused
+//! multiply-adds (results would depend on the CPU).
 
 /// `e^x` for `x ∈ [−10, 10]` (the clamped range of IDBD's log learning rates), within 2 ulp
 /// of the correctly rounded value: `x = k ln 2 + r`, `|r| ≤ ln2/2`, degree-13 Taylor polynomial

@@ -4,10 +4,10 @@
 //! Schaal, *Incremental Online Learning in High Dimensions*, Neural Computation 17(12), 2005),
 //! written to reproduce the reference C library (Klanke & Vijayakumar, LWPR 1.2.6) number for
 //! number and to be faster than it. Paper C of Larsson's thesis learns an arm's inverse
-//! kinematics and its Jacobian with it (papers.md §3.2); [`Lwpr::predict_with_jacobian`] is
+//! kinematics and its Jacobian with it (docs/methods.md § LWPR); [`Lwpr::predict_with_jacobian`] is
 //! that Jacobian.
 //!
-//! ## The model (papers.md §4.2)
+//! ## The model (docs/methods.md § LWPR)
 //! One independent sub-model per output. Each holds receptive fields `k` with centre `c_k`,
 //! distance metric `D_k = M_kᵀM_k` (`M_k` upper triangular, or diagonal with `diag_only`) and
 //! activation `w_k = exp(−½ (x−c_k)ᵀD_k(x−c_k))` (Gaussian) or `(1 − q/4)²` (BiSquare). Each
@@ -15,7 +15,7 @@
 //! `ŷ_k = β₀ + Σ_r β_r s_r`, `s_r = u_rᵀz_r`, `z_{r+1} = z_r − p_r s_r`. The prediction is the
 //! normalised weighted mean `ŷ = Σ w_k ŷ_k / Σ w_k` over trustworthy fields with `w_k > cutoff`.
 //!
-//! ## Training (papers.md §4.3–4.4)
+//! ## Training (docs/methods.md § LWPR)
 //! Every update normalises `x` and `y` by `norm_in`/`norm_out`, then for each field with
 //! `w > 0.001`: forgetting-weighted means, one PLS step with its own forgetting factor per
 //! direction (annealed from `init_lambda` to `final_lambda` with `tau_lambda`), a gradient step
@@ -79,16 +79,8 @@
 //! The 25-D update takes about half the CPU time of the exact order.
 //!
 //! Deliberate differences:
-//! - **Pruning**: the reference removes the *wider* field ("TODO: ORIGINAL LOGIC WAS REVERSED"
-//!   in its code); we follow the published rule (remove the narrower, larger `tr D`) unless
-//!   [`PruneRule::ReferenceC`] is chosen. With the default `w_prune = 1` and a Gaussian kernel
-//!   pruning never fires. Where it does fire (the 25-D benchmark, `w_prune = 0.7`), the
-//!   published rule removes fields that metric learning has shrunk and keeps wide untrained
-//!   ones, and is systematically *worse*: 25-D cross, 20 000 samples, eight sample streams
-//!   (seeds 1–8, same settings), nMSE higher in all eight (median 0.036 against 0.025; the
-//!   bench's seed 5: 0.0253 against 0.0242), and in one (seed 7) the wide field survives every
-//!   pruning, no field is created again and the model ends with a single field (nMSE 1.02
-//!   against 0.022). Choose [`PruneRule::ReferenceC`] when pruning is enabled.
+//! - **Pruning** follows the reference library, not the published algorithm, by default; see
+//!   "Pruning" below.
 //! - **Prediction** (`predict`, `predict_batch`) uses the triangular factor for the distance,
 //!   `q = |M(x−c)|²` (half the work of `(x−c)ᵀD(x−c)`), and a cached slope `∂ŷ_k/∂z` per field
 //!   (updated after every change) instead of recomputing the PLS projections, as the reference
@@ -102,12 +94,30 @@
 //! - Where no trustworthy field is active, the confidence bound is `+∞` (reference: 1e20).
 //! - `init_D` must be diagonal when `diag_only` is set (the reference silently mixes them).
 //!
+//! ## Pruning: the reference library's rule is the default
+//! When the second-largest activation of an update exceeds `w_prune`, one of the two most
+//! active fields is removed. The published algorithm (the 2005 paper, the library's own
+//! documentation and its Matlab code) removes the *narrower* field, the one with the larger
+//! `tr D`; the reference C library removes the *wider* one (its source says "TODO: ORIGINAL
+//! LOGIC WAS REVERSED -- CHECK"). [`PruneRule::ReferenceC`] is the default and
+//! [`PruneRule::Published`] an option, because the published rule was the less accurate one
+//! on every sample stream measured: it removes fields that metric learning has shrunk onto
+//! the data and keeps wide untrained ones, which then suppress the creation of new fields. On
+//! the 25-D rotated cross (20 000 samples, full metric, meta learning, `w_prune = 0.7`; eight
+//! sample streams, seeds 1–8, same settings, nothing tuned) its nMSE was higher in all eight
+//! (median 0.036 against 0.025), and in one (seed 7) the wide field survived every pruning, no
+//! field was created again and the model ended with a single field (nMSE 1.02 against 0.022);
+//! the per-seed table is in `docs/performance.md` (lwpr). With the reference's rule the model
+//! also stays bit-identical to the C library when pruning fires. With the default
+//! `w_prune = 1` and a Gaussian kernel pruning never fires, so the choice matters only when
+//! `w_prune` is lowered.
+//!
 //! ## Confidence and Jacobian
-//! [`Lwpr::predict_with_confidence`] returns the reference's bound (papers.md §4.2); it includes
-//! the noise level, and on the cross function (setting A) the noise-free target lies within
-//! ±2 bounds of the prediction on at least 90 % of the test grid (measured: 100 %;
-//! `tests/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and the
-//! analytic `m × n` Jacobian (papers.md §3.2), which matches central finite differences
+//! [`Lwpr::predict_with_confidence`] returns the reference's bound (docs/methods.md § LWPR); it
+//! includes the noise level, and on the cross function (setting A) the noise-free target lies
+//! within ±2 bounds of the prediction on at least 90 % of the test grid (measured: 100 %;
+//! `tests/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and the analytic
+//! `m × n` Jacobian (docs/methods.md § LWPR), which matches central finite differences
 //! (`tests/jacobian.rs`); servo-loop uses it as the inverse image Jacobian.
 //!
 //! ## Robustness

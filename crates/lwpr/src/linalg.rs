@@ -3,7 +3,7 @@
 //! [`dot`] fixes one summation order (blocks of four in ascending order, then the remaining
 //! one to three terms in descending order). That is the order of the reference library's dot
 //! product, which keeps our floating-point results bit-identical to it wherever the formulas
-//! are the same (papers.md §4; see the crate docs, "Faithfulness").
+//! are the same (docs/methods.md § LWPR; see the crate docs, "Faithfulness").
 
 /// `Σ a_i b_i` in the fixed order described in the module docs.
 #[inline(always)]

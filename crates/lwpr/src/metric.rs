@@ -1,4 +1,4 @@
-//! Distance-metric learning (papers.md §4.4): stochastic gradient descent on the penalised
+//! Distance-metric learning (docs/methods.md § LWPR): stochastic gradient descent on the penalised
 //! leave-one-out cost
 //! `J = 1/Σw · Σ w_i (y_i − ŷ_i)² / (1 − w_i s_iᵀP s_i)² + γ/n · Σ D_ij²`
 //! with respect to the upper-triangular (or diagonal) factor `M` of `D = MᵀM`, optionally with

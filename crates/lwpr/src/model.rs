@@ -1,5 +1,5 @@
 //! The LWPR model: one sub-model of receptive fields per output; training, prediction,
-//! confidence and Jacobian (papers.md §3.2, §4.2–4.3).
+//! confidence and Jacobian (docs/methods.md § LWPR).
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -59,8 +59,8 @@ pub struct PredictionWithJacobian {
 pub struct PredictionWithConfidence {
     /// The prediction `ŷ(x)` (`m` values).
     pub y: Vec<f64>,
-    /// One standard-deviation-like confidence bound per output (papers.md §4.2); infinite where
-    /// no trustworthy receptive field is active.
+    /// One standard-deviation-like confidence bound per output (docs/methods.md § LWPR); infinite
+    /// where no trustworthy receptive field is active.
     pub confidence: Vec<f64>,
 }
 
@@ -764,7 +764,7 @@ impl Lwpr {
         Ok(PredictionWithConfidence { y, confidence })
     }
 
-    /// Prediction and its analytic Jacobian `∂ŷ/∂x` (`m × n`; papers.md §3.2):
+    /// Prediction and its analytic Jacobian `∂ŷ/∂x` (`m × n`; docs/methods.md § LWPR):
     /// `∂ŷ/∂x = (1/W) Σ_k (w_k ∂ŷ_k/∂x + ŷ_k ∂w_k/∂x) − (ŷ/W) Σ_k ∂w_k/∂x`, with
     /// `∂w_k/∂x = 2 (dw/dq) D_k (x − c_k)`, scaled by `norm_out_i / norm_in_j`. Where no
     /// trustworthy field is active the prediction and the Jacobian are 0.

@@ -1,5 +1,5 @@
 //! One receptive field: a locally weighted linear model fitted by incremental PLS
-//! (papers.md §4.2–4.3). Matrices are column-major; `n` is the input dimension, `R` the
+//! (docs/methods.md § LWPR). Matrices are column-major; `n` is the input dimension, `R` the
 //! number of PLS directions (`1 ≤ R ≤ n`).
 
 use serde::{Deserialize, Serialize};

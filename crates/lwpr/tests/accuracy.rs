@@ -1,6 +1,6 @@
-//! Accuracy on the reference's benchmarks (papers.md §4.6): the cross function in settings A
-//! and B, the reference's 1-D test and the cross function rotated into 25 dimensions.
-//! Thresholds are the reference library's measured ranges (papers.md §4.6), not tuned values.
+//! Accuracy on the reference's benchmarks (docs/methods.md § LWPR): the cross function in settings
+//! A and B, the reference's 1-D test and the cross function rotated into 25 dimensions. Thresholds
+//! are the reference library's measured ranges (docs/methods.md § LWPR), not tuned values.
 
 #[path = "../peer/harness.rs"]
 mod harness;
@@ -103,9 +103,9 @@ fn one_d_test_function() {
 /// The cross function rotated into 25 dimensions (`init_D = 0.25·I`, full metric,
 /// `w_prune = 0.7`, meta learning; `init_alpha = 250`, `w_gen = 0.2` as in setting A),
 /// 4 000 samples here (20 000 in `cargo xtask bench lwpr`). At least as accurate as the
-/// reference with the reference's pruning rule. Pruning fires in this setting; with the
-/// published rule (our default) accuracy is lower (see the crate docs, "Pruning", and the
-/// bench), so this test states the rule explicitly.
+/// reference with the reference's pruning rule (the default, stated explicitly here because
+/// pruning fires in this setting; with the published rule accuracy is lower: see the crate
+/// docs, "Pruning", and the bench).
 #[test]
 fn cross_in_25_dimensions() {
     let dim = 25;

@@ -181,7 +181,7 @@ fn defaults_are_the_reference_defaults() {
     );
     assert!(p.diag_only && p.update_d && !p.meta);
     assert_eq!(p.kernel, Kernel::Gaussian);
-    assert_eq!(p.prune_rule, lwpr::PruneRule::Published);
+    assert_eq!(p.prune_rule, lwpr::PruneRule::ReferenceC);
 }
 
 #[test]

@@ -4,6 +4,7 @@ use crate::error::Result;
 use crate::image::GrayView;
 use crate::params::{MserParams, Polarities};
 use crate::region::{Polarity, Region};
+use crate::region_pixels::RegionsWithPixels;
 use crate::select::Selector;
 use crate::stats::{Summer, Sums};
 use crate::tree::{Tree, TreeBuilder, histogram};
@@ -20,6 +21,54 @@ struct Workspace {
 }
 
 impl Workspace {
+    /// Builds the tree of one polarity and selects its regions: `picked` and `sums` in node id
+    /// order; with `xy`, also every selected pixel's coordinates at its flood position.
+    fn analyse(
+        &mut self,
+        img: &GrayView,
+        hist: &[u32; 256],
+        params: &MserParams,
+        polarity: Polarity,
+        xy: Option<&mut Vec<(u32, u32)>>,
+    ) {
+        let invert = polarity == Polarity::Bright;
+        self.builder.build(img, hist, invert, &mut self.tree);
+        self.picked.clear();
+        self.selector
+            .select(&mut self.tree, params, &mut self.picked);
+        self.sums.clear();
+        let ids = self.picked.iter().map(|&(id, _)| id);
+        match xy {
+            None => self.summer.sums(&self.tree, ids, &mut self.sums),
+            Some(xy) => self
+                .summer
+                .sums_and_pixels(&self.tree, ids, &mut self.sums, xy),
+        }
+    }
+
+    /// The regions of [`analyse`](Self::analyse), each with its run's start in the flood order.
+    fn regions(&self, polarity: Polarity) -> impl Iterator<Item = (Region, u32)> + '_ {
+        let t = &self.tree;
+        let invert = polarity == Polarity::Bright;
+        self.picked
+            .iter()
+            .zip(&self.sums)
+            .map(move |(&(id, variation), s)| {
+                let node = &t.nodes[id as usize];
+                let level = node.level as u8;
+                let r = Region {
+                    polarity,
+                    level: if invert { 255 - level } else { level },
+                    seed: t.xy(s.seed()),
+                    area: node.area,
+                    variation,
+                    bbox: s.bbox(t.div),
+                    moments: s.moments(node.area),
+                };
+                (r, node.start)
+            })
+    }
+
     fn run(
         &mut self,
         img: &GrayView,
@@ -28,43 +77,38 @@ impl Workspace {
         polarity: Polarity,
         out: &mut Vec<Region>,
     ) {
-        let invert = polarity == Polarity::Bright;
-        self.builder.build(img, hist, invert, &mut self.tree);
-        self.picked.clear();
-        self.selector
-            .select(&mut self.tree, params, &mut self.picked);
-        self.sums.clear();
-        self.summer.sums(
-            &self.tree,
-            self.picked.iter().map(|&(id, _)| id),
-            &mut self.sums,
-        );
-        let t = &self.tree;
+        self.analyse(img, hist, params, polarity, None);
         let start = out.len();
-        for (&(id, variation), s) in self.picked.iter().zip(&self.sums) {
-            let node = &t.nodes[id as usize];
-            let level = node.level as u8;
-            out.push(Region {
-                polarity,
-                level: if invert { 255 - level } else { level },
-                seed: t.xy(s.seed()),
-                area: node.area,
-                variation,
-                bbox: s.bbox(t.div),
-                moments: s.moments(node.area),
-            });
-        }
-        out[start..].sort_by_key(|r| (r.level_key(), r.seed.1, r.seed.0));
+        out.extend(self.regions(polarity).map(|(r, _)| r));
+        out[start..].sort_by_key(Region::order_key);
+    }
+
+    /// As [`run`](Self::run), with each region's pixels: `xy[start .. start + area]` for the
+    /// start returned beside it.
+    fn run_with_pixels(
+        &mut self,
+        img: &GrayView,
+        hist: &[u32; 256],
+        params: &MserParams,
+        polarity: Polarity,
+        xy: &mut Vec<(u32, u32)>,
+    ) -> Vec<(Region, u32)> {
+        self.analyse(img, hist, params, polarity, Some(xy));
+        let mut found: Vec<(Region, u32)> = self.regions(polarity).collect();
+        found.sort_by_key(|(r, _)| r.order_key());
+        found
     }
 }
 
 impl Region {
-    /// Sort key: the threshold on the polarity's own scale (dark: level; bright: 255 − level).
-    fn level_key(&self) -> u8 {
-        match self.polarity {
+    /// Sort key within a polarity: the threshold on the polarity's own scale (dark: level;
+    /// bright: 255 − level), then the seed's row and column (unique per polarity).
+    fn order_key(&self) -> (u8, u32, u32) {
+        let level = match self.polarity {
             Polarity::Dark => self.level,
             Polarity::Bright => 255 - self.level,
-        }
+        };
+        (level, self.seed.1, self.seed.0)
     }
 }
 
@@ -98,6 +142,9 @@ pub struct Mser {
     /// The bright polarity's buffers of `detect_parallel`.
     #[cfg(feature = "rayon")]
     bright: Workspace,
+    /// The pixel coordinates in flood order of [`detect_with_pixels`](Self::detect_with_pixels),
+    /// dark and bright.
+    pixels: [Vec<(u32, u32)>; 2],
 }
 
 impl Mser {
@@ -109,6 +156,7 @@ impl Mser {
             work: Workspace::default(),
             #[cfg(feature = "rayon")]
             bright: Workspace::default(),
+            pixels: [Vec::new(), Vec::new()],
         })
     }
 
@@ -131,6 +179,65 @@ impl Mser {
             self.work.run(img, &hist, p, Polarity::Bright, &mut out);
         }
         Ok(out)
+    }
+
+    /// Like [`detect`](Self::detect), and every region's pixels in the same pass: each region's
+    /// pixels are one contiguous run of the flood order (crate docs, "Algorithm and cost"), so
+    /// the summation pass that reads them for the moments also writes their coordinates, and the
+    /// pixel lists are slices of one array per polarity, borrowed from the detector (nested
+    /// regions share their pixels). No second flood, no allocation per region. The regions equal
+    /// [`detect`](Self::detect)'s; each list holds the same pixels as [`Region::pixels`], in flood
+    /// order instead of raster order.
+    ///
+    /// ```
+    /// let (w, h) = (30, 20);
+    /// let mut px = vec![200u8; w * h];
+    /// for y in 5..15 { for x in 5..12 { px[y * w + x] = 20; } }
+    /// let img = mser::GrayView::packed(&px, w, h).unwrap();
+    /// let params = mser::MserParams { min_area: 10, ..Default::default() };
+    /// let mut det = mser::Mser::new(params).unwrap();
+    /// let plain = det.detect(&img).unwrap();
+    /// let found = det.detect_with_pixels(&img).unwrap();
+    /// assert_eq!(found.regions(), &plain[..]);
+    /// let mut dark = found.pixels(0).to_vec();
+    /// dark.sort_by_key(|&(x, y)| (y, x));
+    /// assert_eq!(dark, plain[0].pixels(&img).unwrap());
+    /// ```
+    pub fn detect_with_pixels(&mut self, img: &GrayView) -> Result<RegionsWithPixels<'_>> {
+        let p = &self.params;
+        let hist = histogram(img);
+        let [dark_xy, bright_xy] = &mut self.pixels;
+        let mut dark = Vec::new();
+        if matches!(p.polarities, Polarities::Dark | Polarities::Both) {
+            dark = self
+                .work
+                .run_with_pixels(img, &hist, p, Polarity::Dark, dark_xy);
+        }
+        let mut bright = Vec::new();
+        if matches!(p.polarities, Polarities::Bright | Polarities::Both) {
+            bright = self
+                .work
+                .run_with_pixels(img, &hist, p, Polarity::Bright, bright_xy);
+        }
+        Ok(RegionsWithPixels::new(dark, bright, [dark_xy, bright_xy]))
+    }
+
+    /// Like [`detect_with_pixels`](Self::detect_with_pixels), with the two polarities on two
+    /// rayon tasks. Same result.
+    #[cfg(feature = "rayon")]
+    pub fn detect_with_pixels_parallel(&mut self, img: &GrayView) -> Result<RegionsWithPixels<'_>> {
+        if self.params.polarities != Polarities::Both {
+            return self.detect_with_pixels(img);
+        }
+        let p = &self.params;
+        let hist = histogram(img);
+        let [dark_xy, bright_xy] = &mut self.pixels;
+        let (dark_work, bright_work) = (&mut self.work, &mut self.bright);
+        let (dark, bright) = rayon::join(
+            || dark_work.run_with_pixels(img, &hist, p, Polarity::Dark, dark_xy),
+            || bright_work.run_with_pixels(img, &hist, p, Polarity::Bright, bright_xy),
+        );
+        Ok(RegionsWithPixels::new(dark, bright, [dark_xy, bright_xy]))
     }
 
     /// Like [`detect`](Self::detect), with the two polarities on two rayon tasks. Same result.

@@ -137,7 +137,9 @@ pub fn to_gray(img: &image::DynamicImage) -> image::GrayImage {
     }
 }
 
-/// Reads an image file (PNG) and converts it to grey with [`to_gray`].
+/// Reads an image file (PNG) and converts it to grey with [`to_gray`]. The `image` crate's
+/// default decoding limits apply (at most 512 MiB allocated, checked from the header before
+/// decoding), and [`GrayView::new`] then bounds the size to 2^28 padded pixels.
 pub fn load_gray(path: impl AsRef<std::path::Path>) -> Result<image::GrayImage> {
     Ok(to_gray(&image::open(path)?))
 }

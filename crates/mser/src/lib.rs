@@ -91,8 +91,11 @@
 //! contiguous run of the flood order; so the flood accumulates no moments at all, and the exact
 //! integer moments and bounding boxes are summed afterwards over the runs of the selected regions
 //! only, each pixel read at most once (nested selected regions reuse their inner sums). Pixel
-//! lists are not stored: [`Region::pixels`] refills them from the seed in O(area) and
-//! [`Region::contour`] follows the boundary in O(perimeter).
+//! lists come two ways: [`Mser::detect_with_pixels`] has that same summation pass also write the
+//! coordinates of every pixel it reads at its flood position, so every region's pixel list is a
+//! slice of one array per polarity (no second flood, no allocation per region, nested regions
+//! share pixels; [`RegionsWithPixels`]); and for a single region [`Region::pixels`] refills
+//! them from the seed in O(area). [`Region::contour`] follows the boundary in O(perimeter).
 //!
 //! # Regions, ellipses and contours
 //!
@@ -100,7 +103,8 @@
 //! integer [`Moments`] (Σx, Σy, Σx², Σxy, Σy² over pixel centres, 0-based, x right, y down).
 //!
 //! **Ellipse** ([`Region::ellipse`]): Oxford `(u, v, a, b, c)` with
-//! `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` (`OVERLAP.md` §1). Centre = centroid. Shape: `M = (4Σ)⁻¹`
+//! `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` (docs/methods.md § MSER). Centre = centroid.
+//! Shape: `M = (4Σ)⁻¹`
 //! where Σ holds the second central moments of the region as a plane figure, i.e. of the union of
 //! its unit pixel squares (pixel-centre covariance + 1/12 on the diagonal). `M = (4Σ)⁻¹` is the
 //! uniformly filled ellipse with those moments, so the ellipse has about the region's area
@@ -158,8 +162,9 @@
 //!
 //! # Features
 //!
-//! - `rayon`: `Mser::detect_parallel` (the two polarities on two tasks) and `detect_many`
-//!   (many images); results equal the sequential ones. Plain [`Mser::detect`] is single-threaded.
+//! - `rayon`: `Mser::detect_parallel` and `Mser::detect_with_pixels_parallel` (the two
+//!   polarities on two tasks) and `detect_many` (many images); results equal the sequential
+//!   ones (`tests/parallel.rs`, `tests/pixels.rs`). Plain [`Mser::detect`] is single-threaded.
 //! - `opencv`: `OpenCvMser`, OpenCV's detector with our parameters, for cross-checks and
 //!   benchmarks (needs libopencv-dev 4.x and libclang).
 //!
@@ -175,6 +180,7 @@ mod oxford;
 mod params;
 mod pixels;
 mod region;
+mod region_pixels;
 mod select;
 mod stats;
 mod tree;
@@ -185,10 +191,14 @@ pub use detector::detect_many;
 pub use detector::{Mser, detect};
 pub use error::{MserError, Result};
 pub use image::{GrayView, load_gray, luminance, to_gray};
-pub use oxford::{OxfordRegion, load_regions, read_regions, save_regions, write_regions};
+pub use oxford::{
+    MAX_DESCRIPTOR_LEN, MAX_REGIONS, OxfordRegion, load_regions, read_regions, save_regions,
+    write_regions,
+};
 pub use params::{MserParams, Polarities, Variation};
 pub use pixels::flood_pixels;
 pub use region::{BoundingBox, Ellipse, Moments, Polarity, Region};
+pub use region_pixels::RegionsWithPixels;
 
 #[cfg(feature = "opencv")]
 mod opencv_peer;

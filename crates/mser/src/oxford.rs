@@ -2,12 +2,23 @@
 //! a text file whose first line is the descriptor length (0 or 1 meaning none), the second the
 //! number of regions, then one line `u v a b c [descriptor…]` per region, with the ellipse
 //! `a (x−u)² + 2b (x−u)(y−v) + c (y−v)² = 1` in 0-based pixel coordinates.
+//!
+//! Sizes a file can request are bounded before anything is allocated: the descriptor length by
+//! [`MAX_DESCRIPTOR_LEN`] and the region count by [`MAX_REGIONS`]; larger values are an
+//! [`MserError::Parse`] naming the limit.
 
 use std::io::{BufRead, Write};
 use std::path::Path;
 
 use crate::error::{MserError, Result};
 use crate::region::Ellipse;
+
+/// Largest descriptor length a region file may announce (2¹⁶; SIFT has 128 values).
+pub const MAX_DESCRIPTOR_LEN: usize = 1 << 16;
+
+/// Largest region count a region file may announce (2²⁴, far above the few thousand regions
+/// per image of the benchmark).
+pub const MAX_REGIONS: usize = 1 << 24;
 
 /// One region of a region file: its ellipse and (possibly empty) descriptor.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,13 +49,15 @@ pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> 
 
 /// Reads a region file. Every ellipse must be finite and positive definite (`a > 0`,
 /// `ac − b² > 0`); each line must hold `5 + descriptor length` numbers; the count must match.
+/// The descriptor length may be at most [`MAX_DESCRIPTOR_LEN`] and the count at most
+/// [`MAX_REGIONS`].
 pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
     let mut lines = r.lines().enumerate().filter_map(|(i, l)| match l {
         Ok(s) if s.trim().is_empty() => None,
         other => Some((i + 1, other)),
     });
     let parse_err = |line, reason: String| MserError::Parse { line, reason };
-    let mut header = |what: &str| -> Result<(usize, f64)> {
+    let mut header = |what: &str, limit: usize| -> Result<usize> {
         let (no, l) = lines
             .next()
             .ok_or_else(|| parse_err(0, format!("missing {what} line")))?;
@@ -56,13 +69,18 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
         if !(v.is_finite() && v >= 0.0 && v.fract() == 0.0) {
             return Err(parse_err(no, format!("{what} {v} is not a whole number")));
         }
-        Ok((no, v))
+        if v > limit as f64 {
+            return Err(parse_err(
+                no,
+                format!("{what} {v} exceeds the limit {limit}"),
+            ));
+        }
+        Ok(v as usize)
     };
-    let (_, dim) = header("descriptor length")?;
-    let (_, count) = header("region count")?;
-    let dim = if dim <= 1.0 { 0 } else { dim as usize };
-    let count = count as usize;
-    let mut out = Vec::with_capacity(count.min(1 << 20));
+    let dim = header("descriptor length", MAX_DESCRIPTOR_LEN)?;
+    let count = header("region count", MAX_REGIONS)?;
+    let dim = if dim <= 1 { 0 } else { dim };
+    let mut out = Vec::with_capacity(count.min(1 << 16));
     for (no, l) in lines {
         let l = l?;
         if out.len() == count {
@@ -76,10 +94,11 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
             .map(|t| t.parse::<f64>())
             .collect::<std::result::Result<_, _>>()
             .map_err(|_| parse_err(no, "a field is not a number".into()))?;
-        if nums.len() != 5 + dim {
+        // `nums.len() - 5`, not `5 + dim`: a huge announced length must not overflow.
+        if nums.len() < 5 || nums.len() - 5 != dim {
             return Err(parse_err(
                 no,
-                format!("{} fields, expected {}", nums.len(), 5 + dim),
+                format!("{} fields, expected 5 + {dim}", nums.len()),
             ));
         }
         if nums.iter().any(|v| !v.is_finite()) {

@@ -1,17 +1,38 @@
 //! Pixel lists on demand: a flood fill from a region's seed, confined to its bounding box.
 
+use crate::error::{MserError, Result};
 use crate::image::GrayView;
 use crate::region::{BoundingBox, Polarity};
 
 /// The pixels of the 4-connected component of `{p : polarity.contains(I(p), level)}` through
-/// `seed`, in raster order. `bbox` must contain the component (it only bounds the work).
+/// `seed`, in raster order. `bbox` must contain the component (it only bounds the work; a box
+/// reaching outside the image is clipped to it). A seed outside the image, or one that does not
+/// pass the threshold, is a [`MserError::RegionImageMismatch`].
+///
+/// ```
+/// use mser::{BoundingBox, GrayView, Polarity, flood_pixels};
+/// let img = GrayView::packed(&[9, 0, 0, 9], 2, 2).unwrap();
+/// let all = BoundingBox { x_min: 0, y_min: 0, x_max: 1, y_max: 1 };
+/// assert_eq!(flood_pixels(&img, (1, 0), 0, Polarity::Dark, all).unwrap(), vec![(1, 0)]);
+/// assert!(flood_pixels(&img, (5, 0), 0, Polarity::Dark, all).is_err());
+/// ```
 pub fn flood_pixels(
     img: &GrayView,
     seed: (u32, u32),
     level: u8,
     polarity: Polarity,
     bbox: BoundingBox,
-) -> Vec<(u32, u32)> {
+) -> Result<Vec<(u32, u32)>> {
+    if seed.0 as usize >= img.width() || seed.1 as usize >= img.height() {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed outside the image",
+        });
+    }
+    if !polarity.contains(img.at(seed.0 as usize, seed.1 as usize), level) {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed pixel does not pass the region's threshold",
+        });
+    }
     // Clamp the box to the image so a wrong box cannot index outside.
     let x0 = bbox.x_min.min(seed.0) as usize;
     let y0 = bbox.y_min.min(seed.1) as usize;
@@ -46,5 +67,5 @@ pub fn flood_pixels(
         }
     }
     out.sort_unstable_by_key(|&(x, y)| (y, x));
-    out
+    Ok(out)
 }

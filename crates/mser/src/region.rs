@@ -119,8 +119,8 @@ impl Moments {
 }
 
 /// An ellipse `a (x − u)² + 2 b (x − u)(y − v) + c (y − v)² = 1`, the convention of the Oxford
-/// affine benchmark's region files (`OVERLAP.md` §1); `(u, v)` in 0-based pixel coordinates, x
-/// right, y down.
+/// affine benchmark's region files (docs/methods.md § MSER); `(u, v)` in 0-based pixel coordinates,
+/// x right, y down.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ellipse {
     /// Centre x.
@@ -251,7 +251,7 @@ impl Region {
     /// `img` must be the image the region was detected in.
     pub fn pixels(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
         self.check_seed(img)?;
-        let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox);
+        let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox)?;
         if px.len() != self.area as usize {
             return Err(MserError::RegionImageMismatch {
                 reason: "flood fill from the seed does not give the region's area",

@@ -6,6 +6,11 @@
 //! the outermost of them sit on top of a stack: their sums are added and only the pixels between
 //! their runs are read. Every pixel is therefore read at most once, whatever the nesting, and the
 //! cost is O(pixels in selected nodes), at most O(pixels).
+//!
+//! On request the same pass also writes every pixel it reads, as image coordinates, at its flood
+//! position in a second array: then every selected region's pixel list is the slice of that array
+//! over its run (nested regions share their pixels), with no second flood and no per-region
+//! allocation.
 
 use crate::layout::RowDiv;
 use crate::region::{BoundingBox, Moments};
@@ -47,6 +52,27 @@ impl Sums {
         let mut s = *self;
         for &i in idx {
             let (x, y) = div.col_row(i);
+            let (xl, yl) = (x as u64, y as u64);
+            s.sx += xl;
+            s.sy += yl;
+            s.sxx += xl * xl;
+            s.sxy += xl * yl;
+            s.syy += yl * yl;
+            s.first = s.first.min(i as i32);
+            s.last = s.last.max(i as i32);
+            s.x0 = s.x0.min(x as i32);
+            s.x1 = s.x1.max(x as i32);
+        }
+        *self = s;
+    }
+
+    /// [`add_run`](Self::add_run), also writing each pixel's image coordinates `(x, y)` into
+    /// `xy` (same length as `idx`).
+    fn add_run_xy(&mut self, idx: &[u32], div: RowDiv, xy: &mut [(u32, u32)]) {
+        let mut s = *self;
+        for (&i, out) in idx.iter().zip(xy) {
+            let (x, y) = div.col_row(i);
+            *out = (x, y - 1);
             let (xl, yl) = (x as u64, y as u64);
             s.sx += xl;
             s.sy += yl;
@@ -115,6 +141,41 @@ pub struct Summer {
 impl Summer {
     /// Writes the sums of the nodes `ids` (ascending) into `out`, in the same order.
     pub fn sums(&mut self, tree: &Tree, ids: impl Iterator<Item = u32>, out: &mut Vec<Sums>) {
+        self.sums_impl::<false>(tree, ids, out, &mut []);
+    }
+
+    /// As [`sums`](Self::sums), and writes the image coordinates of every pixel of the nodes at
+    /// its flood position in `xy` (resized to the flood order's length; other entries are left
+    /// as they were), so node `id`'s pixels are `xy[start .. start + area]`.
+    pub fn sums_and_pixels(
+        &mut self,
+        tree: &Tree,
+        ids: impl Iterator<Item = u32>,
+        out: &mut Vec<Sums>,
+        xy: &mut Vec<(u32, u32)>,
+    ) {
+        if xy.len() != tree.order.len() {
+            xy.clear();
+            xy.resize(tree.order.len(), (0, 0));
+        }
+        self.sums_impl::<true>(tree, ids, out, xy);
+    }
+
+    fn sums_impl<const PIXELS: bool>(
+        &mut self,
+        tree: &Tree,
+        ids: impl Iterator<Item = u32>,
+        out: &mut Vec<Sums>,
+        xy: &mut [(u32, u32)],
+    ) {
+        let mut add = |sums: &mut Sums, a: u32, b: u32| {
+            let run = &tree.order[a as usize..b as usize];
+            if PIXELS {
+                sums.add_run_xy(run, tree.div, &mut xy[a as usize..b as usize]);
+            } else {
+                sums.add_run(run, tree.div);
+            }
+        };
         self.open.clear();
         for id in ids {
             let node = &tree.nodes[id as usize];
@@ -132,11 +193,11 @@ impl Summer {
             let mut sums = Sums::EMPTY;
             let mut at = start;
             for &(s, e, inner) in self.inner.iter().rev() {
-                sums.add_run(&tree.order[at as usize..s as usize], tree.div);
+                add(&mut sums, at, s);
                 sums.absorb(&inner);
                 at = e;
             }
-            sums.add_run(&tree.order[at as usize..end as usize], tree.div);
+            add(&mut sums, at, end);
             self.open.push((start, end, sums));
             out.push(sums);
         }

@@ -202,3 +202,44 @@ proptest! {
         }
     }
 }
+
+/// Issue 24 #3: `flood_pixels` with a seed outside the image (or one that does not pass the
+/// threshold) is a typed error, not a panic.
+#[test]
+fn flood_pixels_refuses_seeds_outside_the_image() {
+    use mser::{BoundingBox, Polarity, flood_pixels};
+    let px = vec![10u8; 6 * 4];
+    let img = GrayView::packed(&px, 6, 4).unwrap();
+    let bbox = BoundingBox {
+        x_min: 0,
+        y_min: 0,
+        x_max: 5,
+        y_max: 3,
+    };
+    for seed in [(6, 0), (0, 4), (u32::MAX, u32::MAX), (100, 1)] {
+        assert!(
+            matches!(
+                flood_pixels(&img, seed, 10, Polarity::Dark, bbox),
+                Err(MserError::RegionImageMismatch { .. })
+            ),
+            "{seed:?}"
+        );
+    }
+    assert!(matches!(
+        flood_pixels(&img, (1, 1), 9, Polarity::Dark, bbox),
+        Err(MserError::RegionImageMismatch { .. })
+    ));
+    // A box larger than the image is clipped; the whole image is one component.
+    let huge = BoundingBox {
+        x_min: 0,
+        y_min: 0,
+        x_max: u32::MAX,
+        y_max: u32::MAX,
+    };
+    assert_eq!(
+        flood_pixels(&img, (2, 3), 10, Polarity::Dark, huge)
+            .unwrap()
+            .len(),
+        24
+    );
+}

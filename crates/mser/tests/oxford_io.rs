@@ -70,3 +70,36 @@ fn unreadable_file_is_an_io_error() {
     let err = mser::load_regions("/nonexistent/dir/file.mser").unwrap_err();
     assert!(matches!(err, MserError::Io(_)));
 }
+
+/// Issue 24 #2: a header announcing a huge descriptor length or region count is a parse error
+/// naming the limit (it used to overflow `5 + dim` and panic), before anything is allocated.
+#[test]
+fn huge_headers_are_rejected_with_the_limit() {
+    let bad = [
+        ("1e300\n1\n1 2 3 4\n", 1),
+        ("18446744073709551616\n1\n1 2 1 0 1\n", 1),
+        ("65537\n1\n1 2 1 0 1\n", 1),
+        ("1\n1e300\n1 2 1 0 1\n", 2),
+        ("1\n16777217\n1 2 1 0 1\n", 2),
+    ];
+    for (text, line) in bad {
+        match read_regions(text.as_bytes()) {
+            Err(MserError::Parse { line: l, reason }) => {
+                assert_eq!(l, line, "{text:?}");
+                assert!(reason.contains("limit"), "{text:?}: {reason}");
+            }
+            other => panic!("{text:?}: expected a parse error, got {other:?}"),
+        }
+    }
+    // At the limits the header is accepted (the lines then decide).
+    let text = format!("{}\n1\n1 2 1 0 1\n", mser::MAX_DESCRIPTOR_LEN);
+    assert!(matches!(
+        read_regions(text.as_bytes()),
+        Err(MserError::Parse { line: 3, .. })
+    ));
+    let text = format!("1\n{}\n1 2 1 0 1\n", mser::MAX_REGIONS);
+    assert!(matches!(
+        read_regions(text.as_bytes()),
+        Err(MserError::Parse { line: 0, .. })
+    ));
+}

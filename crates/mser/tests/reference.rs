@@ -58,6 +58,15 @@ proptest! {
             .map(|r| (r.polarity, r.level, r.pixels(&img).unwrap()))
             .collect();
         prop_assert_eq!(&got_sets, &want);
+        // The one-pass pixel lists: the same regions, each with exactly the reference's pixels.
+        let mut det = Mser::new(p.clone()).unwrap();
+        let with = det.detect_with_pixels(&img).unwrap();
+        prop_assert_eq!(with.regions(), &got[..]);
+        for (i, (_, _, pixels)) in want.iter().enumerate() {
+            let mut mine = with.pixels(i).to_vec();
+            mine.sort_unstable_by_key(|&(x, y)| (y, x));
+            prop_assert_eq!(&mine, pixels);
+        }
         for (r, (_, _, pixels)) in got.iter().zip(&want) {
             prop_assert_eq!(r.area as usize, pixels.len());
             prop_assert_eq!(r.moments, mser::Moments::of_pixels(pixels));

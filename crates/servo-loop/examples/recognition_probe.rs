@@ -16,6 +16,10 @@ use servo_loop::{
     ControlSpace, RandomCommands, Robot, SilhouetteConfig, TipModel, TipRule, learn_recognition,
 };
 
+#[path = "../tests/common/stats.rs"]
+mod stats;
+use stats::quantile;
+
 struct SimRobot(ArmSim);
 
 impl Robot for SimRobot {
@@ -32,14 +36,6 @@ impl Robot for SimRobot {
     fn capture(&mut self) -> Result<Vec<GrayImage>, ArmSimError> {
         Ok(self.0.capture())
     }
-}
-
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() as f64 * q) as usize).min(v.len() - 1)]
 }
 
 /// Per rule and camera: errors, along/across components and step inconsistencies.

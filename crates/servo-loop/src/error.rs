@@ -26,6 +26,22 @@ pub enum ServoError {
         /// The required certainty.
         min: f64,
     },
+    /// A percept was found but doubted: its certainty stayed below the plant's threshold on
+    /// every capture (e.g. the cameras' points disagree with the learned epipolar geometry).
+    /// Nothing was learned from it and no move was made on it.
+    #[error(
+        "percept refused: camera {camera}'s certainty {certainty:.3} below {min:.3} after {captures} capture(s)"
+    )]
+    PerceptRefused {
+        /// The camera with the lowest certainty.
+        camera: usize,
+        /// Its certainty on the last capture.
+        certainty: f64,
+        /// The plant's threshold.
+        min: f64,
+        /// Captures tried.
+        captures: usize,
+    },
     /// A command left the servo range; nothing was sent.
     #[error("command for joint {joint} is {value:.1}, outside the servo range [{min}, {max}]")]
     OutOfServoRange {

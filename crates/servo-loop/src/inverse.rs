@@ -1,6 +1,6 @@
 //! The learned inverse kinematics `ŷ = f̂(x)` (percept → command) and its Jacobian, the
 //! inverse image Jacobian `J = ∂ŷ/∂x` of thesis eq. 5.2–5.3, both from one LWPR model
-//! (papers.md §3.2).
+//! (docs/methods.md § LWPR).
 
 use lwpr::{Lwpr, LwprBuilder};
 use nalgebra::DMatrix;
@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError, check_finite, check_len};
 
 /// LWPR settings of the inverse model. Defaults follow the LWPR documentation's rule of thumb
-/// (papers.md §4.5): normalise inputs and outputs by their expected range, start with wide
+/// (docs/methods.md § LWPR): normalise inputs and outputs by their expected range, start with wide
 /// spherical receptive fields and let distance-metric learning narrow them; `init_alpha` and
 /// `w_gen` are the reference library's cross-function settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -75,10 +75,34 @@ impl InverseModelConfig {
 }
 
 /// The learned mapping from percept `x` (`n` values) to controlled command `y` (`m` values).
+///
+/// Deserialising goes through [`InverseModel::from_lwpr`]'s checks, and the LWPR part through
+/// [`Lwpr::from_json`]'s loading (its checks and its scratch space): a model read with serde is
+/// either usable or an error, never a model that panics later.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "InverseModelFile")]
 pub struct InverseModel {
     lwpr: Lwpr,
     cutoff: f64,
+}
+
+/// The serialised form of [`InverseModel`], before its checks.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InverseModelFile {
+    lwpr: Lwpr,
+    cutoff: f64,
+}
+
+impl TryFrom<InverseModelFile> for InverseModel {
+    type Error = ServoError;
+
+    fn try_from(file: InverseModelFile) -> Result<Self> {
+        // Plain serde fills the LWPR fields only; its loader validates them and allocates
+        // the model's scratch space.
+        let lwpr = Lwpr::from_json(&file.lwpr.to_json())?;
+        InverseModel::from_lwpr(lwpr, file.cutoff)
+    }
 }
 
 /// A prediction with the inverse image Jacobian.

@@ -42,6 +42,9 @@ pub struct LearnReport {
     pub used: usize,
     /// Moves skipped because the gripper was not recognised (e.g. out of view).
     pub not_recognised: usize,
+    /// Moves skipped because the percept was refused ([`ServoError::PerceptRefused`]).
+    #[serde(default)]
+    pub refused: usize,
 }
 
 /// The random command generator of [`learn_control`] (uniform in the exploration box, seeded).
@@ -141,6 +144,7 @@ pub fn learn_control<P: Plant + ?Sized>(
                 report.used += 1;
             }
             Err(ServoError::RecognitionFailed { .. }) => report.not_recognised += 1,
+            Err(ServoError::PerceptRefused { .. }) => report.refused += 1,
             Err(e) => return Err(e),
         }
         on_move(k, model);

@@ -1,9 +1,9 @@
 //! # servo-loop: learn to recognise and control an arm, then servo it (Paper C)
 //!
 //! Paper C of F. Larsson's thesis (*Methods for Visually Guided Robotic Systems*, Linköping
-//! 2009; thesis chapter 5, notes in `papers.md` §3) lets a low-cost arm without joint feedback
-//! learn, from its own random actions, what its gripper looks like and how commands move it,
-//! and then position it in closed loop. This crate is that method, for any [`Robot`] (send a
+//! 2009; thesis chapter 5, notes in docs/methods.md § Servoing) lets a low-cost arm without joint
+//! feedback learn, from its own random actions, what its gripper looks like and how commands move
+//! it, and then position it in closed loop. This crate is that method, for any [`Robot`] (send a
 //! command, capture images); it knows nothing about a particular arm or simulator.
 //!
 //! ## 1. Recognition learned from action ([`TipModel`], [`learn_recognition`])
@@ -25,17 +25,15 @@
 //! the servo percept), which takes the far end and learns its offset from the end face: at
 //! further random poses the offsets `e − f` of every camera are regressed on all cameras' far
 //! ends (Nadaraya–Watson, bandwidth by leave-one-out; [`recognition::tip_correction`]), and the
-//! corrected far end moves towards the end-face tip by at most 0.5 px. Measured on `arm-sim`
-//! (`fixtures/paper-c/summary.md`, median per camera against the projected middle of the finger
-//! ends): `Learned` 0.29 / 0.75 px (cameras 0 / 1; frame-to-frame repeatability 0.03–0.12 px),
-//! `FarEnd` 2.0 / 2.9 px, `EndFace` 0.28 / 0.48 px; the 90th percentile is 2–36 px, when another
-//! part of the arm is taken for the far end; ≈ 10 px to `arm-sim`'s tool point, which lies 8 mm
-//! behind the finger ends where nothing marks it.
+//! corrected far end moves towards the end-face tip by at most 0.5 px. How accurate each rule is
+//! on `arm-sim` (median and 90th percentile per camera against the projected middle of the
+//! finger ends, frame-to-frame repeatability, distance to `arm-sim`'s tool point, which lies
+//! 8 mm behind the finger ends where nothing marks it): `fixtures/paper-c/summary.md`.
 //! The **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline × cos²
-//! orientation channels of image gradients, chan-repr; papers.md §1.4), learned from the same
-//! gripper moves ([`capture_training_views`]), is an appearance model with a certainty: matched
-//! near the silhouette's tip it finds the fingers' region to 6–16 px, over the whole image it at
-//! times matches clutter (`eval servo` reports both), so the servo pipeline does not use it.
+//! orientation channels of image gradients, chan-repr; docs/methods.md § Servoing), learned from
+//! the same gripper moves ([`capture_training_views`]), is an appearance model with a certainty:
+//! matched near the silhouette's tip it finds the fingers' region to 6–16 px, over the whole image
+//! it at times matches clutter (`eval servo` reports both), so the servo pipeline does not use it.
 //!
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
@@ -45,10 +43,10 @@
 //!
 //! ## 3. Servoing ([`servo_lwpr`])
 //! `y₀ = f̂(x_w)`, then `y ← y − λ J (x − x_w)` (eq. 5.4 with the deviation taken as
-//! `x − x_w`; papers.md §3.1 sign note), `J` at the target or at the current percept, until
-//! the image error is below a tolerance or after `K` corrections, refining LWPR with every
-//! executed move. Baselines: [`open_loop`], [`servo_broyden`] (uncalibrated, rank-one
-//! updated image Jacobian) and [`servo_image_jacobian`] (a known analytic Jacobian).
+//! `x − x_w`; docs/methods.md § Servoing, the sign), `J` at the target or at the current percept,
+//! until the image error is below a tolerance or after `K` corrections, refining LWPR with every
+//! executed move. Baselines: [`open_loop`], [`servo_broyden`] (uncalibrated, rank-one updated image
+//! Jacobian) and [`servo_image_jacobian`] (a known analytic Jacobian).
 //!
 //! ## 4. Executing moves on hobby servos ([`approach`])
 //! A servo with a deadband and gear backlash ends where the direction it came from says, and
@@ -90,8 +88,9 @@ pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
-    CorrectionReport, CorrectionSample, EndEstimate, GripperModel, Localisation, RecognitionConfig,
-    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
+    CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry, EpipolarReport,
+    GripperModel, Localisation, Recogniser, RecognitionConfig, SilhouetteConfig, SilhouetteReport,
+    TipCorrection, TipModel, TipRule,
 };
 pub use robot::Robot;
 pub use servo::{
@@ -100,6 +99,6 @@ pub use servo::{
     servo_lwpr,
 };
 pub use visual::{
-    ControlSpace, VisualPlant, capture_training_views, learn_recognition, observe_averaged,
-    observe_averaged_by,
+    ControlSpace, PerceptPolicy, VisualPlant, capture_training_views, learn_recognition,
+    observe_averaged, observe_averaged_by, observe_checked,
 };

@@ -55,24 +55,44 @@ pub fn check_command<P: Plant + ?Sized>(plant: &P, y: &[f64]) -> Result<()> {
 }
 
 /// Validates a target percept: length, finiteness and (if the plant knows them) the percept
-/// bounds; for a visual plant, components `2i, 2i+1` are camera `i`'s `(u, v)`.
+/// bounds; for a visual plant, components `2i, 2i+1` are camera `i`'s `(u, v)`. Errors:
+/// [`ServoError::DimensionMismatch`] for a target, or a plant's bounds, of another length than
+/// the percept; [`ServoError::TargetOutsideImage`] naming the first component's camera.
 pub fn check_target<P: Plant + ?Sized>(plant: &P, x_w: &[f64]) -> Result<()> {
     check_len("target", x_w, plant.percept_dim())?;
     check_finite("target", x_w)?;
-    if let Some(bounds) = plant.percept_bounds() {
-        for cam in 0..x_w.len() / 2 {
-            let (u, v) = (x_w[2 * cam], x_w[2 * cam + 1]);
-            let (bu, bv) = (bounds[2 * cam], bounds[2 * cam + 1]);
-            if u < bu[0] || u > bu[1] || v < bv[0] || v > bv[1] {
-                return Err(ServoError::TargetOutsideImage {
-                    camera: cam,
-                    u,
-                    v,
-                    width: (bu[1] + 1.0).round() as u32,
-                    height: (bv[1] + 1.0).round() as u32,
-                });
-            }
-        }
+    let Some(bounds) = plant.percept_bounds() else {
+        return Ok(());
+    };
+    if bounds.len() != x_w.len() {
+        return Err(ServoError::DimensionMismatch {
+            what: "percept bounds",
+            expected: x_w.len(),
+            got: bounds.len(),
+        });
+    }
+    let outside = x_w
+        .iter()
+        .zip(&bounds)
+        .position(|(&x, b)| !(x >= b[0] && x <= b[1]));
+    if let Some(i) = outside {
+        let cam = i / 2;
+        let (u, v) = (
+            x_w[2 * cam],
+            x_w.get(2 * cam + 1).copied().unwrap_or(f64::NAN),
+        );
+        let size = |k: usize| {
+            bounds
+                .get(k)
+                .map_or(0, |b| (b[1] + 1.0).round().max(0.0) as u32)
+        };
+        return Err(ServoError::TargetOutsideImage {
+            camera: cam,
+            u,
+            v,
+            width: size(2 * cam),
+            height: size(2 * cam + 1),
+        });
     }
     Ok(())
 }

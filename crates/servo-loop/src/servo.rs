@@ -1,13 +1,13 @@
-//! Closed-loop servoing (thesis §5.3, papers.md §3.1–3.2) and its baselines.
+//! Closed-loop servoing (thesis §5.3, docs/methods.md § Servoing) and its baselines.
 //!
 //! All methods start from the same first guess, normally the learned inverse kinematics at the
 //! target, `y₀ = f̂(x_w)`, and then correct the command from the observed deviation:
 //!
-//! - [`servo_lwpr`]: `y ← y − λ J (x − x_w)` with the learned inverse image Jacobian `J =
-//!   ∂f̂/∂x` (eq. 5.4 with the deviation `x − x_w`, see the sign note in papers.md §3.1),
-//!   evaluated at the target (`J(x_w)`, a chord method: linear convergence) or at the current
-//!   percept (`J(x)`, Newton-like: quadratic convergence where `f̂` is exact). Every executed
-//!   move also refines the model online with the pair `(x, y)`.
+//! - [`servo_lwpr`]: `y ← y − λ J (x − x_w)` with the learned inverse image Jacobian
+//!   `J = ∂f̂/∂x` (eq. 5.4 with the deviation `x − x_w`, see the sign note in
+//!   docs/methods.md § Servoing), evaluated at the target (`J(x_w)`, a chord method: linear
+//!   convergence) or at the current percept (`J(x)`, Newton-like: quadratic convergence where
+//!   `f̂` is exact). Every executed move also refines the model online with the pair `(x, y)`.
 //! - [`servo_image_jacobian`]: `y ← y − λ J_img(y)⁺ (x − x_w)` with a given forward image
 //!   Jacobian `J_img = ∂x/∂y` (the analytic Jacobian of a known model: the upper bound).
 //! - [`servo_broyden`]: uncalibrated servoing: `J_img` is estimated by `m` probing moves and

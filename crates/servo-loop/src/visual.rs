@@ -8,7 +8,9 @@ use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
 use crate::plant::{Observation, Plant};
 use crate::recognition::model::TrainingView;
-use crate::recognition::{Localisation, SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
+use crate::recognition::{
+    Localisation, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
+};
 use crate::robot::Robot;
 
 /// Which servos are controlled, and how the others are held.
@@ -140,7 +142,9 @@ pub fn capture_training_views<R: Robot>(
 /// [`capture_training_views`] give the static scene, and the gripper change locates the end of
 /// the chain ([`TipModel::learn`]). Then, unless `config.correction_poses` is 0, one capture at
 /// each of that many further random poses teaches the `Learned` tip rule's correction
-/// ([`TipModel::learn_correction`]). Leaves the gripper at its `rest` set-point.
+/// ([`TipModel::learn_correction`]), and with two or more cameras the same poses' tips teach
+/// the cross-camera consistency ([`TipModel::learn_consistency`]; skipped when the poses are
+/// too few or degenerate). Leaves the gripper at its `rest` set-point.
 pub fn learn_recognition<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
@@ -174,6 +178,13 @@ pub fn learn_recognition<R: Robot>(
             Err(ServoError::NotEnoughData(_)) if config.tip != TipRule::Learned => {}
             Err(e) => return Err(e),
         }
+        if model.num_cameras() >= 2 {
+            match model.learn_consistency(&samples, seed ^ 0xE919) {
+                Ok(reports) => report.consistency = reports,
+                Err(ServoError::NotEnoughData(_)) => {}
+                Err(e) => return Err(e),
+            }
+        }
     }
     Ok((model, report))
 }
@@ -192,28 +203,74 @@ fn grab<R: Robot>(robot: &mut R) -> Result<Vec<GrayImage>> {
     })
 }
 
-/// A robot seen through a learned gripper recogniser.
-pub struct VisualPlant<R: Robot> {
+/// When a visual plant accepts a percept.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerceptPolicy {
+    /// Captures averaged per percept (the robot stands still between them; sensor noise
+    /// averages out). At least 1.
+    pub captures: usize,
+    /// A percept whose lowest camera certainty is below this is re-captured, and refused
+    /// ([`ServoError::PerceptRefused`]) when it stays below.
+    pub min_certainty: f64,
+    /// Further attempts (each `captures` captures) before a doubted percept is refused.
+    pub recaptures: usize,
+}
+
+impl Default for PerceptPolicy {
+    fn default() -> Self {
+        PerceptPolicy {
+            captures: 1,
+            min_certainty: 0.05,
+            recaptures: 1,
+        }
+    }
+}
+
+impl PerceptPolicy {
+    /// Checks `captures ≥ 1` and `min_certainty ∈ [0, 1]`.
+    pub fn validate(&self) -> Result<()> {
+        if self.captures == 0 {
+            return Err(ServoError::invalid(
+                "captures",
+                "at least one capture per observation",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.min_certainty) {
+            return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
+        }
+        Ok(())
+    }
+}
+
+/// A robot seen through a gripper recogniser (by default the learned [`TipModel`]; any
+/// [`Recogniser`] plugs in).
+pub struct VisualPlant<R: Robot, Q: Recogniser = TipModel> {
     robot: R,
     space: ControlSpace,
-    model: TipModel,
-    captures: usize,
+    model: Q,
+    policy: PerceptPolicy,
+    refused: usize,
+    recaptured: usize,
     last_images: Vec<GrayImage>,
     last_localisations: Vec<Localisation>,
 }
 
-impl<R: Robot> VisualPlant<R> {
-    /// Connects a robot, its control space and a gripper recogniser. Errors: a control space
-    /// that does not fit the robot; a recogniser that cannot locate
-    /// ([`TipModel::check_ready`]: the learned rule without its correction).
-    pub fn new(robot: R, space: ControlSpace, model: TipModel) -> Result<Self> {
+impl<R: Robot, Q: Recogniser> VisualPlant<R, Q> {
+    /// Connects a robot, its control space and a gripper recogniser, with the default
+    /// [`PerceptPolicy`]. Errors: a control space that does not fit the robot; a recogniser
+    /// that cannot locate ([`Recogniser::check_ready`]: e.g. the learned rule without its
+    /// correction).
+    pub fn new(robot: R, space: ControlSpace, model: Q) -> Result<Self> {
         space.validate(&robot)?;
         model.check_ready()?;
         Ok(VisualPlant {
             robot,
             space,
             model,
-            captures: 1,
+            policy: PerceptPolicy::default(),
+            refused: 0,
+            recaptured: 0,
             last_images: Vec::new(),
             last_localisations: Vec::new(),
         })
@@ -222,14 +279,32 @@ impl<R: Robot> VisualPlant<R> {
     /// Captures per observation (default 1): the robot stands still between them, so the
     /// percept is the mean of `n` localisations (sensor noise averages out). Errors: `n = 0`.
     pub fn set_captures(&mut self, n: usize) -> Result<()> {
-        if n == 0 {
-            return Err(ServoError::InvalidParameter {
-                name: "captures",
-                reason: "at least one capture per observation".into(),
-            });
-        }
-        self.captures = n;
+        self.set_policy(PerceptPolicy {
+            captures: n,
+            ..self.policy
+        })
+    }
+
+    /// Sets when a percept is accepted. Errors: an invalid policy (nothing changes).
+    pub fn set_policy(&mut self, policy: PerceptPolicy) -> Result<()> {
+        policy.validate()?;
+        self.policy = policy;
         Ok(())
+    }
+
+    /// The percept policy.
+    pub fn policy(&self) -> &PerceptPolicy {
+        &self.policy
+    }
+
+    /// Percepts refused so far ([`ServoError::PerceptRefused`]).
+    pub fn refused(&self) -> usize {
+        self.refused
+    }
+
+    /// Doubted percepts re-captured so far (accepted or not in the end).
+    pub fn recaptured(&self) -> usize {
+        self.recaptured
     }
 
     /// The robot.
@@ -243,7 +318,7 @@ impl<R: Robot> VisualPlant<R> {
     }
 
     /// The gripper recogniser.
-    pub fn model(&self) -> &TipModel {
+    pub fn model(&self) -> &Q {
         &self.model
     }
 
@@ -270,12 +345,13 @@ impl<R: Robot> VisualPlant<R> {
 
 /// Locates the tip in every camera image of `captures` captures and averages (certainty: the
 /// smallest). Shared by [`VisualPlant`] and evaluation harnesses.
-pub fn observe_averaged<F>(
-    model: &TipModel,
+pub fn observe_averaged<Q, F>(
+    model: &Q,
     captures: usize,
     grab_images: F,
 ) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
 where
+    Q: Recogniser + ?Sized,
     F: FnMut() -> Result<Vec<GrayImage>>,
 {
     observe_averaged_by(model, captures, grab_images, |images| {
@@ -287,13 +363,14 @@ where
 /// per camera of `model`), e.g. the cameras in parallel through [`TipModel::estimate_end`] and
 /// [`TipModel::tips`]. Errors: a capture or a `locate` result with another camera count, and
 /// any error of `grab_images` or `locate`.
-pub fn observe_averaged_by<F, L>(
-    model: &TipModel,
+pub fn observe_averaged_by<Q, F, L>(
+    model: &Q,
     captures: usize,
     mut grab_images: F,
     mut locate: L,
 ) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
 where
+    Q: Recogniser + ?Sized,
     F: FnMut() -> Result<Vec<GrayImage>>,
     L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
 {
@@ -337,7 +414,49 @@ where
     Ok((locs, last))
 }
 
-impl<R: Robot> Plant for VisualPlant<R> {
+/// One percept under `policy`: [`observe_averaged_by`] with `policy.captures` captures, re-captured
+/// up to `policy.recaptures` times while the lowest certainty is below `policy.min_certainty`,
+/// then refused ([`ServoError::PerceptRefused`], naming the least certain camera). Shared by
+/// [`VisualPlant`] and evaluation harnesses. `on_recapture` is called before each re-capture.
+pub fn observe_checked<Q, F, L>(
+    model: &Q,
+    policy: &PerceptPolicy,
+    mut grab_images: F,
+    mut locate: L,
+    mut on_recapture: impl FnMut(),
+) -> Result<(Vec<Localisation>, Vec<GrayImage>)>
+where
+    Q: Recogniser + ?Sized,
+    F: FnMut() -> Result<Vec<GrayImage>>,
+    L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
+{
+    policy.validate()?;
+    let attempts = policy.recaptures + 1;
+    for attempt in 1..=attempts {
+        let (locs, images) =
+            observe_averaged_by(model, policy.captures, &mut grab_images, &mut locate)?;
+        let (camera, certainty) = locs
+            .iter()
+            .enumerate()
+            .map(|(c, l)| (c, l.certainty))
+            .fold((0, 1.0), |a, b| if b.1 < a.1 { b } else { a });
+        if certainty >= policy.min_certainty {
+            return Ok((locs, images));
+        }
+        if attempt == attempts {
+            return Err(ServoError::PerceptRefused {
+                camera,
+                certainty,
+                min: policy.min_certainty,
+                captures: attempts * policy.captures,
+            });
+        }
+        on_recapture();
+    }
+    unreachable!("the last attempt returns")
+}
+
+impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
     fn percept_dim(&self) -> usize {
         2 * self.model.num_cameras()
     }
@@ -356,7 +475,24 @@ impl<R: Robot> Plant for VisualPlant<R> {
 
     fn observe(&mut self) -> Result<Observation> {
         let robot = &mut self.robot;
-        let (locs, images) = observe_averaged(&self.model, self.captures, || grab(robot))?;
+        let model = &self.model;
+        let recaptured = &mut self.recaptured;
+        let result = observe_checked(
+            model,
+            &self.policy,
+            || grab(robot),
+            |images| model.locate_all(images),
+            || *recaptured += 1,
+        );
+        let (locs, images) = match result {
+            Ok(r) => r,
+            Err(e) => {
+                if matches!(e, ServoError::PerceptRefused { .. }) {
+                    self.refused += 1;
+                }
+                return Err(e);
+            }
+        };
         let x = locs.iter().flat_map(|l| l.position).collect();
         let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
         self.last_images = images;
@@ -365,10 +501,12 @@ impl<R: Robot> Plant for VisualPlant<R> {
     }
 
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
-        let [w, h] = self.model.image_size();
         Some(
             (0..self.model.num_cameras())
-                .flat_map(|_| [[0.0, f64::from(w) - 1.0], [0.0, f64::from(h) - 1.0]])
+                .flat_map(|cam| {
+                    let [w, h] = self.model.image_size(cam);
+                    [[0.0, f64::from(w) - 1.0], [0.0, f64::from(h) - 1.0]]
+                })
                 .collect(),
         )
     }

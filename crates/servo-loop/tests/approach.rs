@@ -8,6 +8,10 @@ use servo_loop::{
     Observation, Plant, ServoConfig, ServoError, learn_control, servo_image_jacobian, servo_lwpr,
 };
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 const DEG_PER_US: f64 = 0.09;
 const DEADBAND_US: f64 = 4.0;
 const BACKLASH_DEG: f64 = 0.3;
@@ -169,11 +173,6 @@ fn final_errors(approach: Option<Approach>) -> Vec<f64> {
     out
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 /// The resolution floor: the largest image step of a half-quantum move of one joint.
 fn resolution_floor() -> f64 {
     let j = image_jacobian(&[1500.0, 1500.0]).unwrap();
@@ -199,14 +198,14 @@ fn plain_loop_stalls_on_deadband_and_backlash() {
 #[test]
 fn unidirectional_approach_converges_to_the_resolution_floor() {
     let floor = resolution_floor();
-    let plain = final_errors(None);
-    let approached = final_errors(Some(Approach::hobby_servo()));
+    let mut plain = final_errors(None);
+    let mut approached = final_errors(Some(Approach::hobby_servo()));
     let worst = approached.iter().copied().fold(0.0, f64::max);
     assert!(
         worst <= floor,
         "worst {worst} > floor {floor}: {approached:?}"
     );
-    assert!(median(approached) < 0.5 * median(plain));
+    assert!(median(&mut approached) < 0.5 * median(&mut plain));
 }
 
 #[test]

@@ -12,6 +12,10 @@ use servo_loop::{
     learn_recognition, observe_averaged_by, servo_lwpr,
 };
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 struct Sim {
     sim: ArmSim,
     /// Fail every command after this many.
@@ -90,12 +94,6 @@ fn far_end_only() -> SilhouetteConfig {
         correction_poses: 0,
         ..SilhouetteConfig::default()
     }
-}
-
-/// The median (upper middle) of non-empty values.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// A harder scene: stronger lighting changes and more sensor noise (the default scene already

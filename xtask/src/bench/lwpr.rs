@@ -1,8 +1,8 @@
 //! `cargo xtask bench lwpr`: our LWPR against the reference C library (LWPR 1.2.6, built from
 //! `../shared/peers/lwpr` into `target/peers/lwpr` in the same run) on identical sample streams:
 //! updates/s, predictions/s, receptive fields and nMSE for the 2-D cross function (setting A of
-//! papers.md §4.6, seeds 1–3) and its rotation into 25 dimensions (both pruning rules; the default
-//! and the exact arithmetic), plus the learning curve and the largest prediction difference
+//! docs/methods.md § LWPR, seeds 1–3) and its rotation into 25 dimensions (both pruning rules; the
+//! default and the exact arithmetic), plus the learning curve and the largest prediction difference
 //! (faithfulness).
 
 // Included by both the bench and the eval module (it is also the tests' harness).

@@ -5,7 +5,10 @@
 //! in [`BENCHES`].
 
 mod chan_repr;
+mod cpu;
 mod fd;
+#[cfg(feature = "opencv")]
+mod fd_opencv;
 mod lwpr;
 mod mser;
 mod tracking;
@@ -49,12 +52,12 @@ pub const BENCHES: &[Bench] = &[
     },
     Bench {
         name: "fd",
-        peer: "naive per-pair zero-padded FFT correlation (eq. 9-12), no bound, allocating per pair",
+        peer: "every pair with the same exact correlation kernel (same FFT length, plans and buffers reused), no bound; results asserted identical",
         run: fd::run,
     },
     Bench {
         name: "mser",
-        peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters",
+        peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters (min_diversity 0), region sets asserted equal",
         run: mser::run,
     },
     Bench {

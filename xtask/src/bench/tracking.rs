@@ -147,7 +147,7 @@ fn plot(image: &[SetResult], path: &std::path::Path) -> Result<()> {
         .y_desc("mean RMSE (px)")
         .draw()?;
     for (i, (name, t, e)) in pts.iter().enumerate() {
-        let c = Palette99::pick(i).to_rgba();
+        let c = crate::palette::series(i).to_rgba();
         chart.draw_series(std::iter::once(Circle::new((*t, *e), 5, c.filled())))?;
         chart.draw_series(std::iter::once(Text::new(
             name.clone(),

@@ -72,7 +72,10 @@ fn plot_kernels(basis: &ChannelBasis, path: &std::path::Path) -> Result<()> {
             let x = i as f64 / 100.0;
             (x, kernel.value((x - centre) / basis.spacing()))
         });
-        chart.draw_series(LineSeries::new(points, Palette99::pick(k).stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(
+            points,
+            crate::palette::series(k).stroke_width(2),
+        ))?;
     }
     root.present()?;
     Ok(())

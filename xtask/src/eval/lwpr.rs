@@ -1,7 +1,7 @@
-//! `cargo xtask eval lwpr`: learning curves of our LWPR on the cross function (papers.md §4.6):
-//! test nMSE on the 41×41 grid and the number of receptive fields against the number of
-//! training samples, for setting A (20 000 fresh samples, the stream of the reference's
-//! `bench_cross.c`, seed 1) and setting B (500 samples, 20 shuffled epochs, seed 1).
+//! `cargo xtask eval lwpr`: learning curves of our LWPR on the cross function
+//! (docs/methods.md § LWPR): test nMSE on the 41×41 grid and the number of receptive fields against
+//! the number of training samples, for setting A (20 000 fresh samples, the stream of the
+//! reference's `bench_cross.c`, seed 1) and setting B (500 samples, 20 shuffled epochs, seed 1).
 //!
 //! Deterministic (seeded data, no timings). The reference library's curve is not in the
 //! fixture (building C code is not part of `eval`); `cargo xtask bench lwpr` prints both curves
@@ -113,7 +113,7 @@ fn plot(curves: &[Curve], path: &std::path::Path) -> Result<()> {
         .y_desc("RFs")
         .draw()?;
     for (k, c) in curves.iter().enumerate() {
-        let color = Palette99::pick(k).to_rgba();
+        let color = crate::palette::series(k).to_rgba();
         let label = format!("setting {}", c.setting);
         let e: Vec<(f64, f64)> = c
             .points

@@ -2,6 +2,14 @@
 //! output root (`fixtures/<target>/`). With `--check`, the targets write into a temporary folder
 //! that is then compared with the committed `fixtures/` (tolerances: [`crate::fixture_check`]).
 //!
+//! Outputs are atomic ([`crate::output`]): the data and every destination are checked before
+//! anything is written, each target writes into a temporary folder beside its destination, and
+//! the folders are moved into place only when every target succeeded. A failed or interrupted
+//! run leaves every destination as it was. `--out DIR` replaces DIR only if it is empty or an
+//! earlier output of ours (it holds [`crate::output::MARKER`]), never the current folder, the
+//! repository or a folder above them. With `CI=true`, a target skipped for missing data is an
+//! error ([`crate::strict_ci`]).
+//!
 //! `cargo xtask eval` runs every target with its default options; `cargo xtask eval TARGET
 //! [OPTIONS]` runs one, where `--out DIR` names that target's own output folder. A target that
 //! needs benchmark data (`paper-a`) is skipped with a note by a plain run without the data,
@@ -21,7 +29,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 
-use crate::{Result, fixture_check, workspace_root};
+use crate::output::{self, Destination, Staged};
+use crate::{Result, fixture_check, strict_ci, workspace_root};
 
 /// Arguments of `cargo xtask eval`.
 #[derive(Args)]
@@ -87,6 +96,13 @@ impl EvalTarget {
         }
     }
 
+    /// Folders the target may write beside its own (e.g. `fixtures/NAME/`), through
+    /// [`EvalContext::sibling`]; each replaces its destination only if the target wrote
+    /// into it, else the destination keeps its contents.
+    pub fn siblings(&self) -> &'static [&'static str] {
+        &[]
+    }
+
     /// Why the target cannot run without (complete) benchmark data, if it needs data.
     fn missing_data(&self, data: Option<&Path>) -> Option<String> {
         match self {
@@ -110,13 +126,26 @@ impl EvalTarget {
 
 /// What an evaluation target is given.
 pub struct EvalContext {
-    /// The folder this target writes into, already created and empty.
+    /// The folder this target writes into: a temporary folder beside the destination, holding
+    /// only [`crate::output::MARKER`]; moved into place after every target succeeded.
     pub out_dir: PathBuf,
     /// The benchmark data folder, if the user has one (`--data` or `$VISGUIDE_DATA`).
     pub data_dir: Option<PathBuf>,
 }
 
-/// Runs `cargo xtask eval`.
+impl EvalContext {
+    /// The staged folder of the sibling output `name` (one of [`EvalTarget::siblings`]),
+    /// beside [`EvalContext::out_dir`].
+    #[allow(dead_code)] // for targets with sibling outputs (the pedestrian tracking study)
+    pub fn sibling(&self, name: &str) -> PathBuf {
+        crate::output::staging_path(&self.out_dir.with_file_name(name))
+    }
+}
+
+/// Runs `cargo xtask eval`: checks every destination and the data first, stages each target's
+/// output in a temporary folder beside its destination ([`crate::output`]), and moves all of
+/// them into place only after every target succeeded. With `--check`, the staged folders are
+/// compared with `fixtures/` and removed; nothing outside the temporary folder is written.
 pub fn run(args: &EvalArgs) -> Result<()> {
     let fixtures = workspace_root().join("fixtures");
     let targets = match &args.target {
@@ -124,78 +153,113 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         None => EvalTarget::all(),
     };
     let single = args.target.is_some();
-    let check_root = std::env::temp_dir().join(format!("visguide-eval-{}", std::process::id()));
-    let out_dir_of = |t: &EvalTarget| -> PathBuf {
-        if args.check {
-            check_root.join(t.name())
-        } else {
-            match (&args.out, single) {
-                (Some(dir), true) => dir.clone(),
-                (Some(root), false) => root.join(t.name()),
-                (None, _) => fixtures.join(t.name()),
-            }
+    let data_dir = match &args.data {
+        Some(d) if !d.is_dir() => {
+            let why = format!("data folder {} not found", d.display());
+            strict_ci::skip_or_fail(&format!("{why}; synthetic data only"))?;
+            None
         }
+        d => d.clone(),
     };
-    let data_dir = args.data.clone().filter(|d| {
-        let ok = d.is_dir();
-        if !ok {
-            eprintln!(
-                "note: data folder {} not found; synthetic data only",
-                d.display()
-            );
-        }
-        ok
-    });
-    let mut ran = Vec::new();
+    // Every check before anything is written: data, then destinations.
+    let mut plan = Vec::new();
     for t in &targets {
         if let Some(why) = t.missing_data(data_dir.as_deref()) {
             if single {
                 return Err(format!("{}: {why}", t.name()).into());
             }
             // Leave the committed fixtures of a data-bound target alone; --check skips it.
-            eprintln!("skip {}: {why}", t.name());
+            strict_ci::skip_or_fail(&format!("skip {}: {why}", t.name()))?;
             continue;
         }
-        ran.push(t.name());
-        let out_dir = out_dir_of(t);
-        if out_dir.exists() {
-            std::fs::remove_dir_all(&out_dir)?;
+        plan.push(t);
+    }
+    let check_root = if args.check {
+        let root = std::env::temp_dir().join(format!("visguide-eval-check-{}", std::process::id()));
+        Some(Staged::new(&Destination::check(&root, false)?)?)
+    } else {
+        None
+    };
+    // Per target, its own destination first, then its siblings'.
+    let mut destinations: Vec<Vec<(String, Destination)>> = Vec::new();
+    for t in &plan {
+        let dest = match (&check_root, &args.out, single) {
+            (Some(root), _, _) => Destination::check(&root.path().join(t.name()), true)?,
+            (None, Some(dir), true) => Destination::check(dir, false)?,
+            (None, Some(root), false) => Destination::check(&root.join(t.name()), false)?,
+            (None, None, _) => Destination::check(&fixtures.join(t.name()), true)?,
+        };
+        let trusted = check_root.is_some() || args.out.is_none();
+        let mut own = vec![(t.name().to_string(), dest)];
+        for s in t.siblings() {
+            let beside = own[0].1.path().with_file_name(s);
+            own.push((s.to_string(), Destination::check(&beside, trusted)?));
         }
-        std::fs::create_dir_all(&out_dir)?;
+        for (_, d) in &own {
+            if destinations
+                .iter()
+                .flatten()
+                .any(|(_, e)| e.path() == d.path())
+            {
+                return Err(format!("two targets write {}", d.path().display()).into());
+            }
+        }
+        destinations.push(own);
+    }
+    let data = data_dir
+        .as_ref()
+        .map_or("none (synthetic data only)".into(), |d| {
+            d.display().to_string()
+        });
+    // (name, staged folder) of every output to move into place or compare.
+    let mut staged: Vec<(String, Staged)> = Vec::new();
+    for (t, own) in plan.iter().zip(&destinations) {
+        let dest = own[0].1.path();
+        let mut stages = Vec::new();
+        for (name, d) in own {
+            stages.push((name.clone(), Staged::new(d)?));
+        }
         let ctx = EvalContext {
-            out_dir,
+            out_dir: stages[0].1.path().to_path_buf(),
             data_dir: data_dir.clone(),
         };
-        let data = ctx
-            .data_dir
-            .as_ref()
-            .map_or("none (synthetic data only)".into(), |d| {
-                d.display().to_string()
-            });
-        eprintln!(
-            "eval {} -> {} (data: {data})",
-            t.name(),
-            ctx.out_dir.display()
-        );
-        t.run(&ctx)?;
-    }
-    if args.check {
-        let names = ran;
-        let result = fixture_check::compare_trees(&fixtures, &check_root, &names);
-        std::fs::remove_dir_all(&check_root).ok();
-        let diffs = result?;
-        if !diffs.is_empty() {
-            for d in &diffs {
-                eprintln!("fixture mismatch: {d}");
+        eprintln!("eval {} -> {} (data: {data})", t.name(), dest.display());
+        t.run(&ctx)
+            .map_err(|e| format!("{}: {e} ({} left unchanged)", t.name(), dest.display()))?;
+        // A sibling the target did not write keeps its old contents (it is dropped here).
+        for (i, (name, stage)) in stages.into_iter().enumerate() {
+            if i == 0 || !stage.is_unused() {
+                staged.push((name, stage));
             }
-            return Err(format!(
-                "{} fixture file(s) differ; rerun `cargo xtask eval` and commit",
-                diffs.len()
-            )
-            .into());
         }
-        eprintln!("fixtures reproduce ({} target(s))", names.len());
     }
+    let Some(check_root) = check_root else {
+        return output::commit_all(staged.into_iter().map(|(_, s)| s).collect());
+    };
+    // The staged folders are named `.NAME.partial-PID` below the check root: compare those.
+    let names: Vec<String> = staged.iter().map(|(n, _)| n.clone()).collect();
+    let actual: Vec<(String, PathBuf)> = staged
+        .iter()
+        .map(|(n, s)| (n.clone(), s.path().to_path_buf()))
+        .collect();
+    let diffs = fixture_check::compare_folders(&fixtures, &actual)?;
+    drop(staged);
+    drop(check_root);
+    if !diffs.is_empty() {
+        for d in &diffs {
+            eprintln!("fixture mismatch: {d}");
+        }
+        return Err(format!(
+            "{} fixture file(s) differ; rerun `cargo xtask eval` and commit",
+            diffs.len()
+        )
+        .into());
+    }
+    eprintln!(
+        "fixtures reproduce ({} folder(s): {})",
+        names.len(),
+        names.join(", ")
+    );
     Ok(())
 }
 
@@ -203,6 +267,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
 pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<()> {
     let mut text = serde_json::to_string_pretty(value)?;
     text.push('\n');
-    std::fs::write(dir.join(name), text)?;
+    let path = dir.join(name);
+    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(())
 }

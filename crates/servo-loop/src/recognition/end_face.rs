@@ -29,7 +29,7 @@
 //! **Smoothness.** Where an end face has nearly the table's grey, single pixels of its outline
 //! appear and vanish with the table's texture from one pose to the next; a hull vertex, and the
 //! corner with it, then moves by a few pixels. The centre is accurate on average but less smooth
-//! in the pose than an area-based far end (`docs/performance.md`, `## servo-loop`). On rendered
+//! in the pose than an area-based far end (`docs/performance.md` at f7d00c4). On rendered
 //! images the largest jumps are chamfers (several corner pixels below the level at once, so the
 //! cap line is fitted to the cut); on synthetic prisms one cleared outline pixel near a corner
 //! moves the centre by at most 0.6 px, one extra covered pixel beside the outline by up to 3 px

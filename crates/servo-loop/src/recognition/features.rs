@@ -1,5 +1,5 @@
-//! Channel-coded feature maps (papers.md §1.4): a soft histogram over image position and
-//! gradient orientation. Every pixel of the (half-resolution) image contributes
+//! Channel-coded feature maps (docs/methods.md § Servoing): a soft histogram over image position
+//! and gradient orientation. Every pixel of the (half-resolution) image contributes
 //!
 //! ```text
 //! w(p) · B₂(t_x(p) − i) · B₂(t_y(p) − j) · cos²-channel_o(φ(p))

@@ -1,4 +1,4 @@
-//! Gripper recognition learned from action (Paper C; papers.md §1.4, §3.1).
+//! Gripper recognition learned from action (Paper C; docs/methods.md § Servoing).
 //!
 //! - [`image`]: grey images to half-resolution float images, and the raster steps of the
 //!   silhouette (box smoothing, largest 8-connected component).
@@ -15,11 +15,14 @@
 //!   crossings, convex hull, the far cap's outer corners), for [`TipRule::EndFace`].
 //! - [`tip_correction`]: the [`TipRule::Learned`] tip, the far end corrected by an offset
 //!   learned from the end-face rule at random poses (kernel regression on all cameras' far ends).
+//! - [`epipolar`]: consistency between cameras, the fundamental matrix learned from the
+//!   learner's own percepts (normalised 8-point in RANSAC) and a pair's consistency.
 //! - [`model`]: the channel-coded appearance model learned from those regions (prototype feature maps around
 //!   the gripper point) and its localisation in a new image with a certainty.
 
 pub mod change;
 mod end_face;
+pub mod epipolar;
 pub mod features;
 pub mod image;
 mod lighting;
@@ -27,6 +30,44 @@ pub mod model;
 pub mod silhouette;
 pub mod tip_correction;
 
+pub use epipolar::{EpipolarGeometry, EpipolarReport};
 pub use model::{GripperModel, Localisation, RecognitionConfig, TrainingView};
 pub use silhouette::{EndEstimate, SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
 pub use tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
+
+/// The percept seam: anything that finds the gripper point in one image per camera, each with
+/// a certainty in `[0, 1]`. [`crate::VisualPlant`] and the learning and servo loops see a
+/// recogniser only through this trait, so a user's own detector plugs in without touching
+/// them; [`TipModel`] (the learned silhouette recogniser, with its cross-camera consistency)
+/// is the default.
+pub trait Recogniser {
+    /// Number of cameras (images per call of [`Recogniser::locate_all`]).
+    fn num_cameras(&self) -> usize;
+    /// Image size `[width, height]` of camera `cam` (the percept bounds of a visual plant).
+    fn image_size(&self, cam: usize) -> [u32; 2];
+    /// Whether the recogniser can locate at all (e.g. everything it needs was learned).
+    fn check_ready(&self) -> crate::Result<()> {
+        Ok(())
+    }
+    /// The gripper point in every camera's image (one image per camera, in camera order),
+    /// each with its certainty. A recogniser that finds nothing returns
+    /// [`crate::ServoError::RecognitionFailed`]; a found point it doubts is returned with a
+    /// low certainty (the plant refuses it below its threshold).
+    fn locate_all(&self, images: &[::image::GrayImage]) -> crate::Result<Vec<Localisation>>;
+}
+
+impl Recogniser for TipModel {
+    fn num_cameras(&self) -> usize {
+        TipModel::num_cameras(self)
+    }
+    fn image_size(&self, cam: usize) -> [u32; 2] {
+        self.camera(cam)
+            .map_or([0, 0], |c| [c.width() as u32, c.height() as u32])
+    }
+    fn check_ready(&self) -> crate::Result<()> {
+        TipModel::check_ready(self)
+    }
+    fn locate_all(&self, images: &[::image::GrayImage]) -> crate::Result<Vec<Localisation>> {
+        TipModel::locate_all(self, images)
+    }
+}

@@ -60,6 +60,7 @@ use crate::recognition::change::changed_region;
 use crate::recognition::end_face::{
     CoverageGrid, cap_corners, convex_hull, iso_crossings, side_direction,
 };
+use crate::recognition::epipolar::{EpipolarGeometry, EpipolarReport};
 use crate::recognition::image::{
     half_resolution, halve, largest_component, smoothed_magnitude, to_f32,
 };
@@ -100,7 +101,7 @@ fn far_end() -> TipRule {
 /// Which point of the gripper's far end the recogniser reports as the tip.
 ///
 /// The single-image rules trade accuracy against smoothness (measured on `arm-sim` with three
-/// seeds the evaluation does not use; `docs/performance.md`, `## servo-loop`): `EndFace` finds
+/// seeds the evaluation does not use; `docs/performance.md` at f7d00c4): `EndFace` finds
 /// the middle of the finger ends to a median 0.26–0.50 px per camera (`FarEnd`: 2.1–5.1 px),
 /// but where an end face has little contrast against the table the outline it reads moves with
 /// the table's texture, so its tip changes less smoothly with the pose (camera 1: 90th
@@ -202,6 +203,16 @@ impl CameraScene {
     pub fn noise_sigma(&self) -> f32 {
         self.noise_sigma
     }
+
+    /// Image width (pixels).
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height (pixels).
+    pub fn height(&self) -> usize {
+        self.height
+    }
 }
 
 /// What learning found, per camera.
@@ -217,6 +228,9 @@ pub struct SilhouetteReport {
     /// The `Learned` rule's correction, when one was learned.
     #[serde(default)]
     pub correction: Option<CorrectionReport>,
+    /// The cross-camera consistency (camera 0 with camera `k`, `k ≥ 1`), when learned.
+    #[serde(default)]
+    pub consistency: Vec<EpipolarReport>,
 }
 
 /// The silhouette-based gripper-tip recogniser (see the module docs).
@@ -227,6 +241,11 @@ pub struct TipModel {
     /// The `Learned` rule's correction (`tip_correction`), once learned.
     #[serde(default)]
     correction: Option<TipCorrection>,
+    /// The epipolar geometry of camera 0 with camera `k` (entry `k − 1`), once learned
+    /// ([`TipModel::learn_consistency`]): every localisation's certainty is at most its pair's
+    /// consistency.
+    #[serde(default)]
+    consistency: Vec<EpipolarGeometry>,
 }
 
 /// One camera's measurements of the gripper's far end ([`TipModel::estimate_end`]).
@@ -368,6 +387,7 @@ impl TipModel {
                 config: config.clone(),
                 cameras: vec![scene.clone()],
                 correction: None,
+                consistency: Vec::new(),
             };
             let mut silhouettes = Vec::with_capacity(frames.len());
             for f in &frames {
@@ -416,6 +436,7 @@ impl TipModel {
                 config: config.clone(),
                 cameras: vec![scene.clone()],
                 correction: None,
+                consistency: Vec::new(),
             };
             for s in silhouettes.iter().step_by(2) {
                 if let Some(fit) = one.fit_end(0, s, false) {
@@ -430,6 +451,7 @@ impl TipModel {
                 config: config.clone(),
                 cameras,
                 correction: None,
+                consistency: Vec::new(),
             },
             report,
         ))
@@ -467,6 +489,7 @@ impl TipModel {
             },
             cameras: self.cameras.clone(),
             correction: self.correction.clone(),
+            consistency: self.consistency.clone(),
         }
     }
 
@@ -522,14 +545,82 @@ impl TipModel {
             }
             (_, rule) => ends.iter().map(|e| e.single_image_tip(rule)).collect(),
         };
-        Ok(positions
+        let mut locs: Vec<Localisation> = positions
             .into_iter()
             .zip(ends)
             .map(|(position, e)| Localisation {
                 position,
                 certainty: e.certainty,
             })
-            .collect())
+            .collect();
+        for (k, geometry) in self.consistency.iter().enumerate() {
+            if k + 1 >= locs.len() {
+                break;
+            }
+            let c = geometry.consistency(locs[0].position, locs[k + 1].position);
+            locs[0].certainty = locs[0].certainty.min(c);
+            locs[k + 1].certainty = locs[k + 1].certainty.min(c);
+        }
+        Ok(locs)
+    }
+
+    /// Learns the cross-camera consistency ([`crate::recognition::epipolar`]) from `samples`
+    /// (the correction poses: every camera's tip by this model's rule), replacing any earlier
+    /// one; one geometry per camera `k ≥ 1` with camera 0. Errors: fewer than
+    /// [`epipolar::MIN_PAIRS`](crate::recognition::epipolar::MIN_PAIRS) usable poses, a
+    /// degenerate set of poses, samples with another camera count. A single-camera model
+    /// learns nothing.
+    pub fn learn_consistency(
+        &mut self,
+        samples: &[CorrectionSample],
+        seed: u64,
+    ) -> Result<Vec<EpipolarReport>> {
+        let cams = self.cameras.len();
+        let mut tips: Vec<Vec<[f64; 2]>> = vec![Vec::with_capacity(samples.len()); cams];
+        for s in samples {
+            if s.far_ends.len() != cams || s.end_faces.len() != cams {
+                return Err(ServoError::DimensionMismatch {
+                    what: "correction sample cameras",
+                    expected: cams,
+                    got: s.far_ends.len(),
+                });
+            }
+            let positions = match (&self.correction, self.config.tip) {
+                (Some(correction), TipRule::Learned) => {
+                    correction.tips(&s.far_ends, &s.end_faces)?
+                }
+                (_, rule) => s
+                    .far_ends
+                    .iter()
+                    .zip(&s.end_faces)
+                    .map(|(&far_end, &end_face)| {
+                        EndEstimate {
+                            far_end,
+                            end_face,
+                            certainty: 1.0,
+                        }
+                        .single_image_tip(rule)
+                    })
+                    .collect(),
+            };
+            for (t, p) in tips.iter_mut().zip(positions) {
+                t.push(p);
+            }
+        }
+        let mut geometries = Vec::new();
+        let mut reports = Vec::new();
+        for k in 1..cams {
+            let (g, r) = EpipolarGeometry::fit(&tips[0], &tips[k], seed ^ k as u64)?;
+            geometries.push(g);
+            reports.push(r);
+        }
+        self.consistency = geometries;
+        Ok(reports)
+    }
+
+    /// The learned cross-camera consistency (camera 0 with camera `k`, entry `k − 1`).
+    pub fn consistency(&self) -> &[EpipolarGeometry] {
+        &self.consistency
     }
 
     /// Learns the `Learned` rule's correction from `samples` ([`TipModel::correction_sample`]
@@ -1024,6 +1115,7 @@ mod tests {
                 ..SilhouetteConfig::default()
             },
             correction: None,
+            consistency: Vec::new(),
             cameras: vec![CameraScene {
                 width: w,
                 height: h,

@@ -22,7 +22,7 @@
 //!    of the end face moves the tip by at most `r`.
 //!
 //! `r` was chosen on one development seed of `arm-sim` (0.5 px against 1 px, Huber-type clipping
-//! against a Gaussian taper; `docs/performance.md`, servo-loop's sixth round), never on the
+//! against a Gaussian taper; `docs/performance.md` at f7d00c4, sixth round), never on the
 //! evaluation's.
 
 use serde::{Deserialize, Serialize};

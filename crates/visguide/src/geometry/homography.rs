@@ -157,7 +157,7 @@ impl Homography {
         (p.0.is_finite() && p.1.is_finite()).then_some(p)
     }
 
-    /// The Jacobian of the map at `(x, y)` (OVERLAP.md §2):
+    /// The Jacobian of the map at `(x, y)` (docs/methods.md § Overlap error, step 1):
     /// `J = 1/w² [[h11 w − s h31, h12 w − s h32], [h21 w − t h31, h22 w − t h32]]`.
     /// `None` at the line at infinity.
     pub fn jacobian(&self, x: f64, y: f64) -> Option<Matrix2<f64>> {

@@ -1,7 +1,7 @@
-//! Ground truth of one image pair in descriptor mode (OVERLAP.md §5–6): every pair of regions
-//! (A in img1, B in imgN mapped into img1 with H⁻¹) whose overlap error ε(A, B) < 50% after the
-//! ×3 magnification is a *correct* match; the greedy one-to-one assignment over those pairs
-//! (smallest ε first) gives the number of *existing matches*, the recall denominator.
+//! Ground truth of one image pair in descriptor mode (docs/methods.md § Overlap error, steps 5–6):
+//! every pair of regions (A in img1, B in imgN mapped into img1 with H⁻¹) whose overlap error ε(A,
+//! B) < 50% after the ×3 magnification is a *correct* match; the greedy one-to-one assignment over
+//! those pairs (smallest ε first) gives the number of *existing matches*, the recall denominator.
 
 use rayon::prelude::*;
 
@@ -72,8 +72,9 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
     }
 }
 
-/// Greedy one-to-one assignment (OVERLAP.md §5): repeatedly take the smallest remaining ε (ties
-/// by indices, for determinism), record the pair and remove its row and column.
+/// Greedy one-to-one assignment (docs/methods.md § Overlap error, step 5): repeatedly take the
+/// smallest remaining ε (ties by indices, for determinism), record the pair and remove its row and
+/// column.
 pub fn greedy_one_to_one(mut scored: Vec<(f64, u32, u32)>) -> Vec<(u32, u32)> {
     scored.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
     let rows = scored.iter().map(|s| s.1 as usize + 1).max().unwrap_or(0);

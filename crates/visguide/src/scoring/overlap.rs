@@ -1,9 +1,10 @@
-//! The ellipse overlap error of Mikolajczyk et al. (IJCV 2005), as specified in the data folder's
-//! `oxford-affine/OVERLAP.md`: ellipses `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1`, mapped through
-//! the local affine approximation of H (§2), a distance gate of 4 equal-area radii (§4.2), a size
-//! normalisation that does not scale the centre offset (§4.3, the benchmark's quirk), and the
-//! area ratio counted on a grid of about 51 samples along the shorter side of the window with
-//! 32-bit stepping (§4.4). The test vectors T1–T6 of OVERLAP.md §7 are the unit tests.
+//! The ellipse overlap error of Mikolajczyk et al. (IJCV 2005), as specified in
+//! docs/methods.md § Overlap error: ellipses `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1`, mapped
+//! through the local affine approximation of H (step 1), a distance gate of 4 equal-area radii
+//! (step 2), a size normalisation that does not scale the centre offset (step 3, the
+//! benchmark's quirk), and the area ratio counted on a grid of about 51 samples along the
+//! shorter side of the window with 32-bit stepping (step 4). The unit tests are the test
+//! vectors listed there (T1–T6, computed independently of this code).
 
 use nalgebra::Matrix2;
 
@@ -48,9 +49,9 @@ pub fn radius(e: &Ellipse) -> f64 {
     det(e).powf(-0.25)
 }
 
-/// The ellipse mapped through `h` by the local affine approximation at its centre (OVERLAP.md
-/// §2): centre `h(u, v)`, shape `M' = J⁻ᵀ M J⁻¹`. `None` when the centre maps to infinity or
-/// J is singular there.
+/// The ellipse mapped through `h` by the local affine approximation at its centre
+/// (docs/methods.md § Overlap error, step 1): centre `h(u, v)`, shape `M' = J⁻ᵀ M J⁻¹`. `None` when
+/// the centre maps to infinity or J is singular there.
 pub fn map_linearised(e: &Ellipse, h: &Homography) -> Option<Ellipse> {
     let (u, v) = h.map(e.u, e.v)?;
     let j_inv = h.jacobian(e.u, e.v)?.try_inverse()?;
@@ -68,7 +69,7 @@ pub fn map_linearised(e: &Ellipse, h: &Homography) -> Option<Ellipse> {
     .ok()
 }
 
-/// How both ellipses are magnified before the area ratio is computed (OVERLAP.md §4.3).
+/// How both ellipses are magnified before the area ratio is computed (docs/methods.md § Overlap error, step 3).
 /// The study uses [`Normalisation::Descriptor`]; the other modes are specified and tested for
 /// completeness (repeatability figures, cross-checks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,7 +82,7 @@ pub enum Normalisation {
     Unscaled,
 }
 
-/// Whether the centre offset is scaled with the shapes (OVERLAP.md §4.3). The study uses
+/// Whether the centre offset is scaled with the shapes (docs/methods.md § Overlap error, step 3). The study uses
 /// [`Offset::Faithful`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Offset {
@@ -91,7 +92,8 @@ pub enum Offset {
     Scaled,
 }
 
-/// Overlap error threshold of descriptor mode (OVERLAP.md §6): a pair corresponds when ε < 0.5.
+/// Overlap error threshold of descriptor mode (docs/methods.md § Overlap error, step 6): a pair
+/// corresponds when ε < 0.5.
 pub const DESCRIPTOR_THRESHOLD: f64 = 0.5;
 
 /// Whether the pair can reach ε < `threshold` at all: IoU ≤ min(area)/max(area), so a pair with
@@ -104,7 +106,8 @@ pub fn may_overlap(a: &Ellipse, b_in_a: &Ellipse, threshold: f64) -> bool {
 }
 
 /// Overlap error `ε(A, B) = 1 − |A ∩ B| / |A ∪ B|` of region A (img1) and region B already mapped
-/// into img1, with the distance gate, normalisation and grid of OVERLAP.md §4. In `[0, 1]`.
+/// into img1, with the distance gate, normalisation and grid of docs/methods.md § Overlap error,
+/// steps 2–4. In `[0, 1]`.
 pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offset) -> f64 {
     let r_a = radius(a);
     let (mut dx, mut dy) = (b.u - a.u, b.v - a.v);

@@ -28,8 +28,9 @@
 //! # Ground truth
 //! Moment ellipses `M = Σ⁻¹` (VLBenchmarks' MSER frames), mapped by the local affine
 //! approximation of H, descriptor mode (×3, offset not scaled, no border crop), ε < 50 %
-//! (OVERLAP.md §6). A reported match is correct when its pair has ε < 50 %; the recall
-//! denominator is the number of greedy one-to-one correspondences ("existing matches").
+//! (docs/methods.md § Overlap error, step 6). A reported match is correct when its pair has ε < 50
+//! %; the recall denominator is the number of greedy one-to-one correspondences ("existing
+//! matches").
 
 pub(crate) mod error;
 mod evaluate;

@@ -1,16 +1,15 @@
 //! `cargo xtask eval servo` (fixtures in `fixtures/paper-c/`): Paper C's learned visual
 //! servoing on the simulated arm of `arm-sim`.
 //!
-//! Protocol (papers.md §3.4): the learner controls base, shoulder and elbow (wrist pitch,
-//! wrist roll and gripper held at fixed set-points: the redundancy resolution of
-//! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both
-//! cameras → set-points); 200 targets are the true tip projections of random commands from the
-//! same exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and
-//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the current percept, online
-//! refinement), `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and
-//! `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
-//! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
-//! distance) and 3-D tip distance (mm).
+//! Protocol (docs/methods.md § Servoing): the learner controls base, shoulder and elbow (wrist
+//! pitch, wrist roll and gripper held at fixed set-points: the redundancy resolution of
+//! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both cameras
+//! → set-points); 200 targets are the true tip projections of random commands from the same
+//! exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and runs `K =
+//! 10` corrections: `lwpr` (learned Jacobian at the current percept, online refinement),
+//! `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and `true-jacobian`
+//! (analytic Jacobian of the ideal arm). Errors are measured on the simulator's ground truth: image
+//! error of the true tip (RMS over the cameras of the pixel distance) and 3-D tip distance (mm).
 //!
 //! **Percept.** By default (and in the fixtures) the percept is `servo-loop`'s learned
 //! recognition on the rendered images: the recogniser learns the static scene and which end

@@ -147,7 +147,7 @@ pub fn summary(study: &Study) -> String {
         );
     } else {
         s += &format!(
-            "**Percept:** the simulator's true tip projection + Gaussian detection noise σ = {} px (papers.md §3.4), \
+            "**Percept:** the simulator's true tip projection + Gaussian detection noise σ = {} px (docs/methods.md § Servoing), \
              NOT the learned gripper recognition (evaluated separately below; it misses its goal; `--percept recognised` runs the complete pipeline). \
              Errors are measured on ground truth (image error = RMS over both cameras of the true tip's pixel distance to the target; 3-D = tip distance in mm).\n\n",
             p.noise_px

@@ -2,10 +2,10 @@
 //! order, online) against a constant-velocity Kalman filter with nearest-neighbour gating and
 //! SIR particle filters with 100, 1,000 and 10,000 particles, on
 //!
-//! - synthetic RC-car-following sequences at five difficulty levels (papers.md §2.5; 4
+//! - synthetic RC-car-following sequences at five difficulty levels (docs/methods.md § Tracking; 4
 //!   training sequences of 300 frames and 5 test sequences of 150 frames per level),
-//! - the UNGM benchmark of Arulampalam et al. (papers.md §2.4; CBT learns its models from 20
-//!   simulated training runs),
+//! - the UNGM benchmark of Arulampalam et al. (docs/methods.md § Tracking; CBT learns its models
+//!   from 20 simulated training runs),
 //! - or the user's own CSV sequences (`--train DIR --test DIR`).
 //!
 //! Writes into `fixtures/paper-b/` (or `--out`): one JSON per set, `summary.md`, and SVG

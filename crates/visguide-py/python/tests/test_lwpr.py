@@ -1,0 +1,282 @@
+"""visguide.lwpr.LWPR: bit-identical to the Rust crate on the same samples
+(tests/reference.json), the reference module's vocabulary, validation and round trips."""
+
+import copy
+import pickle
+
+import numpy as np
+import pytest
+from conftest import bytes_digest
+
+from visguide.lwpr import LWPR
+
+
+def make(case):
+    if case == "cross_2d":
+        model = LWPR(2, 1)
+        model.init_D = 50 * np.eye(2)
+        model.init_alpha = 250 * np.ones([2, 2])
+    else:
+        model = LWPR(3, 2)
+        model.init_D = 20 * np.eye(3)
+        model.init_alpha = 100 * np.ones([3, 3])
+        model.diag_only = False
+        model.meta = True
+        model.norm_in = [1.0, 2.0, 0.5]
+        model.norm_out = np.array([1.0, 3.0])
+    return model
+
+
+CASES = ["cross_2d", "full_meta_3d"]
+
+
+def check_equal_to_reference(model, ref):
+    assert model.num_rfs == ref["num_rfs"]
+    assert bytes_digest(model.to_bytes()) == ref["binary"]
+    for q, p in zip(ref["queries"], ref["predictions"]):
+        # Exact equality of floats: bit-identical to the Rust model.
+        assert model.predict(q, 0.001).tolist() == p["y"]
+        assert model.predict(np.array(q)).tolist() == p["y0"]
+        y, conf = model.predict_conf(q, 0.001)
+        assert (y.tolist(), conf.tolist()) == (p["conf_y"], p["conf"])
+        y, jac = model.predict_J(q, 0.001)
+        assert (y.tolist(), jac.tolist()) == (p["jacobian_y"], p["jacobian"])
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_update_is_bit_identical_to_the_rust_crate(reference, case):
+    ref = reference["lwpr"][case]
+    model = make(case)
+    learning = [model.update(np.array(x), np.array(y)).tolist() for x, y in zip(ref["x"], ref["y"])]
+    assert learning == ref["y_learning"]
+    assert model.n_data == len(ref["x"])
+    check_equal_to_reference(model, ref)
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_update_batch_is_bit_identical_to_the_rust_crate(reference, case):
+    ref = reference["lwpr"][case]
+    model = make(case)
+    learning = model.update_batch(np.array(ref["x"]), np.array(ref["y"]))
+    assert learning.shape == (len(ref["x"]), model.nOut)
+    assert learning.tolist() == ref["y_learning"]
+    check_equal_to_reference(model, ref)
+    qs = np.array(ref["queries"])
+    assert model.predict_batch(qs, 0.001).tolist() == [p["y"] for p in ref["predictions"]]
+
+
+def test_update_batch_in_pieces_equals_one_batch(reference):
+    ref = reference["lwpr"]["cross_2d"]
+    x, y = np.array(ref["x"]), np.array(ref["y"])
+    a, b = make("cross_2d"), make("cross_2d")
+    a.update_batch(x, y)
+    b.update_batch(x[:150], y[:150])
+    b.update_batch(x[150:], y[150:])
+    assert a == b
+
+
+def test_non_contiguous_and_integer_inputs_work(reference):
+    ref = reference["lwpr"]["cross_2d"]
+    x, y = np.array(ref["x"]), np.array(ref["y"])
+    a, b = make("cross_2d"), make("cross_2d")
+    a.update_batch(x, y)
+    # Fortran order and a strided view of a wider array hold the same values.
+    wide = np.zeros((len(x), 4))
+    wide[:, ::2] = x
+    b.update_batch(wide[:, ::2], np.asfortranarray(y))
+    assert a == b
+    assert a.predict([0, 0]).tolist() == a.predict(np.array([0.0, 0.0])).tolist()
+    assert a.predict(np.array([0, 0], dtype=np.int32)).tolist() == a.predict([0.0, 0.0]).tolist()
+
+
+def trained():
+    model = LWPR(2, 1)
+    model.init_D = 50 * np.eye(2)
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-1, 1, (300, 2))
+    model.update_batch(x, np.sin(3 * x[:, :1]) * x[:, 1:])
+    return model
+
+
+@pytest.mark.parametrize(
+    "x, y",
+    [
+        ([np.nan, 0.0], [0.0]),
+        ([0.0, np.inf], [0.0]),
+        ([0.0, 0.0], [np.nan]),
+        ([0.0], [0.0]),
+        ([0.0, 0.0, 0.0], [0.0]),
+        ([0.0, 0.0], [0.0, 1.0]),
+    ],
+)
+def test_bad_samples_are_refused_without_changing_the_model(x, y):
+    model = trained()
+    before = model.to_bytes()
+    with pytest.raises(ValueError):
+        model.update(x, y)
+    with pytest.raises(ValueError):
+        model.update_batch(np.array([[0.1, 0.2], x] if len(x) == 2 else [x]), np.array([[0.0], y] if len(y) == 1 else [y]))
+    assert model.to_bytes() == before
+
+
+def test_a_nan_anywhere_in_a_batch_changes_nothing():
+    model = trained()
+    before = model.to_bytes()
+    x = np.random.default_rng(1).uniform(-1, 1, (50, 2))
+    y = x[:, :1].copy()
+    y[49, 0] = np.nan
+    with pytest.raises(ValueError, match="row 49"):
+        model.update_batch(x, y)
+    with pytest.raises(ValueError, match="rows"):
+        model.update_batch(x, y[:10])
+    assert model.to_bytes() == before
+
+
+def test_bad_queries_are_value_errors():
+    model = trained()
+    for call in [model.predict, model.predict_conf, model.predict_J]:
+        with pytest.raises(ValueError):
+            call([np.nan, 0.0])
+        with pytest.raises(ValueError):
+            call([0.0, 0.0, 0.0])
+        with pytest.raises(ValueError):
+            call([0.0, 0.0], float("nan"))
+    with pytest.raises(ValueError):
+        model.predict_batch(np.zeros((3, 3)))
+    with pytest.raises(TypeError):
+        model.predict(np.zeros((2, 2)))
+
+
+def test_meta_parameters_are_attributes():
+    model = LWPR(2, 1)
+    assert (model.nIn, model.nOut, model.n_data) == (2, 1, 0)
+    assert model.init_D.tolist() == (25 * np.eye(2)).tolist()
+    assert model.init_M.tolist() == (5 * np.eye(2)).tolist()
+    assert model.init_alpha.tolist() == (50 * np.ones((2, 2))).tolist()
+    assert (model.w_gen, model.w_prune, model.init_lambda, model.final_lambda) == (0.1, 1.0, 0.999, 0.99999)
+    assert (model.tau_lambda, model.init_S2, model.add_threshold, model.penalty) == (0.9999, 1e-10, 0.5, 1e-6)
+    assert (model.diag_only, model.update_D, model.meta, model.meta_rate) == (True, True, False, 250.0)
+    assert model.kernel == "Gaussian" and model.prune_rule == "published" and model.arithmetic == "fast"
+    assert model.norm_in.tolist() == [1.0, 1.0] and model.norm_out.tolist() == [1.0]
+    for name, value in [
+        ("w_gen", 0.2),
+        ("w_prune", 0.9),
+        ("init_lambda", 0.99),
+        ("final_lambda", 0.9999),
+        ("tau_lambda", 0.99),
+        ("init_S2", 1e-8),
+        ("add_threshold", 0.4),
+        ("penalty", 1e-5),
+        ("meta_rate", 100.0),
+        ("diag_only", False),
+        ("update_D", False),
+        ("meta", True),
+        ("kernel", "BiSquare"),
+        ("prune_rule", "reference_c"),
+        ("arithmetic", "reference"),
+    ]:
+        setattr(model, name, value)
+        assert getattr(model, name) == value, name
+    model.init_D = [[4.0, 1.0], [1.0, 9.0]]
+    assert model.init_D.tolist() == [[4.0, 1.0], [1.0, 9.0]]
+    m = model.init_M
+    assert np.allclose(m.T @ m, model.init_D) and m[1, 0] == 0.0
+
+
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("w_gen", 1.5),
+        ("w_gen", float("nan")),
+        ("init_lambda", 0.0),
+        ("penalty", -1.0),
+        ("meta_rate", 0.0),
+        ("init_D", [[1.0, 2.0], [0.0, 1.0]]),
+        ("init_D", [[1.0, 0.0], [0.0, -1.0]]),
+        ("init_D", np.eye(3)),
+        ("init_alpha", np.zeros((2, 2))),
+        ("norm_in", [1.0]),
+        ("norm_in", [1.0, 0.0]),
+        ("norm_out", [np.nan]),
+        ("kernel", "Cauchy"),
+        ("prune_rule", "random"),
+        ("arithmetic", "exact"),
+    ],
+)
+def test_invalid_meta_parameters_are_refused_without_changing_the_model(name, value):
+    model = trained()
+    before = model.to_bytes()
+    with pytest.raises(ValueError):
+        setattr(model, name, value)
+    assert model.to_bytes() == before
+
+
+def test_off_diagonal_init_D_needs_a_full_metric():
+    model = LWPR(2, 1)
+    with pytest.raises(ValueError, match="diagonal"):
+        model.init_D = [[4.0, 1.0], [1.0, 9.0]]
+    model.diag_only = False
+    model.init_D = [[4.0, 1.0], [1.0, 9.0]]
+
+
+def test_setting_a_parameter_keeps_what_was_learned():
+    model = trained()
+    rfs, n = model.num_rfs, model.n_data
+    q = [0.3, -0.2]
+    y = model.predict(q).tolist()
+    model.w_gen = 0.3
+    assert (model.num_rfs, model.n_data, model.predict(q).tolist()) == (rfs, n, y)
+    assert model.w_gen == 0.3
+
+
+def test_receptive_fields():
+    model = trained()
+    k = model.num_rfs[0]
+    assert k > 0
+    assert model.rf_center(0, k - 1).shape == (2,)
+    assert model.rf_D(0, 0).shape == (2, 2)
+    with pytest.raises(ValueError):
+        model.rf_center(0, k)
+    with pytest.raises(ValueError):
+        model.rf_D(1, 0)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".bin"])
+def test_save_and_load_round_trip(tmp_path, suffix):
+    model = trained()
+    path = tmp_path / ("model" + suffix)
+    model.save(path)
+    for loaded in [LWPR.load(path), LWPR(str(path)), LWPR(path)]:
+        assert loaded == model
+        assert loaded.predict([0.1, 0.2]).tolist() == model.predict([0.1, 0.2]).tolist()
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(OSError):
+        LWPR.load(tmp_path / "missing.bin")
+    with pytest.raises(OSError):
+        trained().save(tmp_path / "no" / "such" / "dir" / "m.bin")
+    bad = tmp_path / "bad.bin"
+    bad.write_bytes(b"not a model")
+    with pytest.raises(ValueError):
+        LWPR.load(bad)
+    data = bytearray(trained().to_bytes())
+    data[40] ^= 1
+    with pytest.raises(ValueError, match="checksum"):
+        LWPR.from_bytes(bytes(data))
+    with pytest.raises(ValueError):
+        LWPR(2)
+    with pytest.raises(ValueError):
+        LWPR(0, 1)
+
+
+def test_pickle_and_copy_round_trip():
+    model = trained()
+    for clone in [pickle.loads(pickle.dumps(model)), copy.deepcopy(model), LWPR.from_bytes(model.to_bytes())]:
+        assert clone == model and clone is not model
+        # Training continues identically.
+        clone.update([0.5, 0.5], [0.1])
+        m2 = LWPR.from_bytes(model.to_bytes())
+        m2.update([0.5, 0.5], [0.1])
+        assert clone == m2
+    assert "LWPR(n_in=2" in repr(model)

@@ -1,0 +1,31 @@
+//! How the crates' errors become Python exceptions: bad input is a `ValueError`, a file that
+//! cannot be read or written an `OSError`; the message is the Rust error's.
+
+use pyo3::PyErr;
+use pyo3::exceptions::{PyOSError, PyValueError};
+
+/// `ValueError` with `msg`.
+pub fn value_error(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}
+
+/// An MSER error: `OSError` for files, `ValueError` otherwise.
+pub fn from_mser(e: mser::MserError) -> PyErr {
+    match e {
+        mser::MserError::Io(_) | mser::MserError::Image(_) => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// An LWPR error: `OSError` for files, `ValueError` otherwise (also for a corrupt model file).
+pub fn from_lwpr(e: lwpr::LwprError) -> PyErr {
+    match e {
+        lwpr::LwprError::Io(_) => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// A Fourier-descriptor error (always bad input).
+pub fn from_fd(e: fd_match::FdError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}

@@ -1,0 +1,40 @@
+//! Python bindings of the visguide crates, built by maturin into the `visguide` wheel
+//! (`pyproject.toml` beside this crate; the Python package lives in `python/visguide`).
+//!
+//! This crate is the extension module `visguide._visguide`; the Python modules
+//! `visguide.mser`, `visguide.lwpr`, `visguide.fd` and `visguide.tracking` re-export its
+//! functions and classes with docstrings and type stubs. It adds no algorithm of its own: every
+//! number comes from the `mser`, `lwpr`, `fd-match` and `cbt-tracker` crates, whose docs hold
+//! the math (thesis Papers A–C). What lives here is the conversion between NumPy arrays and the
+//! crates' types, and of their errors into Python exceptions (`ValueError` for bad input,
+//! `OSError` for files, `TypeError` from argument conversion for wrong dtypes or ranks).
+//!
+//! Arrays: a 2-D `uint8` image whose rows are contiguous is read in place (any row stride);
+//! other layouts are copied once. Long computations (`mser.detect`, `LWPR.update_batch`,
+//! `LWPR.predict_batch`) release the GIL.
+//!
+//! The library target has no Rust unit tests: the bindings are tested by pytest (`python/tests`,
+//! run by `.ci/run`) against reference values that `tests/reference.rs` computes with the crates
+//! directly (`tests/reference.json`). The Rust side links libpython only for the extension
+//! module's own symbols, so `cargo test` needs nothing from Python at run time.
+
+use pyo3::prelude::*;
+
+mod errors;
+mod fd_py;
+mod image;
+mod lwpr_py;
+mod mser_py;
+
+/// The compiled part of the `visguide` package (use `visguide.mser`, `visguide.lwpr`, ...).
+#[pymodule]
+fn _visguide(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(mser_py::detect, m)?)?;
+    m.add_function(wrap_pyfunction!(mser_py::preset_dict, m)?)?;
+    m.add_class::<mser_py::PyRegion>()?;
+    m.add_class::<lwpr_py::PyLwpr>()?;
+    m.add_function(wrap_pyfunction!(fd_py::describe, m)?)?;
+    m.add_function(wrap_pyfunction!(fd_py::match_sets, m)?)?;
+    m.add_class::<fd_py::PyDescriptors>()?;
+    Ok(())
+}

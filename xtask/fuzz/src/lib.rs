@@ -1,0 +1,188 @@
+//! The bodies of visguide's fuzz targets: one function per parser or loader, called by the
+//! libFuzzer binary of the same name (`fuzz_targets/NAME.rs`) and by the stable replay test
+//! (`tests/replay.rs`) on every file of `corpus/NAME/`.
+//!
+//! Each body feeds arbitrary bytes to a loader. Whatever the bytes, the loader must return
+//! (never panic, never abort on an allocation); and what it accepts must be usable: a loaded
+//! model predicts or tracks without panicking, a parsed file survives its own writer. A panic
+//! here is a finding.
+
+use std::path::Path;
+
+/// Every target: its name (the binary and the corpus folder) and its body.
+pub const TARGETS: &[(&str, fn(&[u8]))] = &[
+    ("oxford_regions", oxford_regions),
+    ("tracking_csv", tracking_csv),
+    // ("tracking_mot", tracking_mot): the MOT reader of cbt-tracker, once it exists — a body
+    // here, a line in this table, `fuzz_targets/tracking_mot.rs`, a `[[bin]]` in Cargo.toml
+    // and seeds in `corpus/tracking_mot/`.
+    ("arm_config", arm_config),
+    ("lwpr_json", lwpr_json),
+    ("lwpr_binary", lwpr_binary),
+    ("cbt_model", cbt_model),
+    ("cbt_tracker", cbt_tracker),
+    ("servo_inverse_model", servo_inverse_model),
+    ("servo_recognition", servo_recognition),
+];
+
+/// Oxford region files (`mser::read_regions`): every accepted ellipse is finite and positive
+/// definite, as documented, and writing the ellipses back reads back the same values.
+pub fn oxford_regions(data: &[u8]) {
+    let Ok(regions) = mser::read_regions(data) else {
+        return;
+    };
+    let ellipses: Vec<mser::Ellipse> = regions.iter().map(|r| r.ellipse).collect();
+    for e in &ellipses {
+        let finite = [e.u, e.v, e.a, e.b, e.c].iter().all(|x| x.is_finite());
+        assert!(finite && e.a > 0.0 && e.a * e.c - e.b * e.b > 0.0, "{e:?}");
+    }
+    let mut text = Vec::new();
+    mser::write_regions(&mut text, &ellipses).expect("writing to memory");
+    let back = mser::read_regions(text.as_slice()).expect("our own output reads back");
+    let again: Vec<mser::Ellipse> = back.iter().map(|r| r.ellipse).collect();
+    assert_eq!(again, ellipses);
+}
+
+/// Tracking CSV files (`cbt_tracker::csv::parse`): what parses writes back and reads back to
+/// the same sequence.
+pub fn tracking_csv(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let path = Path::new("fuzz.csv");
+    let Ok(seq) = cbt_tracker::csv::parse(text, "fuzz", path) else {
+        return;
+    };
+    let written = cbt_tracker::csv::to_string(&seq);
+    let back = cbt_tracker::csv::parse(&written, "fuzz", path).expect("our own output parses");
+    // Trailing empty frames are not written (they have no rows).
+    let used = |s: &cbt_tracker::Sequence| {
+        s.frames
+            .iter()
+            .rposition(|f| f.truth.is_some() || !f.detections.is_empty())
+            .map_or(0, |k| k + 1)
+    };
+    assert_eq!(used(&back), used(&seq));
+    assert_eq!(back.frames[..used(&back)], seq.frames[..used(&seq)]);
+}
+
+/// Arm configurations (`arm_sim::SimConfig::from_json`): an accepted configuration writes
+/// back and reads back equal.
+pub fn arm_config(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(config) = arm_sim::SimConfig::from_json(text) else {
+        return;
+    };
+    let back = arm_sim::SimConfig::from_json(&config.to_json()).expect("our own output loads");
+    assert_eq!(back, config);
+}
+
+/// Predicts with a loaded LWPR model at the origin and at a far point (errors allowed, panics
+/// not), and checks that it saves and loads again.
+fn use_lwpr(model: &lwpr::Lwpr) {
+    for x in [0.0, 1e3] {
+        let _ = model.predict(&vec![x; model.n_in()], 0.001);
+    }
+    lwpr::Lwpr::from_json(&model.to_json()).expect("a loaded model's JSON loads again");
+    lwpr::Lwpr::from_binary(&model.to_binary()).expect("a loaded model's binary loads again");
+}
+
+/// LWPR models saved as JSON (`Lwpr::from_json`).
+pub fn lwpr_json(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(model) = lwpr::Lwpr::from_json(text) {
+        use_lwpr(&model);
+    }
+}
+
+/// LWPR models saved in the binary format (`Lwpr::from_binary`). Input that does not start
+/// with the format's magic is also taken as a payload and framed (magic, version, length,
+/// FNV-1a checksum) first, so that mutations reach the decoder behind the checksum.
+pub fn lwpr_binary(data: &[u8]) {
+    if let Ok(model) = lwpr::Lwpr::from_binary(data) {
+        use_lwpr(&model);
+    }
+    let header = binary_header();
+    if !data.starts_with(&header[..8]) {
+        let mut framed = header[..12].to_vec();
+        framed.extend_from_slice(&(data.len() as u64).to_le_bytes());
+        framed.extend_from_slice(data);
+        framed.extend_from_slice(&fnv1a(data).to_le_bytes());
+        if let Ok(model) = lwpr::Lwpr::from_binary(&framed) {
+            use_lwpr(&model);
+        }
+    }
+}
+
+/// The first 12 bytes of a binary LWPR model (magic and version), taken from a saved model.
+fn binary_header() -> &'static [u8] {
+    static HEADER: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    HEADER.get_or_init(|| {
+        let model = lwpr::LwprBuilder::new(1, 1).build().expect("a 1-D model");
+        model.to_binary()[..12].to_vec()
+    })
+}
+
+/// The binary format's checksum (64-bit FNV-1a over the payload), for framing payloads.
+fn fnv1a(data: &[u8]) -> u64 {
+    data.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// A detection at the centre of a tracker's first two axes.
+fn probe_detections() -> Vec<cbt_tracker::Detection> {
+    vec![cbt_tracker::Detection::new(0.5, 0.5)]
+}
+
+/// Runs a tracker for two frames (with and without a detection); errors allowed, panics not.
+fn use_tracker(mut t: cbt_tracker::CbtTracker) {
+    use cbt_tracker::Tracker;
+    let _ = t.step(&probe_detections());
+    let _ = t.step(&[]);
+    let _ = t.estimate();
+}
+
+/// CBT models saved with serde (JSON): a loaded model drives a tracker.
+pub fn cbt_model(data: &[u8]) {
+    if let Ok(model) = serde_json::from_slice::<cbt_tracker::CbtModel>(data) {
+        use_tracker(cbt_tracker::CbtTracker::new(model));
+    }
+}
+
+/// CBT trackers saved with serde (JSON), posterior included: a loaded tracker keeps tracking.
+pub fn cbt_tracker(data: &[u8]) {
+    if let Ok(tracker) = serde_json::from_slice::<cbt_tracker::CbtTracker>(data) {
+        use_tracker(tracker);
+    }
+}
+
+/// servo-loop's learned inverse model (`InverseModel`, JSON): a loaded model predicts.
+pub fn servo_inverse_model(data: &[u8]) {
+    if let Ok(model) = serde_json::from_slice::<servo_loop::InverseModel>(data) {
+        for x in [0.0, 1e3] {
+            let _ = model.predict(&vec![x; model.percept_dim()]);
+            let _ = model.predict_with_jacobian(&vec![x; model.percept_dim()]);
+        }
+    }
+}
+
+/// servo-loop's recognition models (`TipModel`, `GripperModel`, `TipCorrection`; JSON): the
+/// same bytes are offered to each; a loaded tip model locates on a small blank image (an error
+/// for a size it was not learned on, never a panic).
+pub fn servo_recognition(data: &[u8]) {
+    if let Ok(model) = serde_json::from_slice::<servo_loop::TipModel>(data) {
+        let img = image::GrayImage::new(16, 12);
+        for cam in 0..2 {
+            let _ = model.locate(cam, &img);
+        }
+    }
+    let _ = serde_json::from_slice::<servo_loop::GripperModel>(data);
+    if let Ok(c) = serde_json::from_slice::<servo_loop::TipCorrection>(data) {
+        let _ = c.tips(&[[1.0, 2.0]], &[None]);
+    }
+}

@@ -1,0 +1,89 @@
+//! CPU time for speed ratios on a shared machine: the scheduler's per-thread run time
+//! (`/proc/.../schedstat`, nanoseconds), which other processes competing for the cores disturb
+//! far less than wall time, and interleaved repeats of the two sides of a comparison, so that
+//! a slow phase of the machine hits both.
+
+use crate::Result;
+use crate::report::median;
+
+/// Run time of one thread in seconds from a `schedstat` file (its first field, nanoseconds).
+fn schedstat_seconds(path: &std::path::Path) -> Option<f64> {
+    let s = std::fs::read_to_string(path).ok()?;
+    let ns: u64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(ns as f64 * 1e-9)
+}
+
+/// CPU time of the calling thread in seconds (Linux; `None` elsewhere).
+pub fn thread_seconds() -> Option<f64> {
+    schedstat_seconds(std::path::Path::new("/proc/thread-self/schedstat"))
+}
+
+/// CPU time of all live threads of this process in seconds (Linux; `None` elsewhere). Threads
+/// that have exited are not counted, so measure with long-lived pools (rayon's).
+pub fn process_seconds() -> Option<f64> {
+    let mut total = 0.0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        total += schedstat_seconds(&task.ok()?.path().join("schedstat"))?;
+    }
+    Some(total)
+}
+
+/// Which clock [`interleaved`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// [`thread_seconds`]: for work on the calling thread (the OpenCV benches use it).
+    #[cfg_attr(not(feature = "opencv"), allow(dead_code))]
+    Thread,
+    /// [`process_seconds`]: for work spread over a thread pool.
+    Process,
+    /// Wall time: for parallel speed-ups, which CPU time cannot show.
+    Wall,
+}
+
+impl Clock {
+    fn now(self, t0: std::time::Instant) -> Result<f64> {
+        match self {
+            Clock::Thread => {
+                thread_seconds().ok_or_else(|| "no /proc/thread-self/schedstat".into())
+            }
+            Clock::Process => process_seconds().ok_or_else(|| "no /proc/self/task".into()),
+            Clock::Wall => Ok(t0.elapsed().as_secs_f64()),
+        }
+    }
+
+    /// How the clock is named in printed notes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Clock::Thread => "thread CPU time",
+            Clock::Process => "process CPU time",
+            Clock::Wall => "wall time",
+        }
+    }
+}
+
+/// Runs `a` and `b` alternately, `warmup` times each unmeasured and then `rounds` times each,
+/// and returns the median time of one call of each (seconds of `clock`).
+pub fn interleaved(
+    clock: Clock,
+    warmup: usize,
+    rounds: usize,
+    mut a: impl FnMut(),
+    mut b: impl FnMut(),
+) -> Result<(f64, f64)> {
+    for _ in 0..warmup {
+        a();
+        b();
+    }
+    let origin = std::time::Instant::now();
+    let (mut ta, mut tb) = (Vec::new(), Vec::new());
+    for _ in 0..rounds.max(1) {
+        let t0 = clock.now(origin)?;
+        a();
+        let t1 = clock.now(origin)?;
+        b();
+        let t2 = clock.now(origin)?;
+        ta.push(t1 - t0);
+        tb.push(t2 - t1);
+    }
+    Ok((median(&mut ta), median(&mut tb)))
+}
