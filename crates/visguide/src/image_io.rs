@@ -22,7 +22,11 @@ pub fn decode_gray(path: &Path, bytes: &[u8]) -> Result<GrayImage> {
     let format = image::guess_format(bytes).map_err(|e| bad(e.to_string()))?;
     let img = image::load_from_memory_with_format(bytes, format).map_err(|e| bad(e.to_string()))?;
     if img.width() == 0 || img.height() == 0 {
-        return Err(bad(format!("it has no pixels ({}×{})", img.width(), img.height())));
+        return Err(bad(format!(
+            "it has no pixels ({}×{})",
+            img.width(),
+            img.height()
+        )));
     }
     Ok(mser::to_gray(&img))
 }
@@ -69,7 +73,12 @@ mod tests {
     fn unreadable_files_are_typed_errors() {
         let p = Path::new("/nonexistent/visguide/img1.png");
         assert!(matches!(load_gray(p), Err(VisguideError::Io { .. })));
-        for bad in [&b"not a png"[..], b"P5 1 1 255\n", b"", b"\x89PNG\r\n\x1a\n"] {
+        for bad in [
+            &b"not a png"[..],
+            b"P5 1 1 255\n",
+            b"",
+            b"\x89PNG\r\n\x1a\n",
+        ] {
             assert!(matches!(
                 decode_gray(Path::new("x.png"), bad),
                 Err(VisguideError::Image { .. })

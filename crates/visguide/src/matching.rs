@@ -12,8 +12,8 @@
 //! centres ([`crate::geometry::fit_homography`]).
 
 use fd_match::{
-    Alignment, Correlator, DescriptorConfig, DescriptorSet, Method, Sampling, match_sets,
-    min_errors_within, preselect,
+    Alignment, DescriptorConfig, DescriptorSet, Method, Sampling, match_sets, min_errors_within,
+    preselect,
 };
 use image::GrayImage;
 use mser::MserParams;
@@ -42,7 +42,11 @@ pub struct RegionMatch {
 /// Describes every region's contour with `sampling` (Paper A's descriptor setting otherwise);
 /// degenerate contours are left out (`set.source(k)` is the region index).
 pub fn describe(features: &Features, sampling: Sampling) -> Result<DescriptorSet> {
-    Ok(fd_match::describe_all(DescriptorConfig::with_sampling(sampling), &features.contours)?.set)
+    Ok(fd_match::describe_all(
+        DescriptorConfig::with_sampling(sampling),
+        &features.contours,
+    )?
+    .set)
 }
 
 /// The descriptors that survive preselection with threshold `t_err` (eq. 18).
@@ -52,7 +56,11 @@ pub fn preselected(set: &DescriptorSet, method: Method, t_err: f64) -> Result<De
 }
 
 /// All symmetric matches of two descriptor sets, unthresholded, ascending in `i`.
-pub fn match_regions(a: &DescriptorSet, b: &DescriptorSet, method: Method) -> Result<Vec<RegionMatch>> {
+pub fn match_regions(
+    a: &DescriptorSet,
+    b: &DescriptorSet,
+    method: Method,
+) -> Result<Vec<RegionMatch>> {
     Ok(match_sets(a, b, method)?
         .into_iter()
         .map(|m| RegionMatch {
@@ -122,14 +130,14 @@ pub struct PairMatches {
     pub homography: Option<HomographyFit>,
 }
 
-/// Rotation `φ` between two contours from their affine-arc-length FDs (eq. 12).
+/// Rotation `φ` between two contours from their affine-arc-length FDs (eq. 12): the FD Corr
+/// match of the two one-descriptor sets.
 fn pair_rotation(a: &[(u32, u32)], b: &[(u32, u32)]) -> Option<f64> {
     let cfg = DescriptorConfig::with_sampling(Sampling::AffineArcLength);
-    let mut ex = fd_match::Extractor::new(cfg).ok()?;
-    let da = ex.describe(a).ok()?;
-    let db = ex.describe(b).ok()?;
-    let mut corr = Correlator::new(cfg.max_frequency(), cfg.samples).ok()?;
-    Some(corr.correlate(&da.fd, &db.fd).ok()?.alignment.rotation)
+    let da = fd_match::describe_all(cfg, &[a]).ok()?.set;
+    let db = fd_match::describe_all(cfg, &[b]).ok()?.set;
+    let m = match_sets(&da, &db, Method::FdCorr).ok()?;
+    m.first()?.alignment.map(|al| al.rotation)
 }
 
 /// Regions, descriptors, matches and geometry of two images.

@@ -42,7 +42,9 @@ fn read_checked(path: &Path, format: &str) -> Result<String> {
     let h: Header = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
     match (h.format.as_deref(), h.version) {
         (Some(f), _) if f != format => Err(bad(format!("it is a `{f}` file, expected `{format}`"))),
-        (None, _) => Err(bad(format!("no `format` field; expected a `{format}` file"))),
+        (None, _) => Err(bad(format!(
+            "no `format` field; expected a `{format}` file"
+        ))),
         (_, Some(v)) if v != MODEL_VERSION => Err(bad(format!(
             "version {v}, but this visguide reads version {MODEL_VERSION}"
         ))),
@@ -177,9 +179,19 @@ mod tests {
         let e = LwprFile::load(&p).unwrap_err().to_string();
         assert!(e.contains("version 7"), "{e}");
         std::fs::write(&p, "{\"format\":\"visguide-cbt\",\"version\":1}").unwrap();
-        assert!(LwprFile::load(&p).unwrap_err().to_string().contains("visguide-cbt"));
+        assert!(
+            LwprFile::load(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("visguide-cbt")
+        );
         std::fs::write(&p, "garbage").unwrap();
-        assert!(LwprFile::load(&p).unwrap_err().to_string().contains("not JSON"));
+        assert!(
+            LwprFile::load(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("not JSON")
+        );
         assert!(TrackModelFile::load(&dir).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -44,7 +44,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Table> {
         if fields.len() != width {
             return Err(err(
                 no,
-                format!("expected {width} comma-separated numbers, found {} fields", fields.len()),
+                format!(
+                    "expected {width} comma-separated numbers, found {} fields",
+                    fields.len()
+                ),
             ));
         }
         let mut row = Vec::with_capacity(width);
@@ -66,7 +69,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Table> {
         lines.push(no);
     }
     let Some(columns) = columns else {
-        return Err(err(0, "empty file: expected rows of comma-separated numbers".into()));
+        return Err(err(
+            0,
+            "empty file: expected rows of comma-separated numbers".into(),
+        ));
     };
     if rows.is_empty() {
         return Err(err(0, "no data rows after the header".into()));
@@ -102,7 +108,11 @@ mod tests {
 
     #[test]
     fn header_blank_lines_and_comments() {
-        let t = parse("# data\nx1,x2,y\n\n1,2,3\n4, 5.5 ,-6e-1\n", Path::new("d.csv")).unwrap();
+        let t = parse(
+            "# data\nx1,x2,y\n\n1,2,3\n4, 5.5 ,-6e-1\n",
+            Path::new("d.csv"),
+        )
+        .unwrap();
         assert_eq!(t.columns, vec!["x1", "x2", "y"]);
         assert_eq!(t.rows, vec![vec![1.0, 2.0, 3.0], vec![4.0, 5.5, -0.6]]);
         assert_eq!(t.lines, vec![4, 5]);
@@ -121,7 +131,10 @@ mod tests {
             ("", 0, "empty"),
         ] {
             let e = parse(text, p).unwrap_err().to_string();
-            assert!(e.starts_with(&format!("d.csv:{line}:")) && e.contains(what), "{e}");
+            assert!(
+                e.starts_with(&format!("d.csv:{line}:")) && e.contains(what),
+                "{e}"
+            );
         }
     }
 }

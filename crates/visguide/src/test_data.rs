@@ -12,7 +12,9 @@ pub fn oxford_dir() -> Option<PathBuf> {
         Some(root) => {
             let mut dir = PathBuf::from(root);
             if dir.is_relative() && !dir.is_dir() {
-                dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").join(dir);
+                dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                    .join("../..")
+                    .join(dir);
             }
             let dir = dir.join("oxford-affine");
             if dir.is_dir() {

@@ -126,7 +126,15 @@ fn regions_every_format_matches_the_library() {
     // Oxford, default preset, a directory argument, two thread counts.
     for threads in ["1", "3"] {
         let out = dir.join(format!("ox{threads}"));
-        ok(&["regions", "--quiet", "--threads", threads, "--out", s(&out), s(&imgs)]);
+        ok(&[
+            "regions",
+            "--quiet",
+            "--threads",
+            threads,
+            "--out",
+            s(&out),
+            s(&imgs),
+        ]);
         for (k, img) in images.iter().enumerate() {
             let view = mser::GrayView::from_image(img).unwrap();
             let regions = mser::detect(&view, &params).unwrap();
@@ -144,8 +152,21 @@ fn regions_every_format_matches_the_library() {
     let out = dir.join("json");
     let first = imgs.join("s0.png");
     ok(&[
-        "regions", "-q", "--format", "json", "--contours", "--preset", "opencv", "--delta", "7",
-        "--max-variation", "0.4", "--draw", "--out", s(&out), s(&first),
+        "regions",
+        "-q",
+        "--format",
+        "json",
+        "--contours",
+        "--preset",
+        "opencv",
+        "--delta",
+        "7",
+        "--max-variation",
+        "0.4",
+        "--draw",
+        "--out",
+        s(&out),
+        s(&first),
     ]);
     let p = mser::MserParams {
         delta: 7,
@@ -158,7 +179,11 @@ fn regions_every_format_matches_the_library() {
     assert_eq!(file.size, (200, 150));
     assert_eq!((file.params.delta, file.params.max_variation), (7, 0.4));
     assert_eq!(file.regions.len(), lib.len());
-    for (r, (lr, lc)) in file.regions.iter().zip(lib.regions.iter().zip(&lib.contours)) {
+    for (r, (lr, lc)) in file
+        .regions
+        .iter()
+        .zip(lib.regions.iter().zip(&lib.contours))
+    {
         let e = lr.ellipse();
         assert_eq!(r.ellipse, (e.u, e.v, e.a, e.b, e.c));
         assert_eq!((r.seed, r.area, r.level), (lr.seed, lr.area, lr.level));
@@ -167,7 +192,15 @@ fn regions_every_format_matches_the_library() {
     assert!(image::open(out.join("s0-regions.png")).is_ok());
     // CSV: one row per region, the ellipse columns as the library's.
     let out = dir.join("csv");
-    ok(&["regions", "-q", "--format", "csv", "--out", s(&out), s(&first)]);
+    ok(&[
+        "regions",
+        "-q",
+        "--format",
+        "csv",
+        "--out",
+        s(&out),
+        s(&first),
+    ]);
     let text = std::fs::read_to_string(out.join("s0.csv")).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some(visguide::output::regions::CSV_HEADER));
@@ -199,19 +232,37 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
     let json = dir.join("m.json");
     let pic = dir.join("pair.png");
     ok(&[
-        "match", "-q", s(&pa), s(&pb), "--homography", s(&ph), "--out", s(&json), "--picture",
+        "match",
+        "-q",
+        s(&pa),
+        s(&pb),
+        "--homography",
+        s(&ph),
+        "--out",
+        s(&json),
+        "--picture",
         s(&pic),
     ]);
-    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let lib = match_images(&a, &b, &MatchSettings::paper()).unwrap();
     let got: Vec<(u64, u64, f64)> = doc["matches"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|m| (m["i"].as_u64().unwrap(), m["j"].as_u64().unwrap(), m["ratio"].as_f64().unwrap()))
+        .map(|m| {
+            (
+                m["i"].as_u64().unwrap(),
+                m["j"].as_u64().unwrap(),
+                m["ratio"].as_f64().unwrap(),
+            )
+        })
         .collect();
-    let want: Vec<(u64, u64, f64)> =
-        lib.accepted.iter().map(|g| (g.m.i as u64, g.m.j as u64, g.m.ratio)).collect();
+    let want: Vec<(u64, u64, f64)> = lib
+        .accepted
+        .iter()
+        .map(|g| (g.m.i as u64, g.m.j as u64, g.m.ratio))
+        .collect();
     assert_eq!(got, want);
     assert!(got.len() >= 6, "only {} matches", got.len());
     // The study's calls on the same regions give the same symmetric matches.
@@ -226,7 +277,12 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
         .filter(|m| m.ratio < visguide::scoring::PAPER_T_R)
         .map(|m| (m.i, m.j))
         .collect();
-    assert_eq!(study, want.iter().map(|w| (w.0 as usize, w.1 as usize)).collect::<Vec<_>>());
+    assert_eq!(
+        study,
+        want.iter()
+            .map(|w| (w.0 as usize, w.1 as usize))
+            .collect::<Vec<_>>()
+    );
     // Geometry: a rotation and a local affine per match, the homography near the truth.
     let m0 = &doc["matches"][0];
     assert!(m0["rotation"].is_f64() && m0["shift"].is_f64() && m0["affine"].is_array());
@@ -246,8 +302,18 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
     for method in ["fd-corr", "abs-fd-ssd", "afd0-ssd", "afd1-ssd"] {
         for sampling in ["affine", "canonical"] {
             let o = ok(&[
-                "match", "-q", s(&pa), s(&pb), "--method", method, "--sampling", sampling,
-                "--format", "csv", "--ratio", "0.8",
+                "match",
+                "-q",
+                s(&pa),
+                s(&pb),
+                "--method",
+                method,
+                "--sampling",
+                sampling,
+                "--format",
+                "csv",
+                "--ratio",
+                "0.8",
             ]);
             let text = String::from_utf8(o.stdout).unwrap();
             let rows: Vec<(usize, usize, f64)> = text
@@ -255,7 +321,11 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
                 .skip(1)
                 .map(|l| {
                     let f: Vec<&str> = l.split(',').collect();
-                    (f[0].parse().unwrap(), f[1].parse().unwrap(), f[7].parse().unwrap())
+                    (
+                        f[0].parse().unwrap(),
+                        f[1].parse().unwrap(),
+                        f[7].parse().unwrap(),
+                    )
                 })
                 .collect();
             let combination = Combination::ALL
@@ -270,7 +340,11 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
                                 "afd0-ssd" => "AFD0 SSD",
                                 _ => "AFD1 SSD",
                             },
-                            if sampling == "affine" { "Affine" } else { "Canonical" }
+                            if sampling == "affine" {
+                                "Affine"
+                            } else {
+                                "Canonical"
+                            }
                         )
                 })
                 .unwrap();
@@ -280,8 +354,11 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
                 ..MatchSettings::paper()
             };
             let lib = match_images(&a, &b, &settings).unwrap();
-            let want: Vec<(usize, usize, f64)> =
-                lib.accepted.iter().map(|g| (g.m.i, g.m.j, g.m.ratio)).collect();
+            let want: Vec<(usize, usize, f64)> = lib
+                .accepted
+                .iter()
+                .map(|g| (g.m.i, g.m.j, g.m.ratio))
+                .collect();
             assert_eq!(rows, want, "{method}/{sampling}");
         }
     }
@@ -295,7 +372,10 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
 fn leuven_homography_is_close_to_the_benchmark() {
     let why = match std::env::var_os("VISGUIDE_DATA") {
         Some(d) if Path::new(&d).join("oxford-affine/leuven/H1to2p").is_file() => None,
-        Some(d) => Some(format!("{}/oxford-affine/leuven is missing", Path::new(&d).display())),
+        Some(d) => Some(format!(
+            "{}/oxford-affine/leuven is missing",
+            Path::new(&d).display()
+        )),
         None => Some("VISGUIDE_DATA is not set".into()),
     };
     if let Some(why) = why {
@@ -308,7 +388,11 @@ fn leuven_homography_is_close_to_the_benchmark() {
     }
     let d = PathBuf::from(std::env::var_os("VISGUIDE_DATA").unwrap()).join("oxford-affine/leuven");
     let o = ok(&[
-        "match", "-q", s(&d.join("img1.png")), s(&d.join("img2.png")), "--homography",
+        "match",
+        "-q",
+        s(&d.join("img1.png")),
+        s(&d.join("img2.png")),
+        "--homography",
         s(&d.join("H1to2p")),
     ]);
     let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -334,8 +418,27 @@ fn lwpr_fit_and_predict() {
     let dir = temp("lwpr");
     let (data, model, pred) = (dir.join("d.csv"), dir.join("m.json"), dir.join("p.csv"));
     write_table(&data, 400);
-    ok(&["lwpr", "fit", "-q", s(&data), "--inputs", "2", "--model", s(&model), "--passes", "10"]);
-    ok(&["lwpr", "predict", "-q", s(&model), s(&data), "--out", s(&pred)]);
+    ok(&[
+        "lwpr",
+        "fit",
+        "-q",
+        s(&data),
+        "--inputs",
+        "2",
+        "--model",
+        s(&model),
+        "--passes",
+        "10",
+    ]);
+    ok(&[
+        "lwpr",
+        "predict",
+        "-q",
+        s(&model),
+        s(&data),
+        "--out",
+        s(&pred),
+    ]);
     let (file, lib) = visguide::models::LwprFile::load(&model).unwrap();
     assert_eq!(file.outputs, vec!["y"]);
     let text = std::fs::read_to_string(&pred).unwrap();
@@ -346,7 +449,15 @@ fn lwpr_fit_and_predict() {
         let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
         let c = lib.predict_with_confidence(&v[..2], 0.001).unwrap();
         let j = lib.predict_with_jacobian(&v[..2], 0.001).unwrap();
-        assert_eq!((v[2], v[3], v[4], v[5]), (c.y[0], c.confidence[0], j.jacobian[(0, 0)], j.jacobian[(0, 1)]));
+        assert_eq!(
+            (v[2], v[3], v[4], v[5]),
+            (
+                c.y[0],
+                c.confidence[0],
+                j.jacobian[(0, 0)],
+                j.jacobian[(0, 1)]
+            )
+        );
         worst = worst.max((v[2] - ((2.0 * v[0]).sin() + 0.5 * v[1])).abs());
     }
     assert!(worst < 0.3, "worst training error {worst}");
@@ -367,11 +478,44 @@ fn track_one_step_equals_learn_then_run() {
     }
     let test = &generate(&sc, &Level::preset(1), 1, 120, 99)[0];
     let seq = cbt_tracker::csv::write(&dir, test).unwrap();
-    let (one, two, model) = (dir.join("one.csv"), dir.join("two.csv"), dir.join("m.cbt.json"));
-    ok(&["track", "-q", "--train", s(&train), s(&seq), "--out", s(&one), "--baselines"]);
-    ok(&["track", "learn", "-q", "--train", s(&train), "--model", s(&model)]);
-    ok(&["track", "run", "-q", s(&model), s(&seq), "--out", s(&two), "--baselines"]);
-    let (a, b) = (std::fs::read_to_string(&one).unwrap(), std::fs::read_to_string(&two).unwrap());
+    let (one, two, model) = (
+        dir.join("one.csv"),
+        dir.join("two.csv"),
+        dir.join("m.cbt.json"),
+    );
+    ok(&[
+        "track",
+        "-q",
+        "--train",
+        s(&train),
+        s(&seq),
+        "--out",
+        s(&one),
+        "--baselines",
+    ]);
+    ok(&[
+        "track",
+        "learn",
+        "-q",
+        "--train",
+        s(&train),
+        "--model",
+        s(&model),
+    ]);
+    ok(&[
+        "track",
+        "run",
+        "-q",
+        s(&model),
+        s(&seq),
+        "--out",
+        s(&two),
+        "--baselines",
+    ]);
+    let (a, b) = (
+        std::fs::read_to_string(&one).unwrap(),
+        std::fs::read_to_string(&two).unwrap(),
+    );
     assert_eq!(a, b);
     let rows: Vec<Vec<&str>> = a.lines().skip(1).map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 3 * 120);
@@ -400,37 +544,106 @@ fn bad_input_fails_cleanly_without_partial_output() {
     let missing = dir.join("missing.png");
     let o = s(&out);
     fails(&["regions", "--out", o, s(&missing)], "missing.png");
-    fails(&["regions", "--out", o, s(&good), s(&corrupt)], "corrupt.png");
+    fails(
+        &["regions", "--out", o, s(&good), s(&corrupt)],
+        "corrupt.png",
+    );
     fails(&["regions", "--out", o, s(&empty)], "empty.pgm");
     let m = out.join("m.json");
-    fails(&["match", s(&good), s(&dir), "--out", s(&m)], "is a directory");
-    fails(&["match", s(&good), s(&good), "--homography", s(&corrupt), "--out", s(&m)], "corrupt.png");
+    fails(
+        &["match", s(&good), s(&dir), "--out", s(&m)],
+        "is a directory",
+    );
+    fails(
+        &[
+            "match",
+            s(&good),
+            s(&good),
+            "--homography",
+            s(&corrupt),
+            "--out",
+            s(&m),
+        ],
+        "corrupt.png",
+    );
     let bad_csv = dir.join("bad.csv");
     std::fs::write(&bad_csv, "x,y\n1,2\n3,four\n").unwrap();
-    fails(&["lwpr", "fit", s(&bad_csv), "--inputs", "1", "--model", s(&m)], "bad.csv:3:");
+    fails(
+        &[
+            "lwpr",
+            "fit",
+            s(&bad_csv),
+            "--inputs",
+            "1",
+            "--model",
+            s(&m),
+        ],
+        "bad.csv:3:",
+    );
     let table = dir.join("t.csv");
     write_table(&table, 50);
     let model = dir.join("m.lwpr.json");
-    ok(&["lwpr", "fit", "-q", s(&table), "--inputs", "2", "--model", s(&model)]);
+    ok(&[
+        "lwpr",
+        "fit",
+        "-q",
+        s(&table),
+        "--inputs",
+        "2",
+        "--model",
+        s(&model),
+    ]);
     let text = std::fs::read_to_string(&model).unwrap();
     std::fs::write(&model, text.replacen("\"version\":1", "\"version\":99", 1)).unwrap();
-    fails(&["lwpr", "predict", s(&model), s(&table), "--out", s(&m)], "version 99");
+    fails(
+        &["lwpr", "predict", s(&model), s(&table), "--out", s(&m)],
+        "version 99",
+    );
     let track_train = dir.join("train");
     std::fs::create_dir_all(&track_train).unwrap();
-    std::fs::write(track_train.join("s.csv"), "frame,kind,x,y\n0,truth,1,2\n1,det,x,3\n").unwrap();
-    fails(&["track", "--train", s(&track_train), s(&table), "--out", s(&m)], "s.csv");
+    std::fs::write(
+        track_train.join("s.csv"),
+        "frame,kind,x,y\n0,truth,1,2\n1,det,x,3\n",
+    )
+    .unwrap();
+    fails(
+        &[
+            "track",
+            "--train",
+            s(&track_train),
+            s(&table),
+            "--out",
+            s(&m),
+        ],
+        "s.csv",
+    );
     // Nothing was written, not even a temporary file.
-    let left: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
+    let left: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
     // A usage error is exit code 2.
-    assert_eq!(run(&["regions", "--format", "tiff", s(&good)]).status.code(), Some(2));
+    assert_eq!(
+        run(&["regions", "--format", "tiff", s(&good)])
+            .status
+            .code(),
+        Some(2)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Every subcommand's --help has a description and examples.
 #[test]
 fn help_has_examples() {
-    for sub in [&["regions"][..], &["match"], &["track"], &["lwpr"], &["eval"], &[]] {
+    for sub in [
+        &["regions"][..],
+        &["match"],
+        &["track"],
+        &["lwpr"],
+        &["eval"],
+        &[],
+    ] {
         let mut args = sub.to_vec();
         args.push("--help");
         let o = ok(&args);
@@ -446,7 +659,9 @@ fn eval_scores_a_sequence_folder() {
     let dir = temp("eval");
     let seq = dir.join("mine");
     std::fs::create_dir_all(&seq).unwrap();
-    scene(&identity(), 240, 180, 5).save(seq.join("img1.png")).unwrap();
+    scene(&identity(), 240, 180, 5)
+        .save(seq.join("img1.png"))
+        .unwrap();
     let h = warp();
     scene(&h, 240, 180, 5).save(seq.join("img2.png")).unwrap();
     std::fs::write(seq.join("H1to2p"), h.to_text()).unwrap();
@@ -454,8 +669,11 @@ fn eval_scores_a_sequence_folder() {
     let o = ok(&["eval", "-q", s(&seq), "--out", s(&json)]);
     let text = String::from_utf8(o.stdout).unwrap();
     assert_eq!(text.lines().count(), 1 + 8);
-    let rows: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(rows.as_array().unwrap().len(), 8);
-    assert!(rows[1]["combination"] == "FD Corr/Affine" && rows[1]["existing"].as_u64().unwrap() > 5);
+    assert!(
+        rows[1]["combination"] == "FD Corr/Affine" && rows[1]["existing"].as_u64().unwrap() > 5
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

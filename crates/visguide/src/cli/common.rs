@@ -75,7 +75,8 @@ pub struct MserArgs {
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
-    s.parse().map_err(|e: visguide::VisguideError| e.to_string())
+    s.parse()
+        .map_err(|e: visguide::VisguideError| e.to_string())
 }
 fn parse_pol(s: &str) -> Result<mser::Polarities, String> {
     parse_polarities(s).map_err(|e| e.to_string())
@@ -111,15 +112,18 @@ pub fn expand_images(args: &[PathBuf]) -> CliResult<Vec<PathBuf>> {
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|p| {
                     p.is_file()
-                        && p.extension()
-                            .and_then(|e| e.to_str())
-                            .is_some_and(|e| {
-                                matches!(e.to_ascii_lowercase().as_str(), "png" | "pgm" | "ppm" | "pnm")
-                            })
+                        && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                            matches!(
+                                e.to_ascii_lowercase().as_str(),
+                                "png" | "pgm" | "ppm" | "pnm"
+                            )
+                        })
                 })
                 .collect();
             if found.is_empty() {
-                return Err(format!("{}: a directory without .png/.pgm/.ppm images", a.display()).into());
+                return Err(
+                    format!("{}: a directory without .png/.pgm/.ppm images", a.display()).into(),
+                );
             }
             found.sort();
             out.extend(found);

@@ -64,16 +64,23 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
     let mut rows = Vec::new();
     for dir in &a.sequences {
         if !dir.is_dir() {
-            return Err(format!("{}: expected a sequence folder (img1.png, img2.png, H1to2p, …)", dir.display()).into());
+            return Err(format!(
+                "{}: expected a sequence folder (img1.png, img2.png, H1to2p, …)",
+                dir.display()
+            )
+            .into());
         }
         let name = dir
             .file_name()
             .map_or("sequence".into(), |n| n.to_string_lossy().into_owned());
-        let first = image_in(dir, 1).ok_or_else(|| format!("{}: no img1.png/.ppm/.pgm", dir.display()))?;
+        let first =
+            image_in(dir, 1).ok_or_else(|| format!("{}: no img1.png/.ppm/.pgm", dir.display()))?;
         let img1 = load_gray(&first)?;
         let mut pairs = Vec::new();
         for k in 2.. {
-            let (Some(p), h) = (image_in(dir, k), dir.join(format!("H1to{k}p"))) else { break };
+            let (Some(p), h) = (image_in(dir, k), dir.join(format!("H1to{k}p"))) else {
+                break;
+            };
             if !h.is_file() {
                 break;
             }
@@ -99,8 +106,15 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
                     ransac: (c == Combination::SHOWN).then(Default::default),
                 };
                 let pair = match_images(&img1, &img2, &s)?;
-                let ij: Vec<(usize, usize)> = pair.accepted.iter().map(|g| (g.m.i, g.m.j)).collect();
-                let sc = score_matches(&pair.features1.frames, &pair.features2.frames, &ij, hom, None);
+                let ij: Vec<(usize, usize)> =
+                    pair.accepted.iter().map(|g| (g.m.i, g.m.j)).collect();
+                let sc = score_matches(
+                    &pair.features1.frames,
+                    &pair.features2.frames,
+                    &ij,
+                    hom,
+                    None,
+                );
                 rows.push(Row {
                     sequence: name.clone(),
                     pair: format!("img1-img{k}"),
@@ -121,7 +135,10 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
     }
     let f3 = |v: Option<f64>| v.map_or("–".to_string(), |x| format!("{x:.3}"));
     let mut out = std::io::stdout().lock();
-    writeln!(out, "sequence\tpair\tcombination\texisting\tmatches\tprecision\trecall\tcorner error (px)")?;
+    writeln!(
+        out,
+        "sequence\tpair\tcombination\texisting\tmatches\tprecision\trecall\tcorner error (px)"
+    )?;
     for r in &rows {
         writeln!(
             out,
@@ -139,10 +156,11 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
     if let Some(p) = &a.out {
         let text = serde_json::to_string_pretty(&rows)?;
         write_atomic(p, |w| {
-            w.write_all(text.as_bytes()).map_err(|e| visguide::VisguideError::Io {
-                path: p.clone(),
-                source: e,
-            })
+            w.write_all(text.as_bytes())
+                .map_err(|e| visguide::VisguideError::Io {
+                    path: p.clone(),
+                    source: e,
+                })
         })?;
     }
     Ok(())

@@ -143,7 +143,11 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
     let nmse: Vec<String> = (0..m)
         .map(|o| {
             let var = std_dev(&t.rows, n + o).powi(2);
-            format!("{} {:.4}", t.columns[n + o], sse[o] / t.rows.len() as f64 / var)
+            format!(
+                "{} {:.4}",
+                t.columns[n + o],
+                sse[o] / t.rows.len() as f64 / var
+            )
         })
         .collect();
     ui.say(format!(

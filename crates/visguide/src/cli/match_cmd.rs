@@ -215,7 +215,10 @@ pub fn settings(a: &MatchArgs, size1: (u32, u32), size2: (u32, u32)) -> CliResul
     let preselection = match a.preselect.as_deref() {
         None => None,
         Some("paper") => Some(c.preselection_threshold().ok_or_else(|| {
-            format!("--preselect paper: Paper A gives no T_err for {}", c.label())
+            format!(
+                "--preselect paper: Paper A gives no T_err for {}",
+                c.label()
+            )
         })?),
         Some(t) => Some(
             t.parse::<f64>()
@@ -256,7 +259,9 @@ fn rows(p: &PairMatches, score: Option<&PairScore>) -> Vec<MatchRow> {
                 rotation: g.rotation,
                 shift: g.m.alignment.map(|a| a.shift),
                 scale: g.local.map(|l| l.scale()),
-                affine: g.local.map(|l| [l.a[(0, 0)], l.a[(0, 1)], l.a[(1, 0)], l.a[(1, 1)]]),
+                affine: g
+                    .local
+                    .map(|l| [l.a[(0, 0)], l.a[(0, 1)], l.a[(1, 0)], l.a[(1, 1)]]),
                 inlier: p.homography.as_ref().map(|h| h.inliers[k]),
                 overlap_error: score.map(|s| s.per_match[k].overlap_error),
                 correct: score.map(|s| s.per_match[k].correct),
@@ -274,7 +279,11 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
     let known = match &a.homography {
         Some(p) => {
             if p.is_dir() {
-                return Err(format!("{}: is a directory, expected a homography file", p.display()).into());
+                return Err(format!(
+                    "{}: is a directory, expected a homography file",
+                    p.display()
+                )
+                .into());
             }
             let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
             Some(Homography::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?)
@@ -329,13 +338,26 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
             MatchFormat::Csv => {
                 writeln!(w, "i,j,x1,y1,x2,y2,error,ratio,rotation,shift,scale,a11,a12,a21,a22,inlier,overlap_error,correct").map_err(io)?;
                 for r in &out.matches {
-                    let aff = r.affine.map_or(",,,".to_string(), |m| format!("{},{},{},{}", m[0], m[1], m[2], m[3]));
+                    let aff = r.affine.map_or(",,,".to_string(), |m| {
+                        format!("{},{},{},{}", m[0], m[1], m[2], m[3])
+                    });
                     writeln!(
                         w,
                         "{},{},{},{},{},{},{},{},{},{},{},{aff},{},{},{}",
-                        r.i, r.j, r.x1, r.y1, r.x2, r.y2, r.error, r.ratio,
-                        opt(r.rotation), opt(r.shift), opt(r.scale),
-                        opt(r.inlier), opt(r.overlap_error), opt(r.correct)
+                        r.i,
+                        r.j,
+                        r.x1,
+                        r.y1,
+                        r.x2,
+                        r.y2,
+                        r.error,
+                        r.ratio,
+                        opt(r.rotation),
+                        opt(r.shift),
+                        opt(r.scale),
+                        opt(r.inlier),
+                        opt(r.overlap_error),
+                        opt(r.correct)
                     )
                     .map_err(io)?;
                 }
@@ -373,8 +395,13 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
         .homography
         .as_ref()
         .map_or("no homography".to_string(), |f| {
-            let ce = f.corner_error.map_or(String::new(), |c| format!(", corner error {c:.2} px"));
-            format!("homography with {} inliers (rms {:.2} px{ce})", f.inliers, f.rms)
+            let ce = f
+                .corner_error
+                .map_or(String::new(), |c| format!(", corner error {c:.2} px"));
+            format!(
+                "homography with {} inliers (rms {:.2} px{ce})",
+                f.inliers, f.rms
+            )
         });
     let sc = out.score.as_ref().map_or(String::new(), |s| {
         format!(

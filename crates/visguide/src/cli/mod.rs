@@ -17,7 +17,8 @@ pub type CliResult<T = ()> = Result<T, Box<dyn std::error::Error + Send + Sync>>
 const ABOUT: &str = "The methods of Larsson's thesis (Linköping 2009) on your own files: MSER \
 regions, Fourier-descriptor matching with a homography, channel-based tracking, LWPR regression.";
 
-const LONG_ABOUT: &str = "The methods of F. Larsson, \"Methods for Visually Guided Robotic Systems: \
+const LONG_ABOUT: &str =
+    "The methods of F. Larsson, \"Methods for Visually Guided Robotic Systems: \
 Matching, Tracking and Servoing\" (Linköping 2009) on your own images, tracks and tables.
 
 Every output file is written atomically: a run that fails leaves no partial file behind. Errors \
@@ -62,7 +63,10 @@ pub fn main() -> ExitCode {
             eprintln!("visguide: error: --threads must be at least 1");
             return ExitCode::from(2);
         }
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("visguide: error: cannot start {n} threads: {e}");
             return ExitCode::FAILURE;
         }

@@ -13,6 +13,9 @@ use visguide::{Features, load_gray};
 use super::CliResult;
 use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for};
 
+/// The staged files of one image (staging name, final name) and its region count.
+type Staged = (Vec<(PathBuf, PathBuf)>, usize);
+
 /// Region file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum FormatArg {
@@ -70,14 +73,20 @@ pub struct RegionsArgs {
 /// Runs the subcommand.
 pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     if a.contours && a.format == FormatArg::Oxford {
-        return Err("--contours needs --format json or csv (Oxford region files hold ellipses only)".into());
+        return Err(
+            "--contours needs --format json or csv (Oxford region files hold ellipses only)".into(),
+        );
     }
     let images = expand_images(&a.images)?;
     // Two images with the same stem would overwrite each other's output.
     let mut stems: Vec<PathBuf> = images.iter().map(|p| output_for(&a.out, p, "")).collect();
     stems.sort();
     if let Some(w) = stems.windows(2).find(|w| w[0] == w[1]) {
-        return Err(format!("two images would both write {}.*; give them different names", w[0].display()).into());
+        return Err(format!(
+            "two images would both write {}.*; give them different names",
+            w[0].display()
+        )
+        .into());
     }
     ensure_dir(&a.out)?;
     let settings = a.mser.settings();
@@ -86,7 +95,7 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     let failed = AtomicBool::new(false);
     // Every file is first written under a staging name and renamed only when all images
     // succeeded, so a failed run leaves no output at all.
-    let results: Vec<CliResult<(Vec<(PathBuf, PathBuf)>, usize)>> = images
+    let results: Vec<CliResult<Staged>> = images
         .par_iter()
         .map(|path| {
             if failed.load(Ordering::Relaxed) {
@@ -139,7 +148,7 @@ fn one(
     settings: &visguide::MserSettings,
     format: Format,
     path: &std::path::Path,
-) -> CliResult<(Vec<(PathBuf, PathBuf)>, usize)> {
+) -> CliResult<Staged> {
     let img = load_gray(path)?;
     let params = settings.resolve(img.width(), img.height())?;
     let features = if a.contours || a.draw {
@@ -167,7 +176,8 @@ fn one(
         )
     })?;
     if a.draw {
-        let ellipses: Vec<mser::Ellipse> = features.regions.iter().map(mser::Region::ellipse).collect();
+        let ellipses: Vec<mser::Ellipse> =
+            features.regions.iter().map(mser::Region::ellipse).collect();
         let pic = draw::ellipses(&img, &ellipses, draw::YELLOW);
         let target = output_for(&a.out, path, "-regions.png");
         let staged = staging(&target);

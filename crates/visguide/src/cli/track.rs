@@ -118,7 +118,11 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
 
 fn read_train(dir: &Path) -> CliResult<Vec<Sequence>> {
     if !dir.is_dir() {
-        return Err(format!("{}: expected a directory of training sequences (*.csv)", dir.display()).into());
+        return Err(format!(
+            "{}: expected a directory of training sequences (*.csv)",
+            dir.display()
+        )
+        .into());
     }
     let train = csv::read_dir(dir)?;
     if train.is_empty() {
@@ -148,7 +152,12 @@ fn learn(dir: &Path) -> CliResult<TrackModelFile> {
     }
     // A margin of a tenth of the extent so a test track may leave the training area a little.
     let margin = [(hi[0] - lo[0]) * 0.1 + 1.0, (hi[1] - lo[1]) * 0.1 + 1.0];
-    let extent = [lo[0] - margin[0], hi[0] + margin[0], lo[1] - margin[1], hi[1] + margin[1]];
+    let extent = [
+        lo[0] - margin[0],
+        hi[0] + margin[0],
+        lo[1] - margin[1],
+        hi[1] + margin[1],
+    ];
     let size = (extent[1] - extent[0]).min(extent[3] - extent[2]);
     let spacing = Scales::estimate(&train, size)?.fine_spacing(size);
     let kernel = cbt_tracker::DEFAULT_KERNEL;
@@ -173,7 +182,11 @@ fn learn(dir: &Path) -> CliResult<TrackModelFile> {
     })
 }
 
-fn run_one(t: &mut dyn Tracker, s: &Sequence, start: Point) -> CliResult<Vec<(Point, Option<f64>)>> {
+fn run_one(
+    t: &mut dyn Tracker,
+    s: &Sequence,
+    start: Point,
+) -> CliResult<Vec<(Point, Option<f64>)>> {
     t.reset(start)?;
     let mut out = vec![(start, None)];
     for f in &s.frames[1..] {
@@ -190,7 +203,11 @@ fn run_one(t: &mut dyn Tracker, s: &Sequence, start: Point) -> CliResult<Vec<(Po
 
 fn track(m: &TrackModelFile, seq: &Path, o: &RunOptions, ui: Ui) -> CliResult {
     if seq.is_dir() {
-        return Err(format!("{}: is a directory, expected a sequence CSV file", seq.display()).into());
+        return Err(format!(
+            "{}: is a directory, expected a sequence CSV file",
+            seq.display()
+        )
+        .into());
     }
     let s = csv::read(seq)?;
     let Some(first) = s.frames.first() else {
@@ -199,11 +216,18 @@ fn track(m: &TrackModelFile, seq: &Path, o: &RunOptions, ui: Ui) -> CliResult {
     let start = first
         .truth
         .or_else(|| first.detections.first().map(|d| d.pos))
-        .ok_or_else(|| format!("{}: frame 0 has neither truth nor a detection to start from", seq.display()))?;
+        .ok_or_else(|| {
+            format!(
+                "{}: frame 0 has neither truth nor a detection to start from",
+                seq.display()
+            )
+        })?;
     let mut trackers: Vec<Box<dyn Tracker>> = vec![Box::new(CbtTracker::new(m.cbt.clone()))];
     if o.baselines {
         let area = (m.extent[1] - m.extent[0]) * (m.extent[3] - m.extent[2]);
-        trackers.push(Box::new(KalmanTracker::new(KalmanParams::from_calibration(&m.calibration))?));
+        trackers.push(Box::new(KalmanTracker::new(
+            KalmanParams::from_calibration(&m.calibration),
+        )?));
         trackers.push(Box::new(ParticleFilter::new(
             PfModel::from_calibration(&m.calibration, area),
             1000,

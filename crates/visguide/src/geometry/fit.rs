@@ -31,7 +31,17 @@ fn normaliser(pts: &[Point]) -> Option<Matrix3<f64>> {
         return None;
     }
     let s = std::f64::consts::SQRT_2 / mean;
-    Some(Matrix3::new(s, 0.0, -s * cx, 0.0, s, -s * cy, 0.0, 0.0, 1.0))
+    Some(Matrix3::new(
+        s,
+        0.0,
+        -s * cx,
+        0.0,
+        s,
+        -s * cy,
+        0.0,
+        0.0,
+        1.0,
+    ))
 }
 
 fn apply(m: &Matrix3<f64>, p: Point) -> Point {
@@ -54,12 +64,10 @@ pub fn dlt(src: &[Point], dst: &[Point]) -> Option<Matrix3<f64>> {
     for (&p, &q) in src.iter().zip(dst) {
         let (x, y) = apply(&t, p);
         let (u, v) = apply(&t2, q);
-        let r1 = SVector::<f64, 9>::from_column_slice(&[
-            0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v,
-        ]);
-        let r2 = SVector::<f64, 9>::from_column_slice(&[
-            x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y, -u,
-        ]);
+        let r1 =
+            SVector::<f64, 9>::from_column_slice(&[0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v]);
+        let r2 =
+            SVector::<f64, 9>::from_column_slice(&[x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y, -u]);
         ata += r1 * r1.transpose() + r2 * r2.transpose();
     }
     let eig = ata.symmetric_eigen();
@@ -113,7 +121,11 @@ pub fn refine(h: &Matrix3<f64>, src: &[Point], dst: &[Point], iterations: usize)
     let mut lambda = 1e-3;
     // Parameters: all entries but the largest-magnitude one, which stays fixed (a gauge).
     let fixed = (0..9)
-        .max_by(|&a, &b| cur[(a / 3, a % 3)].abs().total_cmp(&cur[(b / 3, b % 3)].abs()))
+        .max_by(|&a, &b| {
+            cur[(a / 3, a % 3)]
+                .abs()
+                .total_cmp(&cur[(b / 3, b % 3)].abs())
+        })
         .unwrap_or(8);
     let free: Vec<usize> = (0..9).filter(|&k| k != fixed).collect();
     for _ in 0..iterations {

@@ -211,7 +211,10 @@ mod tests {
             "0 0 0 0 0 0 0 0 0",
         ] {
             assert!(
-                matches!(Homography::parse(bad), Err(VisguideError::Homography { .. })),
+                matches!(
+                    Homography::parse(bad),
+                    Err(VisguideError::Homography { .. })
+                ),
                 "{bad:?} accepted"
             );
         }

@@ -141,6 +141,9 @@ mod tests {
         let bad = Ellipse { a: -1.0, ..good };
         assert!(local_affine(&good, &bad, 0.0).is_none());
         assert!(local_affine(&good, &good, f64::NAN).is_none());
-        assert_eq!(local_affine(&good, &good, 0.0).unwrap().a, Matrix2::identity());
+        assert_eq!(
+            local_affine(&good, &good, 0.0).unwrap().a,
+            Matrix2::identity()
+        );
     }
 }

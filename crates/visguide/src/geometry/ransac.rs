@@ -52,7 +52,10 @@ impl RansacConfig {
             })
         };
         if !(self.threshold.is_finite() && self.threshold > 0.0) {
-            return bad(format!("threshold {} is not a positive number", self.threshold));
+            return bad(format!(
+                "threshold {} is not a positive number",
+                self.threshold
+            ));
         }
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
             return bad(format!("confidence {} is not in (0, 1)", self.confidence));
@@ -79,7 +82,12 @@ pub struct HomographyFit {
     pub iterations: usize,
 }
 
-fn inliers_of(h: &nalgebra::Matrix3<f64>, src: &[Point], dst: &[Point], t: f64) -> (Vec<bool>, f64) {
+fn inliers_of(
+    h: &nalgebra::Matrix3<f64>,
+    src: &[Point],
+    dst: &[Point],
+    t: f64,
+) -> (Vec<bool>, f64) {
     let mut cost = 0.0;
     let flags = src
         .iter()
@@ -159,7 +167,11 @@ pub fn fit_homography(src: &[Point], dst: &[Point], cfg: &RansacConfig) -> Resul
                 cfg.max_iterations
             } else {
                 let est = ((1.0 - cfg.confidence).ln() / (1.0 - p_good).ln()).ceil();
-                if est.is_finite() { est as usize } else { cfg.max_iterations }
+                if est.is_finite() {
+                    est as usize
+                } else {
+                    cfg.max_iterations
+                }
             };
         }
     }

@@ -144,8 +144,7 @@ impl Format {
 }
 
 /// The CSV header.
-pub const CSV_HEADER: &str =
-    "index,polarity,level,seed_x,seed_y,area,variation,x_min,y_min,x_max,y_max,centroid_x,centroid_y,u,v,a,b,c,contour";
+pub const CSV_HEADER: &str = "index,polarity,level,seed_x,seed_y,area,variation,x_min,y_min,x_max,y_max,centroid_x,centroid_y,u,v,a,b,c,contour";
 
 fn werr(e: std::io::Error) -> VisguideError {
     VisguideError::Io {
@@ -218,7 +217,9 @@ fn records(f: &Features, with_contours: bool) -> Vec<RegionRecord> {
         .iter()
         .enumerate()
         .map(|(k, r)| {
-            let c = with_contours.then(|| f.contours.get(k).map(Vec::as_slice)).flatten();
+            let c = with_contours
+                .then(|| f.contours.get(k).map(Vec::as_slice))
+                .flatten();
             RegionRecord::new(r, c)
         })
         .collect()

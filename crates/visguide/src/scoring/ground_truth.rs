@@ -5,11 +5,11 @@
 
 use rayon::prelude::*;
 
-use crate::geometry::Homography;
 use super::overlap::{
     DESCRIPTOR_THRESHOLD, Ellipse, Normalisation, Offset, map_linearised, may_overlap,
     overlap_error, radius,
 };
+use crate::geometry::Homography;
 
 /// The ground truth of one image pair.
 #[derive(Debug, Clone, PartialEq)]

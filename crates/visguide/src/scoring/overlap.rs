@@ -176,7 +176,13 @@ pub(crate) mod tests {
         ellipse(x, y, k, 0.0, k).unwrap()
     }
 
-    pub(crate) fn ellipse(u: f64, v: f64, a: f64, b: f64, c: f64) -> Result<Ellipse, VisguideError> {
+    pub(crate) fn ellipse(
+        u: f64,
+        v: f64,
+        a: f64,
+        b: f64,
+        c: f64,
+    ) -> Result<Ellipse, VisguideError> {
         checked(Ellipse { u, v, a, b, c })
     }
 

@@ -88,11 +88,23 @@ mod tests {
 
     #[test]
     fn hand_made_pair() {
-        let h = Homography::from_row_major(&[1.0, 0.0, 10.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).unwrap();
-        let f1 = [circ(50.0, 50.0, 5.0), circ(150.0, 50.0, 5.0), circ(50.0, 150.0, 8.0)];
-        let f2 = [circ(60.0, 50.0, 5.0), circ(160.0, 50.0, 5.0), circ(300.0, 300.0, 8.0)];
+        let h =
+            Homography::from_row_major(&[1.0, 0.0, 10.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).unwrap();
+        let f1 = [
+            circ(50.0, 50.0, 5.0),
+            circ(150.0, 50.0, 5.0),
+            circ(50.0, 150.0, 8.0),
+        ];
+        let f2 = [
+            circ(60.0, 50.0, 5.0),
+            circ(160.0, 50.0, 5.0),
+            circ(300.0, 300.0, 8.0),
+        ];
         let s = score_matches(&f1, &f2, &[(0, 0), (1, 0), (2, 2)], &h, None);
-        assert_eq!((s.existing, s.correct_pairs, s.matches, s.correct), (2, 2, 3, 1));
+        assert_eq!(
+            (s.existing, s.correct_pairs, s.matches, s.correct),
+            (2, 2, 3, 1)
+        );
         assert_eq!(s.precision, Some(1.0 / 3.0));
         assert_eq!(s.recall, Some(0.5));
         assert_eq!(s.per_match[0].overlap_error, 0.0);

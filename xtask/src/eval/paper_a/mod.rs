@@ -150,7 +150,14 @@ pub fn run_synthetic(ctx: &EvalContext) -> Result<()> {
     let seq = synthetic::generate(&synthetic::SyntheticSpec::default());
     let unused = ctx.out_dir.join("matches");
     let paper = MserSettings::default();
-    run_study(&[seq], &ctx.out_dir, &unused, false, &paper, Progress::stderr())?;
+    run_study(
+        &[seq],
+        &ctx.out_dir,
+        &unused,
+        false,
+        &paper,
+        Progress::stderr(),
+    )?;
     eprintln!(
         "paper-a-synthetic: done in {:.1} s",
         start.elapsed().as_secs_f64()
@@ -195,7 +202,12 @@ pub fn run_study(
         reports.push(report);
     }
     let table = if with_sensitivity {
-        let t = sensitivity::run(sequences, &sensitivity::Grid::default(), settings, &progress)?;
+        let t = sensitivity::run(
+            sequences,
+            &sensitivity::Grid::default(),
+            settings,
+            &progress,
+        )?;
         super::write_json(out, "sensitivity.json", &t)?;
         Some(t)
     } else {

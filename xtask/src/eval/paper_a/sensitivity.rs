@@ -5,10 +5,10 @@
 
 use serde::Serialize;
 
-use visguide::{Combination, MserSettings};
 use super::evaluate::{Plan, evaluate};
 use super::progress::Progress;
 use super::sequence::Sequence;
+use visguide::{Combination, MserSettings};
 
 /// The settings tried.
 #[derive(Debug, Clone)]

@@ -6,8 +6,8 @@ use std::path::Path;
 use image::GrayImage;
 
 use super::error::PaperAError;
-use visguide::Homography;
 use super::image_io;
+use visguide::Homography;
 
 /// Where a sequence's images come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

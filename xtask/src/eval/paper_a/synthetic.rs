@@ -15,8 +15,8 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
-use visguide::Homography;
 use super::sequence::{Protocol, Sequence, Source};
+use visguide::Homography;
 
 /// Generator settings.
 #[derive(Debug, Clone)]
