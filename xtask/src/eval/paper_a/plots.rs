@@ -32,20 +32,6 @@ pub fn stem(sequence: &str, group: &Group) -> String {
     }
 }
 
-fn colour(k: usize) -> RGBColor {
-    const C: [RGBColor; 8] = [
-        RGBColor(31, 119, 180),
-        RGBColor(214, 39, 40),
-        RGBColor(44, 160, 44),
-        RGBColor(148, 103, 189),
-        RGBColor(255, 127, 14),
-        RGBColor(23, 190, 207),
-        RGBColor(140, 86, 75),
-        RGBColor(0, 0, 0),
-    ];
-    C[k % C.len()]
-}
-
 /// Which points to draw: (x, y) for each grid threshold with a defined precision.
 fn points(c: &CombinationCurve, x_is_matches: bool) -> Vec<(f64, f64)> {
     c.curve
@@ -99,7 +85,7 @@ fn draw(
         .y_label_formatter(&|v| format!("{v:.1}"))
         .draw()?;
     for (k, (c, pts)) in curves.iter().zip(&series).enumerate() {
-        let style = colour(k).stroke_width(2);
+        let style = crate::palette::series(k).stroke_width(2);
         let canonical = c.combination.ends_with("Canonical");
         let anno = if canonical {
             chart.draw_series(LineSeries::new(pts.iter().copied(), style))?
@@ -107,7 +93,7 @@ fn draw(
             chart.draw_series(DashedLineSeries::new(pts.iter().copied(), 6, 4, style))?
         };
         anno.label(c.combination.clone()).legend(move |(x, y)| {
-            PathElement::new(vec![(x, y), (x + 24, y)], colour(k).stroke_width(2))
+            PathElement::new(vec![(x, y), (x + 24, y)], crate::palette::series(k).stroke_width(2))
         });
     }
     chart

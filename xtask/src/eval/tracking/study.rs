@@ -381,13 +381,10 @@ pub fn aggregate(sets: &[&SetResult]) -> Vec<Aggregate> {
             }
             let n = rmse.len();
             let mean = rmse.iter().sum::<f64>() / n.max(1) as f64;
-            rmse.sort_by(f64::total_cmp);
             let median = if n == 0 {
                 0.0
-            } else if n % 2 == 1 {
-                rmse[n / 2]
             } else {
-                0.5 * (rmse[n / 2 - 1] + rmse[n / 2])
+                crate::stats::median(&mut rmse)
             };
             let _ = ti;
             Aggregate {
