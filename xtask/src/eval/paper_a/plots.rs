@@ -93,7 +93,10 @@ fn draw(
             chart.draw_series(DashedLineSeries::new(pts.iter().copied(), 6, 4, style))?
         };
         anno.label(c.combination.clone()).legend(move |(x, y)| {
-            PathElement::new(vec![(x, y), (x + 24, y)], crate::palette::series(k).stroke_width(2))
+            PathElement::new(
+                vec![(x, y), (x + 24, y)],
+                crate::palette::series(k).stroke_width(2),
+            )
         });
     }
     chart
