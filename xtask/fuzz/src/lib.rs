@@ -162,6 +162,8 @@ pub fn visguide_models(data: &[u8]) {
         let again = TrackModelFile::load(&output).expect("a saved model loads");
         assert_eq!(again.cbt, file.cbt);
     }
+    let _ = std::fs::remove_file(&input);
+    let _ = std::fs::remove_file(&output);
 }
 
 /// Most pixels an image may declare to be decoded here (the fuzzer's time and memory bound;
