@@ -5,7 +5,7 @@
 //!
 //! Rules, each a [`TrackError::Csv`] naming the file and the line when broken:
 //! at least six comma-separated fields; integer frame ≥ 0 and id (an integral number such as
-//! `3` or `3.0`); finite coordinates; width and height ≥ 0; one row per id and frame; every
+//! `3` or `3.0`); finite coordinates and box centre; width and height ≥ 0; one row per id and frame; every
 //! id annotated in at least two frames (a track of one frame has nothing to track); an id's
 //! frames span at most [`crate::csv::MAX_SPAN`]. A 7th field equal to `0` is MOTChallenge's
 //! "ignore" flag (static objects, reflections): such rows are not annotations of a target
@@ -65,9 +65,18 @@ pub fn parse(text: &str, name: &str, path: &Path) -> Result<Vec<Sequence>, Track
         if f.get(6).is_some_and(|flag| flag.parse::<f64>() == Ok(0.0)) {
             continue;
         }
+        let centre = [left + 0.5 * w, top + 0.5 * h];
+        if !centre.iter().all(|c| c.is_finite()) {
+            return Err(err(
+                ln,
+                format!(
+                    "box centre {centre:?} overflows (left {left}, width {w}, top {top}, height {h})"
+                ),
+            ));
+        }
         let t = tracks.entry(id).or_default();
         t.span.add(path, ln, k)?;
-        t.rows.push((ln, k, [left + 0.5 * w, top + 0.5 * h]));
+        t.rows.push((ln, k, centre));
     }
     let mut out = Vec::with_capacity(tracks.len());
     for (id, t) in tracks {

@@ -183,6 +183,11 @@ fn bad_mot_rows_name_file_and_line() {
     assert_eq!(line, 3);
     assert!(reason.contains("negative"), "{reason}");
     assert_eq!(mot_err(&format!("{ok}3,1,0,0,2,-0.5\n")).0, 3);
+    // Finite fields whose box centre overflows (fuzz target `tracking_mot`).
+    let (line, reason) = mot_err(&format!("{ok}3,1,1e308,0,1.7e308,1\n"));
+    assert_eq!(line, 3);
+    assert!(reason.contains("overflows"), "{reason}");
+    assert_eq!(mot_err(&format!("{ok}3,1,0,1.7e308,1,1.7e308\n")).0, 3);
     assert_eq!(mot_err(&format!("{ok}3,1,0,0,2\n")).0, 3);
     assert_eq!(mot_err(&format!("{ok}-3,1,0,0,2,2\n")).0, 3);
     assert_eq!(mot_err(&format!("{ok}3,1.5,0,0,2,2\n")).0, 3);

@@ -160,4 +160,63 @@ fn main() {
         format!(r#"{{"config":{config},"cameras":[{scene}],"correction":{correction}}}"#),
     );
     put("servo_recognition", "correction", &correction);
+
+    // MOTChallenge ground truth: two ids (one with a gap and an ignored row), decimal ids, a BOM.
+    put(
+        "tracking_mot",
+        "two-ids",
+        "1,1,10,20,4,8,1,1,1\n2,1,12,21,4,8,1\n4,1,15,22,4,8,1\n1,2,0,0,2,2,0\n\
+         1,2,50.5,60,10,20,1\n2,2,51,60,10,20,1\n3,2,52,61,10,20,1\n",
+    );
+    put(
+        "tracking_mot",
+        "bom-decimal-id",
+        "\u{feff}1,3.0,-5,-5,0,0\n\n2,3.0,-4,-5,0,0\n",
+    );
+
+    // visguide's command line: tables, model files, images.
+    put(
+        "visguide_table",
+        "header",
+        "# samples\nx1,x2,y\n\n1,2,3\n4, 5.5 ,-6e-1\n",
+    );
+    put("visguide_table", "plain", "0.5\n-1e300\n2\n");
+    let scratch = std::env::temp_dir().join(format!("write-seeds-{}.json", std::process::id()));
+    let lwpr_file = visguide::models::LwprFile::new(
+        vec!["a".into(), "b".into()],
+        vec!["y".into()],
+        &lwpr_model(2, 30),
+    )
+    .unwrap();
+    lwpr_file.save(&scratch).unwrap();
+    put("visguide_models", "lwpr", std::fs::read(&scratch).unwrap());
+    let scene = cbt_tracker::sim::Scenario::default();
+    if let Ok(cbt) = CbtModel::learn_sequences(space(), CbtConfig::default(), &train) {
+        let file = visguide::models::TrackModelFile {
+            format: visguide::models::CBT_FORMAT.into(),
+            version: visguide::models::MODEL_VERSION,
+            extent: [0.0, scene.width, 0.0, scene.height],
+            sequences: train.len(),
+            cbt,
+            calibration: cbt_tracker::Calibration::estimate(&train, 10.0).unwrap(),
+        };
+        file.save(&scratch).unwrap();
+        put("visguide_models", "cbt", std::fs::read(&scratch).unwrap());
+    }
+    std::fs::remove_file(&scratch).unwrap();
+    let grey = image::GrayImage::from_fn(24, 16, |x, y| {
+        image::Luma([if (x / 6 + y / 4) % 2 == 0 { 40 } else { 200 }])
+    });
+    let mut pgm = b"P5\n# blocks\n24 16\n255\n".to_vec();
+    pgm.extend_from_slice(grey.as_raw());
+    put("visguide_image", "blocks.pgm", pgm);
+    let rgb = image::RgbImage::from_fn(4, 3, |x, y| image::Rgb([x as u8 * 60, y as u8 * 90, 17]));
+    let mut ppm = b"P6\n4 3\n255\n".to_vec();
+    ppm.extend_from_slice(rgb.as_raw());
+    put("visguide_image", "colour.ppm", ppm);
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgb8(rgb)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    put("visguide_image", "colour.png", png);
 }

@@ -16,9 +16,7 @@ pub type Body = fn(&[u8]);
 pub const TARGETS: &[(&str, Body)] = &[
     ("oxford_regions", oxford_regions),
     ("tracking_csv", tracking_csv),
-    // ("tracking_mot", tracking_mot): the MOT reader of cbt-tracker, once it exists — a body
-    // here, a line in this table, `fuzz_targets/tracking_mot.rs`, a `[[bin]]` in Cargo.toml
-    // and seeds in `corpus/tracking_mot/`.
+    ("tracking_mot", tracking_mot),
     ("arm_config", arm_config),
     ("lwpr_json", lwpr_json),
     ("lwpr_binary", lwpr_binary),
@@ -26,6 +24,9 @@ pub const TARGETS: &[(&str, Body)] = &[
     ("cbt_tracker", cbt_tracker),
     ("servo_inverse_model", servo_inverse_model),
     ("servo_recognition", servo_recognition),
+    ("visguide_table", visguide_table),
+    ("visguide_models", visguide_models),
+    ("visguide_image", visguide_image),
 ];
 
 /// Oxford region files (`mser::read_regions`): every accepted ellipse is finite and positive
@@ -67,6 +68,131 @@ pub fn tracking_csv(data: &[u8]) {
     };
     assert_eq!(used(&back), used(&seq));
     assert_eq!(back.frames[..used(&back)], seq.frames[..used(&seq)]);
+}
+
+/// MOTChallenge ground truth (`cbt_tracker::mot::parse`): as documented, every accepted
+/// sequence spans at most `MAX_SPAN` frames, holds no detections, has a finite truth in its
+/// first and last frame and in at least two frames (only finite truths), and sequences come in
+/// increasing id order with distinct names. An accepted sequence is usable: the tracking CSV
+/// writer reproduces it and the baselines' calibration runs on it (errors allowed, panics
+/// not).
+pub fn tracking_mot(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(seqs) = cbt_tracker::mot::parse(text, "gt", Path::new("gt.txt")) else {
+        return;
+    };
+    let mut ids = Vec::new();
+    for s in &seqs {
+        let n = s.frames.len();
+        assert!(
+            (2..=cbt_tracker::csv::MAX_SPAN as usize).contains(&n),
+            "{n} frames"
+        );
+        assert!(s.frames.iter().all(|f| f.detections.is_empty()));
+        let truths: Vec<[f64; 2]> = s.frames.iter().filter_map(|f| f.truth).collect();
+        assert!(truths.len() >= 2, "{}: {} truths", s.name, truths.len());
+        assert!(truths.iter().flatten().all(|v| v.is_finite()), "{truths:?}");
+        assert!(s.frames[0].truth.is_some() && s.frames[n - 1].truth.is_some());
+        let id: i64 = s.name["gt-id".len()..].parse().expect("name gt-id<ID>");
+        ids.push(id);
+        let written = cbt_tracker::csv::to_string(s);
+        let back = cbt_tracker::csv::parse(&written, "gt", Path::new("gt.csv"))
+            .expect("a MOT sequence writes as tracking CSV");
+        assert_eq!(back.frames, s.frames);
+    }
+    assert!(ids.windows(2).all(|w| w[0] < w[1]), "{ids:?}");
+    let _ = cbt_tracker::Calibration::estimate(&seqs, 10.0);
+}
+
+/// The command line's numeric CSV tables (`visguide::tables::parse`): every accepted row is as
+/// wide as the column names and finite, and the table written back (names, then the rows with
+/// `tables::cell`) parses to the same names and rows.
+pub fn visguide_table(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let path = Path::new("fuzz.csv");
+    let Ok(t) = visguide::tables::parse(text, path) else {
+        return;
+    };
+    assert!(!t.rows.is_empty() && t.rows.len() == t.lines.len());
+    assert!(t.lines.windows(2).all(|w| w[0] < w[1]), "{:?}", t.lines);
+    for r in &t.rows {
+        assert_eq!(r.len(), t.columns.len());
+        assert!(r.iter().all(|v| v.is_finite()), "{r:?}");
+    }
+    let mut out = t.columns.join(",");
+    for r in &t.rows {
+        out.push('\n');
+        let cells: Vec<String> = r.iter().map(|&v| visguide::tables::cell(v)).collect();
+        out.push_str(&cells.join(","));
+    }
+    let back = visguide::tables::parse(&out, path).expect("a written table parses");
+    assert_eq!((back.columns, back.rows), (t.columns, t.rows));
+}
+
+/// A scratch file of this process for loaders that only read files.
+fn scratch(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("visguide-fuzz-{}-{name}", std::process::id()))
+}
+
+/// The command line's model files (`visguide::models`): the same bytes are offered to both
+/// envelopes through their loaders (which read a file). A loaded LWPR file predicts and its
+/// model survives saving (the file saved and loaded again holds the same model); a loaded
+/// tracking model drives a CBT tracker and loads again after saving.
+pub fn visguide_models(data: &[u8]) {
+    use visguide::models::{LwprFile, TrackModelFile};
+    let (input, output) = (scratch("model.json"), scratch("saved.json"));
+    std::fs::write(&input, data).expect("writing a scratch file");
+    if let Ok((file, model)) = LwprFile::load(&input) {
+        assert_eq!(
+            (file.inputs.len(), file.outputs.len()),
+            (model.n_in(), model.n_out())
+        );
+        use_lwpr(&model);
+        file.save(&output).expect("saving a loaded model");
+        let (_, again) = LwprFile::load(&output).expect("a saved model loads");
+        assert_eq!(again, model);
+    }
+    if let Ok(file) = TrackModelFile::load(&input) {
+        use_tracker(cbt_tracker::CbtTracker::new(file.cbt.clone()));
+        file.save(&output).expect("saving a loaded model");
+        let again = TrackModelFile::load(&output).expect("a saved model loads");
+        assert_eq!(again.cbt, file.cbt);
+    }
+    let _ = std::fs::remove_file(&input);
+    let _ = std::fs::remove_file(&output);
+}
+
+/// Most pixels an image may declare to be decoded here (the fuzzer's time and memory bound;
+/// `decode_gray` itself relies on the `image` crate's default allocation limit).
+pub const MAX_PIXELS: u64 = 1 << 16;
+
+/// Image decoding as the command line does it (`visguide::decode_gray`, PNG and Netpbm chosen
+/// by content), for images declaring at most [`MAX_PIXELS`]: an accepted image has the declared
+/// size and pixels; small ones (at most 64 × 64) go through MSER detection (errors allowed,
+/// panics not).
+pub fn visguide_image(data: &[u8]) {
+    let Ok(reader) = image::ImageReader::new(std::io::Cursor::new(data)).with_guessed_format()
+    else {
+        return;
+    };
+    let Ok((w, h)) = reader.into_dimensions() else {
+        return;
+    };
+    if u64::from(w) * u64::from(h) > MAX_PIXELS {
+        return;
+    }
+    let Ok(img) = visguide::decode_gray(Path::new("fuzz.png"), data) else {
+        return;
+    };
+    assert_eq!(img.dimensions(), (w, h));
+    assert!(w > 0 && h > 0);
+    if w <= 64 && h <= 64 {
+        let _ = visguide::detect(&img, &mser::MserParams::default());
+    }
 }
 
 /// Arm configurations (`arm_sim::SimConfig::from_json`): an accepted configuration writes
