@@ -442,8 +442,8 @@ impl PyLwpr {
         self.set_params(|p| p.kernel = k)
     }
 
-    /// ``"published"`` (remove the narrower field, default) or ``"reference_c"`` (the C
-    /// library's choice).
+    /// ``"reference_c"`` (the C library's choice, the default) or ``"published"`` (remove the
+    /// narrower field, as published).
     #[getter]
     fn get_prune_rule(&self) -> &'static str {
         match self.model.params().prune_rule {

@@ -156,7 +156,7 @@ def test_meta_parameters_are_attributes():
     assert (model.w_gen, model.w_prune, model.init_lambda, model.final_lambda) == (0.1, 1.0, 0.999, 0.99999)
     assert (model.tau_lambda, model.init_S2, model.add_threshold, model.penalty) == (0.9999, 1e-10, 0.5, 1e-6)
     assert (model.diag_only, model.update_D, model.meta, model.meta_rate) == (True, True, False, 250.0)
-    assert model.kernel == "Gaussian" and model.prune_rule == "published" and model.arithmetic == "fast"
+    assert model.kernel == "Gaussian" and model.prune_rule == "reference_c" and model.arithmetic == "fast"
     assert model.norm_in.tolist() == [1.0, 1.0] and model.norm_out.tolist() == [1.0]
     for name, value in [
         ("w_gen", 0.2),
