@@ -12,15 +12,30 @@ use image::GrayImage;
 
 use crate::error::{Result, VisguideError, io};
 
-/// Decodes image bytes; `path` only names the file in errors. An image without pixels is an
-/// error.
+/// The largest width and height an image file may declare (pixels). Checked from the header,
+/// before the pixels are allocated; the decoder's allocation is also bounded by
+/// [`MAX_DECODE_BYTES`].
+pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
+
+/// The most memory the decoder may allocate for one image (512 MiB).
+pub const MAX_DECODE_BYTES: u64 = 512 << 20;
+
+/// Decodes image bytes; `path` only names the file in errors. An image without pixels, or one
+/// declaring a side above [`MAX_IMAGE_SIDE`] or needing more than [`MAX_DECODE_BYTES`], is an
+/// error (from the header, before any pixel is allocated).
 pub fn decode_gray(path: &Path, bytes: &[u8]) -> Result<GrayImage> {
     let bad = |reason: String| VisguideError::Image {
         path: path.to_path_buf(),
         reason,
     };
     let format = image::guess_format(bytes).map_err(|e| bad(e.to_string()))?;
-    let img = image::load_from_memory_with_format(bytes, format).map_err(|e| bad(e.to_string()))?;
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    limits.max_alloc = Some(MAX_DECODE_BYTES);
+    reader.limits(limits);
+    let img = reader.decode().map_err(|e| bad(e.to_string()))?;
     if img.width() == 0 || img.height() == 0 {
         return Err(bad(format!(
             "it has no pixels ({}×{})",
@@ -84,5 +99,21 @@ mod tests {
                 Err(VisguideError::Image { .. })
             ));
         }
+    }
+
+    #[test]
+    fn a_header_declaring_a_huge_image_is_refused_before_decoding() {
+        // 40,000 × 40,000 grey pixels (1.6 GB) declared by a 20-byte PGM header.
+        let pgm = b"P5\n40000 40000\n255\n\x00";
+        let err = decode_gray(Path::new("huge.pgm"), pgm).unwrap_err();
+        assert!(matches!(err, VisguideError::Image { .. }), "{err}");
+        assert!(err.to_string().to_lowercase().contains("limit"), "{err}");
+        // Within the side limit but beyond the allocation limit: 30,000² bytes = 900 MB.
+        let pgm = b"P5\n30000 30000\n255\n\x00";
+        let err = decode_gray(Path::new("big.pgm"), pgm).unwrap_err();
+        assert!(err.to_string().to_lowercase().contains("limit"), "{err}");
+        // A small image cut short fails for another reason (not a limit).
+        let err = decode_gray(Path::new("short.pgm"), b"P5\n4 4\n255\n\x00").unwrap_err();
+        assert!(!err.to_string().to_lowercase().contains("limit"), "{err}");
     }
 }
