@@ -17,7 +17,6 @@ pub fn median(xs: &mut [f64]) -> f64 {
 /// Nearest-rank quantile from below: the value of rank `⌊q·n⌋` (0-based, at most `n − 1`) of
 /// the sorted sample, so `q = 0.5` is the upper median of an even-sized sample; NaN for an
 /// empty sample. `q` in `[0, 1]`. Sorts `xs` in place.
-#[allow(dead_code)] // for `eval servo`'s medians and p90 (its own copies until that file is merged)
 pub fn quantile_rank(xs: &mut [f64], q: f64) -> f64 {
     if xs.is_empty() {
         return f64::NAN;
@@ -28,7 +27,6 @@ pub fn quantile_rank(xs: &mut [f64], q: f64) -> f64 {
 
 /// Linearly interpolated quantile (the `R-7` / NumPy default): position `q·(n − 1)` in the sorted
 /// non-NaN values; NaN when there are none. `q` in `[0, 1]`.
-#[allow(dead_code)] // for `eval servo`'s report (its own copy until that file is merged)
 pub fn quantile_linear(xs: &[f64], q: f64) -> f64 {
     let mut s: Vec<f64> = xs.iter().copied().filter(|x| !x.is_nan()).collect();
     if s.is_empty() {

@@ -559,19 +559,11 @@ pub struct RuleRecognition {
 }
 
 fn median_of(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    crate::stats::quantile_rank(&mut v, 0.5)
 }
 
 fn p90_of(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[(v.len() * 9 / 10).min(v.len() - 1)]
+    crate::stats::quantile_rank(&mut v, 0.9)
 }
 
 pub fn evaluate_recognition(

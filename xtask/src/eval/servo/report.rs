@@ -35,16 +35,7 @@ pub struct MethodStats {
     pub stopped_by_error: usize,
 }
 
-fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let pos = q * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    s[lo] + (pos - lo as f64) * (s[hi] - s[lo])
-}
+use crate::stats::quantile_linear as quantile;
 
 fn round6(x: f64) -> f64 {
     (x * 1e6).round() / 1e6

@@ -111,16 +111,7 @@ pub struct SeedStudy {
     pub results: Vec<SeedResult>,
 }
 
-fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let pos = q * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    s[lo] + (pos - lo as f64) * (s[hi] - s[lo])
-}
+use crate::stats::quantile_linear as quantile;
 
 /// Runs every (arm, seed) of `args` in parallel (one job each; results do not depend on the
 /// thread count).
