@@ -64,6 +64,24 @@ fn xtask(cwd: &Path, args: &[&str]) -> Command {
     c
 }
 
+/// `xtask` with SIGINT, SIGTERM and SIGHUP set to `disposition` in the child, whatever this test
+/// process inherited: a CI job started in the background of a non-interactive shell ignores
+/// SIGINT, and the interrupt tests must not depend on how the harness was started.
+fn xtask_with_signals(cwd: &Path, args: &[&str], disposition: libc::sighandler_t) -> Command {
+    use std::os::unix::process::CommandExt;
+    let mut c = xtask(cwd, args);
+    // SAFETY: `signal` is async-signal-safe; nothing is allocated between fork and exec.
+    unsafe {
+        c.pre_exec(move || {
+            for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+                libc::signal(s, disposition);
+            }
+            Ok(())
+        });
+    }
+    c
+}
+
 fn run(mut c: Command) -> (bool, String) {
     let Output { status, stderr, .. } = c.output().unwrap();
     (
@@ -245,10 +263,18 @@ fn an_interrupted_eval_leaves_its_folder_as_it_was() {
     ];
     let mut outcomes = Vec::new();
     for m in moments {
-        let mut child = xtask(&d, &["eval", "arm-sim", "--out", "arm-sim"])
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
+        // Every moment starts from the old folder, even when the previous run completed.
+        if snapshot(&out) != before {
+            std::fs::remove_dir_all(&out).unwrap();
+            copy_dir(&committed, &out);
+            std::fs::write(out.join("from-an-earlier-run.txt"), "old\n").unwrap();
+            assert!(snapshot(&out) == before);
+        }
+        let mut child =
+            xtask_with_signals(&d, &["eval", "arm-sim", "--out", "arm-sim"], libc::SIG_DFL)
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .unwrap();
         match m {
             Moment::Fraction(f) => {
                 std::thread::sleep(full.mul_f64(f).max(Duration::from_millis(1)))
@@ -288,5 +314,38 @@ fn an_interrupted_eval_leaves_its_folder_as_it_was() {
     for o in &outcomes[1..3] {
         assert_eq!((o.1, o.2), (Some(130), true), "{outcomes:?}");
     }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A signal the caller ignores stays ignored (`nohup`, background jobs of a non-interactive
+/// shell): the run is not stopped by it and completes.
+#[test]
+fn an_ignored_signal_does_not_stop_an_eval() {
+    let d = scratch("ignored");
+    let mut child = xtask_with_signals(&d, &["eval", "arm-sim", "--out", "out"], libc::SIG_IGN)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let staged = d.join(format!(".out.partial-{}", child.id()));
+    let t0 = Instant::now();
+    while !staged.exists() && child.try_wait().unwrap().is_none() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the run never staged"
+        );
+        std::thread::sleep(Duration::from_micros(200));
+    }
+    for s in [libc::SIGINT, libc::SIGHUP, libc::SIGINT] {
+        // SAFETY: signalling a child process of ours by its id.
+        unsafe { libc::kill(child.id() as libc::pid_t, s) };
+    }
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    assert!(d.join("out/summary.json").is_file());
+    let beside: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(beside, ["out"]);
     std::fs::remove_dir_all(&d).unwrap();
 }

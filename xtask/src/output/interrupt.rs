@@ -69,15 +69,38 @@ fn clean_up_and_exit(signal: i32) -> ! {
     std::process::exit(128 + signal);
 }
 
+/// Whether this process inherited `signal` as ignored (`nohup` ignores SIGHUP; a shell without
+/// job control starts background commands with SIGINT ignored).
+#[cfg(unix)]
+fn inherited_ignored(signal: libc::c_int) -> bool {
+    // SAFETY: queries the disposition only (null new action) into a zeroed `sigaction`.
+    unsafe {
+        let mut old: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(signal, std::ptr::null(), &mut old) == 0
+            && old.sa_sigaction == libc::SIG_IGN
+    }
+}
+
 /// Blocks SIGINT, SIGTERM and SIGHUP in this (the main) thread and starts the thread that
 /// handles them. Call first thing in `main`, before any other thread exists.
+///
+/// A signal the process inherited as ignored stays ignored: Linux queues a blocked signal even
+/// when its action is "ignore", so blocking it would turn `nohup cargo xtask eval` into a run
+/// that a hang-up still stops.
 #[cfg(unix)]
 pub fn install() {
+    let taken: Vec<libc::c_int> = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP]
+        .into_iter()
+        .filter(|&s| !inherited_ignored(s))
+        .collect();
+    if taken.is_empty() {
+        return;
+    }
     // SAFETY: plain libc calls on a zero-initialised `sigset_t` owned by this function.
     let set = unsafe {
         let mut set: libc::sigset_t = std::mem::zeroed();
         libc::sigemptyset(&mut set);
-        for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+        for &s in &taken {
             libc::sigaddset(&mut set, s);
         }
         libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut());
