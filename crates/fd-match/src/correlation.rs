@@ -233,7 +233,7 @@ impl Correlator {
             }
             self.coarse_ifft
                 .process_with_scratch(&mut self.coarse, &mut self.scratch);
-            let top = self.coarse.iter().map(|z| z.norm_sqr()).fold(0.0, f64::max);
+            let top = max_norm_sqr(&self.coarse);
             let h0 = PI / m0 as f64;
             let lower = 2.0 - 2.0 * (top + curvature * h0 * h0).sqrt();
             if lower - ROUNDING_MARGIN > max_error {
@@ -249,16 +249,13 @@ impl Correlator {
             .process_with_scratch(&mut self.buf, &mut self.scratch);
         let h = 2.0 * PI / m as f64;
         let slack = curvature * (0.5 * h) * (0.5 * h);
-        // |r|² on the grid; the best sample (lowest index on ties).
-        let mut first = 0;
-        let mut top = -1.0;
-        for (j, (z, pw)) in self.buf.iter().zip(self.pow.iter_mut()).enumerate() {
+        // |r|² on the grid; the best sample (lowest index on ties), found without a branch per
+        // sample: the maximum in four lanes, then its first position.
+        for (z, pw) in self.buf.iter().zip(self.pow.iter_mut()) {
             *pw = z.norm_sqr();
-            if *pw > top {
-                top = *pw;
-                first = j;
-            }
         }
+        let top = lane_max(&self.pow);
+        let first = self.pow.iter().position(|&v| v == top).unwrap_or(0);
         let lower = 2.0 - 2.0 * (top + slack).sqrt();
         if lower - ROUNDING_MARGIN > max_error {
             return None;
@@ -346,6 +343,43 @@ impl Correlator {
             d.min(2.0 * PI - d) < 1.5 * h
         })
     }
+}
+
+/// The largest of `values` and −1, in four independent lanes of comparisons (no branch per
+/// value, no serial chain). NaN values are ignored, as by a `>` scan from −1.
+#[inline]
+fn lane_max(values: &[f64]) -> f64 {
+    let mut m = [-1.0f64; 4];
+    let mut quads = values.chunks_exact(4);
+    for q in &mut quads {
+        for l in 0..4 {
+            m[l] = if q[l] > m[l] { q[l] } else { m[l] };
+        }
+    }
+    for &v in quads.remainder() {
+        m[0] = if v > m[0] { v } else { m[0] };
+    }
+    let a = if m[1] > m[0] { m[1] } else { m[0] };
+    let b = if m[3] > m[2] { m[3] } else { m[2] };
+    if b > a { b } else { a }
+}
+
+/// The largest `|z|²` of `zs` (0 when all are 0 or `zs` is empty).
+#[inline]
+fn max_norm_sqr(zs: &[Complex64]) -> f64 {
+    let mut m = [0.0f64; 4];
+    let mut quads = zs.chunks_exact(4);
+    for q in &mut quads {
+        for l in 0..4 {
+            let v = q[l].norm_sqr();
+            m[l] = if v > m[l] { v } else { m[l] };
+        }
+    }
+    for z in quads.remainder() {
+        let v = z.norm_sqr();
+        m[0] = if v > m[0] { v } else { m[0] };
+    }
+    m.iter().fold(0.0, |a, &b| if b > a { b } else { a })
 }
 
 /// `S_j = Σ |n|^j |C₁(n)||C₂(n)|` for `j = 0, 1, 2` (the terms of the curvature bound), in four
@@ -546,6 +580,30 @@ mod tests {
             }
         }
         assert!(exits > 60, "the bound should prune often, pruned {exits}");
+    }
+
+    #[test]
+    fn lane_maxima_equal_a_scan() {
+        // Lengths around the lane width, ties, zeros and a NaN (ignored by both).
+        let mut s = 12345u64;
+        for len in 0..40 {
+            for round in 0..20 {
+                let v: Vec<f64> = (0..len)
+                    .map(|_| {
+                        s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+                        match (s >> 60, round % 3) {
+                            (0, 2) => f64::NAN,
+                            (x, _) => (x % 5) as f64 * 0.25,
+                        }
+                    })
+                    .collect();
+                let scan = v.iter().fold(-1.0, |a, &b| if b > a { b } else { a });
+                assert_eq!(lane_max(&v), scan, "{v:?}");
+                let zs: Vec<Complex64> = v.iter().map(|&x| Complex64::new(x.sqrt(), 0.0)).collect();
+                let want = zs.iter().map(|z| z.norm_sqr()).fold(0.0, f64::max);
+                assert_eq!(max_norm_sqr(&zs), want, "{v:?}");
+            }
+        }
     }
 
     #[test]

@@ -28,6 +28,15 @@ pub fn process_seconds() -> Option<f64> {
     Some(total)
 }
 
+/// The machine's load averages over 1, 5 and 15 minutes as printed by `uptime` (Linux;
+/// "unknown" elsewhere), so that a printed figure says how busy the cores were.
+pub fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "unknown".into())
+}
+
 /// Which clock [`interleaved`] reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Clock {

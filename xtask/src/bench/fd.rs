@@ -29,7 +29,7 @@ use fd_match::{
 use rand::{RngExt, SeedableRng, rngs::StdRng, seq::SliceRandom};
 
 use super::BenchArgs;
-use super::cpu::{Clock, interleaved};
+use super::cpu::{Clock, interleaved, load_average};
 use crate::Result;
 use crate::report::BenchRow;
 
@@ -137,7 +137,11 @@ fn measure(case: &str, a: &DescriptorSet, b: &DescriptorSet, rounds: usize) -> R
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
-    println!("times: {}, interleaved rounds", Clock::Process.name());
+    println!(
+        "times: {}, interleaved rounds; load average at the start: {}",
+        Clock::Process.name(),
+        load_average()
+    );
     let cfg = DescriptorConfig::with_sampling(Sampling::Canonical);
     let (ca, cb) = data();
     let a = describe_all(cfg, &ca)?.set;
@@ -174,6 +178,7 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         }
     }
     contour_fitting(&a, &ca, &cb)?;
+    println!("load average at the end: {}", load_average());
     Ok(rows)
 }
 

@@ -22,7 +22,7 @@
 use mser::{GrayView, Mser, MserParams};
 
 use super::BenchArgs;
-use super::cpu::{Clock, interleaved};
+use super::cpu::{Clock, interleaved, load_average};
 use crate::Result;
 use crate::report::BenchRow;
 
@@ -45,8 +45,14 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         .as_ref()
         .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
         .join("oxford-affine");
+    println!(
+        "load average at the start: {} ({} cores)",
+        load_average(),
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
     let mut rows = single_core(&root)?;
     rows.extend(multi_core(&root)?);
+    println!("load average at the end: {}", load_average());
     Ok(rows)
 }
 
@@ -205,6 +211,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
             std::hint::black_box(seq.detect(&img).expect("valid").len());
         },
     )?;
+    print_speedup("graf img1, polarities on 2 tasks", t_seq, t_par, cores);
     rows.push(BenchRow::lower_is_better(
         format!("graf img1: polarities on 2 tasks vs 1 thread ({cores} threads)"),
         t_par * 1e3,
@@ -222,6 +229,12 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
             std::hint::black_box(seq.detect_with_pixels(&img).expect("valid").len());
         },
     )?;
+    print_speedup(
+        "graf img1 with pixel lists, polarities on 2 tasks",
+        t_seq,
+        t_par,
+        cores,
+    );
     rows.push(BenchRow::lower_is_better(
         format!("graf img1 with pixel lists: polarities on 2 tasks vs 1 thread ({cores} threads)"),
         t_par * 1e3,
@@ -257,6 +270,12 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
             std::hint::black_box(sequential(&mut seq).len());
         },
     )?;
+    print_speedup(
+        "batch of 18 Oxford images, detect_many",
+        t_seq,
+        t_par,
+        cores,
+    );
     rows.push(BenchRow::lower_is_better(
         format!("batch of 18 Oxford images: detect_many vs 1 thread ({cores} threads)"),
         t_par * 1e3,
@@ -264,4 +283,17 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
         "ms wall",
     ));
     Ok(rows)
+}
+
+/// Prints a multi-core speed-up (sequential over parallel wall time) with the load it was
+/// measured under: on a machine whose cores are busy with other work the figure understates
+/// what the cores give when idle, so re-run on an idle machine for the real figure.
+fn print_speedup(case: &str, t_seq: f64, t_par: f64, cores: usize) {
+    println!(
+        "{case}: speed-up {:.2}x on {cores} threads ({:.1} ms -> {:.1} ms wall, median), load average {}",
+        t_seq / t_par,
+        t_seq * 1e3,
+        t_par * 1e3,
+        load_average()
+    );
 }
