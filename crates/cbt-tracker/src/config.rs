@@ -79,7 +79,9 @@ pub enum SystemFallback {
     /// posterior (target and clutter) has a velocity never seen in training; the
     /// constant-velocity extrapolation throws such pairs' mass far across the grid (where any
     /// clutter detection then captures the track — observed on synthetic L2 data), the
-    /// first-order column keeps it near `x_{k−1}`.
+    /// first-order column keeps it near `x_{k−1}`. The stationary layout carries its
+    /// velocity in the state instead of extrapolating pairs of modes, so
+    /// [`CbtConfig::stationary`] uses [`SystemFallback::ConstantVelocity`].
     FirstOrder,
 }
 
