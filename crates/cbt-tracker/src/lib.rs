@@ -38,7 +38,8 @@
 //! set is the clutter-aware mixture `(1 − P̂_D)·λ + Σ_i (b(z_i) ⋆ A)`. The posterior is held
 //! jointly on the window of its support (module `window`); the prediction is a separable
 //! convolution of it with per-axis displacement kernels `D_d = Σ_v c_d[v] T_d[· | v]`
-//! (`c_d` the velocity distribution between the last two posteriors' marginals), evaluated
+//! (`c_d` the velocity distribution the filter carries in its state: propagated through a
+//! missed frame by `T`, sharpened by each detection; module `window`, step 5), evaluated
 //! only where the update needs it; the estimate is the first moment of the channel
 //! coefficients around the best cell. Storage does not grow with the channel count and a
 //! step costs what the posterior's support costs, so the grid can be as fine as the detection
@@ -50,27 +51,34 @@
 //! recycled across the trackers of a thread.
 //!
 //! ## Which layout, which settings
-//! - **Image tracking** (state and detections in the same pixel units): [`Layout::Stationary`]
-//!   on a grid of spacing [`Scales::fine_spacing`] (0.75 × the training data's detection
-//!   noise), second order. It pools every training frame into every grid position, so it
-//!   learns from a few tracks, and a step costs what the posterior's support costs.
+//! - **Image tracking** (state and detections in the same pixel units):
+//!   [`CbtConfig::stationary`] ([`Layout::Stationary`], second order, constant-velocity
+//!   fallback for thinly trained velocity columns, `α = 10`) on a grid of spacing
+//!   [`Scales::fine_spacing`] (0.75 × the training data's detection noise). It pools every
+//!   training frame into every grid position, so it learns from a few tracks, and a step
+//!   costs what the posterior's support costs.
 //! - **Measurement ≠ state** (e.g. UNGM's `z = x²/20`): [`Layout::Separable`] with
 //!   [`ObservationFallback::Uniform`]; [`Layout::SparseJoint`] only when the axes are coupled
 //!   and the grid is small.
-//! - **Real motion** (measured on the ETH/UCY pedestrians, leave-one-scene-out, validation
-//!   scenes `biwi_hotel` and `crowds_zara02`; `fixtures/paper-b-pedestrians/summary.md`):
-//!   the second order beats the first at every detector level (it carries the walking
-//!   velocity); online learning ([`CbtTracker::with_self_learning`]) was better than the
-//!   offline model at every level and most of all when trained on five tracks (validation:
-//!   easy 3.53 against 5.68 px, medium 13.9 against 20.0 px), so use it on real data; the
-//!   library default stays offline because on the synthetic RC-car sets it is not better
-//!   (`fixtures/paper-b`). A start is a position without a velocity: the stationary
-//!   layout's first step predicts with the learned displacement distribution `S`, not with
-//!   `T[· | v = 0]` (real people stand still often enough that `T[· | 0]` is sharp, and a
-//!   walker started from it was left behind). Known limit: with many misses and much
-//!   clutter (P_D 0.7, 6 clutter a frame) CBT loses real walkers far more often than a
-//!   particle filter, whose state carries the velocity through missed frames; the marginal
-//!   approximation re-derives the velocity from the last two posteriors only.
+//! - **Real motion** (measured on the ETH/UCY pedestrians, leave-one-scene-out; every choice
+//!   made on the validation scenes `biwi_hotel` and `crowds_zara02`, the six others scored
+//!   once; `fixtures/paper-b-pedestrians/summary.md`): use [`CbtConfig::stationary`],
+//!   second order. The stationary layout carries the velocity in its state (module
+//!   `window`, step 5: a velocity distribution per axis, propagated through missed frames by
+//!   the learned `T` and sharpened by each detection, like a particle filter's particles
+//!   carry theirs), and the second order then beats the first at every detector level and
+//!   training size (validation, trained on the other scenes, mean RMSE px easy/medium/hard:
+//!   2.29/5.53/30.10 against 3.02/15.04/42.64). Online learning
+//!   ([`CbtTracker::with_self_learning`]) is no longer needed: within 0.2 px of the offline
+//!   model on the validation scenes trained on all other scenes (2.27/5.51/30.05), better by
+//!   up to 0.7 px on five tracks, at three times the cost per frame and slightly worse on the
+//!   synthetic RC-car sets, so the default stays offline. A start is a position without a
+//!   velocity: the first step predicts with the learned displacement distribution `S`, not
+//!   with `T[· | v = 0]`. Known limit: with many misses and much clutter (P_D 0.7, 6 clutter
+//!   a frame) CBT still loses real walkers more often than a particle filter (the factored
+//!   state drops the correlation between position and velocity that particles keep; a walker
+//!   whose first frames are missed is also often held by `S`'s spike at zero displacement —
+//!   real training data hold many standing people).
 //!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;

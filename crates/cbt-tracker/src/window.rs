@@ -4,18 +4,19 @@
 //! The posterior `q_k⁺` is held jointly on the 2-D grid, but only on a window (a rectangle of
 //! cells) outside which it is below `support × max` (dropped). One step:
 //!
-//! 1. **Displacement kernel.** Per axis `d`, the velocity distribution between the last two
-//!    posteriors under the marginal approximation, `c_d[v] = Σ_n q_{k−1,d}[n] q_{k−2,d}[n − v]`
-//!    (per-axis marginals), gives the predicted displacement
-//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]` (mass of `|v| > r` goes through `S_d`); first order,
-//!    and the first step after a start (a position without a velocity): `D_d = S_d`, the
-//!    learned displacement distribution (the velocities' marginal) rather than
-//!    `T_d[· | v = 0]`, which would claim the target stands still. This decouples the displacement from `x_{k−1}` (the exact marginal
-//!    approximation `Σ_{n,o} T[m − n | n − o] q₁[n] q₂[o]` correlates them, which doubles the
-//!    posterior's spread into the prediction: `2x_{k−1} − x_{k−2}`). Truncations (stated
-//!    approximations, far below the `support` and crop thresholds): each column `T_d[· | v]`
-//!    is summed over the band outside which each tail holds at most 1e-9 of its mass, and each
-//!    tail of `D_d` holding at most 1e-5 of its mass is dropped (`D_d` renormalised).
+//! 1. **Displacement kernel.** Per axis `d`, the velocity distribution `c_d[v]` carried from
+//!    the previous step (step 5) gives the predicted displacement
+//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]`; first order, and the first step after a start (a
+//!    position without a velocity): `D_d = S_d`, the learned displacement distribution (the
+//!    velocities' marginal) rather than `T_d[· | v = 0]`, which would claim the target stands
+//!    still. The velocity is part of the filter's state (`(x, v)` factored as
+//!    `q(x)·c_x(v_x)·c_y(v_y)`), not re-derived from the last two posteriors: a correlation of
+//!    those, after a missed detection, is the prediction's own spread and loses the walking
+//!    velocity exactly when it is needed (measured on the pedestrian study's validation
+//!    scenes). Truncations (stated approximations, far below the `support` and crop
+//!    thresholds): each column `T_d[· | v]` is summed over the band outside which each tail
+//!    holds at most 1e-9 of its mass, and each tail of `D_d` holding at most 1e-5 of its mass
+//!    is dropped (`D_d` renormalised).
 //! 2. **Prediction** `q⁻ = (1 − γ)·q_{k−1}⁺ ⊛ (D_x ⊗ D_y) + γ/G`: a separable convolution of
 //!    the joint posterior (no ghost combinations of one mode's x with another's y), evaluated
 //!    lazily only on the cells the update needs.
@@ -29,6 +30,14 @@
 //!    channels), decoded by the first moment of the cos² channel coefficients (exact for any
 //!    density inside the window: `Σ_n x̃_n K(x − x̃_n) = 1.5·x`, `Σ_n K(x − x̃_n) = 1.5`),
 //!    certainty its posterior mass; runner-ups the next local maxima outside it.
+//! 5. **Velocity.** The displacement just made, given the frame: a mixture over the update's
+//!    hypotheses with their posterior masses `π` (the miss, i.e. the floor part, and each
+//!    significant detection `i`): `c_d ∝ π_miss·D_d + Σ_i π_i·(D_d ⊙ ℓ_{i,d})/|D_d ⊙ ℓ_{i,d}|`,
+//!    `ℓ_{i,d}[δ] = Σ_n q_{k−1,d}[n]·β_{i,d}[n + δ]` with `β_{i,d}` the detection's likelihood
+//!    along axis `d` (its channels convolved with the kernel's marginal). A miss carries the
+//!    predicted velocity on through the learned `T` (as a particle filter carries it in its
+//!    particles), a detection sharpens it; one no displacement of `D_d` reaches (lost-track
+//!    recovery) contributes `S_d`.
 //!
 //! **Speed.** Every pass is a contiguous `y += k·x` over whole row blocks where the strides
 //! allow it (the prediction's x pass: one per kernel tap; the bump: the reflected kernel is
@@ -73,6 +82,9 @@ const EXTENTS_FROM: usize = 1024;
 /// kernel is renormalised): far below the crop and support thresholds, and it shortens a
 /// Gaussian kernel of `σ` channels to `± 4.3 σ`.
 const KERNEL_TAIL: f64 = 1e-5;
+
+/// Entries of a carried velocity distribution below this share of its mass are dropped.
+const VEL_CUT: f64 = 1e-9;
 
 /// A dense rectangle of the joint grid: rows `i0..i0 + h` (axis 0), columns `j0..j0 + w`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -138,6 +150,11 @@ pub(crate) struct WindowState {
     /// target stands still.
     #[serde(default)]
     fresh: bool,
+    /// The velocity distribution carried from step to step (second order), per axis:
+    /// `c_d[v]` for `v = −r..=r` at index `v + r` (empty: unknown, after a start or in files
+    /// from before it was carried; the step then predicts with `S_d`).
+    #[serde(default)]
+    vel: [Vec<f64>; 2],
     #[serde(skip)]
     scratch: Scratch,
 }
@@ -179,6 +196,10 @@ struct Scratch {
     prior_blocks: Option<Vec<Block>>,
     /// The x kernel times `1 − γ` (prediction's x pass).
     kk: Vec<f64>,
+    /// The detection of each update part (index into `enc`), parallel to `parts`.
+    part_det: Vec<usize>,
+    /// The significant hypotheses of the update: (detection, mass) (velocity step).
+    hyps: Vec<(usize, f64)>,
     /// Per posterior row, the columns `[first, last + 1)` of its cells that passed the crop
     /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
     /// candidates (`≥ MIN_SHARE × max`) lie within them.
@@ -217,14 +238,12 @@ impl PartialEq for Scratch {
     }
 }
 
-/// Work buffers of the displacement kernel: the kernel before its tails are cut, the
-/// velocity terms `(v + r, c[v])`, the correlation `c` by `v`, and the reversed marginal.
+/// Work buffers of the displacement kernel: the kernel before its tails are cut and the
+/// velocity terms `(v + r, c[v])`.
 #[derive(Debug, Clone, Default)]
 struct DispWork {
     out: Vec<f64>,
     terms: Vec<(usize, f64)>,
-    corr: Vec<f64>,
-    rev: Vec<f64>,
 }
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
@@ -335,6 +354,9 @@ impl WindowState {
                 nonneg("posterior marginal", v)?;
             }
         }
+        for v in &self.vel {
+            nonneg("velocity distribution", v)?;
+        }
         Ok(())
     }
 
@@ -348,6 +370,7 @@ impl WindowState {
         self.cur = marginals(&self.post);
         self.prev = self.cur.clone();
         self.fresh = true;
+        self.vel = Default::default();
     }
 
     /// Displacement kernel of axis `d` (step 1 of the module doc).
@@ -367,12 +390,7 @@ impl WindowState {
         work: &mut DispWork,
         k: &mut Kernel1,
     ) {
-        let DispWork {
-            out,
-            terms,
-            corr,
-            rev,
-        } = work;
+        let DispWork { out, terms } = work;
         let r = sys.radius() as i64;
         let w = (2 * r + 1) as usize;
         out.clear();
@@ -380,32 +398,20 @@ impl WindowState {
         match order {
             Order::First => out.copy_from_slice(sys.first()),
             Order::Second => {
-                let (o2, m2) = (self.prev[d].0 as i64, &self.prev[d].1);
-                let (o1, m1) = (self.cur[d].0 as i64, &self.cur[d].1);
-                let mut inside = 0.0;
-                // Column v of T (zeroed outside its band: the zeros add +0) times c[v], added
-                // to `out` by increasing v.
-                terms.clear();
-                // v = n − o with n ∈ [o1, o1 + |m1|), o ∈ [o2, o2 + |m2|).
-                let v_lo = (o1 - o2 - m2.len() as i64 + 1).max(-r);
-                let v_hi = (o1 + m1.len() as i64 - 1 - o2).min(r);
-                // c[v] = Σ_n m1[n] m2[n − v] over the overlap (index a = n − o1 of m1 and
-                // a + o1 − o2 − v of m2), by increasing n, for every v at once (module `simd`).
-                corr.clear();
-                corr.resize((v_hi - v_lo + 1).max(0) as usize, 0.0);
-                correlate(corr, m1, m2, o1 - o2 - v_lo, rev);
-                for (v, &c) in (v_lo..=v_hi).zip(corr.iter()) {
-                    if c == 0.0 {
-                        continue;
-                    }
-                    inside += c;
-                    terms.push(((v + r) as usize, c));
-                }
-                column_sum(out, sys.banded(), sys.banded_stride(), terms);
-                let total: f64 = m1.iter().sum::<f64>() * m2.iter().sum::<f64>();
-                let rest = (total - inside).max(0.0);
-                for (dst, &s) in out.iter_mut().zip(sys.first()) {
-                    *dst += rest * s;
+                let c = &self.vel[d];
+                if c.len() == w {
+                    // Column v of T (zeroed outside its band: the zeros add +0) times c[v],
+                    // added to `out` by increasing v.
+                    terms.clear();
+                    terms.extend(
+                        c.iter()
+                            .enumerate()
+                            .filter(|&(_, &cv)| cv > 0.0)
+                            .map(|(i, &cv)| (i, cv)),
+                    );
+                    column_sum(out, sys.banded(), sys.banded_stride(), terms);
+                } else {
+                    out.copy_from_slice(sys.first());
                 }
             }
         }
@@ -710,6 +716,8 @@ impl WindowState {
             ..full
         };
         let mut parts = std::mem::take(&mut self.scratch.parts);
+        let mut part_det = std::mem::take(&mut self.scratch.part_det);
+        part_det.clear();
         let mut n_parts = 0;
         let mut total = 0.0;
         let ra = obs.kernel_radius();
@@ -773,6 +781,7 @@ impl WindowState {
             let sh = span.filter(|_| !per_bump).map(|sp| (sp, &shared[..]));
             let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, near, sh, &mut buf);
             parts[n_parts] = (near, mass, buf);
+            part_det.push(k);
             n_parts += 1;
             total += mass;
         }
@@ -788,6 +797,7 @@ impl WindowState {
                 let mut buf = std::mem::take(&mut parts[n_parts].2);
                 let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, r, None, &mut buf);
                 parts[n_parts] = (r, mass, buf);
+                part_det.push(k);
                 n_parts += 1;
             }
         }
@@ -808,6 +818,29 @@ impl WindowState {
                 rect = Some(rect.map_or(r, |x| x.union(r)));
             }
         }
+        // The hypotheses the posterior is made of (step 5 of the module doc): the miss (the
+        // floor part) and each significant detection, with their masses.
+        let mut hyps = std::mem::take(&mut self.scratch.hyps);
+        hyps.clear();
+        let miss = if enc.is_empty() {
+            1.0
+        } else if use_floor {
+            floor_mass
+        } else {
+            0.0
+        };
+        if !enc.is_empty() {
+            for (&(_, mass, _), &k) in parts[..n_parts].iter().zip(&part_det) {
+                if sig(mass) {
+                    hyps.push((k, mass));
+                }
+            }
+        }
+        self.scratch.part_det = part_det;
+        if cfg.order == Order::Second {
+            self.carry_velocity(sys, obs, (&kx, &ky), &enc, &hyps, miss);
+        }
+        self.scratch.hyps = hyps;
         let Some(rect) = rect else {
             // Nothing significant (cannot happen with a positive floor): keep the prior.
             self.scratch.parts = parts;
@@ -945,6 +978,96 @@ impl WindowState {
         }
         self.scratch.post_blocks = post_blocks;
         Ok(())
+    }
+
+    /// The velocity distribution of the next step (step 5 of the module doc): per axis, the
+    /// mixture over the update's hypotheses of the displacement's posterior,
+    /// `c_d ∝ π_miss·D_d + Σ_i π_i·(D_d ⊙ ℓ_{i,d}) / |D_d ⊙ ℓ_{i,d}|` with
+    /// `ℓ_{i,d}[δ] = Σ_n q_{k−1,d}[n]·β_{i,d}[n + δ]` and `β_{i,d}` detection `i`'s likelihood
+    /// along axis `d` (its active channels convolved with the kernel's marginal `A_d`); a
+    /// detection no displacement in `D_d` reaches (a lost-track recovery) contributes `S_d`.
+    /// Reads `self.cur` (the marginals of `q_{k−1}⁺`: called before they are replaced).
+    fn carry_velocity(
+        &mut self,
+        sys: &[StatSystem],
+        obs: &StatObservation,
+        kernels: (&Kernel1, &Kernel1),
+        enc: &[Det],
+        hyps: &[(usize, f64)],
+        miss: f64,
+    ) {
+        let ra = obs.kernel_radius();
+        let kw = 2 * ra + 1;
+        let a = obs.kernel();
+        // The kernel's marginals A_x[δx] (sum over δy) and A_y[δy].
+        let mut am = [vec![0.0; kw], vec![0.0; kw]];
+        for (i, row) in a.chunks_exact(kw).enumerate() {
+            for (j, &v) in row.iter().enumerate() {
+                am[0][i] += v;
+                am[1][j] += v;
+            }
+        }
+        let (mut beta, mut c, mut rev) = (Vec::new(), Vec::new(), Vec::new());
+        for d in 0..2 {
+            let r = sys[d].radius() as i64;
+            let w = (2 * r + 1) as usize;
+            let k = if d == 0 { kernels.0 } else { kernels.1 };
+            let mut next = std::mem::take(&mut self.vel[d]);
+            next.clear();
+            next.resize(w, 0.0);
+            for (t, &kv) in k.v.iter().enumerate() {
+                next[(k.lo + r) as usize + t] += miss * kv;
+            }
+            let (o, m) = (self.cur[d].0 as i64, &self.cur[d].1);
+            for &(det, mass) in hyps {
+                let act = if d == 0 { enc[det].ax } else { enc[det].ay };
+                // β[n] = Σ_t v[t]·A_d[k0 + t − n] for n ∈ [b0, b0 + |β|).
+                let b0 = act.first() as i64 - ra as i64;
+                beta.clear();
+                beta.resize(act.n + kw - 1, 0.0);
+                for (t, &v) in act.v[..act.n].iter().enumerate() {
+                    for (e, &av) in am[d].iter().enumerate() {
+                        // n = k0 + t − (e − ra) = b0 + t + (kw − 1 − e).
+                        beta[t + kw - 1 - e] += v * av;
+                    }
+                }
+                // ℓ[δ] = Σ_j m[j]·β[j + o + δ − b0] for δ from the kernel's last offset down
+                // to its first: c[i] = ℓ[δ_hi − i] (module `simd`).
+                let n = k.v.len();
+                let d_hi = k.hi() + o - b0;
+                c.clear();
+                c.resize(n, 0.0);
+                correlate(&mut c, m, &beta, d_hi, &mut rev);
+                c.reverse();
+                let mut s = 0.0;
+                for (dst, &kv) in c.iter_mut().zip(&k.v) {
+                    *dst *= kv;
+                    s += *dst;
+                }
+                if s > 0.0 {
+                    let f = mass / s;
+                    for (t, &cv) in c.iter().enumerate() {
+                        next[(k.lo + r) as usize + t] += f * cv;
+                    }
+                } else {
+                    for (dst, &sv) in next.iter_mut().zip(sys[d].first()) {
+                        *dst += mass * sv;
+                    }
+                }
+            }
+            let total: f64 = next.iter().sum();
+            if total > 0.0 && total.is_finite() {
+                // Entries below VEL_CUT of the total are dropped (fewer terms next step).
+                let cut = VEL_CUT * total;
+                let inv = 1.0 / total;
+                for v in next.iter_mut() {
+                    *v = if *v > cut { *v * inv } else { 0.0 };
+                }
+            } else {
+                next.clear();
+            }
+            self.vel[d] = next;
+        }
     }
 
     /// Best mode and runner-ups (step 4 of the module doc).

@@ -363,8 +363,9 @@ fn a_start_has_no_velocity_so_the_first_step_predicts_with_the_displacement_dist
     assert_eq!(ea, eb);
     assert_eq!(a.posterior(), b.posterior());
     assert!((ea.position[0] - 23.0).abs() < 0.5, "{:?}", ea.position);
-    // From the second step on it uses the velocity between its posteriors: T[· | +3] says
-    // "walks on", so a detection straight ahead is followed again, and the two trackers differ.
+    // From the second step on it uses the velocity it carries (the first step's displacement
+    // given the detection, +3): T[· | +3] says "walks on", so a detection straight ahead is
+    // followed again, and the two trackers differ.
     let det = [Detection::new(26.0, 40.0)];
     let (ea, eb) = (a.step(&det).unwrap(), b.step(&det).unwrap());
     assert!((ea.position[0] - 26.0).abs() < 0.5, "{:?}", ea.position);
@@ -390,4 +391,30 @@ fn a_saved_tracker_remembers_that_it_has_just_started() {
         );
     }
     assert!((eb.position[0] - 23.0).abs() < 0.5, "{eb:?}");
+}
+
+#[test]
+fn the_velocity_is_carried_through_missed_detections() {
+    let (space, seqs) = standing_and_walking();
+    let mut a = CbtTracker::new(CbtModel::learn(space, stationary(), &seqs).unwrap());
+    a.reset([20.0, 40.0]).unwrap();
+    for x in [23.0, 26.0, 29.0] {
+        let e = a.step(&[Detection::new(x, 40.0)]).unwrap();
+        assert!((e.position[0] - x).abs() < 0.5, "{x}: {:?}", e.position);
+    }
+    // Four frames without a detection: the state's velocity (+3, learned T[· | +3] says
+    // "walks on") moves the estimate on, one walking step a frame; a filter that lost the
+    // velocity would stay at 29 (the standing walkers' T[· | 0]).
+    for x in [32.0, 35.0, 38.0, 41.0] {
+        let e = a.step(&[]).unwrap();
+        assert!(
+            (e.position[0] - x).abs() < 1.0,
+            "miss, {x}: {:?}",
+            e.position
+        );
+        assert!((e.position[1] - 40.0).abs() < 0.5, "{:?}", e.position);
+    }
+    // The walker is picked up again where the carried velocity put it.
+    let e = a.step(&[Detection::new(44.0, 40.0)]).unwrap();
+    assert!((e.position[0] - 44.0).abs() < 0.5, "{:?}", e.position);
 }

@@ -177,7 +177,9 @@ fn protocol(sets: &[SetSpec]) -> String {
          layout (shift-invariant models pooled over the grid by displacement: per-axis \
          first- and second-order motion, a joint 2-D observation kernel with the learned \
          detection probability and clutter density; the posterior held jointly on the window \
-         of its support; first-order fallback), channel spacing 0.75 × the training data's \
+         of its support, the velocity carried in the state; `CbtConfig::stationary`: \
+         constant-velocity fallback for thinly trained velocities, prior weight 10), channel \
+         spacing 0.75 × the training data's \
          detection noise. UNGM: the dense separable layout (measurement ≠ state), spacing 1. \
          The baselines' parameters (σ_a, σ_z, P_D, clutter rate) are calibrated on the same \
          training data. Track-loss radius: {} px on the image sets, {} on UNGM.",

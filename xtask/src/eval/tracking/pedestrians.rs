@@ -20,6 +20,7 @@
 //!   seeds (the "best in" count uses it), and a set's figure is given as the mean over seeds
 //!   with the standard deviation over seeds of the set's mean RMSE.
 
+use crate::markdown::Table;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -434,26 +435,28 @@ fn rows(folds: &[&FoldResult]) -> Vec<Row> {
 }
 
 fn table(s: &mut String, folds: &[&FoldResult]) {
-    let _ = writeln!(
-        s,
-        "| tracker | mean RMSE (px) | spread over seeds | lost | best in |\n|---|---:|---:|---:|---:|"
-    );
+    let mut t = Table::new([
+        "tracker",
+        "mean RMSE (px)",
+        "spread over seeds",
+        "lost",
+        "best in",
+    ])
+    .right(1..5);
     for r in rows(folds) {
-        let _ = writeln!(
-            s,
-            "| {} | {:.2} | {} | {:.1} % | {} / {} |",
+        t.row([
             r.tracker,
-            r.mean,
+            format!("{:.2}", r.mean),
             if r.spread > 0.0 {
                 format!("± {:.2}", r.spread)
             } else {
                 "—".into()
             },
-            100.0 * r.loss,
-            r.best,
-            r.n
-        );
+            format!("{:.1} %", 100.0 * r.loss),
+            format!("{} / {}", r.best, r.n),
+        ]);
     }
+    let _ = write!(s, "{t}");
 }
 
 /// The summary of the study.

@@ -8,20 +8,6 @@ use super::study::{SetKind, SetResult, aggregate};
 use crate::Result;
 use cbt_tracker::Sequence;
 
-fn colour(i: usize) -> RGBColor {
-    const C: [RGBColor; 8] = [
-        RGBColor(214, 39, 40),
-        RGBColor(255, 127, 14),
-        RGBColor(148, 103, 189),
-        RGBColor(31, 119, 180),
-        RGBColor(44, 160, 44),
-        RGBColor(23, 190, 207),
-        RGBColor(140, 86, 75),
-        RGBColor(127, 127, 127),
-    ];
-    C[i % C.len()]
-}
-
 /// Truth, detections (near the truth / other) and every tracker's estimate for one sequence.
 pub fn trajectories(set: &SetResult, seq: &Sequence, index: usize, path: &Path) -> Result<()> {
     let SetKind::Image {
@@ -91,7 +77,7 @@ pub fn trajectories(set: &SetResult, seq: &Sequence, index: usize, path: &Path) 
         .label("truth")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK.stroke_width(3)));
     for (i, r) in res.runs.iter().enumerate() {
-        let c = colour(i);
+        let c = crate::palette::series(i);
         let pts: Vec<(f64, f64)> = r
             .estimates
             .iter()
@@ -159,7 +145,7 @@ pub fn rmse_vs_clutter(sets: &[&SetResult], path: &Path) -> Result<()> {
         .draw()?;
     let names: Vec<String> = pts[0].1.iter().map(|p| p.0.clone()).collect();
     for (i, name) in names.iter().enumerate() {
-        let c = colour(i);
+        let c = crate::palette::series(i);
         let line: Vec<(f64, f64)> = pts
             .iter()
             .filter_map(|(x, v)| v.iter().find(|p| &p.0 == name).map(|p| (*x, p.1)))

@@ -5,9 +5,8 @@ use std::time::Instant;
 
 use cbt_tracker::metrics::{Score, score};
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, Layout,
-    ObservationFallback, Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space,
-    TrackError, Tracker, axis,
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ObservationFallback,
+    Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis,
 };
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -171,10 +170,9 @@ impl Trackers {
                     axis(y_lo, y_hi, spacing, kernel)?,
                 );
                 let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by])?;
-                let cfg = CbtConfig {
-                    layout: Layout::Stationary,
-                    ..CbtConfig::default()
-                };
+                // The image-tracking configuration (its docs: why, measured on the
+                // pedestrian study's validation scenes).
+                let cfg = CbtConfig::stationary();
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
                 let cal = Calibration::estimate(&spec.train, extent / 10.0)?;
                 let area = (x_hi - x_lo) * (y_hi - y_lo);

@@ -1,5 +1,6 @@
 //! `summary.md` of the tracking study: per-set tables and who is best in how many sequences.
 
+use crate::markdown::Table;
 use std::fmt::Write;
 
 use super::study::{SetResult, aggregate, head_to_head};
@@ -81,20 +82,15 @@ pub fn render(sets: &[SetResult], protocol: &str) -> String {
 }
 
 fn table(s: &mut String, sets: &[&SetResult]) {
-    let _ = writeln!(
-        s,
-        "| tracker | mean RMSE | median RMSE | lost | best in |\n|---|---:|---:|---:|---:|"
-    );
+    let mut t = Table::new(["tracker", "mean RMSE", "median RMSE", "lost", "best in"]).right(1..5);
     for a in aggregate(sets) {
-        let _ = writeln!(
-            s,
-            "| {} | {:.2} | {:.2} | {:.1} % | {} / {} |",
+        t.row([
             a.tracker,
-            a.mean_rmse,
-            a.median_rmse,
-            100.0 * a.mean_loss_share,
-            a.best_in,
-            a.sequences
-        );
+            format!("{:.2}", a.mean_rmse),
+            format!("{:.2}", a.median_rmse),
+            format!("{:.1} %", 100.0 * a.mean_loss_share),
+            format!("{} / {}", a.best_in, a.sequences),
+        ]);
     }
+    let _ = write!(s, "{t}");
 }
