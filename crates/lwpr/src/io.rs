@@ -342,7 +342,7 @@ fn dec_rf(d: &mut Dec) -> Result<ReceptiveField> {
 /// Checks a receptive field's metric: `M` upper triangular (diagonal with `diag_only`) with a
 /// positive diagonal, and `D = MᵀM` within [`METRIC_TOLERANCE`]: then `M` is the Cholesky
 /// factor of `D` and `D` is positive definite.
-fn check_metric(
+pub(crate) fn check_metric(
     n: usize,
     diag_only: bool,
     d: &[f64],
@@ -377,6 +377,23 @@ fn check_metric(
         }
     }
     Ok(())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder renamed into place,
+/// so a failed write leaves neither a partial file nor a damaged old one.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| LwprError::Io(format!("{} is not a file path", path.display())))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(result?)
 }
 
 impl Lwpr {
@@ -497,24 +514,31 @@ impl Lwpr {
         } else {
             self.to_json().into_bytes()
         };
-        std::fs::write(path, bytes)?;
-        Ok(())
+        write_atomically(path, &bytes)
     }
 
-    /// Reads a model written by [`save`](Self::save) (format detected from the content).
+    /// Reads a model written by [`save`](Self::save) or an XML model file (see
+    /// [`from_xml`](Self::from_xml)); the format is detected from the content.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let data = std::fs::read(path)?;
         if data.starts_with(MAGIC) {
             Self::from_binary(&data)
         } else {
-            let s =
-                std::str::from_utf8(&data).map_err(|_| fmt_err("neither binary nor UTF-8 JSON"))?;
-            Self::from_json(s)
+            let s = std::str::from_utf8(&data)
+                .map_err(|_| fmt_err("neither binary nor UTF-8 JSON or XML"))?;
+            if s.trim_start_matches('\u{feff}')
+                .trim_start()
+                .starts_with('<')
+            {
+                Self::from_xml(s)
+            } else {
+                Self::from_json(s)
+            }
         }
     }
 
     /// Checks every invariant of a deserialised model and rebuilds derived data.
-    fn finish_load(mut self) -> Result<Self> {
+    pub(crate) fn finish_load(mut self) -> Result<Self> {
         let p = self
             .params
             .checked_copy()

@@ -164,6 +164,7 @@ mod model;
 mod params;
 mod rf;
 mod workspace;
+mod xml;
 
 pub use error::{LwprError, Result};
 pub use io::{BINARY_FORMAT_VERSION, METRIC_TOLERANCE};
