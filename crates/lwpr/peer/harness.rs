@@ -469,26 +469,7 @@ pub fn run_peer_with_xml(
     for &c in checkpoints {
         i32le(&mut b, c as i64);
     }
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
-    std::fs::write(&inp, &b).map_err(|e| e.to_string())?;
-    let st = Command::new(driver)
-        .arg(&inp)
-        .arg(&outp)
-        .args(xml)
-        .output()
-        .map_err(|e| format!("cannot run the driver: {e}"))?;
-    if !st.status.success() {
-        return Err(format!(
-            "the driver failed: {}",
-            String::from_utf8_lossy(&st.stderr)
-        ));
-    }
-    let o = std::fs::read(&outp).map_err(|e| e.to_string())?;
-    let _ = std::fs::remove_dir_all(&dir);
+    let o = run_driver(driver, None, &b, xml)?;
     let mut pos = 0;
     let mut rd = |k: usize| -> Result<&[u8], String> {
         let s = o.get(pos..pos + k).ok_or("short driver output")?;
@@ -560,27 +541,7 @@ pub fn run_xml_peer(
     x.iter()
         .chain(y)
         .for_each(|v| b.extend_from_slice(&v.to_le_bytes()));
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-    let dir = std::env::temp_dir().join(format!("lwpr-xml-peer-{}-{run}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
-    std::fs::write(&inp, &b).map_err(|e| e.to_string())?;
-    let st = Command::new(driver)
-        .arg(xml)
-        .arg(&inp)
-        .arg(&outp)
-        .output()
-        .map_err(|e| format!("cannot run the driver: {e}"))?;
-    if !st.status.success() {
-        return Err(format!(
-            "the XML driver failed ({}): {}",
-            st.status,
-            String::from_utf8_lossy(&st.stderr)
-        ));
-    }
-    let o = std::fs::read(&outp).map_err(|e| e.to_string())?;
-    let _ = std::fs::remove_dir_all(&dir);
+    let o = run_driver(driver, Some(xml), &b, None)?;
     let mut r = Bytes { data: &o, pos: 0 };
     let dims = r.ints(2)?;
     if dims != [n_in, n_out] {
@@ -608,6 +569,41 @@ pub fn run_xml_peer(
         num_rfs_after: r.ints(n_out)?,
         y_after: r.floats(n_test * n_out)?,
     })
+}
+
+/// Runs `driver [lead] IN OUT [tail]` with `input` written to IN in a scratch folder, and
+/// returns what it wrote to OUT.
+fn run_driver(
+    driver: &Path,
+    lead: Option<&Path>,
+    input: &[u8],
+    tail: Option<&Path>,
+) -> Result<Vec<u8>, String> {
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
+    std::fs::write(&inp, input).map_err(|e| e.to_string())?;
+    let st = Command::new(driver)
+        .args(lead)
+        .arg(&inp)
+        .arg(&outp)
+        .args(tail)
+        .output()
+        .map_err(|e| format!("cannot run the driver: {e}"))?;
+    if !st.status.success() {
+        let _ = std::fs::remove_dir_all(&dir);
+        return Err(format!(
+            "the driver {} failed ({}): {}",
+            driver.display(),
+            st.status,
+            String::from_utf8_lossy(&st.stderr)
+        ));
+    }
+    let o = std::fs::read(&outp).map_err(|e| e.to_string());
+    let _ = std::fs::remove_dir_all(&dir);
+    o
 }
 
 /// Little-endian values of a driver's output, in order.

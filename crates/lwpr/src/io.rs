@@ -48,15 +48,7 @@ pub(crate) struct LwprData {
 impl TryFrom<LwprData> for Lwpr {
     type Error = LwprError;
     fn try_from(d: LwprData) -> Result<Self> {
-        Lwpr {
-            params: d.params,
-            n_data: d.n_data,
-            mean_x: d.mean_x,
-            var_x: d.var_x,
-            sub: d.sub,
-            ws: Workspace::default(),
-        }
-        .finish_load()
+        Lwpr::from_parts(d.params, d.n_data, d.mean_x, d.var_x, d.sub)
     }
 }
 
@@ -495,15 +487,7 @@ impl Lwpr {
         if d.pos != payload.len() {
             return Err(fmt_err("trailing bytes in payload"));
         }
-        Lwpr {
-            params,
-            n_data,
-            mean_x,
-            var_x,
-            sub,
-            ws: Workspace::default(),
-        }
-        .finish_load()
+        Lwpr::from_parts(params, n_data, mean_x, var_x, sub)
     }
 
     /// Writes the model to `path`: binary if the extension is `bin`, JSON otherwise.
@@ -537,8 +521,27 @@ impl Lwpr {
         }
     }
 
+    /// A model from its stored parts (any format), checked like every loaded model.
+    pub(crate) fn from_parts(
+        params: Params,
+        n_data: u64,
+        mean_x: Vec<f64>,
+        var_x: Vec<f64>,
+        sub: Vec<SubModel>,
+    ) -> Result<Self> {
+        Lwpr {
+            params,
+            n_data,
+            mean_x,
+            var_x,
+            sub,
+            ws: Workspace::default(),
+        }
+        .finish_load()
+    }
+
     /// Checks every invariant of a deserialised model and rebuilds derived data.
-    pub(crate) fn finish_load(mut self) -> Result<Self> {
+    fn finish_load(mut self) -> Result<Self> {
         let p = self
             .params
             .checked_copy()

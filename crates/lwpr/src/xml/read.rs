@@ -13,7 +13,6 @@ use crate::linalg::cholesky_upper;
 use crate::model::{Lwpr, SubModel};
 use crate::params::{Arithmetic, Kernel, MAX_INPUTS, MAX_OUTPUTS, Params, PruneRule};
 use crate::rf::ReceptiveField;
-use crate::workspace::Workspace;
 
 fn err(s: impl Into<String>) -> LwprError {
     LwprError::Format(s.into())
@@ -375,13 +374,5 @@ pub(super) fn model(root: &Element) -> Result<Lwpr> {
         .enumerate()
         .map(|(d, s)| s.ok_or_else(|| err(format!("<SubModel> {d} missing"))))
         .collect::<Result<Vec<_>>>()?;
-    Lwpr {
-        params,
-        n_data,
-        mean_x,
-        var_x,
-        sub,
-        ws: Workspace::default(),
-    }
-    .finish_load()
+    Lwpr::from_parts(params, n_data, mean_x, var_x, sub)
 }
