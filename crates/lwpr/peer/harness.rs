@@ -190,6 +190,18 @@ pub const PEER_CFLAGS: &[&str] = &["-O3"];
 /// builds it and the driver into `<workspace>/target/peers/lwpr` and returns the driver's path,
 /// or the reason why that is impossible.
 pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
+    build_driver(workspace, "lwpr_peer", false)
+}
+
+/// Like [`build_peer`] for `peer/lwpr_xml_peer.c`, which reads XML model files: the reference's
+/// XML reader needs libexpat (Debian: `libexpat1-dev`), so the library is compiled with
+/// `HAVE_LIBEXPAT 1` (a copy of `build.sh`'s generated `lwpr_config.h` with that one line
+/// changed) and linked with `-lexpat`.
+pub fn build_xml_peer(workspace: &Path) -> Result<PathBuf, String> {
+    build_driver(workspace, "lwpr_xml_peer", true)
+}
+
+fn build_driver(workspace: &Path, name: &str, expat: bool) -> Result<PathBuf, String> {
     let src = std::env::var_os("LWPR_PEER_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace.join("../shared/peers/lwpr"));
@@ -213,13 +225,13 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
     let peers = workspace.join("target/peers");
     let driver = peers
         .join(format!("lwpr{}", PEER_CFLAGS.concat()))
-        .join("lwpr_peer");
-    let driver_src = workspace.join("crates/lwpr/peer/lwpr_peer.c");
+        .join(name);
+    let driver_src = workspace.join(format!("crates/lwpr/peer/{name}.c"));
     let fresh = |p: &Path| p.metadata().and_then(|m| m.modified()).ok();
     if driver.exists() && fresh(&driver) >= fresh(&driver_src) {
         return Ok(driver);
     }
-    let out = peers.join(format!("lwpr.staging-{}", std::process::id()));
+    let out = peers.join(format!("{name}.staging-{}", std::process::id()));
     let st = Command::new("bash")
         .arg(src.join("build.sh"))
         .arg(&out)
@@ -230,6 +242,18 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
             "building the reference failed: {}",
             String::from_utf8_lossy(&st.stderr)
         ));
+    }
+    if expat {
+        let config = out.join("lwpr_config.h");
+        let text = std::fs::read_to_string(&config).map_err(|e| e.to_string())?;
+        if !text.contains("#define HAVE_LIBEXPAT 0") {
+            return Err("build.sh's lwpr_config.h no longer defines HAVE_LIBEXPAT 0".into());
+        }
+        std::fs::write(
+            &config,
+            text.replace("#define HAVE_LIBEXPAT 0", "#define HAVE_LIBEXPAT 1"),
+        )
+        .map_err(|e| e.to_string())?;
     }
     // Recompile the library with PEER_CFLAGS (build.sh wrote lwpr_config.h into `out`).
     let mut objects = Vec::new();
@@ -254,13 +278,18 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
             .map_err(|e| format!("cannot run {cc}: {e}"))?;
         if !st.status.success() {
             return Err(format!(
-                "compiling the reference's {f}.c failed: {}",
+                "compiling the reference's {f}.c failed{}: {}",
+                if expat {
+                    " (its XML reader needs libexpat: install libexpat1-dev)"
+                } else {
+                    ""
+                },
                 String::from_utf8_lossy(&st.stderr)
             ));
         }
         objects.push(obj);
     }
-    let staged = out.join("lwpr_peer");
+    let staged = out.join(name);
     let st = Command::new(&cc)
         .args(PEER_CFLAGS)
         .arg("-o")
@@ -269,7 +298,11 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
         .arg(format!("-I{}", src.join("include").display()))
         .arg(&driver_src)
         .args(&objects)
-        .arg("-lm")
+        .args(if expat {
+            &["-lexpat", "-lm"][..]
+        } else {
+            &["-lm"][..]
+        })
         .output()
         .map_err(|e| format!("cannot run {cc}: {e}"))?;
     if !st.status.success() {
@@ -285,11 +318,11 @@ pub fn build_peer(workspace: &Path) -> Result<PathBuf, String> {
     Ok(driver)
 }
 
-/// The reference driver, or `None` with a printed note when it cannot be built; with
+/// `Ok(value)`, or `None` with a printed note when the reference cannot be used; with
 /// `CI=true` a failure instead (strict CI: a cross-check that cannot run must not pass).
-pub fn peer_or_skip(workspace: &Path, what: &str) -> Option<PathBuf> {
-    let reason = match build_peer(workspace) {
-        Ok(driver) => return Some(driver),
+pub fn or_skip<T>(built: Result<T, String>, what: &str) -> Option<T> {
+    let reason = match built {
+        Ok(v) => return Some(v),
         Err(reason) => reason,
     };
     let ci = std::env::var("CI").is_ok_and(|v| v == "true");
@@ -299,6 +332,12 @@ pub fn peer_or_skip(workspace: &Path, what: &str) -> Option<PathBuf> {
     );
     eprintln!("SKIPPED {what}: {reason}");
     None
+}
+
+/// The reference driver, or `None` with a printed note when it cannot be built; with
+/// `CI=true` a failure instead (strict CI: a cross-check that cannot run must not pass).
+pub fn peer_or_skip(workspace: &Path, what: &str) -> Option<PathBuf> {
+    or_skip(build_peer(workspace), what)
 }
 
 /// Settings handed to the reference (a subset of `lwpr::Params`, same names).
@@ -373,6 +412,19 @@ pub fn run_peer(
     x_test: &[f64],
     checkpoints: &[usize],
 ) -> Result<PeerRun, String> {
+    run_peer_with_xml(driver, s, x, y, x_test, checkpoints, None)
+}
+
+/// [`run_peer`], and with `xml` the trained model is written there by `lwpr_write_xml`.
+pub fn run_peer_with_xml(
+    driver: &Path,
+    s: &PeerSettings,
+    x: &[f64],
+    y: &[f64],
+    x_test: &[f64],
+    checkpoints: &[usize],
+    xml: Option<&Path>,
+) -> Result<PeerRun, String> {
     let mut b: Vec<u8> = Vec::new();
     let i32le = |b: &mut Vec<u8>, v: i64| b.extend_from_slice(&(v as i32).to_le_bytes());
     let f64le = |b: &mut Vec<u8>, v: f64| b.extend_from_slice(&v.to_le_bytes());
@@ -417,25 +469,7 @@ pub fn run_peer(
     for &c in checkpoints {
         i32le(&mut b, c as i64);
     }
-    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
-    std::fs::write(&inp, &b).map_err(|e| e.to_string())?;
-    let st = Command::new(driver)
-        .arg(&inp)
-        .arg(&outp)
-        .output()
-        .map_err(|e| format!("cannot run the driver: {e}"))?;
-    if !st.status.success() {
-        return Err(format!(
-            "the driver failed: {}",
-            String::from_utf8_lossy(&st.stderr)
-        ));
-    }
-    let o = std::fs::read(&outp).map_err(|e| e.to_string())?;
-    let _ = std::fs::remove_dir_all(&dir);
+    let o = run_driver(driver, None, &b, xml)?;
     let mut pos = 0;
     let mut rd = |k: usize| -> Result<&[u8], String> {
         let s = o.get(pos..pos + k).ok_or("short driver output")?;
@@ -466,4 +500,135 @@ pub fn run_peer(
         update_seconds,
         predictions_per_second,
     })
+}
+
+/// What the reference made of an XML model file (`peer/lwpr_xml_peer.c`).
+pub struct XmlPeerRun {
+    /// Receptive fields per output as read.
+    pub num_rfs: Vec<usize>,
+    /// Per test point: predictions (`n_out`).
+    pub y: Vec<f64>,
+    /// Per test point: confidence bounds (`n_out`).
+    pub conf: Vec<f64>,
+    /// Per test point: the Jacobian, `n_out × n_in` row-major (output after output).
+    pub jacobian: Vec<f64>,
+    /// Predictions returned by `lwpr_update` while training on from the file.
+    pub update_predictions: Vec<f64>,
+    /// Receptive fields per output after that training.
+    pub num_rfs_after: Vec<usize>,
+    /// Test predictions after that training.
+    pub y_after: Vec<f64>,
+}
+
+/// Has the reference read `xml` (`lwpr_read_xml`), predict at `x_test`, then train on `(x, y)`.
+pub fn run_xml_peer(
+    driver: &Path,
+    xml: &Path,
+    x_test: &[f64],
+    x: &[f64],
+    y: &[f64],
+    n_in: usize,
+    n_out: usize,
+) -> Result<XmlPeerRun, String> {
+    let mut b: Vec<u8> = Vec::new();
+    let n_test = x_test.len() / n_in;
+    let n_train = x.len() / n_in;
+    b.extend_from_slice(&(n_test as i32).to_le_bytes());
+    x_test
+        .iter()
+        .for_each(|v| b.extend_from_slice(&v.to_le_bytes()));
+    b.extend_from_slice(&(n_train as i32).to_le_bytes());
+    x.iter()
+        .chain(y)
+        .for_each(|v| b.extend_from_slice(&v.to_le_bytes()));
+    let o = run_driver(driver, Some(xml), &b, None)?;
+    let mut r = Bytes { data: &o, pos: 0 };
+    let dims = r.ints(2)?;
+    if dims != [n_in, n_out] {
+        return Err(format!("the reference read dimensions {dims:?}"));
+    }
+    let num_rfs = r.ints(n_out)?;
+    let (mut yv, mut conf, mut jacobian) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..n_test {
+        yv.extend(r.floats(n_out)?);
+        conf.extend(r.floats(n_out)?);
+        let j = r.floats(n_out * n_in)?;
+        // column-major → row-major
+        for i in 0..n_out {
+            for k in 0..n_in {
+                jacobian.push(j[i + k * n_out]);
+            }
+        }
+    }
+    Ok(XmlPeerRun {
+        num_rfs,
+        y: yv,
+        conf,
+        jacobian,
+        update_predictions: r.floats(n_train * n_out)?,
+        num_rfs_after: r.ints(n_out)?,
+        y_after: r.floats(n_test * n_out)?,
+    })
+}
+
+/// Runs `driver [lead] IN OUT [tail]` with `input` written to IN in a scratch folder, and
+/// returns what it wrote to OUT.
+fn run_driver(
+    driver: &Path,
+    lead: Option<&Path>,
+    input: &[u8],
+    tail: Option<&Path>,
+) -> Result<Vec<u8>, String> {
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
+    std::fs::write(&inp, input).map_err(|e| e.to_string())?;
+    let st = Command::new(driver)
+        .args(lead)
+        .arg(&inp)
+        .arg(&outp)
+        .args(tail)
+        .output()
+        .map_err(|e| format!("cannot run the driver: {e}"))?;
+    if !st.status.success() {
+        let _ = std::fs::remove_dir_all(&dir);
+        return Err(format!(
+            "the driver {} failed ({}): {}",
+            driver.display(),
+            st.status,
+            String::from_utf8_lossy(&st.stderr)
+        ));
+    }
+    let o = std::fs::read(&outp).map_err(|e| e.to_string());
+    let _ = std::fs::remove_dir_all(&dir);
+    o
+}
+
+/// Little-endian values of a driver's output, in order.
+struct Bytes<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl Bytes<'_> {
+    fn take<const K: usize>(&mut self) -> Result<[u8; K], String> {
+        let s = self
+            .data
+            .get(self.pos..self.pos + K)
+            .ok_or("short driver output")?;
+        self.pos += K;
+        Ok(s.try_into().expect("K bytes"))
+    }
+    fn ints(&mut self, k: usize) -> Result<Vec<usize>, String> {
+        (0..k)
+            .map(|_| self.take::<4>().map(|a| i32::from_le_bytes(a) as usize))
+            .collect()
+    }
+    fn floats(&mut self, k: usize) -> Result<Vec<f64>, String> {
+        (0..k)
+            .map(|_| self.take::<8>().map(f64::from_le_bytes))
+            .collect()
+    }
 }

@@ -4,7 +4,8 @@
  * the Rust side, so both implementations see exactly the same numbers.
  * Written for visguide; uses only the public API of lwpr.h.
  *
- * Usage: lwpr_peer INPUT OUTPUT
+ * Usage: lwpr_peer INPUT OUTPUT [XML]   (XML: the trained model is written there with
+ * lwpr_write_xml at the end)
  * INPUT (little-endian): i32 n_in, n_out, diag_only, meta, update_D, kernel;
  *   f64 meta_rate, penalty, init_alpha, w_gen, w_prune, init_lambda, final_lambda,
  *   tau_lambda, init_S2, add_threshold; f64 init_D[n_in*n_in] (column-major);
@@ -44,7 +45,7 @@ int main(int argc, char **argv) {
    double *D, *X, *Y, *XT, *yp, *yhat, update_s = 0.0, t0, pred_s, sink = 0.0;
    long n_pred = 0;
 
-   if (argc != 3) die("usage: lwpr_peer INPUT OUTPUT");
+   if (argc != 3 && argc != 4) die("usage: lwpr_peer INPUT OUTPUT [XML]");
    in = fopen(argv[1], "rb");
    if (!in) die("cannot open input");
    n_in = rd_i();
@@ -116,6 +117,7 @@ int main(int argc, char **argv) {
       fwrite(&pps, sizeof pps, 1, out);
    }
    fclose(out);
+   if (argc == 4 && !lwpr_write_xml(&model, argv[3])) die("cannot write the XML file");
    lwpr_free_model(&model);
    return 0;
 }

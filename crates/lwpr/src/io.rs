@@ -48,15 +48,7 @@ pub(crate) struct LwprData {
 impl TryFrom<LwprData> for Lwpr {
     type Error = LwprError;
     fn try_from(d: LwprData) -> Result<Self> {
-        Lwpr {
-            params: d.params,
-            n_data: d.n_data,
-            mean_x: d.mean_x,
-            var_x: d.var_x,
-            sub: d.sub,
-            ws: Workspace::default(),
-        }
-        .finish_load()
+        Lwpr::from_parts(d.params, d.n_data, d.mean_x, d.var_x, d.sub)
     }
 }
 
@@ -342,7 +334,7 @@ fn dec_rf(d: &mut Dec) -> Result<ReceptiveField> {
 /// Checks a receptive field's metric: `M` upper triangular (diagonal with `diag_only`) with a
 /// positive diagonal, and `D = MᵀM` within [`METRIC_TOLERANCE`]: then `M` is the Cholesky
 /// factor of `D` and `D` is positive definite.
-fn check_metric(
+pub(crate) fn check_metric(
     n: usize,
     diag_only: bool,
     d: &[f64],
@@ -377,6 +369,23 @@ fn check_metric(
         }
     }
     Ok(())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder renamed into place,
+/// so a failed write leaves neither a partial file nor a damaged old one.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| LwprError::Io(format!("{} is not a file path", path.display())))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(result?)
 }
 
 impl Lwpr {
@@ -478,15 +487,7 @@ impl Lwpr {
         if d.pos != payload.len() {
             return Err(fmt_err("trailing bytes in payload"));
         }
-        Lwpr {
-            params,
-            n_data,
-            mean_x,
-            var_x,
-            sub,
-            ws: Workspace::default(),
-        }
-        .finish_load()
+        Lwpr::from_parts(params, n_data, mean_x, var_x, sub)
     }
 
     /// Writes the model to `path`: binary if the extension is `bin`, JSON otherwise.
@@ -497,20 +498,46 @@ impl Lwpr {
         } else {
             self.to_json().into_bytes()
         };
-        std::fs::write(path, bytes)?;
-        Ok(())
+        write_atomically(path, &bytes)
     }
 
-    /// Reads a model written by [`save`](Self::save) (format detected from the content).
+    /// Reads a model written by [`save`](Self::save) or an XML model file (see
+    /// [`from_xml`](Self::from_xml)); the format is detected from the content.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let data = std::fs::read(path)?;
         if data.starts_with(MAGIC) {
             Self::from_binary(&data)
         } else {
-            let s =
-                std::str::from_utf8(&data).map_err(|_| fmt_err("neither binary nor UTF-8 JSON"))?;
-            Self::from_json(s)
+            let s = std::str::from_utf8(&data)
+                .map_err(|_| fmt_err("neither binary nor UTF-8 JSON or XML"))?;
+            if s.trim_start_matches('\u{feff}')
+                .trim_start()
+                .starts_with('<')
+            {
+                Self::from_xml(s)
+            } else {
+                Self::from_json(s)
+            }
         }
+    }
+
+    /// A model from its stored parts (any format), checked like every loaded model.
+    pub(crate) fn from_parts(
+        params: Params,
+        n_data: u64,
+        mean_x: Vec<f64>,
+        var_x: Vec<f64>,
+        sub: Vec<SubModel>,
+    ) -> Result<Self> {
+        Lwpr {
+            params,
+            n_data,
+            mean_x,
+            var_x,
+            sub,
+            ws: Workspace::default(),
+        }
+        .finish_load()
     }
 
     /// Checks every invariant of a deserialised model and rebuilds derived data.

@@ -130,7 +130,9 @@
 //! outputs (raw and normalised) of magnitude at most [`MAX_ABS_VALUE`] (1e30; larger finite
 //! values could overflow the squares and products in the model's statistics). Models save to
 //! JSON or a compact checksummed binary form with a format version ([`Lwpr::to_json`],
-//! [`Lwpr::to_binary`]); loading validates everything, and so does plain serde
+//! [`Lwpr::to_binary`]), and to the reference library's XML model files ([`Lwpr::to_xml`],
+//! [`Lwpr::from_xml`]: read and written by the C library too, `tests/xml.rs`); loading
+//! validates everything, and so does plain serde
 //! deserialisation of an [`Lwpr`] or [`Params`] (the same checks, through `try_from`):
 //! sizes, finiteness, ranges of the parameters and statistics, and each receptive field's
 //! metric (`M` upper triangular with a positive diagonal and `D = MᵀM` within a relative
@@ -164,6 +166,7 @@ mod model;
 mod params;
 mod rf;
 mod workspace;
+mod xml;
 
 pub use error::{LwprError, Result};
 pub use io::{BINARY_FORMAT_VERSION, METRIC_TOLERANCE};

@@ -37,3 +37,14 @@ pub fn from_track(e: cbt_tracker::TrackError) -> PyErr {
         _ => PyValueError::new_err(e.to_string()),
     }
 }
+
+/// An error of the `visguide` pipeline: `OSError` for files (missing, unreadable or
+/// undecodable images, like PIL's), `ValueError` otherwise.
+pub fn from_visguide(e: visguide::VisguideError) -> PyErr {
+    match e {
+        visguide::VisguideError::Io { .. } | visguide::VisguideError::Image { .. } => {
+            PyOSError::new_err(e.to_string())
+        }
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}

@@ -5,9 +5,13 @@
 //! `visguide.mser`, `visguide.lwpr`, `visguide.fd` and `visguide.tracking` re-export its
 //! functions and classes with docstrings and type stubs. It adds no algorithm of its own: every
 //! number comes from the `mser`, `lwpr`, `fd-match` and `cbt-tracker` crates, whose docs hold
-//! the math (thesis Papers A–C). What lives here is the conversion between NumPy arrays and the
-//! crates' types, and of their errors into Python exceptions (`ValueError` for bad input,
-//! `OSError` for files, `TypeError` from argument conversion for wrong dtypes or ranks).
+//! the math (thesis Papers A–C), and from the `visguide` crate's image-pair pipeline
+//! (`visguide.fd.match_images`: regions → descriptors → matches → homography). What lives
+//! here is the conversion between NumPy arrays and the crates' types, and of their errors into
+//! Python exceptions (`ValueError` for bad input, `OSError` for files, `TypeError` from
+//! argument conversion for wrong dtypes or ranks).
+//! LWPR models also read and write the reference library's XML model files (the `lwpr` crate's
+//! `xml` module) with its Python module's names, `write_XML` and `LWPR(filename)` / `read_XML`.
 //!
 //! Arrays: a 2-D `uint8` image whose rows are contiguous is read in place (any row stride);
 //! other layouts are copied once. Long computations (`mser.detect`, `LWPR.update_batch`,
@@ -25,6 +29,7 @@ mod fd_py;
 mod image;
 mod lwpr_py;
 mod mser_py;
+mod pair_py;
 mod tracking_py;
 
 /// The compiled part of the `visguide` package (use `visguide.mser`, `visguide.lwpr`, ...).
@@ -37,6 +42,7 @@ fn _visguide(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fd_py::describe, m)?)?;
     m.add_function(wrap_pyfunction!(fd_py::match_sets, m)?)?;
     m.add_class::<fd_py::PyDescriptors>()?;
+    m.add_function(wrap_pyfunction!(pair_py::match_images, m)?)?;
     m.add_class::<tracking_py::PyCbt>()?;
     m.add_class::<tracking_py::PyKalman>()?;
     m.add_class::<tracking_py::PyParticleFilter>()?;

@@ -11,7 +11,8 @@ use crate::errors::{from_lwpr, value_error};
 /// Locally Weighted Projection Regression (Vijayakumar et al. 2005), trained online.
 ///
 /// ``LWPR(n_in, n_out)`` starts a model with the reference library's defaults;
-/// ``LWPR(filename)`` loads one written by :meth:`save`. The meta-parameters are attributes with
+/// ``LWPR(filename)`` loads one written by :meth:`save` or an XML model file (:meth:`write_XML`,
+/// or the reference library's), like the reference module's constructor. The meta-parameters are attributes with
 /// the reference module's names (``init_D``, ``init_alpha``, ``w_gen``, ``diag_only``,
 /// ``update_D``, ``meta``, ``kernel``, ...); setting one is validated (``ValueError``, model
 /// unchanged) and applies to the rest of training. ``update`` with a NaN or infinite value, or a
@@ -283,6 +284,41 @@ impl PyLwpr {
     fn load(_cls: &Bound<'_, PyType>, path: std::path::PathBuf) -> PyResult<Self> {
         Ok(PyLwpr {
             model: Lwpr::load(path).map_err(from_lwpr)?,
+        })
+    }
+
+    /// Writes the model as an XML model file of the reference LWPR library (its Python module's
+    /// ``write_XML``): the reference's layout with every number exact, so ``LWPR.read_XML``
+    /// gives back the identical model and the reference library reads it (``lwpr_read_xml``,
+    /// its ``LWPR(filename)``). ``OSError`` if the file cannot be written (nothing is left
+    /// behind).
+    #[pyo3(name = "write_XML")]
+    fn write_xml(&self, filename: std::path::PathBuf) -> PyResult<()> {
+        self.model.save_xml(filename).map_err(from_lwpr)
+    }
+
+    /// Reads an XML model file: one written by :meth:`write_XML` or by the reference library
+    /// (its ``write_XML`` / ``lwpr_write_xml``; six decimals, so such a model predicts what the
+    /// reference predicts from the same file). ``OSError`` for a missing file, ``ValueError``
+    /// for a malformed, truncated or inconsistent one. ``LWPR(filename)`` reads XML files too.
+    #[classmethod]
+    #[pyo3(name = "read_XML")]
+    fn read_xml(_cls: &Bound<'_, PyType>, filename: std::path::PathBuf) -> PyResult<Self> {
+        Ok(PyLwpr {
+            model: Lwpr::load_xml(filename).map_err(from_lwpr)?,
+        })
+    }
+
+    /// The model as the text of an XML model file (see :meth:`write_XML`).
+    fn to_xml(&self) -> String {
+        self.model.to_xml()
+    }
+
+    /// A model from the text of an XML model file (``ValueError`` if malformed).
+    #[classmethod]
+    fn from_xml(_cls: &Bound<'_, PyType>, text: &str) -> PyResult<Self> {
+        Ok(PyLwpr {
+            model: Lwpr::from_xml(text).map_err(from_lwpr)?,
         })
     }
 

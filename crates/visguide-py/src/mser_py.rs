@@ -207,8 +207,13 @@ fn shifted(r: &mser::Region) -> mser::Region {
     r
 }
 
-/// The parameters: `preset`, then the keyword arguments that name a parameter.
-fn params_from(preset: &str, kw: Option<&Bound<'_, PyDict>>) -> PyResult<mser::MserParams> {
+/// The parameters: `preset`, then the keyword arguments that name a parameter (`caller` names
+/// the function in the `TypeError` for any other keyword).
+pub(crate) fn params_from(
+    caller: &str,
+    preset: &str,
+    kw: Option<&Bound<'_, PyDict>>,
+) -> PyResult<mser::MserParams> {
     let mut p = self::preset(preset)?;
     let Some(kw) = kw else {
         return Ok(p);
@@ -234,7 +239,7 @@ fn params_from(preset: &str, kw: Option<&Bound<'_, PyDict>>) -> PyResult<mser::M
             "variation" => p.variation = parse_variation(&v.extract::<String>()?)?,
             _ => {
                 return Err(pyo3::exceptions::PyTypeError::new_err(format!(
-                    "detect() got an unexpected keyword argument '{key}'"
+                    "{caller}() got an unexpected keyword argument '{key}'"
                 )));
             }
         }
@@ -274,7 +279,7 @@ pub fn detect(
     opencv_compatible: bool,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Vec<PyRegion>> {
-    let mut p = params_from(preset, params)?;
+    let mut p = params_from("detect", preset, params)?;
     if opencv_compatible {
         if p.polarities == mser::Polarities::Dark {
             return Err(value_error(

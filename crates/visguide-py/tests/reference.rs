@@ -166,9 +166,11 @@ fn lwpr_case(model: lwpr::Lwpr, n_samples: usize, seed: u64) -> Value {
         .collect();
     let bin = model.to_binary();
     let binary = json!({"len": bin.len(), "fnv1a": fnv1a(bin)});
+    let xml = model.to_xml();
+    let xml = json!({"len": xml.len(), "fnv1a": fnv1a(xml.into_bytes())});
     json!({
         "x": xs, "y": ys, "y_learning": yps, "queries": queries, "predictions": preds,
-        "num_rfs": model.num_rfs(), "binary": binary,
+        "num_rfs": model.num_rfs(), "binary": binary, "xml": xml,
     })
 }
 
@@ -189,9 +191,28 @@ fn lwpr_cases() -> Value {
         .norm_out(&[1.0, 3.0])
         .build()
         .unwrap();
+    // A model file written by the reference C library (see crates/lwpr/tests/xml.rs).
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../lwpr/tests/data/reference_setting_a.xml"
+    );
+    let from_reference = lwpr::Lwpr::load_xml(file).unwrap();
+    let queries: Vec<[f64; 2]> = (0..25)
+        .map(|k| [-0.9 + 0.075 * k as f64, 0.8 - 0.07 * k as f64])
+        .collect();
+    let predictions: Vec<Vec<f64>> = queries
+        .iter()
+        .map(|q| from_reference.predict(q, 0.001).unwrap())
+        .collect();
     json!({
         "cross_2d": lwpr_case(cross, 400, 1),
         "full_meta_3d": lwpr_case(full, 300, 2),
+        "reference_xml": {
+            "num_rfs": from_reference.num_rfs(),
+            "n_data": from_reference.n_data(),
+            "queries": queries,
+            "predictions": predictions,
+        },
     })
 }
 
@@ -317,7 +338,7 @@ fn tracking_cases() -> Value {
     let train = sim::generate(&sim::Scenario::default(), &level, 2, 120, 7);
     let test = &sim::generate(&sim::Scenario::default(), &level, 1, 40, 8)[0];
     let space = Space::image(320.0, 240.0, 10.0).unwrap();
-    let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
+    let model = CbtModel::learn_sequences(space.clone(), CbtConfig::default(), &train).unwrap();
     let mut cbt = CbtTracker::new(model);
     let mut kalman = KalmanTracker::new(KalmanParams {
         accel_sigma: 2.0,
@@ -338,12 +359,129 @@ fn tracking_cases() -> Value {
         3,
     )
     .unwrap();
+    // CBT beyond the default configuration; python/tests/test_tracking.py passes the same
+    // keywords.
+    use cbt_tracker::{Clutter, Layout, ObservationFallback, Order, SystemFallback};
+    let configs = [
+        (
+            "first_order_subtract",
+            CbtConfig {
+                order: Order::First,
+                clutter: Clutter::Subtract,
+                observation_fallback: ObservationFallback::Uniform,
+                prior_weight: 2.0,
+                mixing: 0.01,
+                prune: 0.0,
+                runner_ups: 1,
+                ..CbtConfig::default()
+            },
+            false,
+        ),
+        (
+            "stationary",
+            CbtConfig {
+                layout: Layout::Stationary,
+                system_fallback: SystemFallback::ConstantVelocity,
+                fallback_sigma: 1.5,
+                obs_radius: 6,
+                support: 0.02,
+                decode_radius: 3,
+                ..CbtConfig::default()
+            },
+            false,
+        ),
+        (
+            "sparse_joint_online",
+            CbtConfig {
+                layout: Layout::SparseJoint,
+                clutter: Clutter::Uniform,
+                observation_floor: 0.01,
+                online_weight: 0.5,
+                ..CbtConfig::default()
+            },
+            true,
+        ),
+    ];
+    let mut cbt_configs = serde_json::Map::new();
+    for (name, config, online) in configs {
+        let model = CbtModel::learn_sequences(space.clone(), config, &train).unwrap();
+        let mut t = CbtTracker::new(model);
+        if online {
+            t = t.with_self_learning();
+        }
+        cbt_configs.insert(name.into(), run_json(&mut t, &test.frames));
+    }
     json!({
+        "cbt_configs": cbt_configs,
         "train": train.iter().map(|s| frames_json(&s.frames)).collect::<Vec<_>>(),
         "test": frames_json(&test.frames),
         "cbt": run_json(&mut cbt, &test.frames),
         "kalman": run_json(&mut kalman, &test.frames),
         "particle_filter": run_json(&mut pf, &test.frames),
+    })
+}
+
+/// `visguide::match_images` on the image and its 90° rotation: everything the Python
+/// `visguide.fd.match_images` returns, exactly.
+fn pair_case(px: &[u8], s: &visguide::MatchSettings) -> Value {
+    let img1 = image::GrayImage::from_raw(W as u32, H as u32, px.to_vec()).unwrap();
+    let img2 = image::GrayImage::from_raw(H as u32, W as u32, rot90(px)).unwrap();
+    let pair = visguide::match_images(&img1, &img2, s).unwrap();
+    let frames = |f: &visguide::Features| -> Vec<[f64; 5]> {
+        f.frames.iter().map(|e| [e.u, e.v, e.a, e.b, e.c]).collect()
+    };
+    let row = |m: &visguide::RegionMatch| json!([m.i, m.j, m.error, m.ratio]);
+    json!({
+        "frames1": frames(&pair.features1),
+        "frames2": frames(&pair.features2),
+        "described": [pair.described.0, pair.described.1],
+        "all": pair.all.iter().map(row).collect::<Vec<_>>(),
+        "accepted": pair.accepted.iter().map(|g| json!({
+            "match": row(&g.m),
+            "rotation": g.rotation,
+            "affine": g.local.map(|l| [l.a[(0, 0)], l.a[(0, 1)], l.a[(1, 0)], l.a[(1, 1)]]),
+        })).collect::<Vec<_>>(),
+        "homography": pair.homography.as_ref().map(|h| json!({
+            "H": h.homography.to_row_major(),
+            "inliers": h.inliers,
+            "inlier_count": h.inlier_count,
+            "rms": h.rms,
+            "iterations": h.iterations,
+        })),
+    })
+}
+
+/// Two settings of the image-pair pipeline; `python/tests/test_pair.py` passes the same ones.
+fn pair_cases(px: &[u8]) -> Value {
+    let p = mser::MserParams {
+        min_area: 10,
+        delta: 3,
+        min_diversity: 0.0,
+        ..mser::MserParams::opencv()
+    };
+    let paper = visguide::MatchSettings {
+        mser: (p.clone(), p.clone()),
+        ratio_threshold: 0.8,
+        ..visguide::MatchSettings::paper()
+    };
+    let other = visguide::MatchSettings {
+        mser: (p.clone(), p),
+        combination: visguide::Combination::new(
+            fd_match::Method::AbsFdSsd,
+            fd_match::Sampling::Canonical,
+        ),
+        ratio_threshold: 0.9,
+        preselection: Some(0.0009),
+        ransac: Some(visguide::RansacConfig {
+            threshold: 2.0,
+            max_iterations: 300,
+            confidence: 0.99,
+            seed: 5,
+        }),
+    };
+    json!({
+        "fd_corr_affine": pair_case(px, &paper),
+        "abs_fd_ssd_canonical": pair_case(px, &other),
     })
 }
 
@@ -354,6 +492,7 @@ fn reference() -> Value {
         "mser": mser_cases(&px),
         "lwpr": lwpr_cases(),
         "fd": fd_cases(&px),
+        "pair": pair_cases(&px),
         "tracking": tracking_cases(),
     })
 }

@@ -80,6 +80,7 @@ fn main() {
         ("untrained", lwpr_model(2, 0)),
     ] {
         put("lwpr_json", name, m.to_json());
+        put("lwpr_xml", name, m.to_xml());
         let bin = m.to_binary();
         put(
             "lwpr_binary",

@@ -20,6 +20,7 @@ pub const TARGETS: &[(&str, Body)] = &[
     ("arm_config", arm_config),
     ("lwpr_json", lwpr_json),
     ("lwpr_binary", lwpr_binary),
+    ("lwpr_xml", lwpr_xml),
     ("cbt_model", cbt_model),
     ("cbt_tracker", cbt_tracker),
     ("servo_inverse_model", servo_inverse_model),
@@ -216,6 +217,21 @@ fn use_lwpr(model: &lwpr::Lwpr) {
     }
     lwpr::Lwpr::from_json(&model.to_json()).expect("a loaded model's JSON loads again");
     lwpr::Lwpr::from_binary(&model.to_binary()).expect("a loaded model's binary loads again");
+    let back = lwpr::Lwpr::from_xml(&model.to_xml()).expect("a loaded model's XML loads again");
+    assert!(
+        back == *model,
+        "a model's XML reads back as a different model"
+    );
+}
+
+/// LWPR models in the reference library's XML layout (`Lwpr::from_xml`).
+pub fn lwpr_xml(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(model) = lwpr::Lwpr::from_xml(text) {
+        use_lwpr(&model);
+    }
 }
 
 /// LWPR models saved as JSON (`Lwpr::from_json`).

@@ -6,7 +6,7 @@ import pickle
 
 import numpy as np
 import pytest
-from conftest import bytes_digest
+from conftest import CRATE, bytes_digest
 
 from visguide.lwpr import LWPR
 
@@ -280,3 +280,78 @@ def test_pickle_and_copy_round_trip():
         m2.update([0.5, 0.5], [0.1])
         assert clone == m2
     assert "LWPR(n_in=2" in repr(model)
+
+
+# --- XML model files of the reference library --------------------------------------------------
+
+REFERENCE_XML = CRATE.parent / "lwpr" / "tests" / "data" / "reference_setting_a.xml"
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_xml_is_the_rust_crates_file(reference, case):
+    ref = reference["lwpr"][case]
+    model = make(case)
+    model.update_batch(np.array(ref["x"]), np.array(ref["y"]))
+    assert bytes_digest(model.to_xml().encode()) == ref["xml"]
+    back = LWPR.from_xml(model.to_xml())
+    assert back == model
+    check_equal_to_reference(back, ref)
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_write_XML_and_read_XML_round_trip_exactly(tmp_path, case):
+    model = trained() if case == "cross_2d" else make(case)
+    if case != "cross_2d":
+        rng = np.random.default_rng(4)
+        x = rng.uniform(-1, 1, (300, 3))
+        model.update_batch(x, np.stack([np.sin(x[:, 0]), x[:, 1] * x[:, 2]], axis=1))
+    path = tmp_path / "model.xml"
+    model.write_XML(path)
+    assert path.read_text().startswith("<?xml version='1.0' encoding='US-ASCII' ?>\n<LWPR ")
+    for loaded in [LWPR.read_XML(path), LWPR.read_XML(str(path)), LWPR(path), LWPR.load(path)]:
+        assert loaded == model
+    # Training goes on identically from the file.
+    loaded = LWPR.read_XML(path)
+    x = np.full((1, model.nIn), 0.25)
+    y = np.full((1, model.nOut), 0.5)
+    assert loaded.update_batch(x, y).tolist() == model.update_batch(x, y).tolist()
+    assert loaded == model
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_reference_library_xml_file_predicts_like_the_rust_crate(reference):
+    ref = reference["lwpr"]["reference_xml"]
+    model = LWPR.read_XML(REFERENCE_XML)
+    assert model.num_rfs == ref["num_rfs"] and model.n_data == ref["n_data"]
+    assert model.arithmetic == "reference" and model.prune_rule == "reference_c"
+    got = [model.predict(q, 0.001).tolist() for q in ref["queries"]]
+    assert got == ref["predictions"]
+    assert LWPR(str(REFERENCE_XML)) == model
+
+
+def test_xml_errors(tmp_path):
+    model = trained()
+    text = model.to_xml()
+    with pytest.raises(OSError):
+        LWPR.read_XML(tmp_path / "missing.xml")
+    with pytest.raises(OSError):
+        model.write_XML(tmp_path / "no" / "such" / "dir" / "m.xml")
+    assert not (tmp_path / "no").exists()
+    bad = {
+        "truncated": text[: len(text) // 2],
+        "NaN": text.replace("<scalar name='w_gen'>", "<scalar name='w_gen'> NaN </scalar><!--", 1).replace(
+            "</scalar>\n\t<scalar name='w_prune'>", " -->\n\t<scalar name='w_prune'>", 1
+        ),
+        "wrong nIn": text.replace("nIn='2'", "nIn='3'", 1),
+        "wrong length": text.replace("<vector name='mean_x' length='2'>", "<vector name='mean_x' length='3'>", 1),
+        "not XML": "LWPR",
+        "empty": "",
+    }
+    for what, t in bad.items():
+        assert t != text, what
+        with pytest.raises(ValueError):
+            LWPR.from_xml(t)
+        path = tmp_path / "bad.xml"
+        path.write_text(t)
+        with pytest.raises(ValueError):
+            LWPR.read_XML(path)

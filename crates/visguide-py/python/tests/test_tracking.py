@@ -133,3 +133,109 @@ def test_kalman_state_attributes():
     k.reset((5.0, 6.0))
     assert k.x[:2] == [5.0, 6.0] and k.P.shape == (4, 4)
     assert len(make_pf()) == 200
+
+
+# --- CBT beyond the default configuration (the keywords of `tracking_cases` in reference.rs) ---
+
+CONFIGS = {
+    "first_order_subtract": dict(
+        order="first",
+        clutter="subtract",
+        observation_fallback="uniform",
+        prior_weight=2.0,
+        mixing=0.01,
+        prune=0.0,
+        runner_ups=1,
+    ),
+    "stationary": dict(
+        layout="stationary",
+        system_fallback="constant_velocity",
+        fallback_sigma=1.5,
+        obs_radius=6,
+        support=0.02,
+        decode_radius=3,
+    ),
+    "sparse_joint_online": dict(
+        layout="sparse_joint",
+        clutter="uniform",
+        observation_floor=0.01,
+        online_weight=0.5,
+        self_learning=True,
+    ),
+}
+
+DEFAULT_CONFIG = dict(
+    order="second",
+    layout="separable",
+    clutter="model",
+    observation_fallback="identity",
+    system_fallback="first_order",
+    prior_weight=1.0,
+    fallback_sigma=1.0,
+    observation_floor=1e-3,
+    mixing=1e-3,
+    prune=0.01,
+    online_weight=1.0,
+    runner_ups=3,
+    obs_radius=10,
+    support=1e-2,
+    decode_radius=4,
+)
+
+
+@pytest.mark.parametrize("name", sorted(CONFIGS))
+def test_cbt_configurations_track_exactly_as_in_rust(data, name):
+    ref, train, test = data
+    cbt = CBT.learn(train, 320.0, 240.0, 10.0, **CONFIGS[name])
+    expected = dict(DEFAULT_CONFIG)
+    expected.update({k: v for k, v in CONFIGS[name].items() if k != "self_learning"})
+    assert cbt.config == expected
+    # The learned model and its configuration survive JSON and pickling.
+    for back in [pickle.loads(pickle.dumps(cbt)), CBT.from_json(cbt.to_json())]:
+        assert back == cbt and back.config == expected
+        assert estimates(back, test) == ref["cbt_configs"][name]
+    assert estimates(cbt, test) == ref["cbt_configs"][name]
+
+
+def test_cbt_default_configuration(data):
+    _, train, _ = data
+    assert CBT.learn(train, 320.0, 240.0).config == DEFAULT_CONFIG
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(order="third"),
+        dict(layout="dense"),
+        dict(clutter="ignore"),
+        dict(observation_fallback="gaussian"),
+        dict(system_fallback="none"),
+        dict(prior_weight=0.0),
+        dict(prior_weight=float("nan")),
+        dict(fallback_sigma=-1.0),
+        dict(observation_floor=1.5),
+        dict(mixing=-0.1),
+        dict(prune=2.0),
+        dict(online_weight=0.0),
+        dict(support=float("inf")),
+        dict(obs_radius=0),
+        dict(obs_radius=65),
+        dict(runner_ups=-1),
+        dict(decode_radius=-2),
+    ],
+)
+def test_invalid_cbt_configuration_is_a_value_error(data, kw):
+    _, train, _ = data
+    with pytest.raises(ValueError):
+        CBT.learn(train, 320.0, 240.0, **kw)
+
+
+def test_learn_online_adds_a_frame(data):
+    _, train, test = data
+    cbt = CBT.learn(train, 320.0, 240.0)
+    before = CBT.from_json(cbt.to_json())
+    truths, dets = test[1]
+    cbt.learn_online(truths, dets)
+    assert cbt != before
+    with pytest.raises(ValueError):
+        cbt.learn_online(np.array([[np.nan, 1.0]]), dets)

@@ -78,6 +78,12 @@ class LWPR:
     def save(self, path: _Path) -> None: ...
     @classmethod
     def load(cls, path: _Path) -> "LWPR": ...
+    def write_XML(self, filename: _Path) -> None: ...
+    @classmethod
+    def read_XML(cls, filename: _Path) -> "LWPR": ...
+    def to_xml(self) -> str: ...
+    @classmethod
+    def from_xml(cls, text: str) -> "LWPR": ...
     def to_bytes(self) -> bytes: ...
     @classmethod
     def from_bytes(cls, data: bytes) -> "LWPR": ...
@@ -151,6 +157,22 @@ def describe(
 def match(
     a: Descriptors, b: Descriptors, *, method: str = "fd_corr", ratio: Optional[float] = 0.5
 ) -> dict[str, npt.NDArray[Any]]: ...
+def match_images(
+    image1: Union[npt.NDArray[np.uint8], _Path],
+    image2: Union[npt.NDArray[np.uint8], _Path],
+    *,
+    preset: str = "larsson2009",
+    sampling: str = "affine",
+    method: str = "fd_corr",
+    ratio: float = 0.5,
+    preselection: Optional[float] = None,
+    homography: bool = True,
+    ransac_threshold: float = 3.0,
+    ransac_iterations: int = 5000,
+    ransac_confidence: float = 0.999,
+    ransac_seed: int = 0,
+    **params: Any,
+) -> dict[str, Any]: ...
 
 # --- visguide.tracking -----------------------------------------------------------------------
 
@@ -170,7 +192,27 @@ class CBT(_Tracker):
         width: float,
         height: float,
         spacing: float = 10.0,
+        *,
+        order: str = "second",  # "first" | "second"
+        layout: str = "separable",  # "separable" | "sparse_joint" | "stationary"
+        clutter: str = "model",  # "model" | "subtract" | "uniform"
+        observation_fallback: str = "identity",  # "identity" | "uniform"
+        system_fallback: str = "first_order",  # "first_order" | "constant_velocity"
+        prior_weight: float = 1.0,
+        fallback_sigma: float = 1.0,
+        observation_floor: float = 1e-3,
+        mixing: float = 1e-3,
+        prune: float = 0.01,
+        online_weight: float = 1.0,
+        runner_ups: int = 3,
+        obs_radius: int = 10,
+        support: float = 1e-2,
+        decode_radius: int = 4,
+        self_learning: bool = False,
     ) -> "CBT": ...
+    @property
+    def config(self) -> dict[str, Any]: ...
+    def learn_online(self, truths: _Floats, detections: _Floats) -> None: ...
     @classmethod
     def from_json(cls, text: str) -> "CBT": ...
     @classmethod

@@ -4,7 +4,8 @@
 ``predict``, ``predict_conf``, ``predict_J``, ``rf_center``, ``rf_D`` and the meta-parameters
 ``init_D``, ``init_alpha``, ``w_gen``, ... as attributes), plus ``update_batch`` /
 ``predict_batch`` over arrays (without the GIL), ``save`` / ``load``, ``to_bytes`` /
-``from_bytes`` and pickling. Training is the Rust crate's, number for number.
+``from_bytes`` and pickling. ``write_XML`` / ``read_XML`` (and ``LWPR(filename)``) use the
+reference library's XML model files, so models move between it and this package. Training is the Rust crate's, number for number.
 
 >>> import numpy as np
 >>> from visguide.lwpr import LWPR
