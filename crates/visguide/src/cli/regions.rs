@@ -1,7 +1,7 @@
 //! `visguide regions`: MSER regions of many images, in parallel.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
@@ -93,6 +93,8 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     let format: Format = a.format.into();
     let bar = ui.bar(images.len() as u64, "regions");
     let failed = AtomicBool::new(false);
+    // Which of the pool's threads (index < 64) processed an image.
+    let workers = AtomicU64::new(0);
     // Every file is first written under a staging name and renamed only when all images
     // succeeded, so a failed run leaves no output at all.
     let results: Vec<CliResult<Staged>> = images
@@ -100,6 +102,9 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         .map(|path| {
             if failed.load(Ordering::Relaxed) {
                 return Err("skipped".into());
+            }
+            if let Some(i) = rayon::current_thread_index().filter(|&i| i < 64) {
+                workers.fetch_or(1 << i, Ordering::Relaxed);
             }
             let r = one(a, &settings, format, path);
             if r.is_err() {
@@ -135,10 +140,12 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
     }
     ui.say(format!(
-        "{} regions in {} images → {}",
+        "{} regions in {} images → {} ({} threads in the pool, {} of them processed images)",
         total,
         images.len(),
-        a.out.display()
+        a.out.display(),
+        rayon::current_num_threads(),
+        workers.load(Ordering::Relaxed).count_ones()
     ));
     Ok(())
 }
