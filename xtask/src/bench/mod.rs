@@ -5,6 +5,7 @@
 //! in [`BENCHES`].
 
 mod chan_repr;
+mod cli;
 mod cpu;
 mod fd;
 #[cfg(feature = "opencv")]
@@ -59,6 +60,11 @@ pub const BENCHES: &[Bench] = &[
         name: "mser",
         peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters (min_diversity 0), region sets asserted equal",
         run: mser::run,
+    },
+    Bench {
+        name: "cli",
+        peer: "the library call (mser::detect) on the same 100 images with the same parameters, region files asserted byte-identical; --threads 1 vs every thread; OpenCV detectRegions with the xtask feature `opencv`",
+        run: cli::run,
     },
     Bench {
         name: "tracking",

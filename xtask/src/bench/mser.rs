@@ -116,7 +116,11 @@ fn single_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
 /// Asserts that both detectors find the same regions (see the module docs) and that our pixel
 /// lists are the regions' pixels; returns the number of regions.
 #[cfg(feature = "opencv")]
-fn check_agreement(img: &GrayView, det: &mut Mser, cv: &mut mser::OpenCvMser) -> Result<usize> {
+pub(super) fn check_agreement(
+    img: &GrayView,
+    det: &mut Mser,
+    cv: &mut mser::OpenCvMser,
+) -> Result<usize> {
     use std::collections::HashSet;
     let sorted = |px: &[(u32, u32)]| {
         let mut v = px.to_vec();
