@@ -93,7 +93,7 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     let format: Format = a.format.into();
     let bar = ui.bar(images.len() as u64, "regions");
     let failed = AtomicBool::new(false);
-    // Which of the pool's threads (index < 64) processed an image.
+    // Which threads processed an image.
     let workers = AtomicU64::new(0);
     // Every file is first written under a staging name and renamed only when all images
     // succeeded, so a failed run leaves no output at all.
@@ -103,9 +103,10 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
             if failed.load(Ordering::Relaxed) {
                 return Err("skipped".into());
             }
-            if let Some(i) = rayon::current_thread_index().filter(|&i| i < 64) {
-                workers.fetch_or(1 << i, Ordering::Relaxed);
-            }
+            // Bit i: pool thread i; bit 63: a thread outside the pool (rayon runs a
+            // single-image job on the caller).
+            let bit = rayon::current_thread_index().map_or(63, |i| i.min(62));
+            workers.fetch_or(1 << bit, Ordering::Relaxed);
             let r = one(a, &settings, format, path);
             if r.is_err() {
                 failed.store(true, Ordering::Relaxed);
@@ -140,7 +141,7 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
     }
     ui.say(format!(
-        "{} regions in {} images → {} ({} threads in the pool, {} of them processed images)",
+        "{} regions in {} images → {} ({} threads in the pool, {} threads processed images)",
         total,
         images.len(),
         a.out.display(),
