@@ -55,11 +55,7 @@ fn settings() -> MserSettings {
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
-    let root = args
-        .data
-        .as_ref()
-        .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
-        .join("oxford-affine");
+    let root = args.oxford_root()?;
     let bench_dir = workspace_root().join("target/bench");
     let img_dir = bench_dir.join("cli-images");
     let paths = make_images(&root, &img_dir)?;
@@ -69,12 +65,7 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         .collect::<std::result::Result<_, _>>()?;
     let (w, h) = CROP;
     let params = settings().resolve(w, h)?;
-    if params
-        != (MserParams {
-            min_diversity: 0.0,
-            ..MserParams::default()
-        })
-    {
+    if params != super::mser::params() {
         return Err("the bench's setting is not bench mser's parameters".into());
     }
     let bin = build_binary()?;

@@ -29,6 +29,18 @@ pub struct BenchArgs {
     pub data: Option<std::path::PathBuf>,
 }
 
+impl BenchArgs {
+    /// The Oxford affine benchmark folder (`DATA/oxford-affine`), or an error saying how to set
+    /// it.
+    pub fn oxford_root(&self) -> Result<std::path::PathBuf> {
+        Ok(self
+            .data
+            .as_ref()
+            .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
+            .join("oxford-affine"))
+    }
+}
+
 /// A bench: its name, the peer it is measured against, and the function that measures.
 pub struct Bench {
     /// Name on the command line and of `target/bench/NAME.json`.

@@ -31,7 +31,7 @@ const ROUNDS: usize = 15;
 const SEQUENCES: [&str; 3] = ["graf", "boat", "leuven"];
 
 /// The parameters of both sides.
-fn params() -> MserParams {
+pub(super) fn params() -> MserParams {
     MserParams {
         min_diversity: 0.0,
         ..MserParams::default()
@@ -40,11 +40,7 @@ fn params() -> MserParams {
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
-    let root = args
-        .data
-        .as_ref()
-        .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
-        .join("oxford-affine");
+    let root = args.oxford_root()?;
     let mut rows = single_core(&root)?;
     rows.extend(multi_core(&root)?);
     Ok(rows)
