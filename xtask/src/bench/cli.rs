@@ -168,8 +168,123 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         ),
     ];
     print_rows(&rows);
+    rows.extend(vlfeat_row(&bench_dir, &grays, &views)?);
     rows.extend(opencv_row(&paths, &views, &params)?);
     Ok(rows)
+}
+
+/// The C driver timing `vl_mser` (built in the run against the system's VLFeat).
+const VL_DRIVER: &str = r#"/* Times vl_mser (VLFeat) on PGM (P5) files with VLFeat's defaults on both polarities (the image
+   and its inverse, as vl_mser.m does); prints "regions cpu_seconds" for all files together. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include <vl/mser.h>
+static unsigned char *read_pgm(const char *p, int *w, int *h) {
+  FILE *f = fopen(p, "rb"); int maxv; if (!f) return NULL;
+  if (fscanf(f, "P5 %d %d %d", w, h, &maxv) != 3 || maxv != 255) { fclose(f); return NULL; }
+  fgetc(f);
+  unsigned char *d = malloc((size_t)*w * *h);
+  if (fread(d, 1, (size_t)*w * *h, f) != (size_t)*w * *h) { fclose(f); free(d); return NULL; }
+  fclose(f); return d;
+}
+int main(int argc, char **argv) {
+  long regions = 0; double cpu = 0;
+  for (int i = 1; i < argc; i++) {
+    int w, h; unsigned char *img = read_pgm(argv[i], &w, &h);
+    if (!img) { fprintf(stderr, "%s: not an 8-bit P5 PGM\n", argv[i]); return 1; }
+    unsigned char *inv = malloc((size_t)w * h);
+    for (size_t k = 0; k < (size_t)w * h; k++) inv[k] = 255 - img[k];
+    int dims[2] = {w, h};
+    clock_t t0 = clock();
+    VlMserFilt *f = vl_mser_new(2, dims);
+    vl_mser_process(f, img); regions += vl_mser_get_regions_num(f);
+    vl_mser_process(f, inv); regions += vl_mser_get_regions_num(f);
+    vl_mser_delete(f);
+    cpu += (double)(clock() - t0) / CLOCKS_PER_SEC;
+    free(img); free(inv);
+  }
+  printf("%ld %.6f\n", regions, cpu);
+  return 0;
+}
+"#;
+
+/// VLFeat's `vl_mser` (system library, `libvlfeat-dev`) against `mser::detect` with the
+/// `vlfeat` preset (VLFeat's defaults: Δ 5, areas 3e-5..0.75 of the image, max variation 0.25,
+/// min diversity 0.2, both polarities) on the same images, process CPU time of the C driver
+/// (`clock()` around the detection only) against our thread CPU time, interleaved. **For
+/// information:** the region counts are printed, not asserted equal (the two detectors'
+/// stability and duplicate tests differ in detail). Without a C compiler or VLFeat: a note and
+/// no row.
+fn vlfeat_row(bench_dir: &Path, grays: &[GrayImage], views: &[GrayView]) -> Result<Vec<BenchRow>> {
+    let peers = workspace_root().join("target/peers");
+    std::fs::create_dir_all(&peers)?;
+    let src = peers.join("vl_mser_driver.c");
+    let exe = peers.join("vl_mser_driver");
+    std::fs::write(&src, VL_DRIVER)?;
+    let built = Command::new("cc")
+        .args(["-O3", "-o"])
+        .arg(&exe)
+        .arg(&src)
+        .arg("-lvl")
+        .output();
+    if !built.as_ref().is_ok_and(|o| o.status.success()) {
+        println!(
+            "no vl_mser row: cannot build against VLFeat (apt install libvlfeat-dev): {}",
+            built.map_or_else(
+                |e| e.to_string(),
+                |o| String::from_utf8_lossy(&o.stderr).into_owned()
+            )
+        );
+        return Ok(Vec::new());
+    }
+    let dir = bench_dir.join("cli-pgm");
+    std::fs::create_dir_all(&dir)?;
+    let mut files = Vec::new();
+    for (k, g) in grays.iter().enumerate() {
+        let p = dir.join(format!("{k:03}.pgm"));
+        let mut bytes = format!("P5\n{} {}\n255\n", g.width(), g.height()).into_bytes();
+        bytes.extend_from_slice(g.as_raw());
+        std::fs::write(&p, bytes)?;
+        files.push(p);
+    }
+    let (w, h) = grays[0].dimensions();
+    let params = Preset::Vlfeat.params(w, h);
+    let n = views.len() as f64;
+    let (mut ours, mut theirs, mut counts) = (Vec::new(), Vec::new(), (0, 0));
+    for _ in 0..ROUNDS {
+        let t0 = thread_seconds().ok_or("no thread CPU clock")?;
+        let mut found = 0;
+        for v in views {
+            found += std::hint::black_box(mser::detect(v, &params)?.len());
+        }
+        ours.push((thread_seconds().ok_or("no thread CPU clock")? - t0) / n);
+        let o = Command::new(&exe).args(&files).output()?;
+        if !o.status.success() {
+            return Err(format!("vl_mser driver: {}", String::from_utf8_lossy(&o.stderr)).into());
+        }
+        let text = String::from_utf8(o.stdout)?;
+        let mut f = text.split_whitespace();
+        let regions: usize = f.next().ok_or("vl_mser driver: no output")?.parse()?;
+        let cpu: f64 = f.next().ok_or("vl_mser driver: no time")?.parse()?;
+        theirs.push(cpu / n);
+        counts = (found, regions);
+    }
+    println!(
+        "vl_mser: {} regions on the {} images, ours (vlfeat preset) {} (not asserted equal)",
+        counts.1,
+        views.len(),
+        counts.0
+    );
+    Ok(vec![BenchRow::lower_is_better(
+        format!(
+            "mser::detect (vlfeat preset) vs vl_mser 0.9.21, per image (for information: {} vs {} regions, not asserted equal)",
+            counts.0, counts.1
+        ),
+        median(&mut ours) * 1e3,
+        median(&mut theirs) * 1e3,
+        "ms CPU",
+    )])
 }
 
 /// OpenCV on the same decoded images, one thread, timed (with the library call, interleaved)
