@@ -56,6 +56,8 @@
 //! written atomically ([`output::atomic`]): a failure leaves no partial file.
 #![deny(missing_docs)]
 
+#[cfg(feature = "cli")]
+pub mod args;
 pub mod combination;
 pub mod error;
 pub mod features;

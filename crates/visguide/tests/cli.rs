@@ -110,7 +110,7 @@ fn warp() -> Homography {
 
 /// `visguide regions` in all three formats, read back and compared with the library; the
 /// region files are byte-identical to `mser::write_regions` of the library's regions, and
-/// identical with one thread and with all.
+/// identical with one thread and with three (the pool size honouring --threads).
 #[test]
 fn regions_every_format_matches_the_library() {
     let dir = temp("regions");
@@ -124,17 +124,26 @@ fn regions_every_format_matches_the_library() {
     }
     let params = mser::MserParams::larsson2009();
     // Oxford, default preset, a directory argument, two thread counts.
+    // The pool has exactly --threads threads (reported on stderr with how many of them took
+    // images; how many do depends on scheduling, the files do not).
     for threads in ["1", "3"] {
         let out = dir.join(format!("ox{threads}"));
-        ok(&[
-            "regions",
-            "--quiet",
-            "--threads",
-            threads,
-            "--out",
-            s(&out),
-            s(&imgs),
-        ]);
+        let o = ok(&["regions", "--threads", threads, "--out", s(&out), s(&imgs)]);
+        let err = String::from_utf8(o.stderr).unwrap();
+        let pool = format!("({threads} threads in the pool, ");
+        let at = err
+            .find(&pool)
+            .unwrap_or_else(|| panic!("{pool} not in {err}"));
+        let used: usize = err[at + pool.len()..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(
+            (1..=threads.parse::<usize>().unwrap() + 1).contains(&used),
+            "{err}"
+        );
         for (k, img) in images.iter().enumerate() {
             let view = mser::GrayView::from_image(img).unwrap();
             let regions = mser::detect(&view, &params).unwrap();
@@ -529,6 +538,238 @@ fn track_one_step_equals_learn_then_run() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// MOTChallenge ground truth of generated tracks: rows `frame,id,left,top,4,6,1`, frames from
+/// `first`; the centre of a box is the track's position.
+fn mot_rows(id: u32, first: u64, s: &cbt_tracker::Sequence) -> String {
+    let mut out = String::new();
+    for (k, f) in s.frames.iter().enumerate() {
+        let t = f.truth.unwrap();
+        out.push_str(&format!(
+            "{},{id},{},{},4,6,1\n",
+            first + k as u64,
+            t[0] - 2.0,
+            t[1] - 3.0
+        ));
+    }
+    out
+}
+
+/// The rows of a track CSV without its header.
+fn body(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(str::to_string)
+        .collect()
+}
+
+/// `track --format mot` on MOTChallenge ground-truth files (training folder and sequence, one
+/// step and learn + run) gives exactly what the same data gives as CSV files: the same model
+/// file byte for byte, and per target the same track rows (detections simulated on these
+/// truth-only sequences, from the target's name, so the format does not matter).
+#[test]
+fn track_mot_equals_the_same_data_as_csv() {
+    use cbt_tracker::sim::{Level, Scenario, generate};
+    let dir = temp("track-mot");
+    let (mot_train, csv_train) = (dir.join("mot-train"), dir.join("csv-train"));
+    std::fs::create_dir_all(&mot_train).unwrap();
+    let sc = Scenario::default();
+    let tracks = generate(&sc, &Level::preset(0), 6, 120, 21);
+    // Two training files of two targets each, plus a static object flagged 0 (left out).
+    for (f, pair) in tracks[..4].chunks(2).enumerate() {
+        let mut text = mot_rows(1, 1, &pair[0]) + &mot_rows(2, 5, &pair[1]);
+        text.push_str("3,7,100,100,5,5,0\n4,7,100,100,5,5,0\n");
+        std::fs::write(mot_train.join(format!("{}.txt", ["a", "b"][f])), text).unwrap();
+    }
+    // The sequence: targets 5 (frames 1..) and 9 (frames 11..).
+    let gt = dir.join("gt.txt");
+    std::fs::write(
+        &gt,
+        mot_rows(5, 1, &tracks[4]) + &mot_rows(9, 11, &tracks[5]),
+    )
+    .unwrap();
+    // The same data as CSV, one file per target named as the MOT reader names the targets.
+    let mut csv_seqs = Vec::new();
+    for p in ["a.txt", "b.txt"] {
+        for s in cbt_tracker::mot::read(&mot_train.join(p)).unwrap() {
+            cbt_tracker::csv::write(&csv_train, &s).unwrap();
+        }
+    }
+    let csv_test = dir.join("csv-test");
+    let targets = cbt_tracker::mot::read(&gt).unwrap();
+    assert_eq!(targets.len(), 2);
+    for s in &targets {
+        assert_eq!(s.frames.len(), 120);
+        csv_seqs.push(cbt_tracker::csv::write(&csv_test, s).unwrap());
+    }
+    assert_eq!(targets[1].frames[0].truth, tracks[5].frames[0].truth);
+
+    let out = |n: &str| dir.join(n);
+    let (mot_one, mot_two) = (out("mot-one.csv"), out("mot-two.csv"));
+    let mot = ["--format", "mot"];
+    let mut one = vec!["track", "-q", "--train", s(&mot_train)];
+    one.extend(mot);
+    one.extend([s(&gt), "--out", s(&mot_one), "--baselines"]);
+    ok(&one);
+    let (mot_model, csv_model) = (out("mot.cbt.json"), out("csv.cbt.json"));
+    let mut learn = vec!["track", "learn", "-q", "--train", s(&mot_train)];
+    learn.extend(mot);
+    learn.extend(["--model", s(&mot_model)]);
+    ok(&learn);
+    let mut run_ = vec!["track", "run", "-q", s(&mot_model), s(&gt)];
+    run_.extend(mot);
+    run_.extend(["--out", s(&mot_two), "--baselines"]);
+    ok(&run_);
+    ok(&[
+        "track",
+        "learn",
+        "-q",
+        "--train",
+        s(&csv_train),
+        "--model",
+        s(&csv_model),
+    ]);
+    assert_eq!(
+        std::fs::read(&mot_model).unwrap(),
+        std::fs::read(&csv_model).unwrap(),
+        "the model learned from MOT files differs from the one learned from the same CSV data"
+    );
+    let mot_rows_out = body(&out("mot-one.csv"));
+    assert_eq!(mot_rows_out, body(&out("mot-two.csv")));
+    assert!(
+        std::fs::read_to_string(out("mot-one.csv"))
+            .unwrap()
+            .starts_with("target,frame,tracker,x,y,certainty\n")
+    );
+    // 2 targets × 3 trackers × 120 frames.
+    assert_eq!(mot_rows_out.len(), 2 * 3 * 120);
+    let mut err = 0.0;
+    for (target, csv_seq) in targets.iter().zip(&csv_seqs) {
+        let c = out(&format!("{}-track.csv", target.name));
+        ok(&[
+            "track",
+            "-q",
+            "--train",
+            s(&csv_train),
+            s(csv_seq),
+            "--out",
+            s(&c),
+            "--baselines",
+        ]);
+        let prefix = format!("{},", target.name);
+        let from_mot: Vec<String> = mot_rows_out
+            .iter()
+            .filter_map(|l| l.strip_prefix(&prefix).map(str::to_string))
+            .collect();
+        let from_csv = body(&c);
+        assert_eq!(from_mot, from_csv, "{}", target.name);
+        // Frame numbers as in the file; CBT follows the target.
+        let first: u64 = from_csv[0].split(',').next().unwrap().parse().unwrap();
+        assert_eq!(first, target.first_frame);
+        for (k, r) in from_csv.iter().take(120).enumerate() {
+            let v: Vec<f64> = r
+                .split(',')
+                .skip(2)
+                .take(2)
+                .map(|x| x.parse().unwrap())
+                .collect();
+            let t = target.frames[k].truth.unwrap();
+            err += (v[0] - t[0]).hypot(v[1] - t[1]);
+        }
+    }
+    assert_eq!(targets[1].first_frame, 11);
+    assert!(err / 240.0 < 6.0, "CBT mean error {}", err / 240.0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Bad MOTChallenge files: one line naming the file and the line, exit code 1, no output.
+#[test]
+fn track_mot_bad_input_names_file_and_line() {
+    use cbt_tracker::sim::{Level, Scenario, generate};
+    let dir = temp("track-mot-bad");
+    let train = dir.join("train");
+    std::fs::create_dir_all(&train).unwrap();
+    let tracks = generate(&Scenario::default(), &Level::preset(0), 3, 40, 5);
+    std::fs::write(
+        train.join("a.txt"),
+        mot_rows(1, 1, &tracks[0]) + &mot_rows(2, 1, &tracks[1]),
+    )
+    .unwrap();
+    let gt = dir.join("gt.txt");
+    std::fs::write(&gt, mot_rows(3, 1, &tracks[2])).unwrap();
+    let out = dir.join("out.csv");
+    let model = dir.join("m.cbt.json");
+    let track = |train: &Path, seq: &Path| {
+        vec![
+            "track".to_string(),
+            "--format".into(),
+            "mot".into(),
+            "--train".into(),
+            s(train).into(),
+            s(seq).into(),
+            "--out".into(),
+            s(&out).into(),
+        ]
+    };
+    let fails_with = |args: Vec<String>, needle: &str| {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails(&a, needle);
+        assert!(!out.exists() && !model.exists());
+    };
+    // A bad row in the tracked sequence (line 3), and in a training file (line 2).
+    let bad = dir.join("bad.txt");
+    let mut text = mot_rows(3, 1, &tracks[2]);
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    lines[2] = "3,3,12.5,oops,4,6,1".into();
+    text = lines.join("\n");
+    std::fs::write(&bad, &text).unwrap();
+    fails_with(track(&train, &bad), "bad.txt:3:");
+    let bad_train = dir.join("bad-train");
+    std::fs::create_dir_all(&bad_train).unwrap();
+    std::fs::write(bad_train.join("t.txt"), "1,1,0,0,4,6\n2,1,0,0,4\n").unwrap();
+    fails_with(track(&bad_train, &gt), "t.txt:2:");
+    // A target annotated in one frame only; a row repeated.
+    std::fs::write(&bad, "1,4,0,0,4,6,1\n").unwrap();
+    fails_with(track(&train, &bad), "bad.txt:1:");
+    std::fs::write(&bad, "1,4,0,0,4,6\n2,4,1,0,4,6\n2,4,2,0,4,6\n").unwrap();
+    fails_with(track(&train, &bad), "bad.txt:3:");
+    // A CSV sequence given as MOT (a header is not a number), a folder without .txt files,
+    // and the sequence given as a folder.
+    let csv = dir.join("seq.csv");
+    std::fs::write(&csv, cbt_tracker::csv::to_string(&tracks[2])).unwrap();
+    fails_with(track(&train, &csv), "seq.csv:1:");
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    fails_with(track(&empty, &gt), "empty");
+    fails_with(track(&train, &train), "is a directory");
+    // learn: nothing written either.
+    std::fs::write(bad_train.join("t.txt"), "1,1,0,0,4,6\n2,1,0,0,x,6\n").unwrap();
+    fails_with(
+        vec![
+            "track".into(),
+            "learn".into(),
+            "--format".into(),
+            "mot".into(),
+            "--train".into(),
+            s(&bad_train).into(),
+            "--model".into(),
+            s(&model).into(),
+        ],
+        "t.txt:2:",
+    );
+    // A target outside the grid learned from the training files: refused, naming it.
+    fails_with(track(&train, &gt), "gt.txt: gt-id3: ");
+    // A target inside it is tracked.
+    std::fs::write(&gt, mot_rows(3, 1, &tracks[0])).unwrap();
+    ok(&track(&train, &gt)
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>());
+    assert!(out.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Bad input: one clear line on stderr, exit code 1, and no output file (nor a temporary one).
 #[test]
 fn bad_input_fails_cleanly_without_partial_output() {
@@ -606,6 +847,13 @@ fn bad_input_fails_cleanly_without_partial_output() {
         "frame,kind,x,y\n0,truth,1,2\n1,det,x,3\n",
     )
     .unwrap();
+    let seq = dir.join("seq.csv");
+    std::fs::write(&seq, "frame,kind,x,y\n0,truth,1,2\n1,truth,2,3\n").unwrap();
+    fails(
+        &["track", "--train", s(&track_train), s(&seq), "--out", s(&m)],
+        "s.csv:3:",
+    );
+    // A table that is not a sequence is refused (the sequence is read before any learning).
     fails(
         &[
             "track",
@@ -615,7 +863,7 @@ fn bad_input_fails_cleanly_without_partial_output() {
             "--out",
             s(&m),
         ],
-        "s.csv",
+        "t.csv:1:",
     );
     // Nothing was written, not even a temporary file.
     let left: Vec<_> = std::fs::read_dir(&out)

@@ -5,6 +5,7 @@
 //! in [`BENCHES`].
 
 mod chan_repr;
+mod cli;
 mod cpu;
 mod fd;
 #[cfg(feature = "opencv")]
@@ -26,6 +27,18 @@ pub struct BenchArgs {
     /// Folder holding benchmark data (e.g. `oxford-affine/`); default: `$VISGUIDE_DATA`.
     #[arg(long, env = "VISGUIDE_DATA")]
     pub data: Option<std::path::PathBuf>,
+}
+
+impl BenchArgs {
+    /// The Oxford affine benchmark folder (`DATA/oxford-affine`), or an error saying how to set
+    /// it.
+    pub fn oxford_root(&self) -> Result<std::path::PathBuf> {
+        Ok(self
+            .data
+            .as_ref()
+            .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
+            .join("oxford-affine"))
+    }
 }
 
 /// A bench: its name, the peer it is measured against, and the function that measures.
@@ -59,6 +72,11 @@ pub const BENCHES: &[Bench] = &[
         name: "mser",
         peer: "OpenCV MSER::detectRegions (xtask feature `opencv`), one thread, same parameters (min_diversity 0), region sets asserted equal",
         run: mser::run,
+    },
+    Bench {
+        name: "cli",
+        peer: "the library call (mser::detect) on the same 100 images with the same parameters, region files asserted byte-identical; --threads 1 vs every thread; OpenCV detectRegions with the xtask feature `opencv`",
+        run: cli::run,
     },
     Bench {
         name: "tracking",

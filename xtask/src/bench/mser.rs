@@ -31,7 +31,7 @@ const ROUNDS: usize = 15;
 const SEQUENCES: [&str; 3] = ["graf", "boat", "leuven"];
 
 /// The parameters of both sides.
-fn params() -> MserParams {
+pub(super) fn params() -> MserParams {
     MserParams {
         min_diversity: 0.0,
         ..MserParams::default()
@@ -40,11 +40,7 @@ fn params() -> MserParams {
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
-    let root = args
-        .data
-        .as_ref()
-        .ok_or("set VISGUIDE_DATA (or --data) to the folder holding oxford-affine/")?
-        .join("oxford-affine");
+    let root = args.oxford_root()?;
     println!(
         "load average at the start: {} ({} cores)",
         load_average(),
@@ -122,7 +118,11 @@ fn single_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
 /// Asserts that both detectors find the same regions (see the module docs) and that our pixel
 /// lists are the regions' pixels; returns the number of regions.
 #[cfg(feature = "opencv")]
-fn check_agreement(img: &GrayView, det: &mut Mser, cv: &mut mser::OpenCvMser) -> Result<usize> {
+pub(super) fn check_agreement(
+    img: &GrayView,
+    det: &mut Mser,
+    cv: &mut mser::OpenCvMser,
+) -> Result<usize> {
     use std::collections::HashSet;
     let sorted = |px: &[(u32, u32)]| {
         let mut v = px.to_vec();

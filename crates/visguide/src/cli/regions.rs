@@ -1,7 +1,7 @@
 //! `visguide regions`: MSER regions of many images, in parallel.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
@@ -93,6 +93,8 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     let format: Format = a.format.into();
     let bar = ui.bar(images.len() as u64, "regions");
     let failed = AtomicBool::new(false);
+    // Which threads processed an image.
+    let workers = AtomicU64::new(0);
     // Every file is first written under a staging name and renamed only when all images
     // succeeded, so a failed run leaves no output at all.
     let results: Vec<CliResult<Staged>> = images
@@ -101,6 +103,10 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
             if failed.load(Ordering::Relaxed) {
                 return Err("skipped".into());
             }
+            // Bit i: pool thread i; bit 63: a thread outside the pool (rayon runs a
+            // single-image job on the caller).
+            let bit = rayon::current_thread_index().map_or(63, |i| i.min(62));
+            workers.fetch_or(1 << bit, Ordering::Relaxed);
             let r = one(a, &settings, format, path);
             if r.is_err() {
                 failed.store(true, Ordering::Relaxed);
@@ -135,10 +141,12 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
     }
     ui.say(format!(
-        "{} regions in {} images → {}",
+        "{} regions in {} images → {} ({} threads in the pool, {} threads processed images)",
         total,
         images.len(),
-        a.out.display()
+        a.out.display(),
+        rayon::current_num_threads(),
+        workers.load(Ordering::Relaxed).count_ones()
     ));
     Ok(())
 }

@@ -1,13 +1,15 @@
-//! `visguide track`: channel-based tracking (Paper B) learned from the user's CSV sequences.
+//! `visguide track`: channel-based tracking (Paper B) learned from the user's sequences (CSV or
+//! MOTChallenge ground truth).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, Layout,
-    ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis, csv,
+    ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis, csv, mot,
+    sim,
 };
-use clap::{Args, Subcommand};
+use clap::{Args, Subcommand, ValueEnum};
 use visguide::models::{CBT_FORMAT, MODEL_VERSION, TrackModelFile};
 use visguide::output::atomic::write_atomic;
 
@@ -16,31 +18,68 @@ use super::common::Ui;
 
 /// Track one object through a sequence of frame-wise detections with Channel Based Tracking.
 ///
-/// Sequences are CSV files `frame,kind,x,y` with rows `FRAME,truth,X,Y` (at most one per
-/// frame) and `FRAME,det,X,Y` (any number per frame, clutter included). CBT learns its
-/// motion and observation models from training sequences with truth (no associations needed).
-/// The track starts at the first frame's truth (or its first detection) and is written as CSV
-/// `frame,tracker,x,y,certainty`. One step: `track --train DIR SEQ.csv`; two steps: `track
-/// learn` writes a model file, `track run` uses it.
+/// With `--format csv` (the default) sequences are CSV files `frame,kind,x,y` with rows
+/// `FRAME,truth,X,Y` (at most one per frame) and `FRAME,det,X,Y` (any number per frame, clutter
+/// included). With `--format mot` they are MOTChallenge ground-truth files (`gt.txt`: rows
+/// `frame,id,left,top,width,height[,flag,…]`, no header; rows flagged 0 are left out): every id
+/// is one target whose truth is its box centre. CBT learns its motion and observation models
+/// from training sequences with truth (no associations needed). A sequence without a single
+/// detection (ground truth only, as MOTChallenge `gt.txt` files are) gets detections simulated
+/// at `--sim-level` with `--sim-seed`, in the model's extent. Each target's track starts at its
+/// first frame's truth (or its first detection) and is written as CSV
+/// `frame,tracker,x,y,certainty` (frame numbers as in the file); with `--format mot` every id of
+/// the file is tracked and a first column `target` (`<file stem>-id<ID>`) names it. One step:
+/// `track --train DIR SEQ`; two steps: `track learn` writes a model file, `track run` uses it.
 #[derive(Args, Debug)]
 #[command(
     args_conflicts_with_subcommands = true,
     after_help = "Examples:
   visguide track --train train/ test/seq01.csv --out seq01-track.csv --baselines
   visguide track learn --train train/ --model cars.cbt.json
-  visguide track run cars.cbt.json test/seq01.csv --out seq01-track.csv"
+  visguide track run cars.cbt.json test/seq01.csv --out seq01-track.csv
+  visguide track --format mot --train mot/train/ mot/test/gt.txt --out tracks.csv"
 )]
 pub struct TrackArgs {
     #[command(subcommand)]
     pub command: Option<TrackCommand>,
-    /// Folder of training sequences (`*.csv` with truth).
+    /// Folder of training sequences (`*.csv` with truth; `*.txt` with `--format mot`).
     #[arg(long, value_name = "DIR")]
     pub train: Option<PathBuf>,
     /// The sequence to track.
-    #[arg(value_name = "SEQUENCE.csv")]
+    #[arg(value_name = "SEQUENCE")]
     pub sequence: Option<PathBuf>,
     #[command(flatten)]
+    pub input: InputOptions,
+    #[command(flatten)]
     pub run: RunOptions,
+}
+
+/// File format of the sequences.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SeqFormat {
+    /// `frame,kind,x,y` CSV files (`*.csv`).
+    Csv,
+    /// MOTChallenge ground truth (`*.txt`), one target per id, the box centre as truth.
+    Mot,
+}
+
+/// How sequences are read, and the detections simulated on those without any.
+#[derive(Args, Debug, Clone)]
+pub struct InputOptions {
+    /// Format of the training files and of the sequence.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: SeqFormat,
+    /// Detector simulated on sequences without detections: level 0 (no clutter, P_D 1, σ 1 px)
+    /// to 4 (10 clutter detections a frame, P_D 0.6, σ 8 px), the levels of Paper B's study.
+    #[arg(long, default_value_t = 1, value_name = "0-4",
+          value_parser = clap::value_parser!(u8).range(0..=4))]
+    pub sim_level: u8,
+    /// Seed of the simulated detections: a training sequence named N draws from (seed, h(N)),
+    /// a tracked target from (seed + 1, h(N)), h the 64-bit FNV-1a hash of the name (a file's
+    /// stem, `<stem>-id<ID>` for MOTChallenge), so a target's detections depend neither on the
+    /// other targets nor on the file format it came in.
+    #[arg(long, default_value_t = 0, value_name = "SEED")]
+    pub sim_seed: u64,
 }
 
 /// The two steps.
@@ -48,12 +87,14 @@ pub struct TrackArgs {
 pub enum TrackCommand {
     /// Learn CBT (and the baselines' calibration) from training sequences; write a model file.
     Learn {
-        /// Folder of training sequences (`*.csv` with truth).
+        /// Folder of training sequences (`*.csv` with truth; `*.txt` with `--format mot`).
         #[arg(long, value_name = "DIR")]
         train: PathBuf,
         /// Where the model goes.
         #[arg(long, default_value = "model.cbt.json", value_name = "FILE")]
         model: PathBuf,
+        #[command(flatten)]
+        input: InputOptions,
     },
     /// Track a sequence with a model file written by `track learn`.
     Run {
@@ -61,6 +102,8 @@ pub enum TrackCommand {
         model: PathBuf,
         /// The sequence to track.
         sequence: PathBuf,
+        #[command(flatten)]
+        input: InputOptions,
         #[command(flatten)]
         run: RunOptions,
     },
@@ -84,9 +127,14 @@ pub struct RunOptions {
 /// Runs the subcommand.
 pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
     match &a.command {
-        Some(TrackCommand::Learn { train, model }) => {
-            let m = learn(train)?;
+        Some(TrackCommand::Learn {
+            train,
+            model,
+            input,
+        }) => {
+            let (m, simulated) = learn(train, input)?;
             m.save(model)?;
+            input.say_simulated(simulated, "training sequences", ui);
             ui.say(format!(
                 "learned from {} sequences on [{}, {}] × [{}, {}] → {}",
                 m.sequences,
@@ -101,40 +149,117 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
         Some(TrackCommand::Run {
             model,
             sequence,
+            input,
             run,
         }) => {
             let m = TrackModelFile::load(model)?;
-            track(&m, sequence, run, ui)
+            let targets = input.read_file(sequence)?;
+            track(&m, sequence, targets, input, run, ui)
         }
         None => {
             let (Some(train), Some(seq)) = (&a.train, &a.sequence) else {
-                return Err("track needs --train DIR and SEQUENCE.csv (or the subcommands learn / run; see visguide track --help)".into());
+                return Err("track needs --train DIR and SEQUENCE (or the subcommands learn / run; see visguide track --help)".into());
             };
-            let m = learn(train)?;
-            track(&m, seq, &a.run, ui)
+            // The sequence is read first: a bad file fails before any learning.
+            let targets = a.input.read_file(seq)?;
+            let (m, simulated) = learn(train, &a.input)?;
+            track(&m, seq, targets, &a.input, &a.run, ui)?;
+            a.input.say_simulated(simulated, "training sequences", ui);
+            Ok(())
         }
     }
 }
 
-fn read_train(dir: &Path) -> CliResult<Vec<Sequence>> {
-    if !dir.is_dir() {
-        return Err(format!(
-            "{}: expected a directory of training sequences (*.csv)",
-            dir.display()
-        )
-        .into());
+impl InputOptions {
+    /// The file extension of a training folder's sequences.
+    fn extension(&self) -> &'static str {
+        match self.format {
+            SeqFormat::Csv => "csv",
+            SeqFormat::Mot => "txt",
+        }
     }
-    let train = csv::read_dir(dir)?;
-    if train.is_empty() {
-        return Err(format!("{}: no .csv sequences in it", dir.display()).into());
+
+    /// Every sequence of a training folder, in file-name order (and id order within a file).
+    fn read_dir(&self, dir: &Path) -> CliResult<Vec<Sequence>> {
+        if !dir.is_dir() {
+            return Err(format!(
+                "{}: expected a directory of training sequences (*.{})",
+                dir.display(),
+                self.extension()
+            )
+            .into());
+        }
+        let train = match self.format {
+            SeqFormat::Csv => csv::read_dir(dir)?,
+            SeqFormat::Mot => mot::read_dir(dir)?,
+        };
+        if train.is_empty() {
+            return Err(format!(
+                "{}: no .{} sequences in it",
+                dir.display(),
+                self.extension()
+            )
+            .into());
+        }
+        Ok(train)
     }
-    Ok(train)
+
+    /// The targets of one sequence file: a CSV file is one target (no label); a MOTChallenge
+    /// file one per id, labelled with its sequence name.
+    fn read_file(&self, path: &Path) -> CliResult<Targets> {
+        if path.is_dir() {
+            return Err(format!(
+                "{}: is a directory, expected a sequence file (*.{})",
+                path.display(),
+                self.extension()
+            )
+            .into());
+        }
+        Ok(match self.format {
+            SeqFormat::Csv => vec![(None, csv::read(path)?)],
+            SeqFormat::Mot => mot::read(path)?
+                .into_iter()
+                .map(|s| (Some(s.name.clone()), s))
+                .collect(),
+        })
+    }
+
+    /// Simulates detections, in `area`, on every sequence that has none; a sequence named `N`
+    /// draws from `(seed, fnv1a(N))`. Returns how many were simulated.
+    fn simulate(&self, seqs: &mut [Sequence], area: [f64; 4], seed: u64) -> usize {
+        let level = sim::Level::preset(self.sim_level as usize);
+        let mut n = 0;
+        for s in seqs.iter_mut() {
+            if s.frames.iter().all(|f| f.detections.is_empty()) {
+                *s = sim::observe(s, &level, area, seed, fnv1a(s.name.as_bytes()));
+                n += 1;
+            }
+        }
+        n
+    }
+
+    fn say_simulated(&self, n: usize, what: &str, ui: Ui) {
+        if n > 0 {
+            ui.say(format!(
+                "{n} {what} without detections: detections simulated at level L{} (seed {})",
+                self.sim_level, self.sim_seed
+            ));
+        }
+    }
+}
+
+/// 64-bit FNV-1a: the simulation stream of a sequence from its name.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// Learns the model file's contents from a training folder (the image layout of
 /// `cargo xtask eval tracking`: stationary models on a grid as fine as the detection noise).
-fn learn(dir: &Path) -> CliResult<TrackModelFile> {
-    let train = read_train(dir)?;
+/// Also returns how many training sequences got simulated detections.
+fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)> {
+    let mut train = input.read_dir(dir)?;
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     for s in &train {
@@ -158,6 +283,7 @@ fn learn(dir: &Path) -> CliResult<TrackModelFile> {
         lo[1] - margin[1],
         hi[1] + margin[1],
     ];
+    let simulated = input.simulate(&mut train, extent, input.sim_seed);
     let size = (extent[1] - extent[0]).min(extent[3] - extent[2]);
     let spacing = Scales::estimate(&train, size)?.fine_spacing(size);
     let kernel = cbt_tracker::DEFAULT_KERNEL;
@@ -172,14 +298,15 @@ fn learn(dir: &Path) -> CliResult<TrackModelFile> {
     };
     let cbt = CbtModel::learn_sequences(space, cfg, &train)?;
     let calibration = Calibration::estimate(&train, size / 10.0)?;
-    Ok(TrackModelFile {
+    let file = TrackModelFile {
         format: CBT_FORMAT.into(),
         version: MODEL_VERSION,
         extent,
         sequences: train.len(),
         cbt,
         calibration,
-    })
+    };
+    Ok((file, simulated))
 }
 
 fn run_one(
@@ -201,56 +328,90 @@ fn run_one(
     Ok(out)
 }
 
-fn track(m: &TrackModelFile, seq: &Path, o: &RunOptions, ui: Ui) -> CliResult {
-    if seq.is_dir() {
-        return Err(format!(
-            "{}: is a directory, expected a sequence CSV file",
-            seq.display()
-        )
-        .into());
+/// The labelled targets of one sequence file.
+type Targets = Vec<(Option<String>, Sequence)>;
+
+fn track(
+    m: &TrackModelFile,
+    seq: &Path,
+    targets: Targets,
+    input: &InputOptions,
+    o: &RunOptions,
+    ui: Ui,
+) -> CliResult {
+    let (labels, mut seqs): (Vec<Option<String>>, Vec<Sequence>) = targets.into_iter().unzip();
+    if seqs.is_empty() {
+        return Err(format!("{}: no target to track", seq.display()).into());
     }
-    let s = csv::read(seq)?;
-    let Some(first) = s.frames.first() else {
-        return Err(format!("{}: the sequence has no frames", seq.display()).into());
+    let simulated = input.simulate(&mut seqs, m.extent, input.sim_seed.wrapping_add(1));
+    let mut starts = Vec::with_capacity(seqs.len());
+    for (s, label) in seqs.iter().zip(&labels) {
+        let Some(first) = s.frames.first() else {
+            return Err(format!("{}: the sequence has no frames", seq.display()).into());
+        };
+        let start = first
+            .truth
+            .or_else(|| first.detections.first().map(|d| d.pos))
+            .ok_or_else(|| {
+                format!(
+                    "{}: {}frame {} has neither truth nor a detection to start from",
+                    seq.display(),
+                    label.as_ref().map_or(String::new(), |l| format!("{l}: ")),
+                    s.first_frame
+                )
+            })?;
+        starts.push(start);
+    }
+    let make = || -> CliResult<Vec<Box<dyn Tracker>>> {
+        let mut trackers: Vec<Box<dyn Tracker>> = vec![Box::new(CbtTracker::new(m.cbt.clone()))];
+        if o.baselines {
+            let area = (m.extent[1] - m.extent[0]) * (m.extent[3] - m.extent[2]);
+            trackers.push(Box::new(KalmanTracker::new(
+                KalmanParams::from_calibration(&m.calibration),
+            )?));
+            trackers.push(Box::new(ParticleFilter::new(
+                PfModel::from_calibration(&m.calibration, area),
+                1000,
+                o.seed,
+            )?));
+        }
+        Ok(trackers)
     };
-    let start = first
-        .truth
-        .or_else(|| first.detections.first().map(|d| d.pos))
-        .ok_or_else(|| {
-            format!(
-                "{}: frame 0 has neither truth nor a detection to start from",
-                seq.display()
-            )
-        })?;
-    let mut trackers: Vec<Box<dyn Tracker>> = vec![Box::new(CbtTracker::new(m.cbt.clone()))];
-    if o.baselines {
-        let area = (m.extent[1] - m.extent[0]) * (m.extent[3] - m.extent[2]);
-        trackers.push(Box::new(KalmanTracker::new(
-            KalmanParams::from_calibration(&m.calibration),
-        )?));
-        trackers.push(Box::new(ParticleFilter::new(
-            PfModel::from_calibration(&m.calibration, area),
-            1000,
-            o.seed,
-        )?));
-    }
-    let bar = ui.bar(trackers.len() as u64, "tracking");
+    let per_target = if o.baselines { 3 } else { 1 };
+    let bar = ui.bar((per_target * seqs.len()) as u64, "tracking");
+    // (target, sequence, tracker name, estimates)
     let mut runs = Vec::new();
-    for t in &mut trackers {
-        runs.push((t.name(), run_one(t.as_mut(), &s, start)?));
-        bar.inc(1);
+    for (k, s) in seqs.iter().enumerate() {
+        // Fresh trackers per target (the particle filter's draws restart from its seed).
+        for mut t in make()? {
+            let est = run_one(t.as_mut(), s, starts[k]).map_err(|e| {
+                let label = labels[k]
+                    .as_ref()
+                    .map_or(String::new(), |l| format!(" {l}:"));
+                format!("{}:{label} {}: {e}", seq.display(), t.name())
+            })?;
+            runs.push((k, t.name(), est));
+            bar.inc(1);
+        }
     }
     bar.finish_and_clear();
+    let labelled = labels.iter().any(Option::is_some);
     let fill = |w: &mut dyn Write| -> visguide::Result<()> {
         let io = |e| visguide::VisguideError::Io {
             path: o.out.clone().unwrap_or_else(|| "<stdout>".into()),
             source: e,
         };
-        writeln!(w, "frame,tracker,x,y,certainty").map_err(io)?;
-        for (name, est) in &runs {
-            for (k, (p, c)) in est.iter().enumerate() {
+        let prefix = if labelled { "target," } else { "" };
+        writeln!(w, "{prefix}frame,tracker,x,y,certainty").map_err(io)?;
+        for (k, name, est) in &runs {
+            let label = labels[*k]
+                .as_ref()
+                .map_or(String::new(), |l| format!("{l},"));
+            let first = seqs[*k].first_frame;
+            for (i, (p, c)) in est.iter().enumerate() {
                 let c = c.map_or(String::new(), |c| c.to_string());
-                writeln!(w, "{k},{name},{},{},{c}", p[0], p[1]).map_err(io)?;
+                let frame = first + i as u64;
+                writeln!(w, "{label}{frame},{name},{},{},{c}", p[0], p[1]).map_err(io)?;
             }
         }
         Ok(())
@@ -259,17 +420,22 @@ fn track(m: &TrackModelFile, seq: &Path, o: &RunOptions, ui: Ui) -> CliResult {
         Some(p) => write_atomic(p, fill)?,
         None => fill(&mut std::io::stdout().lock())?,
     }
+    // Notes only after success: a failed run prints one line, its error.
+    input.say_simulated(simulated, "tracked sequences", ui);
     // Mean error against the truth, where the sequence has it.
-    for (name, est) in &runs {
-        let errs: Vec<f64> = s
+    for (k, name, est) in &runs {
+        let errs: Vec<f64> = seqs[*k]
             .frames
             .iter()
             .zip(est)
             .filter_map(|(f, (p, _))| f.truth.map(|t| (t[0] - p[0]).hypot(t[1] - p[1])))
             .collect();
         if !errs.is_empty() {
+            let label = labels[*k]
+                .as_ref()
+                .map_or(String::new(), |l| format!("{l} "));
             ui.say(format!(
-                "{name}: {} frames, mean error to the truth {:.2}",
+                "{label}{name}: {} frames, mean error to the truth {:.2}",
                 est.len(),
                 errs.iter().sum::<f64>() / errs.len() as f64
             ));

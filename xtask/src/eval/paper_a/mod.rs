@@ -41,7 +41,6 @@ mod progress;
 mod report;
 mod sensitivity;
 pub(crate) mod sequence;
-mod setting;
 mod summary;
 mod synthetic;
 #[cfg(test)]
@@ -59,7 +58,6 @@ use crate::Result;
 use evaluate::{Plan, evaluate};
 use progress::Progress;
 use sequence::{Sequence, Source};
-pub use setting::MserOptions;
 use visguide::MserSettings;
 
 /// The homography type, under the path `cargo xtask data fetch` uses; its one home is
@@ -84,7 +82,7 @@ pub struct PaperAArgs {
     pub no_sensitivity: bool,
     /// The MSER setting (default: Paper A's, `larsson2009`).
     #[command(flatten)]
-    pub mser: MserOptions,
+    pub mser: visguide::args::MserArgs,
 }
 
 /// The sequences of Paper A.

@@ -9,6 +9,7 @@ use std::fmt::Write;
 use super::evaluate::{CombinationCurve, Group};
 use super::report::SequenceReport;
 use super::sensitivity::Table;
+use crate::markdown::Table as MdTable;
 
 /// A sequence's display name: `Leuven`, `Boat`, `Graf`, or the name capitalised.
 pub fn display_name(name: &str) -> String {
@@ -90,46 +91,60 @@ pub fn compare_with_paper(sequence: &str, index: usize, group: &Group) -> (Strin
 }
 
 fn curve_table(out: &mut String, curves: &[CombinationCurve]) {
-    out.push_str("| method | AUC | P@R=0.1 | P@R=0.2 | P@R=0.3 | P@T_r=0.5 | R@T_r=0.5 | matches@T_r=0.5 | max recall |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|\n");
+    let mut table = MdTable::new([
+        "method",
+        "AUC",
+        "P@R=0.1",
+        "P@R=0.2",
+        "P@R=0.3",
+        "P@T_r=0.5",
+        "R@T_r=0.5",
+        "matches@T_r=0.5",
+        "max recall",
+    ]);
     for c in curves {
         let s = &c.curve.summary;
         let at = s.at_paper_threshold;
-        let _ = writeln!(
-            out,
-            "| {} | {:.3} | {} | {} | {} | {} | {} | {} | {} |",
-            c.combination,
-            s.auc,
+        table.row([
+            c.combination.to_string(),
+            format!("{:.3}", s.auc),
             f3(s.precision_at_recall[0]),
             f3(s.precision_at_recall[1]),
             f3(s.precision_at_recall[2]),
             f3(at.precision),
             f3(at.recall),
-            at.matches,
+            at.matches.to_string(),
             f3(s.max_recall),
-        );
+        ]);
     }
+    let _ = write!(out, "{table}");
 }
 
 fn preselection_table(out: &mut String, curves: &[CombinationCurve]) {
-    out.push_str("| method (preselected) | T_err | matches@T_r=0.5 | P@T_r=0.5 | R@T_r=0.5 | mutual matches | P (all) |\n");
-    out.push_str("|---|---|---|---|---|---|---|\n");
+    let mut table = MdTable::new([
+        "method (preselected)",
+        "T_err",
+        "matches@T_r=0.5",
+        "P@T_r=0.5",
+        "R@T_r=0.5",
+        "mutual matches",
+        "P (all)",
+    ]);
     for c in curves {
         let s = &c.curve.summary;
         let at = s.at_paper_threshold;
         let all = c.curve.points.last();
-        let _ = writeln!(
-            out,
-            "| {} | {:e} | {} | {} | {} | {} | {} |",
-            c.combination,
-            c.t_err.unwrap_or(f64::NAN),
-            at.matches,
+        table.row([
+            c.combination.to_string(),
+            format!("{:e}", c.t_err.unwrap_or(f64::NAN)),
+            at.matches.to_string(),
             f3(at.precision),
             f3(at.recall),
-            c.curve.candidates,
+            c.curve.candidates.to_string(),
             f3(all.and_then(|p| p.precision)),
-        );
+        ]);
     }
+    let _ = write!(out, "{table}");
 }
 
 /// Renders the summary.
@@ -247,19 +262,23 @@ pub fn render(
             preselection_table(&mut out, &g.preselection);
             out.push('\n');
         }
-        out.push_str("| pair | regions img1 | regions imgK | existing | pairs with ε < 50% |\n");
-        out.push_str("|---|---|---|---|---|\n");
+        let mut pairs = MdTable::new([
+            "pair",
+            "regions img1",
+            "regions imgK",
+            "existing",
+            "pairs with ε < 50%",
+        ]);
         for p in &r.pairs {
-            let _ = writeln!(
-                out,
-                "| img1 vs img{} | {} | {} | {} | {} |",
-                p.image,
-                r.images[0].regions,
-                r.images[p.image - 1].regions,
-                p.existing,
-                p.correct_pairs
-            );
+            pairs.row([
+                format!("img1 vs img{}", p.image),
+                r.images[0].regions.to_string(),
+                r.images[p.image - 1].regions.to_string(),
+                p.existing.to_string(),
+                p.correct_pairs.to_string(),
+            ]);
         }
+        let _ = write!(out, "{pairs}");
     }
     if let Some(t) = table {
         let _ = writeln!(
@@ -271,40 +290,33 @@ pub fn render(
              parameters; the figures use the row marked *.\n",
             t.combination
         );
-        let mut header = "| Δ | min diversity | max variation |".to_string();
-        let mut rule = "|---|---|---|".to_string();
+        let mut header: Vec<String> = ["Δ", "min diversity", "max variation"]
+            .map(String::from)
+            .to_vec();
         if let Some(row) = t.rows.first() {
             for c in &row.cells {
                 let paper = c
                     .paper_existing
                     .map_or(String::new(), |p| format!(" (paper {p})"));
-                let _ = write!(
-                    header,
-                    " {} existing{paper} | P / R |",
-                    display_name(&c.sequence)
-                );
-                rule.push_str("---|---|");
+                header.push(format!("{} existing{paper}", display_name(&c.sequence)));
+                header.push("P / R".into());
             }
         }
-        let _ = writeln!(out, "{header}\n{rule}");
+        let mut table = MdTable::new(header);
         for row in &t.rows {
             let mark = if row.chosen { " *" } else { "" };
-            let _ = write!(
-                out,
-                "| {}{mark} | {} | {} |",
-                row.delta, row.min_diversity, row.max_variation
-            );
+            let mut cells = vec![
+                format!("{}{mark}", row.delta),
+                row.min_diversity.to_string(),
+                row.max_variation.to_string(),
+            ];
             for c in &row.cells {
-                let _ = write!(
-                    out,
-                    " {} | {} / {} |",
-                    c.existing,
-                    f3(c.precision),
-                    f3(c.recall)
-                );
+                cells.push(c.existing.to_string());
+                cells.push(format!("{} / {}", f3(c.precision), f3(c.recall)));
             }
-            out.push('\n');
+            table.row(cells);
         }
+        let _ = write!(out, "{table}");
     }
     out
 }

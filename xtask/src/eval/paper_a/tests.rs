@@ -122,7 +122,7 @@ fn user_sequences_from_a_data_folder() {
         sequences: vec!["mine".into()],
         matches_dir: Some(out.join("pictures")),
         no_sensitivity: true,
-        mser: MserOptions::default(),
+        mser: visguide::args::MserArgs::default(),
     };
     run(&ctx, &args).unwrap();
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
