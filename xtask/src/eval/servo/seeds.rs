@@ -2,9 +2,10 @@
 //! recognition, learn control, servo to reachable targets), so the goals are judged on the
 //! median over seeds with its spread and worst seed, not on one lucky run.
 //!
-//! **Seeds.** [`DEVELOPMENT_SEEDS`] were used to make every design decision (the percept
-//! policy, the consistency scale, the protocol's sizes); [`EVALUATION_SEEDS`] are scored once,
-//! by the fixtures, and were not looked at before. The arms: the default arm and the arm files
+//! **Seeds.** [`DEVELOPMENT_SEEDS`] are where settings are checked or chosen
+//! (`cargo xtask eval servo --development` prints the study and writes nothing);
+//! [`EVALUATION_SEEDS`] are scored once, by the fixtures (the summary says which seeds decided
+//! what). The arms: the default arm and the arm files
 //! shipped in `crates/arm-sim/arms/` (a worn arm; a second rig).
 
 use std::path::{Path, PathBuf};
@@ -21,9 +22,9 @@ use super::{
 use crate::Result;
 
 /// Seeds every setting was chosen on.
-pub const DEVELOPMENT_SEEDS: [u64; 3] = [101, 102, 103];
+pub const DEVELOPMENT_SEEDS: [u64; 5] = [1001, 1002, 1003, 1004, 1005];
 /// Seeds scored once for the fixtures.
-pub const EVALUATION_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
+pub const EVALUATION_SEEDS: [u64; 5] = [4001, 4002, 4003, 4004, 4005];
 /// Targets per (arm, seed).
 pub const TARGETS: usize = 30;
 /// Image targets per (arm, seed).
@@ -314,6 +315,7 @@ pub fn method<'a>(r: &'a SeedResult, name: &str) -> &'a SeedMethod {
 mod tests {
     use super::*;
     use arm_sim::ArmSim;
+    use servo_loop::RandomCommands;
 
     #[test]
     fn every_shipped_arm_builds_a_simulator() {
@@ -323,6 +325,74 @@ mod tests {
                 None => SimConfig::default(),
             };
             assert!(ArmSim::new(config).is_ok(), "{name}");
+        }
+    }
+
+    /// Development probe (not part of CI): recognition and consistency per arm on the first
+    /// development seed. `cargo test --release -p xtask -- --ignored dev_probe --nocapture`.
+    #[test]
+    #[ignore]
+    fn dev_probe_recognition() {
+        let seed: u64 = std::env::var("DEV_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(DEVELOPMENT_SEEDS[0]);
+        let arms = shipped_arms();
+        let out: Vec<String> = arms
+            .par_iter()
+            .map(|(name, path)| {
+                let config = match path {
+                    Some(p) => SimConfig::read_file(p).unwrap(),
+                    None => SimConfig::default(),
+                };
+                let mut p = Protocol::default_for(seed);
+                let (model, report, n) = learn_recogniser(&config, &p).unwrap();
+                p.recogniser = Some(model);
+                let r = recognition(&config, &p).unwrap();
+                let model = p.recogniser.as_ref().unwrap();
+                let g = &model.consistency()[0];
+                let mut sim = ArmSim::new(config.clone()).unwrap();
+                let mut commands = RandomCommands::new(&p.explore_us, 77).unwrap();
+                let mut lines = String::new();
+                for _ in 0..40 {
+                    let y = commands.next_command();
+                    let mut c = p.rest_us;
+                    for (&i, &v) in p.controlled.iter().zip(&y) {
+                        c[i] = v;
+                    }
+                    sim.command(&c).unwrap();
+                    let imgs = sim.capture();
+                    let pose = sim.inspect().pose().clone();
+                    let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+                    if let Ok(l) = model.locate_all(&imgs) {
+                        let e: Vec<f64> = (0..2)
+                            .map(|k| {
+                                let t = sim.inspect().project(k, &mid).unwrap();
+                                (l[k].position[0] - t[0]).hypot(l[k].position[1] - t[1])
+                            })
+                            .collect();
+                        let t0 = sim.inspect().project(0, &mid).unwrap();
+                        let t1 = sim.inspect().project(1, &mid).unwrap();
+                        lines += &format!(
+                            "    err {:6.2} {:6.2} epi {:6.2} true-epi {:5.2} cert {:.2} {:.2}\n",
+                            e[0],
+                            e[1],
+                            g.distance(l[0].position, l[1].position),
+                            g.distance(t0, t1),
+                            l[0].certainty,
+                            l[1].certainty
+                        );
+                    }
+                }
+                format!(
+                    "{name} seed {seed}: lifted {} {:?} actions {n}\n  {r:?}\n{lines}",
+                    g.is_lifted(),
+                    report.consistency
+                )
+            })
+            .collect();
+        for o in out {
+            println!("{o}");
         }
     }
 
