@@ -409,12 +409,13 @@ pub fn seeds_section(st: &SeedStudy) -> String {
           the seed's reachable targets. Errors are after 5 moves after the first guess (equal moves: Broyden's 3 probes count); \
           Broyden is also shown after 5 corrections after its probes (8 moves). A value is the median over seeds of the per-seed \
           medians, [min – max] of the per-seed medians, and the worst seed. **Seeds:** the settings changed this round (1,600 \
-          training moves, executed in blocks of 100 in monotone-chain order, `servo_loop::chain_order`, so that the actions fit \
-          3,000) were fixed from an action count worked out beforehand and then run once on the development seeds 1001–1005 \
-          (`cargo xtask eval servo --development`), which showed no reason to change them; no alternative was compared on \
-          them. The other thresholds (certainty 0.05, consistency scale, captures) were set before any evaluation run, not \
-          tuned. The evaluation seeds (4001–4005) are new this round (the previous round's 3001–3005 were read, so they no \
-          longer count as unseen) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
+          training moves, executed in blocks of 100 in monotone-chain order, `servo_loop::chain_order`, so that every move fits \
+          3,000 actions) were fixed from an action count worked out beforehand, not from any servo run; a run on the development \
+          seeds 1001–1005 (`cargo xtask eval servo --development`) was started but stopped unfinished for time (machine load), \
+          so no setting was chosen or checked on development seeds this round. The other thresholds (certainty 0.05, \
+          consistency scale, captures) were set before any evaluation run, not tuned. The evaluation seeds 4001–4005 are new \
+          this round (the previous round's 3001–3005 were read, so they no longer count as unseen) and were scored once, by this \
+          run. Image targets are pixel positions per camera (the projected \
           middle of the finger ends at random reachable poses the learner never visited), checked by `servo_loop::check_image_target` \
           (consistent between the cameras, inside the learned model) before any move; their error is the tool point's against the \
           target pose's.\n\n";

@@ -315,7 +315,6 @@ pub fn method<'a>(r: &'a SeedResult, name: &str) -> &'a SeedMethod {
 mod tests {
     use super::*;
     use arm_sim::ArmSim;
-    use servo_loop::RandomCommands;
 
     #[test]
     fn every_shipped_arm_builds_a_simulator() {
@@ -325,74 +324,6 @@ mod tests {
                 None => SimConfig::default(),
             };
             assert!(ArmSim::new(config).is_ok(), "{name}");
-        }
-    }
-
-    /// Development probe (not part of CI): recognition and consistency per arm on the first
-    /// development seed. `cargo test --release -p xtask -- --ignored dev_probe --nocapture`.
-    #[test]
-    #[ignore]
-    fn dev_probe_recognition() {
-        let seed: u64 = std::env::var("DEV_SEED")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(DEVELOPMENT_SEEDS[0]);
-        let arms = shipped_arms();
-        let out: Vec<String> = arms
-            .par_iter()
-            .map(|(name, path)| {
-                let config = match path {
-                    Some(p) => SimConfig::read_file(p).unwrap(),
-                    None => SimConfig::default(),
-                };
-                let mut p = Protocol::default_for(seed);
-                let (model, report, n) = learn_recogniser(&config, &p).unwrap();
-                p.recogniser = Some(model);
-                let r = recognition(&config, &p).unwrap();
-                let model = p.recogniser.as_ref().unwrap();
-                let g = &model.consistency()[0];
-                let mut sim = ArmSim::new(config.clone()).unwrap();
-                let mut commands = RandomCommands::new(&p.explore_us, 77).unwrap();
-                let mut lines = String::new();
-                for _ in 0..40 {
-                    let y = commands.next_command();
-                    let mut c = p.rest_us;
-                    for (&i, &v) in p.controlled.iter().zip(&y) {
-                        c[i] = v;
-                    }
-                    sim.command(&c).unwrap();
-                    let imgs = sim.capture();
-                    let pose = sim.inspect().pose().clone();
-                    let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-                    if let Ok(l) = model.locate_all(&imgs) {
-                        let e: Vec<f64> = (0..2)
-                            .map(|k| {
-                                let t = sim.inspect().project(k, &mid).unwrap();
-                                (l[k].position[0] - t[0]).hypot(l[k].position[1] - t[1])
-                            })
-                            .collect();
-                        let t0 = sim.inspect().project(0, &mid).unwrap();
-                        let t1 = sim.inspect().project(1, &mid).unwrap();
-                        lines += &format!(
-                            "    err {:6.2} {:6.2} epi {:6.2} true-epi {:5.2} cert {:.2} {:.2}\n",
-                            e[0],
-                            e[1],
-                            g.distance(l[0].position, l[1].position),
-                            g.distance(t0, t1),
-                            l[0].certainty,
-                            l[1].certainty
-                        );
-                    }
-                }
-                format!(
-                    "{name} seed {seed}: lifted {} {:?} actions {n}\n  {r:?}\n{lines}",
-                    g.is_lifted(),
-                    report.consistency
-                )
-            })
-            .collect();
-        for o in out {
-            println!("{o}");
         }
     }
 
