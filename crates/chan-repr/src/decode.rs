@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{ChanError, ChannelBasis};
+use crate::{ChanError, ChannelBasis, Kernel};
 
 /// Slack (in channel spacings) on the valid-range test, so that a value exactly on the border
 /// between two windows is not lost to rounding; the duplicate it creates is merged.
@@ -48,23 +48,9 @@ impl ChannelBasis {
     /// ```
     pub fn decode_windows(&self, c: &[f64]) -> Result<Vec<WindowEstimate>, ChanError> {
         check_channels(c, self.len())?;
-        let kernel = self.kernel();
-        let w = kernel.window();
-        let (lo, hi) = kernel.valid_offsets();
-        Ok((0..=self.len() - w)
-            .map(|l| {
-                let win = &c[l..l + w];
-                let certainty: f64 = win.iter().sum();
-                let offset = kernel.decode_window(win);
-                WindowEstimate {
-                    start: l,
-                    value: offset.map(|o| self.from_index(l as f64 + o)),
-                    certainty,
-                    valid: certainty > 0.0
-                        && offset.is_some_and(|o| o >= lo - VALID_SLACK && o <= hi + VALID_SLACK),
-                }
-            })
-            .collect())
+        Ok(window_estimates(self.kernel(), c, false, |t| {
+            self.from_index(t)
+        }))
     }
 
     /// All modes of the channel vector `c`, sorted by decreasing certainty (ties: by value).
@@ -81,37 +67,105 @@ impl ChannelBasis {
     /// assert!((values[0] - 3.3).abs() < 1e-9 && (values[1] - 6.8).abs() < 1e-9);
     /// ```
     pub fn decode(&self, c: &[f64]) -> Result<Vec<Mode>, ChanError> {
-        let kernel = self.kernel();
-        let mut modes: Vec<(f64, Mode)> = Vec::new();
-        for e in self.decode_windows(c)?.into_iter().filter(|e| e.valid) {
-            let Some(value) = e.value else { continue };
-            let offset = self.to_index(value) - e.start as f64;
-            let mode = Mode {
-                value,
-                certainty: e.certainty,
-                weight: e.certainty / kernel.unit_window_sum(offset),
-            };
-            let t = self.to_index(value);
-            // Neighbouring windows meet at their valid ranges' borders: merge twins.
-            match modes.last_mut() {
-                Some((prev_t, prev)) if (t - *prev_t).abs() <= 2.0 * VALID_SLACK => {
-                    if mode.certainty > prev.certainty {
-                        *prev = mode;
-                        *prev_t = t;
-                    }
-                }
-                _ => modes.push((t, mode)),
-            }
-        }
-        let mut modes: Vec<Mode> = modes.into_iter().map(|(_, m)| m).collect();
-        sort_modes(&mut modes, |m| m.certainty, |m| m.value);
-        Ok(modes)
+        let windows = self.decode_windows(c)?;
+        Ok(merge_modes(self.kernel(), &windows, None, |v| {
+            self.to_index(v)
+        }))
     }
 
     /// The mode with the highest certainty, if any.
     pub fn decode_best(&self, c: &[f64]) -> Result<Option<Mode>, ChanError> {
         Ok(self.decode(c)?.into_iter().next())
     }
+}
+
+/// The windowed local decoding shared by the linear and the periodic bases (eq. 2.4–2.7):
+/// window `l` covers channels `l, …, l+W−1` of `c` (modulo `N = c.len()` when `wrap`); its
+/// estimate is `from_index(l + offset)`. Linear: `N − W + 1` windows (needs `N ≥ W`, which
+/// every basis guarantees); periodic: `N` windows.
+pub(crate) fn window_estimates(
+    kernel: Kernel,
+    c: &[f64],
+    wrap: bool,
+    from_index: impl Fn(f64) -> f64,
+) -> Vec<WindowEstimate> {
+    let n = c.len();
+    let w = kernel.window();
+    let (lo, hi) = kernel.valid_offsets();
+    let count = if wrap { n } else { n + 1 - w };
+    let mut win = vec![0.0; w];
+    (0..count)
+        .map(|l| {
+            for (j, v) in win.iter_mut().enumerate() {
+                *v = c[(l + j) % n];
+            }
+            let certainty: f64 = win.iter().sum();
+            let offset = kernel.decode_window(&win);
+            WindowEstimate {
+                start: l,
+                value: offset.map(|o| from_index(l as f64 + o)),
+                certainty,
+                valid: certainty > 0.0
+                    && offset.is_some_and(|o| o >= lo - VALID_SLACK && o <= hi + VALID_SLACK),
+            }
+        })
+        .collect()
+}
+
+/// The modes of the valid window estimates (in window order), shared by the linear and the
+/// periodic bases: the weight from the window sum of a unit value at the decoded position,
+/// twins where neighbouring windows meet merged (keeping the more certain one), with
+/// `period = Some(N)` also across the wrap (an estimate below its window's start counts `N`
+/// further on); sorted by decreasing certainty, ties by value. `to_index` maps a value to
+/// its channel coordinate.
+pub(crate) fn merge_modes(
+    kernel: Kernel,
+    windows: &[WindowEstimate],
+    period: Option<usize>,
+    to_index: impl Fn(f64) -> f64,
+) -> Vec<Mode> {
+    // (unwrapped channel coordinate, mode): windows in order give increasing coordinates.
+    let mut modes: Vec<(f64, Mode)> = Vec::new();
+    for e in windows.iter().filter(|e| e.valid) {
+        let Some(value) = e.value else { continue };
+        let mut t = to_index(value);
+        if let Some(n) = period
+            && t < e.start as f64 - VALID_SLACK
+        {
+            t += n as f64;
+        }
+        let mode = Mode {
+            value,
+            certainty: e.certainty,
+            weight: e.certainty / kernel.unit_window_sum(t - e.start as f64),
+        };
+        // Neighbouring windows meet at their valid ranges' borders: merge twins.
+        match modes.last_mut() {
+            Some((prev_t, prev)) if (t - *prev_t).abs() <= 2.0 * VALID_SLACK => {
+                if mode.certainty > prev.certainty {
+                    *prev = mode;
+                    *prev_t = t;
+                }
+            }
+            _ => modes.push((t, mode)),
+        }
+    }
+    // … and, on a circle, the last window meets the first one across the wrap.
+    if let Some(n) = period
+        && modes.len() > 1
+    {
+        let (first_t, first) = modes[0];
+        let (last_t, last) = modes[modes.len() - 1];
+        if (first_t + n as f64 - last_t).abs() <= 2.0 * VALID_SLACK {
+            if last.certainty > first.certainty {
+                modes[0].1 = last;
+            }
+            modes.pop();
+        }
+    }
+    let mut modes: Vec<Mode> = modes.into_iter().map(|(_, m)| m).collect();
+    sort_modes(&mut modes, |m| m.certainty, |m| m.value);
+    modes
 }
 
 /// Checks a channel vector's length, finiteness and sign.
@@ -170,7 +224,6 @@ pub(crate) fn sort_modes<M, K: PartialOrd>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Kernel;
 
     #[test]
     fn bad_channel_vectors_are_errors() {

@@ -11,7 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::basis::{MAX_CHANNELS, check_weight};
-use crate::decode::{VALID_SLACK, check_channels, sort_modes};
+use crate::decode::{check_channels, merge_modes, window_estimates};
 use crate::{ChanError, Kernel, Mode, WindowEstimate};
 
 /// Largest `|x| / P` (whole turns) a periodic basis accepts: beyond it `x·N/P` has lost the
@@ -223,25 +223,9 @@ impl PeriodicBasis {
     /// channels, window `l` covering channels `l, l+1, …, l+W−1` modulo `N`; values in `[0, P)`.
     pub fn decode_windows(&self, c: &[f64]) -> Result<Vec<WindowEstimate>, ChanError> {
         check_channels(c, self.n)?;
-        let w = self.kernel.window();
-        let (lo, hi) = self.kernel.valid_offsets();
-        let mut win = vec![0.0; w];
-        Ok((0..self.n)
-            .map(|l| {
-                for (j, v) in win.iter_mut().enumerate() {
-                    *v = c[(l + j) % self.n];
-                }
-                let certainty: f64 = win.iter().sum();
-                let offset = self.kernel.decode_window(&win);
-                WindowEstimate {
-                    start: l,
-                    value: offset.map(|o| self.from_index(l as f64 + o)),
-                    certainty,
-                    valid: certainty > 0.0
-                        && offset.is_some_and(|o| o >= lo - VALID_SLACK && o <= hi + VALID_SLACK),
-                }
-            })
-            .collect())
+        Ok(window_estimates(self.kernel, c, true, |t| {
+            self.from_index(t)
+        }))
     }
 
     /// All modes of the channel vector `c`, values in `[0, P)`, sorted by decreasing certainty
@@ -258,45 +242,10 @@ impl PeriodicBasis {
     /// assert!((modes[1].value - 90.0).abs() < 1e-9);
     /// ```
     pub fn decode(&self, c: &[f64]) -> Result<Vec<Mode>, ChanError> {
-        let n = self.n as f64;
-        // (unwrapped index coordinate, mode): windows in order give increasing coordinates.
-        let mut modes: Vec<(f64, Mode)> = Vec::new();
-        for e in self.decode_windows(c)?.into_iter().filter(|e| e.valid) {
-            let Some(value) = e.value else { continue };
-            let mut t = self.to_index(value);
-            if t < e.start as f64 - VALID_SLACK {
-                t += n;
-            }
-            let mode = Mode {
-                value,
-                certainty: e.certainty,
-                weight: e.certainty / self.kernel.unit_window_sum(t - e.start as f64),
-            };
-            // Neighbouring windows meet at their valid ranges' borders: merge twins.
-            match modes.last_mut() {
-                Some((prev_t, prev)) if (t - *prev_t).abs() <= 2.0 * VALID_SLACK => {
-                    if mode.certainty > prev.certainty {
-                        *prev = mode;
-                        *prev_t = t;
-                    }
-                }
-                _ => modes.push((t, mode)),
-            }
-        }
-        // … and the last window meets the first one across the wrap.
-        if modes.len() > 1 {
-            let (first_t, first) = modes[0];
-            let (last_t, last) = modes[modes.len() - 1];
-            if (first_t + n - last_t).abs() <= 2.0 * VALID_SLACK {
-                if last.certainty > first.certainty {
-                    modes[0].1 = last;
-                }
-                modes.pop();
-            }
-        }
-        let mut modes: Vec<Mode> = modes.into_iter().map(|(_, m)| m).collect();
-        sort_modes(&mut modes, |m| m.certainty, |m| m.value);
-        Ok(modes)
+        let windows = self.decode_windows(c)?;
+        Ok(merge_modes(self.kernel, &windows, Some(self.n), |v| {
+            self.to_index(v)
+        }))
     }
 
     /// The mode with the highest certainty, if any.

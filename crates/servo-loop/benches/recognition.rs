@@ -3,9 +3,9 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use image::{GrayImage, Luma};
+use servo_loop::recognition::TrainingView;
 use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::half_resolution;
-use servo_loop::recognition::model::TrainingView;
 use servo_loop::{
     GripperModel, InverseModel, InverseModelConfig, RandomCommands, RecognitionConfig,
     SilhouetteConfig, TipModel, TipRule,

@@ -100,7 +100,9 @@ mod visual;
 pub use approach::{Approach, ApproachDirection, ApproachState};
 pub use error::{Result, ServoError};
 pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
-pub use learn::{LearnConfig, LearnReport, RandomCommands, learn_control};
+pub use learn::{
+    LearnConfig, LearnReport, RandomCommands, chain_order, learn_control, learn_control_chained,
+};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry, EpipolarReport,

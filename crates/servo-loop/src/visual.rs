@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
 use crate::plant::{Observation, Plant};
-use crate::recognition::model::TrainingView;
+use crate::recognition::TrainingView;
 use crate::recognition::{
     Localisation, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
 };

@@ -4,10 +4,10 @@
 
 use image::{GrayImage, Luma};
 use proptest::prelude::*;
+use servo_loop::recognition::TrainingView;
 use servo_loop::recognition::change::changed_region;
 use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::{full_to_half, half_resolution, half_to_full};
-use servo_loop::recognition::model::TrainingView;
 use servo_loop::{GripperModel, RecognitionConfig};
 
 fn scene(w: u32, h: u32, square: Option<(u32, u32, u32)>, seed: u32) -> GrayImage {

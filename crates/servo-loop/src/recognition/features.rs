@@ -11,7 +11,7 @@
 //! the same channel, so the map survives lighting and background changes), coded with cyclic
 //! cos² channels (`m = 3`, chan-repr [`Kernel::Cos2`]), and `w = |g| / (|g| + g₀)` a saturated
 //! gradient magnitude (strong clutter edges cannot dominate; global gain changes cancel in the
-//! normalised comparison of [`crate::recognition::model`]). Finally every orientation channel
+//! normalised comparison of [`crate::recognition::ccfm`]). Finally every orientation channel
 //! is divided by its mean over the image (plus 10 % of the overall mean): orientations present
 //! everywhere (a striped table) are background and weigh less.
 //!

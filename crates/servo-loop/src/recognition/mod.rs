@@ -8,32 +8,65 @@
 //!   quadratic B-spline spatial channels and cyclic cos² orientation channels (chan-repr).
 //! - [`change`]: the changed region between two images (the fingers, when only the gripper
 //!   servo moved) and its robust centroid, the gripper point.
-//! - [`silhouette`]: the recogniser the servo pipeline uses ([`TipModel`]): the static scene
-//!   learned from frames of random poses, the arm's silhouette in one new image, the end of
-//!   the chain (told by gripper moves) and the tip at sub-pixel precision by a [`TipRule`].
+//! - [`silhouette`]: how the servo pipeline's recogniser works (module docs), the arm's
+//!   silhouette in one image and the end analysis; [`scene`](CameraScene): one camera's learned
+//!   static scene, the chain's root and the gripper end's size; [`tip_rule`]: which point of the
+//!   far end is the tip ([`TipRule`], [`EndEstimate`]); [`tip_model`]: the model type
+//!   ([`TipModel`]), its settings and report.
 //! - `end_face`: the middle of the end face from the outline of the far end (sub-pixel level
 //!   crossings, convex hull, the far cap's outer corners), for [`TipRule::EndFace`].
 //! - [`tip_correction`]: the [`TipRule::Learned`] tip, the far end corrected by an offset
 //!   learned from the end-face rule at random poses (kernel regression on all cameras' far ends).
 //! - [`epipolar`]: consistency between cameras, the fundamental matrix learned from the
 //!   learner's own percepts (normalised 8-point in RANSAC) and a pair's consistency.
-//! - [`model`]: the channel-coded appearance model learned from those regions (prototype feature maps around
-//!   the gripper point) and its localisation in a new image with a certainty.
+//! - [`ccfm`]: the channel-coded feature map model ([`GripperModel`]) learned from those regions
+//!   (prototype feature maps around the gripper point) and its localisation in a new image with
+//!   a certainty; it stands aside from the servo path (the servo percept is [`TipModel`]).
+//!
+//! The types every recogniser shares, [`Localisation`] and [`TrainingView`], live here.
 
+pub mod ccfm;
 pub mod change;
 mod end_face;
 pub mod epipolar;
 pub mod features;
 pub mod image;
 mod lighting;
-pub mod model;
+mod scene;
 pub mod silhouette;
 pub mod tip_correction;
+pub mod tip_model;
+pub mod tip_rule;
 
+pub use ccfm::{GripperModel, RecognitionConfig};
 pub use epipolar::{EpipolarGeometry, EpipolarReport};
-pub use model::{GripperModel, Localisation, RecognitionConfig, TrainingView};
-pub use silhouette::{EndEstimate, SilhouetteConfig, SilhouetteReport, TipModel, TipRule};
+pub use scene::CameraScene;
 pub use tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
+pub use tip_model::{SilhouetteConfig, SilhouetteReport, TipModel};
+pub use tip_rule::{EndEstimate, TipRule};
+
+use ::image::GrayImage;
+use serde::{Deserialize, Serialize};
+
+/// Where the gripper was found.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Localisation {
+    /// The gripper point, full-resolution pixels `[u, v]`.
+    pub position: [f64; 2],
+    /// Certainty in `[0, 1]` (e.g. the normalised cross-correlation of the `ccfm` model, the coverage and
+    /// cross-camera consistency of the silhouette rules).
+    pub certainty: f64,
+}
+
+/// One training view: the same pose seen with the gripper open and closed, one image per
+/// camera each.
+#[derive(Debug, Clone)]
+pub struct TrainingView {
+    /// Images with the gripper in its first state.
+    pub before: Vec<GrayImage>,
+    /// Images after only the gripper servo moved.
+    pub after: Vec<GrayImage>,
+}
 
 /// The percept seam: anything that finds the gripper point in one image per camera, each with
 /// a certainty in `[0, 1]`. [`crate::VisualPlant`] and the learning and servo loops see a

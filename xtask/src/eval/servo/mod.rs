@@ -40,7 +40,7 @@ use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
     LearnConfig, PerceptPolicy, RandomCommands, RecognitionConfig, ServoConfig, ServoRun,
-    SilhouetteConfig, TipRule, capture_training_views, learn_control, learn_recognition,
+    SilhouetteConfig, TipRule, capture_training_views, learn_control_chained, learn_recognition,
     observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
@@ -63,8 +63,8 @@ pub struct ServoArgs {
     /// projection + 0.5 px noise; a control-only check).
     #[arg(long, value_enum, default_value_t = PerceptMode::Recognised)]
     pub percept: PerceptMode,
-    /// Run the study over arms and seeds on the development seeds (where settings are chosen)
-    /// instead of the evaluation seeds (scored once, for the fixtures).
+    /// Run only the study over arms and seeds, on the development seeds (where settings are
+    /// chosen), and print it instead of writing fixtures.
     #[arg(long)]
     pub development: bool,
     /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
@@ -126,6 +126,10 @@ pub struct Protocol {
     /// How every move (training and servoing, all methods) is executed: the unidirectional
     /// approach for hobby servos (`servo_loop::Approach::hobby_servo`), or `None` (plain).
     pub approach: Option<Approach>,
+    /// Training moves are executed in blocks of this many, each in the order of a minimum
+    /// cover by monotone chains (`servo_loop::chain_order`: fewer approach pre-positions,
+    /// same commands); 0 = the drawn order.
+    pub chain_block: usize,
 }
 
 impl Protocol {
@@ -140,8 +144,8 @@ impl Protocol {
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
-            training_moves: 2000,
-            curve_moves: vec![100, 200, 500, 1000, 2000],
+            training_moves: 1600,
+            curve_moves: vec![100, 200, 500, 1000, 1600],
             curve_targets: 50,
             targets: 100,
             iterations: 10,
@@ -152,6 +156,7 @@ impl Protocol {
             recognition_views: 30,
             recognition_tests: 40,
             approach: Some(Approach::hobby_servo()),
+            chain_block: 100,
         }
     }
 }
@@ -441,7 +446,7 @@ pub fn train(
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let learn = learn_control(&mut plant, &mut model, &lc, |k, m| {
+    let learn = learn_control_chained(&mut plant, &mut model, &lc, p.chain_block, |k, m| {
         bar.inc(1);
         if p.curve_moves.contains(&k) || k == p.training_moves {
             snaps.push((k, m.clone()));
@@ -859,6 +864,13 @@ impl Actions {
 
 /// Runs `cargo xtask eval servo`.
 pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
+    if args.development {
+        // Development seeds choose settings: the study is printed, no fixture is written.
+        let st = seeds::run_all(args)?;
+        println!("{}", report::seeds_section(&st));
+        println!("{}", serde_json::to_string(&st)?);
+        return Ok(());
+    }
     let config = match &args.arm {
         Some(path) => SimConfig::read_file(path)?,
         None => SimConfig::default(),

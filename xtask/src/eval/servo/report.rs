@@ -10,6 +10,7 @@ use super::plant::SimPlant;
 use super::seeds::SeedStudy;
 use super::{EvalContext, Protocol, Study, Target, TargetResult, servo_config, write_json};
 use crate::Result;
+use crate::markdown::Table;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct IterationStats {
@@ -173,55 +174,57 @@ pub fn summary(study: &Study) -> String {
         }
     }
     s += "## Error per iteration (median / p90 px, median mm, success rate)\n\n";
-    s += "| iteration |";
-    for st in &stats {
-        s += &format!(" {} |", st.method);
-    }
-    s += "\n|---|";
-    for _ in &stats {
-        s += "---|";
-    }
-    s += "\n";
+    let mut t = Table::new(
+        std::iter::once("iteration".to_string()).chain(stats.iter().map(|st| st.method.clone())),
+    );
     for k in 0..=p.iterations {
-        s += &format!("| {k} |");
-        for st in &stats {
+        t.row(std::iter::once(k.to_string()).chain(stats.iter().map(|st| {
             let it = &st.per_iteration[k];
-            s += &format!(
-                " {:.2} / {:.2} px, {:.2} mm, {:.0} % |",
+            format!(
+                "{:.2} / {:.2} px, {:.2} mm, {:.0} %",
                 it.median_px,
                 it.p90_px,
                 it.median_mm,
                 100.0 * it.success_rate
-            );
-        }
-        s += "\n";
+            )
+        })));
     }
-    s += "\n| method | median iterations to ≤ 1 px | converged (percept) | stopped by error |\n|---|---|---|---|\n";
+    s += &t.to_string();
+    let mut t = Table::new([
+        "method",
+        "median iterations to ≤ 1 px",
+        "converged (percept)",
+        "stopped by error",
+    ]);
     for st in &stats {
-        s += &format!(
-            "| {} | {} | {} / {} | {} |\n",
-            st.method,
-            st.median_iterations_to_success,
-            st.converged,
-            st.targets,
-            st.stopped_by_error
-        );
+        t.row([
+            st.method.clone(),
+            st.median_iterations_to_success.to_string(),
+            format!("{} / {}", st.converged, st.targets),
+            st.stopped_by_error.to_string(),
+        ]);
     }
+    s += "\n";
+    s += &t.to_string();
     s += "\n## Accuracy against training moves (lwpr, first ";
-    s += &format!(
-        "{} targets, 5 corrections)\n\n| training moves | open loop median px | median px after 5 | median mm after 5 | success after 5 |\n|---|---|---|---|---|\n",
-        p.curve_targets
-    );
+    s += &format!("{} targets, 5 corrections)\n\n", p.curve_targets);
+    let mut t = Table::new([
+        "training moves",
+        "open loop median px",
+        "median px after 5",
+        "median mm after 5",
+        "success after 5",
+    ]);
     for c in curve_points(study) {
-        s += &format!(
-            "| {} | {:.2} | {:.2} | {:.2} | {:.0} % |\n",
-            c.training_moves,
-            c.median_px_open_loop,
-            c.median_px_after_5,
-            c.median_mm_after_5,
-            100.0 * c.success_rate_after_5
-        );
+        t.row([
+            c.training_moves.to_string(),
+            format!("{:.2}", c.median_px_open_loop),
+            format!("{:.2}", c.median_px_after_5),
+            format!("{:.2}", c.median_mm_after_5),
+            format!("{:.0} %", 100.0 * c.success_rate_after_5),
+        ]);
     }
+    s += &t.to_string();
     if let Some(r) = &study.recognition {
         s += "\n## Gripper recognition (learned from gripper moves, single rendered captures)\n\n";
         s += &format!(
@@ -233,8 +236,7 @@ pub fn summary(study: &Study) -> String {
              it jumps where outline pixels of the cap come and go); `learned`, {}. Errors against the ground truth: the projected middle \
              of the two finger ends (the centre of the gripper's end face, the point the rules aim at) and arm-sim's tool point (8 mm \
              further back, between the finger pads: not visible as such, so no learner can find it without a model of the gripper). The \
-             servo percept uses `{}`.\n\n\
-             | tip rule | camera | found (all cameras) | median to finger-end middle (px) | p90 (px) | averaged over {} captures (px) | frame-to-frame repeatability (px) | median to tool point (px) |\n|---|---|---|---|---|---|---|---|\n",
+             servo percept uses `{}`.\n\n",
             r.frames,
             r.gripper_changes,
             r.tests,
@@ -248,36 +250,54 @@ pub fn summary(study: &Study) -> String {
                 None => "not evaluated (no correction was learned)".to_string(),
             },
             rule_name(r.rules[0].rule),
-            p.captures_per_percept
         );
+        let mut t = Table::new([
+            "tip rule".to_string(),
+            "camera".into(),
+            "found (all cameras)".into(),
+            "median to finger-end middle (px)".into(),
+            "p90 (px)".into(),
+            format!("averaged over {} captures (px)", p.captures_per_percept),
+            "frame-to-frame repeatability (px)".into(),
+            "median to tool point (px)".into(),
+        ]);
         for rule in &r.rules {
             for c in 0..rule.median_px_finger_ends.len() {
-                s += &format!(
-                    "| {} | {c} | {} / {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
-                    rule_name(rule.rule),
-                    rule.found,
-                    r.tests * rule.median_px_finger_ends.len(),
-                    rule.median_px_finger_ends[c],
-                    rule.p90_px_finger_ends[c],
-                    rule.median_px_averaged[c],
-                    rule.median_px_repeat[c],
-                    rule.median_px_tool_point[c]
-                );
+                t.row([
+                    rule_name(rule.rule).to_string(),
+                    c.to_string(),
+                    format!(
+                        "{} / {}",
+                        rule.found,
+                        r.tests * rule.median_px_finger_ends.len()
+                    ),
+                    format!("{:.2}", rule.median_px_finger_ends[c]),
+                    format!("{:.2}", rule.p90_px_finger_ends[c]),
+                    format!("{:.2}", rule.median_px_averaged[c]),
+                    format!("{:.2}", rule.median_px_repeat[c]),
+                    format!("{:.2}", rule.median_px_tool_point[c]),
+                ]);
             }
         }
         for app in &r.appearance {
             for c in 0..app.median_px_finger_ends.len() {
-                s += &format!(
-                    "| ccfm (`GripperModel`), {} | {c} | {} / {} | {:.2} | {:.2} | – | – | {:.2} |\n",
-                    app.search,
-                    app.found,
-                    r.tests * app.median_px_finger_ends.len(),
-                    app.median_px_finger_ends[c],
-                    app.p90_px_finger_ends[c],
-                    app.median_px_tool_point[c]
-                );
+                t.row([
+                    format!("ccfm (`GripperModel`), {}", app.search),
+                    c.to_string(),
+                    format!(
+                        "{} / {}",
+                        app.found,
+                        r.tests * app.median_px_finger_ends.len()
+                    ),
+                    format!("{:.2}", app.median_px_finger_ends[c]),
+                    format!("{:.2}", app.p90_px_finger_ends[c]),
+                    "–".into(),
+                    "–".into(),
+                    format!("{:.2}", app.median_px_tool_point[c]),
+                ]);
             }
         }
+        s += &t.to_string();
         let fingers = |app: &super::AppearanceRecognition| {
             app.median_px_fingers_middle
                 .iter()
@@ -388,8 +408,14 @@ pub fn seeds_section(st: &SeedStudy) -> String {
           cameras' epipolar geometry from the same poses), control learned from the training moves, then every method servos to \
           the seed's reachable targets. Errors are after 5 moves after the first guess (equal moves: Broyden's 3 probes count); \
           Broyden is also shown after 5 corrections after its probes (8 moves). A value is the median over seeds of the per-seed \
-          medians, [min – max] of the per-seed medians, and the worst seed. The development seeds (101, 102, 103) chose every \
-          setting; the evaluation seeds (3001–3005) were scored once. Image targets are pixel positions per camera (the projected \
+          medians, [min – max] of the per-seed medians, and the worst seed. **Seeds:** the settings changed this round (1,600 \
+          training moves, executed in blocks of 100 in monotone-chain order, `servo_loop::chain_order`, so that every move fits \
+          3,000 actions) were fixed from an action count worked out beforehand, not from any servo run; a run on the development \
+          seeds 1001–1005 (`cargo xtask eval servo --development`) was started but stopped unfinished for time (machine load), \
+          so no setting was chosen or checked on development seeds this round. The other thresholds (certainty 0.05, \
+          consistency scale, captures) were set before any evaluation run, not tuned. The evaluation seeds 4001–4005 are new \
+          this round (the previous round's 3001–3005 were read, so they no longer count as unseen) and were scored once, by this \
+          run. Image targets are pixel positions per camera (the projected \
           middle of the finger ends at random reachable poses the learner never visited), checked by `servo_loop::check_image_target` \
           (consistent between the cameras, inside the learned model) before any move; their error is the tool point's against the \
           target pose's.\n\n";
@@ -405,7 +431,19 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             arms.push(&r.arm);
         }
     }
-    s += "| arm | lwpr px | lwpr mm | true Jacobian px | Broyden px (equal moves) | Broyden px (5 corrections) | lwpr success ≤ 1 px | recognition p90 per camera (worst seed) px | refused: recognition tests / servo runs / training moves | image targets: lwpr px, mm (refused of offered) | actions (max) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    let mut table = Table::new([
+        "arm",
+        "lwpr px",
+        "lwpr mm",
+        "true Jacobian px",
+        "Broyden px (equal moves)",
+        "Broyden px (5 corrections)",
+        "lwpr success ≤ 1 px",
+        "recognition p90 per camera (worst seed) px",
+        "refused: recognition tests / servo runs / training moves",
+        "image targets: lwpr px, mm (refused of offered)",
+        "actions (max)",
+    ]);
     let mut goals = String::new();
     let mut recognition_ok = true;
     let mut recognition_worst = (0.0f64, String::new());
@@ -459,18 +497,23 @@ pub fn seeds_section(st: &SeedStudy) -> String {
         let image_refused: usize = rows.iter().map(|r| r.image_targets_refused).sum();
         let image_offered: usize = rows.iter().map(|r| r.image_targets).sum();
         actions_max = actions_max.max(actions);
-        s += &format!(
-            "| {arm} | {} | {} | {} | {} | {} | {:.0} % | {} | {refused_tests}/{tests} / {refused_runs}/{runs} / {refused_training} | {}; {} ({image_refused} of {image_offered}) | {actions} |\n",
+        table.row([
+            arm.to_string(),
             fmt(&lw_px),
             fmt(&lw_mm),
             fmt(&tj_px),
             fmt(&br_px),
             fmt(&br_corr),
-            100.0 * success.median,
+            format!("{:.0} %", 100.0 * success.median),
             p90.join("; "),
-            fmt(&image_px),
-            fmt(&image_mm),
-        );
+            format!("{refused_tests}/{tests} / {refused_runs}/{runs} / {refused_training}"),
+            format!(
+                "{}; {} ({image_refused} of {image_offered})",
+                fmt(&image_px),
+                fmt(&image_mm)
+            ),
+            actions.to_string(),
+        ]);
         let check = |ok: bool| if ok { "met" } else { "MISSED" };
         if *arm == "default" {
             goals += &format!(
@@ -499,6 +542,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             br_px.worst_seed,
         );
     }
+    s += &table.to_string();
     s += "\n### Goals over arms and seeds\n\n";
     s += &goals;
     s += &format!(

@@ -2,9 +2,10 @@
 //! recognition, learn control, servo to reachable targets), so the goals are judged on the
 //! median over seeds with its spread and worst seed, not on one lucky run.
 //!
-//! **Seeds.** [`DEVELOPMENT_SEEDS`] were used to make every design decision (the percept
-//! policy, the consistency scale, the protocol's sizes); [`EVALUATION_SEEDS`] are scored once,
-//! by the fixtures, and were not looked at before. The arms: the default arm and the arm files
+//! **Seeds.** [`DEVELOPMENT_SEEDS`] are where settings are checked or chosen
+//! (`cargo xtask eval servo --development` prints the study and writes nothing);
+//! [`EVALUATION_SEEDS`] are scored once, by the fixtures (the summary says which seeds decided
+//! what). The arms: the default arm and the arm files
 //! shipped in `crates/arm-sim/arms/` (a worn arm; a second rig).
 
 use std::path::{Path, PathBuf};
@@ -21,9 +22,9 @@ use super::{
 use crate::Result;
 
 /// Seeds every setting was chosen on.
-pub const DEVELOPMENT_SEEDS: [u64; 3] = [101, 102, 103];
+pub const DEVELOPMENT_SEEDS: [u64; 5] = [1001, 1002, 1003, 1004, 1005];
 /// Seeds scored once for the fixtures.
-pub const EVALUATION_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
+pub const EVALUATION_SEEDS: [u64; 5] = [4001, 4002, 4003, 4004, 4005];
 /// Targets per (arm, seed).
 pub const TARGETS: usize = 30;
 /// Image targets per (arm, seed).

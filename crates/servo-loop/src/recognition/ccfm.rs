@@ -1,4 +1,5 @@
-//! The gripper model: prototype channel-coded feature maps around the gripper point, learned
+//! The channel-coded feature map model (`ccfm`, [`GripperModel`]; not on the servo path: the
+//! servo percept is [`crate::TipModel`]): prototype channel-coded feature maps around the gripper point, learned
 //! from the changed regions of gripper moves, and their localisation in new images.
 //!
 //! **Learning.** For every training view (the arm at some pose, one image with the gripper
@@ -24,6 +25,7 @@ use crate::error::{Result, ServoError};
 use crate::recognition::change::{changed_mask, changed_region};
 use crate::recognition::features::{FeatureMap, FeatureParams};
 use crate::recognition::image::{FloatImage, half_resolution};
+use crate::recognition::{Localisation, TrainingView};
 
 /// Settings of recognition.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -105,25 +107,6 @@ impl RecognitionConfig {
             intensities: self.intensities,
         }
     }
-}
-
-/// Where the gripper was found.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Localisation {
-    /// The gripper point, full-resolution pixels `[u, v]`.
-    pub position: [f64; 2],
-    /// Certainty in `[0, 1]` (normalised cross-correlation with the best prototype, clamped).
-    pub certainty: f64,
-}
-
-/// One training view: the same pose seen with the gripper open and closed, one image per
-/// camera each.
-#[derive(Debug, Clone)]
-pub struct TrainingView {
-    /// Images with the gripper in its first state.
-    pub before: Vec<GrayImage>,
-    /// Images after only the gripper servo moved.
-    pub after: Vec<GrayImage>,
 }
 
 /// What learning the model used.
