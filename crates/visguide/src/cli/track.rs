@@ -5,9 +5,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, Layout,
-    ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis, csv, mot,
-    sim,
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ParticleFilter,
+    PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis, csv, mot, sim,
 };
 use clap::{Args, Subcommand, ValueEnum};
 use visguide::models::{CBT_FORMAT, MODEL_VERSION, TrackModelFile};
@@ -292,10 +291,8 @@ fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)>
         axis(extent[2], extent[3], spacing, kernel)?,
     );
     let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by])?;
-    let cfg = CbtConfig {
-        layout: Layout::Stationary,
-        ..CbtConfig::default()
-    };
+    // The setting chosen for real motion (see `CbtConfig::stationary`).
+    let cfg = CbtConfig::stationary();
     let cbt = CbtModel::learn_sequences(space, cfg, &train)?;
     let calibration = Calibration::estimate(&train, size / 10.0)?;
     let file = TrackModelFile {
