@@ -2,27 +2,13 @@
 //! original, and both continue bit-identically on the same frames — for every layout and
 //! order, with and without self-learning (whose online-learning history is part of the state).
 
-use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
     CbtConfig, CbtModel, CbtTracker, Layout, Order, Scales, Sequence, Space, TrackError, Tracker,
 };
 use serde_json::Value;
 
-const W: f64 = 96.0;
-const H: f64 = 72.0;
-
-fn data() -> (Vec<Sequence>, Sequence) {
-    let sc = Scenario {
-        width: W,
-        height: H,
-        ..Scenario::default()
-    };
-    let level = Level::preset(2);
-    (
-        generate(&sc, &level, 2, 60, 41),
-        generate(&sc, &level, 1, 30, 42).remove(0),
-    )
-}
+mod common;
+use common::{H, W, data};
 
 fn model(train: &[Sequence], layout: Layout, order: Order) -> CbtModel {
     let (cfg, spacing) = if layout == Layout::Stationary {
@@ -165,5 +151,36 @@ fn the_learning_history_is_saved_and_validated() {
             .to_string();
         let want = TrackError::Corrupt(String::new()).to_string();
         assert!(e.starts_with(want.trim_end()), "{e} / {want}");
+    }
+}
+
+#[test]
+fn manual_online_learning_chains_across_a_save_at_every_point() {
+    // Frames with two states, none, one: the history keeps an empty last frame and drops
+    // the one before it, and a save at any point continues as the original.
+    let (train, test) = data();
+    for layout in [Layout::Separable, Layout::SparseJoint, Layout::Stationary] {
+        let m = model(&train, layout, Order::Second);
+        let states: Vec<Vec<[f64; 2]>> = (0..12)
+            .map(|k| match k % 4 {
+                0 => vec![[20.0 + k as f64, 30.0], [60.0, 20.0 + k as f64]],
+                1 => vec![],
+                _ => vec![[24.0 + 2.0 * k as f64, 33.0]],
+            })
+            .collect();
+        for cut in 0..states.len() {
+            let mut t = CbtTracker::new(m.clone());
+            for (s, f) in states[..cut].iter().zip(&test.frames) {
+                t.learn_online(s, &f.detections).unwrap();
+            }
+            let mut u = round_trip(&t);
+            assert!(u == t, "{layout:?} cut {cut}");
+            for (s, f) in states[cut..].iter().zip(&test.frames[cut..]) {
+                t.learn_online(s, &f.detections).unwrap();
+                u.learn_online(s, &f.detections).unwrap();
+            }
+            assert!(u == t, "{layout:?} cut {cut}");
+            assert_eq!(u.model().stats(), t.model().stats());
+        }
     }
 }
