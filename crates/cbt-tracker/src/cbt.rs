@@ -5,8 +5,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
+use crate::history::{self, History};
 use crate::integrity::{len, nonneg};
-use crate::model::{History, ObservationModel, SystemModel};
+use crate::model::{ObservationModel, SystemModel};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
 use crate::window::{Patch, WindowState};
 use crate::{CbtModel, Detection, Point, TrackError};
@@ -28,8 +29,9 @@ use crate::{CbtModel, Detection, Point, TrackError};
 ///    ([`chan_repr::ChannelGrid::decode`]): best mode, certainty = its window mass, runner-ups.
 ///
 /// A tracker read back with serde is validated: its model as [`CbtModel`] is, and its
-/// posterior's sizes against the model's space, its values finite and non-negative
-/// ([`TrackError::Corrupt`] otherwise).
+/// posterior's sizes against the model's space, its values finite and non-negative, the
+/// states of its online-learning history on the grid ([`TrackError::Corrupt`] otherwise).
+/// Work buffers are neither saved nor compared: a loaded tracker equals its original.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "CbtTrackerRaw")]
 pub struct CbtTracker {
@@ -47,10 +49,15 @@ pub struct CbtTracker {
     /// The windowed posterior of the stationary layout (`post`, `prev`, `marg*` unused).
     #[serde(default)]
     win: WindowState,
-    #[serde(skip)]
+    /// The last two frames of [`learn_online`](Self::learn_online) (saved as their states).
+    #[serde(serialize_with = "save_history")]
     history: History,
     #[serde(skip)]
     scratch: Scratch,
+}
+
+fn save_history<S: serde::Serializer>(h: &History, s: S) -> Result<S::Ok, S::Error> {
+    h.saved().serialize(s)
 }
 
 /// A [`CbtTracker`] as read, before its consistency check.
@@ -65,6 +72,10 @@ struct CbtTrackerRaw {
     self_learning: bool,
     #[serde(default)]
     win: WindowState,
+    /// Absent in files from before it was saved: such a tracker's next online-learning frame
+    /// starts a new chain (as it did when those files were loaded then).
+    #[serde(default)]
+    history: history::Saved,
 }
 
 impl TryFrom<CbtTrackerRaw> for CbtTracker {
@@ -84,6 +95,13 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
             scratch: Scratch::default(),
         };
         let space = t.model.space();
+        let cfg = t.model.config();
+        t.history = History::restore(
+            raw.history,
+            space,
+            cfg.online_weight,
+            cfg.layout == Layout::SparseJoint,
+        )?;
         if t.is_stationary() {
             t.win.check(space)?;
         } else {
@@ -103,12 +121,20 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
     }
 }
 
-#[derive(Debug, Clone, Default, PartialEq)]
+/// Reused work buffers of one step: not part of the filter's state (not saved, and equal
+/// whatever they hold, so a tracker loaded from a file compares equal to its original).
+#[derive(Debug, Clone, Default)]
 struct Scratch {
     prior: Vec<f64>,
     lik: Vec<f64>,
     axis: Vec<Vec<f64>>,
     axis_lik: Vec<Vec<f64>>,
+}
+
+impl PartialEq for Scratch {
+    fn eq(&self, _: &Scratch) -> bool {
+        true
+    }
 }
 
 impl CbtTracker {

@@ -92,7 +92,10 @@
 //! system models have the configured layout, every matrix, tensor, kernel and window against
 //! the [`Space`], every value finite and non-negative — so a corrupted or hand-edited file is
 //! a [`TrackError::Corrupt`] (or the configuration's [`TrackError::InvalidParameter`]) from
-//! the deserialiser, never a panic in a later step.
+//! the deserialiser, never a panic in a later step. A saved [`CbtTracker`] holds its whole
+//! state, online learning's last two frames included: loaded, it compares equal to the
+//! original and continues bit-identically (with JSON, given a reader that parses floats
+//! exactly, such as `serde_json` with its `float_roundtrip` feature).
 //!
 //! ## Data
 //! [`sim`]: the synthetic RC-car-following generator (docs/methods.md § Tracking) and the univariate
@@ -127,6 +130,7 @@ mod data;
 mod decode;
 mod encode;
 mod error;
+mod history;
 mod integrity;
 mod kalman;
 pub mod metrics;

@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Layout, Order, SystemFallback};
-use crate::encode::{Encoded, encode_detections, encode_states};
+use crate::encode::{encode_detections, encode_states};
+use crate::history::History;
 use crate::integrity::{corrupt, len};
 use crate::observation::{AxisObservation, JointObservation};
 use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
@@ -162,14 +163,6 @@ impl TryFrom<CbtModelRaw> for CbtModel {
             stats,
         })
     }
-}
-
-/// The encodings of the last two frames' states, chaining transitions across
-/// [`CbtModel::add_frame`] calls.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct History {
-    prev: Option<Encoded>,
-    prev2: Option<Encoded>,
 }
 
 impl CbtModel {
@@ -339,8 +332,7 @@ impl CbtModel {
                 }
             }
         }
-        let prev = h.prev.take().filter(|p| !p.is_empty());
-        let prev2 = h.prev2.take().filter(|p| !p.is_empty());
+        let (prev, prev2) = h.take();
         if let (false, Some(p1)) = (x.is_empty(), prev.as_ref()) {
             self.stats.transitions += 1;
             let p2 = prev2.as_ref();
@@ -390,8 +382,7 @@ impl CbtModel {
                 }
             }
         }
-        h.prev2 = prev;
-        h.prev = Some(x);
+        h.push(states, x, prev);
         Ok(())
     }
 

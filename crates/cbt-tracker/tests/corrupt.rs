@@ -3,27 +3,14 @@
 //! never panics in the filter; a round trip still works; and no single mutation of a saved
 //! tracker makes a later step panic.
 
-use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
     CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker, Layout, Order,
-    ParticleFilter, PfModel, Scales, Sequence, Space, Tracker,
+    ParticleFilter, PfModel, Scales, Space, Tracker,
 };
 use serde_json::Value;
 
-const W: f64 = 96.0;
-const H: f64 = 72.0;
-
-fn data() -> (Vec<Sequence>, Sequence) {
-    let sc = Scenario {
-        width: W,
-        height: H,
-        ..Scenario::default()
-    };
-    let level = Level::preset(2);
-    let train = generate(&sc, &level, 2, 60, 41);
-    let test = generate(&sc, &level, 1, 30, 42).remove(0);
-    (train, test)
-}
+mod common;
+use common::{H, W, data};
 
 fn model(layout: Layout, order: Order, spacing: f64) -> CbtModel {
     let (train, _) = data();

@@ -1,0 +1,21 @@
+//! Data shared by the save-and-load tests (`corrupt`, `restore`).
+
+use cbt_tracker::Sequence;
+use cbt_tracker::sim::{Level, Scenario, generate};
+
+/// Image width and height of the shared data.
+pub const W: f64 = 96.0;
+pub const H: f64 = 72.0;
+
+/// Two training sequences of 60 frames and one test sequence of 30 (level 2, seeds 41, 42).
+pub fn data() -> (Vec<Sequence>, Sequence) {
+    let sc = Scenario {
+        width: W,
+        height: H,
+        ..Scenario::default()
+    };
+    let level = Level::preset(2);
+    let train = generate(&sc, &level, 2, 60, 41);
+    let test = generate(&sc, &level, 1, 30, 42).remove(0);
+    (train, test)
+}
