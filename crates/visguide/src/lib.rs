@@ -64,6 +64,7 @@ pub mod image_io;
 pub mod matching;
 pub mod models;
 pub mod output;
+pub mod pipeline;
 pub mod preset;
 pub mod scoring;
 pub mod sim_robot;
