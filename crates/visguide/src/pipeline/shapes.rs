@@ -350,7 +350,8 @@ impl ShapeModel {
             } else {
                 f64::INFINITY
             };
-            if !(ratio < t_r) || best.error > self.config.max_error {
+            let below = ratio.partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
+            if !below || best.error > self.config.max_error {
                 continue;
             }
             let Some(al) = best.alignment else { continue };

@@ -35,7 +35,8 @@ pub struct Mode {
 /// The weighted mode of `votes` with kernel width `sigma` (pixels); `None` without votes.
 pub fn mode(votes: &[Vote], sigma: f64) -> Option<Mode> {
     let total: f64 = votes.iter().map(|v| v.weight).sum();
-    if votes.is_empty() || !(total > 0.0) || !(sigma > 0.0) {
+    let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
+    if votes.is_empty() || !positive(total) || !positive(sigma) {
         return None;
     }
     let inv = 1.0 / (2.0 * sigma * sigma);
