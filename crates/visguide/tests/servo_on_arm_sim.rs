@@ -8,9 +8,9 @@ use image::GrayImage;
 use servo_loop::recognition::change::changed_region;
 use servo_loop::recognition::image::half_resolution;
 use servo_loop::{
-    ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot,
-    ServoConfig, ServoError, SilhouetteConfig, TipRule, VisualPlant, check_image_target,
-    learn_control, learn_recognition, observe_averaged_by, servo_lwpr,
+    InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot, ServoConfig,
+    ServoError, SilhouetteConfig, TipRule, VisualPlant, check_image_target, learn_control,
+    learn_recognition, observe_averaged_by, servo_lwpr,
 };
 use visguide::SimRobot;
 
@@ -77,15 +77,9 @@ impl Robot for Sim {
     }
 }
 
-const EXPLORE: [[f64; 2]; 3] = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
-
-fn space() -> ControlSpace {
-    ControlSpace {
-        controlled: vec![0, 1, 2],
-        rest: vec![1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
-        gripper: Some((5, [2100.0, 1000.0])),
-    }
-}
+#[path = "common/arm.rs"]
+mod arm;
+use arm::{EXPLORE, space};
 
 /// The far-end rule without the learned correction's extra poses (the tests of the static
 /// scene, the far end and the plant's errors need no correction).
