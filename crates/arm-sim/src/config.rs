@@ -229,6 +229,62 @@ pub struct SceneConfig {
     pub lighting_gradient_sigma: f64,
     /// Std. dev. of the per-pixel sensor noise (grey levels; 0 = none).
     pub sensor_noise_sigma: f64,
+    /// Opt-in: a second object that moves on the table by itself (off when absent; an absent
+    /// key reads as off and off is not written, so existing files and fixtures are unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distractor: Option<Distractor>,
+    /// Opt-in: lighting that drifts slowly during a run, on top of the per-frame changes (off
+    /// when absent, as `distractor`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lighting_drift: Option<LightingDrift>,
+}
+
+/// A box on the table that slides round a circle by itself, one step per captured frame: a
+/// moving thing the learner did not cause (its pose depends only on the frame count).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Distractor {
+    /// Length, width and height of the box (mm); it stands on the table.
+    pub size_mm: [f64; 3],
+    /// Reflectance in (0, 1] (the gripper's brightness: `gripper_albedo`).
+    pub albedo: f64,
+    /// Centre of its circular path on the table (mm).
+    pub path_centre_mm: [f64; 2],
+    /// Radius of the path (mm; 0 = it only turns on the spot).
+    pub path_radius_mm: f64,
+    /// Frames per turn round the path (its yaw turns with it); must be > 0.
+    pub period_frames: f64,
+}
+
+impl Distractor {
+    /// The box's footprint centre (mm) and yaw (radians) at frame `frame` (0 = first capture).
+    pub fn placement(&self, frame: u64) -> ([f64; 2], f64) {
+        let phase = std::f64::consts::TAU * (frame as f64 / self.period_frames);
+        let (s, c) = phase.sin_cos();
+        let centre = [
+            self.path_centre_mm[0] + self.path_radius_mm * c,
+            self.path_centre_mm[1] + self.path_radius_mm * s,
+        ];
+        (centre, phase)
+    }
+}
+
+/// A slow sinusoidal drift of the global brightness gain: at frame `f` the gain is multiplied
+/// by `1 + amplitude · sin(2π f / period_frames)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightingDrift {
+    /// Relative amplitude of the drift, in [0, 0.5].
+    pub amplitude: f64,
+    /// Frames per period; must be > 0.
+    pub period_frames: f64,
+}
+
+impl LightingDrift {
+    /// The gain factor at frame `frame`.
+    pub fn factor(&self, frame: u64) -> f64 {
+        1.0 + self.amplitude * (std::f64::consts::TAU * frame as f64 / self.period_frames).sin()
+    }
 }
 
 impl Default for SimConfig {
@@ -346,6 +402,8 @@ impl Default for SceneConfig {
             lighting_gain_sigma: 0.02,
             lighting_gradient_sigma: 0.01,
             sensor_noise_sigma: 2.0,
+            distractor: None,
+            lighting_drift: None,
         }
     }
 }
@@ -646,6 +704,27 @@ impl SceneConfig {
             if v > max {
                 return invalid(&format!("scene.{k}"), &format!("too large (> {max})"));
             }
+        }
+        if let Some(d) = &self.distractor {
+            for (k, v) in d.size_mm.iter().enumerate() {
+                positive(&format!("scene.distractor.size_mm[{k}]"), *v)?;
+            }
+            if d.albedo <= 0.0 {
+                return invalid("scene.distractor.albedo", "must lie in (0, 1]");
+            }
+            unit_interval("scene.distractor.albedo", d.albedo)?;
+            if d.path_centre_mm.iter().any(|v| !v.is_finite()) {
+                return invalid("scene.distractor.path_centre_mm", "not finite");
+            }
+            non_negative("scene.distractor.path_radius_mm", d.path_radius_mm)?;
+            positive("scene.distractor.period_frames", d.period_frames)?;
+        }
+        if let Some(l) = &self.lighting_drift {
+            non_negative("scene.lighting_drift.amplitude", l.amplitude)?;
+            if l.amplitude > 0.5 {
+                return invalid("scene.lighting_drift.amplitude", "too large (> 0.5)");
+            }
+            positive("scene.lighting_drift.period_frames", l.period_frames)?;
         }
         Ok(())
     }

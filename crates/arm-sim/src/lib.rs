@@ -57,10 +57,10 @@ mod texture;
 
 pub use camera::Camera;
 pub use config::{
-    ArmGeometry, CameraConfig, ClutterKind, ClutterObject, NUM_JOINTS, NUM_SERVOS, SERVO_NAMES,
-    SagConfig, SceneConfig, ServoConfig, SimConfig, TableConfig,
+    ArmGeometry, CameraConfig, ClutterKind, ClutterObject, Distractor, LightingDrift, NUM_JOINTS,
+    NUM_SERVOS, SERVO_NAMES, SagConfig, SceneConfig, ServoConfig, SimConfig, TableConfig,
 };
 pub use error::{ArmSimError, Result};
 pub use kinematics::{ArmPose, JointAngles, apply_sag, forward_kinematics, gravity_torques};
-pub use render::{LABEL_ARM, LABEL_FINGER_A, LABEL_FINGER_B, LABEL_PALM};
+pub use render::{LABEL_ARM, LABEL_DISTRACTOR, LABEL_FINGER_A, LABEL_FINGER_B, LABEL_PALM};
 pub use sim::{ArmSim, Inspection, MoveReport, home_set_points};

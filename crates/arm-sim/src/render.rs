@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 use rand::Rng;
 
 use crate::camera::Camera;
-use crate::config::{ArmGeometry, SceneConfig};
+use crate::config::{ArmGeometry, Distractor, SceneConfig};
 use crate::kinematics::{ArmPose, FINGER_THICKNESS_MM, FINGER_WIDTH_MM};
 use crate::scene::Background;
 
@@ -36,6 +36,9 @@ pub const LABEL_PALM: u8 = 2;
 pub const LABEL_FINGER_A: u8 = 3;
 /// Label of pixels showing the second finger.
 pub const LABEL_FINGER_B: u8 = 4;
+
+/// Label of pixels showing the moving distractor ([`crate::Distractor`]).
+pub const LABEL_DISTRACTOR: u8 = 5;
 
 /// Length of the gripper palm along the hand (mm).
 const PALM_LENGTH_MM: f64 = 18.0;
@@ -121,6 +124,33 @@ fn arm_parts(g: &ArmGeometry, scene: &SceneConfig, pose: &ArmPose) -> Vec<Part> 
     ]
 }
 
+/// The distractor box standing on the table at `placement` (footprint centre, yaw).
+fn distractor_part(d: &Distractor, (centre, yaw): ([f64; 2], f64)) -> Part {
+    let (s, c) = yaw.sin_cos();
+    Part {
+        shape: Shape::Cuboid {
+            c: V3::new(
+                centre[0] as f32,
+                centre[1] as f32,
+                (0.5 * d.size_mm[2]) as f32,
+            ),
+            axes: [
+                V3::new(c as f32, s as f32, 0.0),
+                V3::new(-s as f32, c as f32, 0.0),
+                V3::new(0.0, 0.0, 1.0),
+            ],
+            half: V3::new(
+                (0.5 * d.size_mm[0]) as f32,
+                (0.5 * d.size_mm[1]) as f32,
+                (0.5 * d.size_mm[2]) as f32,
+            ),
+        },
+        label: LABEL_DISTRACTOR,
+        albedo: d.albedo as f32,
+        specular: 0.25,
+    }
+}
+
 /// The frame's lighting: global gain and brightness gradients across the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Lighting {
@@ -187,6 +217,7 @@ impl CameraView {
         g: &ArmGeometry,
         scene: &SceneConfig,
         pose: &ArmPose,
+        distractor: Option<(&Distractor, ([f64; 2], f64))>,
         lighting: Lighting,
         rng: &mut R,
     ) -> GrayImage {
@@ -203,6 +234,9 @@ impl CameraView {
             }
         }
         let mut parts = arm_parts(g, scene, pose);
+        if let Some((d, placement)) = distractor {
+            parts.push(distractor_part(d, placement));
+        }
         let centre_distance = |p: &Part| -> f32 {
             let c = match &p.shape {
                 Shape::Capsule { a, b, .. } => (a + b) * 0.5,

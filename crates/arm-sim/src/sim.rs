@@ -177,7 +177,15 @@ impl ArmSim {
     /// sensor noise. Deterministic: the same seed, commands and captures give the same bytes.
     pub fn capture(&mut self) -> Vec<GrayImage> {
         let scene = &self.config.scene;
-        let gain = 1.0 + scene.lighting_gain_sigma * normal(&mut self.image_rng);
+        let drift = scene
+            .lighting_drift
+            .as_ref()
+            .map_or(1.0, |d| d.factor(self.frames));
+        let gain = drift * (1.0 + scene.lighting_gain_sigma * normal(&mut self.image_rng));
+        let distractor = scene
+            .distractor
+            .as_ref()
+            .map(|d| (d, d.placement(self.frames)));
         let mut images = Vec::with_capacity(self.views.len());
         for view in &mut self.views {
             let lighting = Lighting {
@@ -189,6 +197,7 @@ impl ArmSim {
                 &self.config.arm,
                 scene,
                 &self.pose,
+                distractor,
                 lighting,
                 &mut self.image_rng,
             ));

@@ -66,8 +66,10 @@ pub mod image_io;
 pub mod matching;
 pub mod models;
 pub mod output;
+pub mod pipeline;
 pub mod preset;
 pub mod scoring;
+pub mod sim_robot;
 pub mod tables;
 #[cfg(test)]
 mod test_data;
@@ -79,3 +81,4 @@ pub use geometry::{Homography, HomographyFit, LocalAffine, RansacConfig, fit_hom
 pub use image_io::{decode_gray, load_gray};
 pub use matching::{MatchSettings, PairMatches, RegionMatch, match_images, match_regions};
 pub use preset::{MserSettings, Preset};
+pub use sim_robot::SimRobot;

@@ -22,6 +22,7 @@ mod arm_sim;
 mod chan_repr;
 mod lwpr;
 pub(crate) mod paper_a;
+mod pipeline;
 mod servo;
 pub(crate) mod tracking;
 
@@ -67,6 +68,9 @@ pub enum EvalTarget {
     ArmSim,
     /// Paper C: learned visual servoing of the simulated arm (LWPR, Broyden, true Jacobian).
     Servo(servo::ServoArgs),
+    /// The thesis's future work: FD recognition + CBT tracking as the servo percept, on the
+    /// default and the hard scene.
+    Pipeline,
 }
 
 impl EvalTarget {
@@ -80,6 +84,7 @@ impl EvalTarget {
             EvalTarget::Tracking(Default::default()),
             EvalTarget::ArmSim,
             EvalTarget::Servo(Default::default()),
+            EvalTarget::Pipeline,
         ]
     }
 
@@ -93,6 +98,7 @@ impl EvalTarget {
             EvalTarget::PaperASynthetic => "paper-a-synthetic",
             EvalTarget::ArmSim => "arm-sim",
             EvalTarget::Servo(_) => "paper-c",
+            EvalTarget::Pipeline => "pipeline",
         }
     }
 
@@ -125,6 +131,7 @@ impl EvalTarget {
             EvalTarget::PaperASynthetic => paper_a::run_synthetic(ctx),
             EvalTarget::ArmSim => arm_sim::run(ctx),
             EvalTarget::Servo(args) => servo::run(ctx, args),
+            EvalTarget::Pipeline => pipeline::run(ctx),
         }
     }
 }

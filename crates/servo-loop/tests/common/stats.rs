@@ -1,4 +1,4 @@
-//! Order statistics shared by servo-loop's tests and its `recognition_probe` example (included
+//! Order statistics shared by servo-loop's tests and, on the simulator, visguide's (included
 //! with `#[path]`, not part of the library).
 
 /// Nearest-rank quantile: the value of rank `⌊q·n⌋` (0-based, at most `n − 1`) of the sorted

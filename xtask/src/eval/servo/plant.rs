@@ -1,17 +1,16 @@
-//! `arm-sim` connected to `servo-loop`: the robot adapter, the evaluation plant (percept = the
-//! learned recognition on rendered images, or the simulator's true tip projection plus
-//! detection noise; with a ground-truth log) and the
-//! analytic image Jacobian of the ideal arm.
+//! `arm-sim` connected to `servo-loop`: the evaluation plant (percept = the learned recognition
+//! on rendered images, or the simulator's true tip projection plus detection noise; with a
+//! ground-truth log) and the analytic image Jacobian of the ideal arm. The robot adapter is
+//! `visguide::SimRobot`, re-exported here.
 
-use arm_sim::{ArmSim, ArmSimError, NUM_SERVOS, forward_kinematics};
-use image::GrayImage;
+use arm_sim::{ArmSim, NUM_SERVOS, forward_kinematics};
 use nalgebra::{DMatrix, Vector3};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 use servo_loop::{
-    Localisation, Observation, PerceptPolicy, Plant, Robot, ServoError, TipModel, observe_checked,
+    Localisation, Observation, PerceptPolicy, Plant, ServoError, TipModel, observe_checked,
 };
 
 /// The learned recognition as the percept of a [`SimPlant`]: the mean of `policy.captures`
@@ -71,26 +70,8 @@ impl Recogniser {
     }
 }
 
-/// `ArmSim` as a [`Robot`] (a newtype: both the trait and the type are foreign here), counting
-/// the commands it is sent.
-pub struct SimRobot(pub ArmSim, pub usize);
-
-impl Robot for SimRobot {
-    type Error = ArmSimError;
-    fn num_servos(&self) -> usize {
-        self.0.num_servos()
-    }
-    fn servo_range(&self, i: usize) -> [f64; 2] {
-        self.0.servo_range(i).unwrap_or([0.0, 0.0])
-    }
-    fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), ArmSimError> {
-        self.1 += 1;
-        self.0.command(set_points)
-    }
-    fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, ArmSimError> {
-        Ok(self.0.capture())
-    }
-}
+/// `ArmSim` as a [`servo_loop::Robot`]: the one adapter, in the `visguide` crate.
+pub use visguide::SimRobot;
 
 /// Ground truth after one executed move.
 #[derive(Debug, Clone, Copy)]

@@ -1,4 +1,5 @@
-//! `servo-loop` on the simulated arm of `arm-sim` (a dev-dependency only): recognition learned
+//! `servo-loop` on the simulated arm of `arm-sim`, through the one adapter ([`SimRobot`]; the
+//! two crates do not know each other, this crate joins them): recognition learned
 //! from gripper moves under clutter and lighting changes, the visual plant's typed errors, and
 //! a robot failing mid-run.
 
@@ -7,28 +8,29 @@ use image::GrayImage;
 use servo_loop::recognition::change::changed_region;
 use servo_loop::recognition::image::half_resolution;
 use servo_loop::{
-    ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot,
-    ServoConfig, ServoError, SilhouetteConfig, TipRule, VisualPlant, check_image_target,
-    learn_control, learn_recognition, observe_averaged_by, servo_lwpr,
+    InverseModel, InverseModelConfig, LearnConfig, Plant, RandomCommands, Robot, ServoConfig,
+    ServoError, SilhouetteConfig, TipRule, VisualPlant, check_image_target, learn_control,
+    learn_recognition, observe_averaged_by, servo_lwpr,
 };
+use visguide::SimRobot;
 
-#[path = "common/stats.rs"]
+#[path = "../../servo-loop/tests/common/stats.rs"]
 mod stats;
 use stats::median;
 
+/// The shared adapter ([`SimRobot`]) behind a serial link that can be unplugged after some
+/// commands (a fault injector for these tests, not another adapter).
 struct Sim {
-    sim: ArmSim,
+    inner: SimRobot,
     /// Fail every command after this many.
     fail_after: Option<usize>,
-    commands: usize,
 }
 
 impl Sim {
     fn new(config: SimConfig) -> Self {
         Sim {
-            sim: ArmSim::new(config).unwrap(),
+            inner: SimRobot::new(ArmSim::new(config).unwrap()),
             fail_after: None,
-            commands: 0,
         }
     }
 }
@@ -59,32 +61,25 @@ impl std::fmt::Display for SimError {
 impl Robot for Sim {
     type Error = SimError;
     fn num_servos(&self) -> usize {
-        self.sim.num_servos()
+        self.inner.num_servos()
     }
     fn servo_range(&self, i: usize) -> [f64; 2] {
-        self.sim.servo_range(i).unwrap()
+        self.inner.servo_range(i)
     }
     fn command(&mut self, set_points: &[f64]) -> Result<(), SimError> {
-        self.commands += 1;
-        if self.fail_after.is_some_and(|n| self.commands > n) {
+        if self.fail_after.is_some_and(|n| self.inner.commands() >= n) {
             return Err(SimError::Link(Unplugged));
         }
-        self.sim.command(set_points).map_err(SimError::Arm)
+        self.inner.command(set_points).map_err(SimError::Arm)
     }
     fn capture(&mut self) -> Result<Vec<GrayImage>, SimError> {
-        Ok(self.sim.capture())
+        self.inner.capture().map_err(SimError::Arm)
     }
 }
 
-const EXPLORE: [[f64; 2]; 3] = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
-
-fn space() -> ControlSpace {
-    ControlSpace {
-        controlled: vec![0, 1, 2],
-        rest: vec![1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
-        gripper: Some((5, [2100.0, 1000.0])),
-    }
-}
+#[path = "common/arm.rs"]
+mod arm;
+use arm::{EXPLORE, space};
 
 /// The far-end rule without the learned correction's extra poses (the tests of the static
 /// scene, the far end and the plant's errors need no correction).
@@ -161,12 +156,12 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
         let (mut errors, mut repeat) = (Vec::new(), Vec::new());
         for _ in 0..8 {
             let c = space().full_command(&commands.next_command());
-            robot.sim.command(&c).unwrap();
-            let (a, b) = (robot.sim.capture(), robot.sim.capture());
-            let pose = robot.sim.inspect().pose().clone();
+            robot.inner.0.command(&c).unwrap();
+            let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
+            let pose = robot.inner.0.inspect().pose().clone();
             let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
             for cam in 0..2 {
-                let truth = robot.sim.inspect().project(cam, &mid).unwrap();
+                let truth = robot.inner.0.inspect().project(cam, &mid).unwrap();
                 if let (Ok(la), Ok(lb)) = (model.locate(cam, &a[cam]), model.locate(cam, &b[cam])) {
                     errors.push((la.position[0] - truth[0]).hypot(la.position[1] - truth[1]));
                     repeat.push(
@@ -197,7 +192,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
     };
     let (untrained, _) = learn_recognition(&mut robot, &space(), &EXPLORE, 4, 3, &quick).unwrap();
     assert!(matches!(
-        untrained.locate_all(&robot.sim.capture()),
+        untrained.locate_all(&robot.inner.0.capture()),
         Err(ServoError::NotEnoughData(_))
     ));
     assert!(matches!(
@@ -231,9 +226,9 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
         let (mut errors, mut far, mut repeat) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..12 {
             let c = space().full_command(&commands.next_command());
-            robot.sim.command(&c).unwrap();
-            let (a, b) = (robot.sim.capture(), robot.sim.capture());
-            let pose = robot.sim.inspect().pose().clone();
+            robot.inner.0.command(&c).unwrap();
+            let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
+            let pose = robot.inner.0.inspect().pose().clone();
             let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
             let (Ok(la), Ok(lb), Ok(lf)) = (
                 model.locate_all(&a),
@@ -246,8 +241,8 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             // only the empty inverse model refuses them); moved 40 px across the epipolar line
             // in camera 1 they are not.
             let (t0, t1) = (
-                robot.sim.inspect().project(0, &mid).unwrap(),
-                robot.sim.inspect().project(1, &mid).unwrap(),
+                robot.inner.0.inspect().project(0, &mid).unwrap(),
+                robot.inner.0.inspect().project(1, &mid).unwrap(),
             );
             assert!(
                 geometry.consistency(t0, t1) > 0.3,
@@ -267,7 +262,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             ));
             checked += 1;
             for cam in 0..2 {
-                let t = robot.sim.inspect().project(cam, &mid).unwrap();
+                let t = robot.inner.0.inspect().project(cam, &mid).unwrap();
                 let dist = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
                 errors.push(dist(la[cam].position, t));
                 far.push(dist(lf[cam].position, t));
@@ -282,7 +277,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             "median error {e:.2} px (far end {f:.2} px)"
         );
         assert!(r < 0.5, "median frame-to-frame change {r:.2} px");
-        let img = robot.sim.capture();
+        let img = robot.inner.0.capture();
         assert!(matches!(
             model.locate(0, &img[0]),
             Err(ServoError::InvalidParameter { name: "tip", .. })
@@ -326,7 +321,7 @@ fn recognition_is_learned_and_errors_are_typed() {
         model.locate(0, &small),
         Err(ServoError::InvalidParameter { name: "image", .. })
     ));
-    let img = robot.sim.capture().swap_remove(0);
+    let img = robot.inner.0.capture().swap_remove(0);
     assert!(matches!(
         model.locate(7, &img),
         Err(ServoError::DimensionMismatch { .. })
@@ -358,7 +353,7 @@ fn recognition_is_learned_and_errors_are_typed() {
         model.correction_sample(&[]),
         Err(ServoError::DimensionMismatch { .. })
     ));
-    let both = robot.sim.capture();
+    let both = robot.inner.0.capture();
     let ends = [
         model.estimate_end(0, &both[0]).unwrap(),
         model.estimate_end(1, &both[1]).unwrap(),
@@ -413,7 +408,7 @@ fn robot_failing_mid_run_is_a_typed_error_and_the_model_stays_intact() {
     assert_eq!(report.used + report.not_recognised, 6);
     // The link fails on the next command: learning stops with the robot's error...
     let before = model.clone();
-    let used = plant.robot().commands;
+    let used = plant.robot().inner.commands();
     plant.robot_mut().fail_after = Some(used);
     let err = learn_control(&mut plant, &mut model, &lc, |_, _| {}).unwrap_err();
     assert!(

@@ -7,36 +7,19 @@
 //!   6 px of the truth. A rough tip (one that jumps as the outline it reads changes) shows a
 //!   long tail here, and a servo loop cannot settle closer than that.
 //!
-//! `cargo run --release -p servo-loop --example recognition_probe -- [SEED] [SIM_SEED] [TESTS]`
+//! `cargo run --release -p visguide --example recognition_probe -- [SEED] [SIM_SEED] [TESTS]`
 //! (use seeds the evaluation does not use: its protocol seed is 2009, its simulator's 2009).
 
-use arm_sim::{ArmSim, ArmSimError, SimConfig};
+use arm_sim::{ArmSim, SimConfig};
 use image::GrayImage;
 use servo_loop::{
-    ControlSpace, RandomCommands, Robot, SilhouetteConfig, TipModel, TipRule, learn_recognition,
+    ControlSpace, RandomCommands, SilhouetteConfig, TipModel, TipRule, learn_recognition,
 };
+use visguide::SimRobot;
 
-#[path = "../tests/common/stats.rs"]
+#[path = "../../servo-loop/tests/common/stats.rs"]
 mod stats;
 use stats::quantile;
-
-struct SimRobot(ArmSim);
-
-impl Robot for SimRobot {
-    type Error = ArmSimError;
-    fn num_servos(&self) -> usize {
-        self.0.num_servos()
-    }
-    fn servo_range(&self, i: usize) -> [f64; 2] {
-        self.0.servo_range(i).unwrap_or([0.0, 0.0])
-    }
-    fn command(&mut self, c: &[f64]) -> Result<(), ArmSimError> {
-        self.0.command(c)
-    }
-    fn capture(&mut self) -> Result<Vec<GrayImage>, ArmSimError> {
-        Ok(self.0.capture())
-    }
-}
 
 /// Per rule and camera: errors, along/across components and step inconsistencies.
 #[derive(Default, Clone)]
@@ -68,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         gripper: Some((5, [2100.0, 1000.0])),
     };
     let explore = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
-    let mut robot = SimRobot(ArmSim::new(config.clone())?);
+    let mut robot = SimRobot::new(ArmSim::new(config.clone())?);
     let (model, report) = learn_recognition(
         &mut robot,
         &space,

@@ -1,0 +1,155 @@
+//! Learning the pipeline by action on any [`servo_loop::Robot`] (Paper C's "action precedes
+//! perception"; no ground truth): gripper moves at random poses give the shape model
+//! ([`super::shapes`]), small random walks give the tracker's training frames
+//! ([`super::track`]). The heuristic percept (servo-loop's learned silhouette recogniser,
+//! learned beforehand on the same robot) supplies the tip on the training captures.
+
+use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
+
+use super::error::{PipelineError, Result};
+use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
+use super::track::{FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker};
+use rand::SeedableRng;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand_distr::{Distribution, StandardUniform};
+
+/// The training protocol.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActionProtocol {
+    /// Random poses seen with the gripper at rest and moved (two commands each).
+    pub views: usize,
+    /// Random walks for the tracker.
+    pub walks: usize,
+    /// Steps per walk (one command each).
+    pub steps: usize,
+    /// Step size per controlled servo: uniform in `±step_us` (µs).
+    pub step_us: f64,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Shape model settings.
+    pub shapes: ShapeConfig,
+    /// Percept settings.
+    pub percept: PerceptConfig,
+}
+
+impl Default for ActionProtocol {
+    fn default() -> Self {
+        ActionProtocol {
+            views: 40,
+            walks: 6,
+            steps: 15,
+            step_us: 12.0,
+            seed: 23,
+            shapes: ShapeConfig::default(),
+            percept: PerceptConfig::default(),
+        }
+    }
+}
+
+/// What learning did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LearnReport {
+    /// Commands sent.
+    pub actions: usize,
+    /// The shape model's report.
+    pub shapes: ShapeReport,
+    /// Training frames for the tracker (both cameras) with a heuristic percept.
+    pub track_frames: usize,
+}
+
+fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> PipelineError {
+    move |e| PipelineError::Robot {
+        during,
+        message: e.to_string(),
+    }
+}
+
+/// Learns the FD + CBT percept on `robot` (module docs). The gripper servo of `space` is
+/// moved to its first state for the "moved" captures; the servoing set-point is `space`'s rest.
+pub fn learn_by_action<R: Robot>(
+    robot: &mut R,
+    space: &ControlSpace,
+    explore: &[[f64; 2]],
+    heuristic: &TipModel,
+    protocol: &ActionProtocol,
+) -> Result<(FdCbtRecogniser, LearnReport)> {
+    space.validate(robot)?;
+    let Some((gripper, [open, _])) = space.gripper else {
+        return Err(PipelineError::InvalidParameter {
+            name: "space",
+            reason: "learning by action needs a gripper servo".into(),
+        });
+    };
+    if protocol.views == 0 || protocol.walks == 0 || protocol.steps < 3 {
+        return Err(PipelineError::InvalidParameter {
+            name: "protocol",
+            reason: "need views ≥ 1, walks ≥ 1 and steps ≥ 3".into(),
+        });
+    }
+    let cams = heuristic.num_cameras();
+    let size = Recogniser::image_size(heuristic, 0);
+    let mut report = LearnReport::default();
+    let mut commands = RandomCommands::new(explore, protocol.seed)?;
+    // Views: rest and moved captures per pose.
+    let mut captures = Vec::with_capacity(protocol.views);
+    for _ in 0..protocol.views {
+        let rest_cmd = space.full_command(&commands.next_command());
+        let mut moved_cmd = rest_cmd.clone();
+        moved_cmd[gripper] = open;
+        robot.command(&moved_cmd).map_err(robot_err("command"))?;
+        let moved = robot.capture().map_err(robot_err("capture"))?;
+        robot.command(&rest_cmd).map_err(robot_err("command"))?;
+        let rest = robot.capture().map_err(robot_err("capture"))?;
+        report.actions += 2;
+        let tips = heuristic.locate_all(&rest).ok();
+        captures.push((rest, moved, tips));
+    }
+    let mut pairs = Vec::new();
+    for (rest, moved, tips) in &captures {
+        for cam in 0..cams.min(rest.len()).min(moved.len()) {
+            pairs.push(ActionPair {
+                camera: cam,
+                rest: &rest[cam],
+                moved: &moved[cam],
+                tip: tips.as_ref().map(|t| t[cam].position),
+            });
+        }
+    }
+    let (shapes, shape_report) = ShapeModel::learn(&protocol.shapes, cams, &pairs)?;
+    drop(pairs);
+    drop(captures);
+    report.shapes = shape_report;
+    // Walks: small random moves from random poses; per frame the percept and the votes.
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(protocol.seed ^ 0x7A1C);
+    let mut walks: Vec<Walk> = Vec::new();
+    for _ in 0..protocol.walks {
+        let mut y = commands.next_command();
+        let mut per_cam: Vec<Walk> = vec![Vec::new(); cams];
+        for _ in 0..protocol.steps {
+            for (j, v) in y.iter_mut().enumerate() {
+                let [lo, hi] = explore[j];
+                let u: f64 = StandardUniform.sample(&mut rng);
+                *v = (*v + (2.0 * u - 1.0) * protocol.step_us).clamp(lo, hi);
+            }
+            robot
+                .command(&space.full_command(&y))
+                .map_err(robot_err("command"))?;
+            report.actions += 1;
+            let images = robot.capture().map_err(robot_err("capture"))?;
+            let tips = heuristic.locate_all(&images).ok();
+            for (cam, walk) in per_cam.iter_mut().enumerate() {
+                let truth = tips.as_ref().map(|t| t[cam].position);
+                report.track_frames += usize::from(truth.is_some());
+                walk.push((truth, shapes.votes(cam, &images[cam])?));
+            }
+        }
+        walks.extend(per_cam);
+    }
+    let model = learn_tracker(size, &walks)?;
+    let fd = FdRecogniser {
+        shapes,
+        size,
+        config: protocol.percept,
+    };
+    Ok((FdCbtRecogniser::new(fd, model), report))
+}

@@ -1,0 +1,34 @@
+//! The thesis's future work (§6.2): Fourier-descriptor recognition (Paper A) and channel based
+//! tracking (Paper B) as the percept of the learned visual servo (Paper C).
+//!
+//! 1. **Learned by action** ([`learn_by_action`]): the arm moves its gripper at random poses;
+//!    the MSER regions that change with the gripper, near the tip the heuristic percept gives
+//!    on the same capture, are stored as Fourier descriptors with their offset to the tip, per
+//!    camera ([`ShapeModel`]).
+//! 2. **Recognise** ([`ShapeModel::votes`]): MSER → contours → FDs → correlation matching
+//!    against the gripper views with a ratio test against the background's regions; each
+//!    accepted match votes for the tip with the recovered rotation and scale
+//!    ([`Vote`]). The frame's mode is the FD-only percept ([`FdRecogniser`]).
+//! 3. **Track** ([`FdCbtRecogniser`]): CBT learns its observation and system models from the
+//!    votes and percepts of small random walks (unordered sets) and tracks each camera's tip
+//!    through the frames; its estimate and certainty are the percept, through servo-loop's
+//!    [`servo_loop::Recogniser`] seam (the servo loop is unchanged).
+//!
+//! The commanded move is used only to restart the tracks after a move larger than the
+//! training walks' ([`Notifying`]); the tracker's prediction itself does not use it (the
+//! stationary model predicts with the displacements it learned from the walks).
+
+pub mod error;
+pub mod learn;
+pub mod shapes;
+pub mod track;
+pub mod vote;
+
+pub use error::PipelineError;
+pub use learn::{ActionProtocol, LearnReport, learn_by_action};
+pub use shapes::{ActionPair, GripperView, ShapeConfig, ShapeModel, ShapeReport};
+pub use track::{
+    FdCbtRecogniser, FdRecogniser, MoveNotifier, Notifying, PerceptConfig, Walk, detections,
+    learn_tracker,
+};
+pub use vote::{Mode, Vote, mode};

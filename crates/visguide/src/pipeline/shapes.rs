@@ -1,0 +1,508 @@
+//! The gripper's shape model: Fourier descriptors (Paper A, crate `fd-match`) of the MSER
+//! regions that change when the gripper moves, per camera, each with the offset from its
+//! centre to the tip, and descriptors of the regions that do not change (the background the
+//! ratio test compares against).
+//!
+//! **Learning by action** ([`ShapeModel::learn`]): for each training pose the arm is seen with
+//! the gripper at its servoing set-point (`rest`) and again after only the gripper servo moved
+//! (`moved`). A region of `rest` is *unchanged* when `moved` has a region of the same polarity
+//! with its centroid within `same_px` and its area within a factor `1 ± same_area`; otherwise
+//! it changed with the action. A changed region whose centre lies within `reach_px` of the
+//! heuristic percept of the same capture (servo-loop's learned silhouette tip, the only tip the
+//! learner has; no ground truth) is a gripper view: its contour, centre, area and the offset
+//! `o = tip − centre` are stored. Changed regions farther away (something else moved, e.g. a
+//! distractor) are dropped, and so is a near one that at least two other captures (the arm
+//! elsewhere) show unchanged at the same place (a scene region that flickered with noise or
+//! light); unchanged ones become the background set (at most `max_background` per camera,
+//! evenly subsampled).
+//!
+//! **Recognition** ([`ShapeModel::votes`]): MSER → outer contours → FDs (affine arc length,
+//! 51 coefficients) → for each region the best gripper view by FD correlation (eq. 10) with
+//! its rotation φ (eq. 12), and the best background region. The ratio test (eq. 19) takes the
+//! background's best as the second-best: `r = e_grip / e_background < T_r` (the gripper's
+//! several views of one part are all near each other, so Paper A's second-best among them
+//! would refuse every true match). An accepted match votes for the tip at
+//! `c + s · R(−φ) o` (`c` the region's centre, `s = √(area / area_view)`, `R(−φ)` the rotation
+//! back from the view to this region), with weight `(1 − r / T_r) / (1 + |o| / d₀)`; matches
+//! with `|φ|` above `max_rotation` are dropped (the gripper's boxy parts are nearly
+//! point-symmetric: their φ is ambiguous by π, and the stored views already cover the poses).
+
+use fd_match::{DescriptorConfig, DescriptorSet, Method, Sampling, best_two};
+use image::GrayImage;
+use mser::{MserParams, Polarities};
+use serde::{Deserialize, Serialize};
+
+use super::error::{PipelineError, Result};
+use super::vote::Vote;
+use crate::features::{Features, detect};
+
+/// Settings of the shape model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShapeConfig {
+    /// MSER parameters (both polarities; areas sized for the gripper's parts).
+    pub mser: MserParams,
+    /// Ratio threshold `T_r` of `e_grip / e_background` (Paper A: 0.5).
+    pub ratio_threshold: f64,
+    /// Largest accepted FD correlation error against the gripper views (eq. 10, in `[0, 2]`).
+    pub max_error: f64,
+    /// A changed region within this distance (px) of the training percept is a gripper view.
+    pub reach_px: f64,
+    /// Unchanged: a region of the other capture with its centroid this close (px)…
+    pub same_px: f64,
+    /// …and its area within `1 ± same_area` of this one's.
+    pub same_area: f64,
+    /// Background regions kept per camera.
+    pub max_background: usize,
+    /// Largest accepted rotation |φ| between a stored view and a region (radians): the
+    /// stored views already cover the poses, and the gripper's boxy parts are nearly
+    /// point-symmetric, so a large φ is usually the π-ambiguity of a symmetric contour.
+    pub max_rotation: f64,
+    /// Offset scale `d₀` (px): a vote's weight is divided by `1 + |o| / d₀` (a region far from
+    /// the tip carries its rotation and scale errors over a longer lever).
+    pub offset_scale_px: f64,
+}
+
+impl Default for ShapeConfig {
+    fn default() -> Self {
+        ShapeConfig {
+            mser: MserParams {
+                min_area: 40,
+                max_area: 6000,
+                polarities: Polarities::Both,
+                ..MserParams::default()
+            },
+            ratio_threshold: 0.5,
+            max_error: 0.3,
+            reach_px: 70.0,
+            same_px: 1.5,
+            same_area: 0.1,
+            max_background: 600,
+            max_rotation: 0.6,
+            offset_scale_px: 20.0,
+        }
+    }
+}
+
+impl ShapeConfig {
+    /// Checks every setting's range.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &'static str, reason: &str| {
+            Err(PipelineError::InvalidParameter {
+                name,
+                reason: reason.into(),
+            })
+        };
+        self.mser
+            .validate()
+            .map_err(|e| PipelineError::InvalidParameter {
+                name: "mser",
+                reason: e.to_string(),
+            })?;
+        if !(self.ratio_threshold > 0.0 && self.ratio_threshold <= 1.0) {
+            return bad("ratio_threshold", "must lie in (0, 1]");
+        }
+        if !(self.max_error > 0.0 && self.max_error <= 2.0) {
+            return bad("max_error", "must lie in (0, 2]");
+        }
+        for (name, v) in [
+            ("max_rotation", self.max_rotation),
+            ("offset_scale_px", self.offset_scale_px),
+            ("reach_px", self.reach_px),
+            ("same_px", self.same_px),
+            ("same_area", self.same_area),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(name, "must be finite and > 0");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One stored gripper view: a region that changed with the gripper, near the tip.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GripperView {
+    /// Its outer contour.
+    pub contour: Vec<(u32, u32)>,
+    /// Its area (pixels).
+    pub area: f64,
+    /// The tip minus its centre (pixels), in the training image.
+    pub offset: [f64; 2],
+}
+
+/// One camera's part of the model.
+#[derive(Debug, Clone)]
+struct CameraShapes {
+    views: Vec<GripperView>,
+    grip: DescriptorSet,
+    background: DescriptorSet,
+}
+
+/// One training capture of one camera: the gripper at its servoing set-point, the same pose
+/// after only the gripper moved, and the heuristic tip on the first (if it found one).
+#[derive(Debug, Clone, Copy)]
+pub struct ActionPair<'a> {
+    /// Camera index.
+    pub camera: usize,
+    /// The gripper at its servoing set-point.
+    pub rest: &'a GrayImage,
+    /// After only the gripper servo moved.
+    pub moved: &'a GrayImage,
+    /// The heuristic percept's tip on `rest`.
+    pub tip: Option<[f64; 2]>,
+}
+
+/// What learning found, per camera.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ShapeReport {
+    /// Gripper views stored.
+    pub views: Vec<usize>,
+    /// Changed regions dropped because they lay far from the percept.
+    pub far_changes: Vec<usize>,
+    /// Background regions kept (after subsampling).
+    pub background: Vec<usize>,
+    /// Changed regions near the tip dropped because at least two other captures show them
+    /// unchanged at the same place (scene regions that flickered).
+    pub static_dropped: Vec<usize>,
+}
+
+/// The gripper shape model of every camera.
+#[derive(Debug, Clone)]
+pub struct ShapeModel {
+    config: ShapeConfig,
+    cameras: Vec<CameraShapes>,
+}
+
+fn descriptor_config() -> DescriptorConfig {
+    DescriptorConfig::with_sampling(Sampling::AffineArcLength)
+}
+
+fn centre(f: &Features, i: usize) -> [f64; 2] {
+    [f.frames[i].u, f.frames[i].v]
+}
+
+impl ShapeModel {
+    /// Learns the model from action pairs of `cameras` cameras (see the module docs).
+    /// Errors: an invalid configuration, a camera index out of range, or a camera left
+    /// without any gripper view or background region.
+    pub fn learn(
+        config: &ShapeConfig,
+        cameras: usize,
+        pairs: &[ActionPair<'_>],
+    ) -> Result<(ShapeModel, ShapeReport)> {
+        config.validate()?;
+        if cameras == 0 {
+            return Err(PipelineError::InvalidParameter {
+                name: "cameras",
+                reason: "need at least one".into(),
+            });
+        }
+        let mut views: Vec<Vec<GripperView>> = vec![Vec::new(); cameras];
+        // Per candidate view: its capture, centre and area (for the static check below).
+        let mut placed: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); cameras];
+        let mut background: Vec<Vec<Vec<(u32, u32)>>> = vec![Vec::new(); cameras];
+        // Per unchanged region: its capture, centre and area.
+        let mut still: Vec<Vec<(usize, [f64; 2], f64)>> = vec![Vec::new(); cameras];
+        let mut report = ShapeReport {
+            views: vec![0; cameras],
+            far_changes: vec![0; cameras],
+            background: vec![0; cameras],
+            static_dropped: vec![0; cameras],
+        };
+        for (capture, p) in pairs.iter().enumerate() {
+            if p.camera >= cameras {
+                return Err(PipelineError::InvalidParameter {
+                    name: "camera",
+                    reason: format!("camera {} of {cameras}", p.camera),
+                });
+            }
+            let (rest, moved) = (
+                detect(p.rest, &config.mser)?,
+                detect(p.moved, &config.mser)?,
+            );
+            for i in 0..rest.len() {
+                let c = centre(&rest, i);
+                let area = f64::from(rest.regions[i].area);
+                let unchanged = (0..moved.len()).any(|j| {
+                    let d = centre(&moved, j);
+                    rest.regions[i].polarity == moved.regions[j].polarity
+                        && (c[0] - d[0]).hypot(c[1] - d[1]) <= config.same_px
+                        && (f64::from(moved.regions[j].area) / area - 1.0).abs() <= config.same_area
+                });
+                if unchanged {
+                    background[p.camera].push(rest.contours[i].clone());
+                    still[p.camera].push((capture, c, area));
+                    continue;
+                }
+                match p.tip {
+                    Some(t) if (t[0] - c[0]).hypot(t[1] - c[1]) <= config.reach_px => {
+                        placed[p.camera].push((capture, c));
+                        views[p.camera].push(GripperView {
+                            contour: rest.contours[i].clone(),
+                            area,
+                            offset: [t[0] - c[0], t[1] - c[1]],
+                        });
+                    }
+                    _ => report.far_changes[p.camera] += 1,
+                }
+            }
+        }
+        // A "changed" region that other captures (the arm elsewhere) show unchanged at the same
+        // place is part of the scene that flickered (noise, lighting), not the gripper.
+        for cam in 0..cameras {
+            let keep: Vec<bool> = views[cam]
+                .iter()
+                .zip(&placed[cam])
+                .map(|(v, &(capture, c))| {
+                    let elsewhere = still[cam]
+                        .iter()
+                        .filter(|&&(k, d, a)| {
+                            k != capture
+                                && (c[0] - d[0]).hypot(c[1] - d[1]) <= 2.0 * config.same_px
+                                && (a / v.area - 1.0).abs() <= 2.0 * config.same_area
+                        })
+                        .count();
+                    elsewhere < 2
+                })
+                .collect();
+            report.static_dropped[cam] = keep.iter().filter(|&&k| !k).count();
+            let mut k = keep.iter();
+            views[cam].retain(|_| *k.next().expect("one flag per view"));
+        }
+        let mut out = Vec::with_capacity(cameras);
+        for (cam, (v, mut bg)) in views.into_iter().zip(background).enumerate() {
+            if bg.len() > config.max_background {
+                let n = bg.len();
+                bg = (0..config.max_background)
+                    .map(|k| bg[k * n / config.max_background].clone())
+                    .collect();
+            }
+            let grip = fd_match::describe_all(
+                descriptor_config(),
+                &v.iter().map(|g| g.contour.as_slice()).collect::<Vec<_>>(),
+            )?
+            .set;
+            let background = fd_match::describe_all(descriptor_config(), &bg)?.set;
+            if grip.is_empty() || background.is_empty() {
+                return Err(PipelineError::NotEnoughData(format!(
+                    "camera {cam}: {} gripper views, {} background regions",
+                    grip.len(),
+                    background.len()
+                )));
+            }
+            report.views[cam] = grip.len();
+            report.background[cam] = background.len();
+            out.push(CameraShapes {
+                views: v,
+                grip,
+                background,
+            });
+        }
+        Ok((
+            ShapeModel {
+                config: config.clone(),
+                cameras: out,
+            },
+            report,
+        ))
+    }
+
+    /// Number of cameras.
+    pub fn num_cameras(&self) -> usize {
+        self.cameras.len()
+    }
+
+    /// The settings it was learned with.
+    pub fn config(&self) -> &ShapeConfig {
+        &self.config
+    }
+
+    /// The stored gripper views of camera `cam` (empty for an unknown camera).
+    pub fn views(&self, cam: usize) -> &[GripperView] {
+        self.cameras.get(cam).map_or(&[], |c| &c.views)
+    }
+
+    /// The tip votes of one image of camera `cam` (module docs), each inside the image; an
+    /// empty list when nothing matched.
+    pub fn votes(&self, cam: usize, img: &GrayImage) -> Result<Vec<Vote>> {
+        let shapes = self
+            .cameras
+            .get(cam)
+            .ok_or_else(|| PipelineError::InvalidParameter {
+                name: "camera",
+                reason: format!("camera {cam} of {}", self.cameras.len()),
+            })?;
+        let features = detect(img, &self.config.mser)?;
+        let set = fd_match::describe_all(descriptor_config(), &features.contours)?.set;
+        if set.is_empty() {
+            return Ok(Vec::new());
+        }
+        let grip = best_two(&set, &shapes.grip, Method::FdCorr)?;
+        let bg = best_two(&set, &shapes.background, Method::FdCorr)?;
+        let t_r = self.config.ratio_threshold;
+        let (w, h) = (f64::from(img.width()), f64::from(img.height()));
+        let mut votes = Vec::new();
+        for (k, (g, b)) in grip.iter().zip(&bg).enumerate() {
+            let Some(best) = g.best else { continue };
+            let e_bg = b.best.map_or(f64::INFINITY, |c| c.error);
+            let ratio = if e_bg > 0.0 {
+                best.error / e_bg
+            } else {
+                f64::INFINITY
+            };
+            let below = ratio.partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
+            if !below || best.error > self.config.max_error {
+                continue;
+            }
+            let Some(al) = best.alignment else { continue };
+            if al.rotation.abs() > self.config.max_rotation {
+                continue;
+            }
+            let region = set.source(k);
+            let view = &shapes.views[shapes.grip.source(best.index)];
+            let c = centre(&features, region);
+            let s = (f64::from(features.regions[region].area) / view.area).sqrt();
+            let (sn, cs) = (-al.rotation).sin_cos();
+            let [ox, oy] = view.offset;
+            let position = [
+                c[0] + s * (cs * ox - sn * oy),
+                c[1] + s * (sn * ox + cs * oy),
+            ];
+            // A tip voted outside the image is not a percept of this camera.
+            if !(position[0] >= 0.0 && position[1] >= 0.0 && position[0] < w && position[1] < h) {
+                continue;
+            }
+            votes.push(Vote {
+                position,
+                weight: (1.0 - ratio / t_r).clamp(1e-6, 1.0)
+                    / (1.0 + ox.hypot(oy) / self.config.offset_scale_px),
+                error: best.error,
+                rotation: al.rotation,
+            });
+        }
+        Ok(votes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Luma;
+
+    /// An asymmetric bright "L" (local frame: a 40 × 10 bar and a 10 × 24 foot) rotated by
+    /// `angle` about `centre`, a bright static square, on a dark background; 4 × 4 supersampled.
+    fn scene(centre: [f64; 2], angle: f64, with_l: bool) -> GrayImage {
+        let (s, c) = angle.sin_cos();
+        let inside_l = |x: f64, y: f64| {
+            let (dx, dy) = (x - centre[0], y - centre[1]);
+            let (u, v) = (c * dx + s * dy, -s * dx + c * dy);
+            ((-20.0..20.0).contains(&u) && (-5.0..5.0).contains(&v))
+                || ((10.0..20.0).contains(&u) && (5.0..24.0).contains(&v))
+        };
+        let square = |x: f64, y: f64| (20.0..44.0).contains(&x) && (150.0..174.0).contains(&y);
+        GrayImage::from_fn(240, 200, |x, y| {
+            let mut hits = 0;
+            for i in 0..4 {
+                for j in 0..4 {
+                    let (px, py) = (
+                        f64::from(x) + (f64::from(i) + 0.5) / 4.0 - 0.5,
+                        f64::from(y) + (f64::from(j) + 0.5) / 4.0 - 0.5,
+                    );
+                    if (with_l && inside_l(px, py)) || square(px, py) {
+                        hits += 1;
+                    }
+                }
+            }
+            Luma([(40 + hits * 180 / 16) as u8])
+        })
+    }
+
+    /// The tip in the L's local frame: the far end of its foot.
+    fn tip(centre: [f64; 2], angle: f64) -> [f64; 2] {
+        let (s, c) = angle.sin_cos();
+        let (u, v) = (15.0, 24.0);
+        [centre[0] + c * u - s * v, centre[1] + s * u + c * v]
+    }
+
+    #[test]
+    fn a_rotated_shifted_view_votes_for_the_rotated_tip() {
+        let config = ShapeConfig {
+            mser: MserParams {
+                min_area: 30,
+                max_area: 3000,
+                ..MserParams::default()
+            },
+            max_rotation: std::f64::consts::PI,
+            ..ShapeConfig::default()
+        };
+        let (c0, a0) = ([100.0, 80.0], 0.2);
+        let rest = scene(c0, a0, true);
+        let moved = scene(c0, a0, false);
+        let pair = ActionPair {
+            camera: 0,
+            rest: &rest,
+            moved: &moved,
+            tip: Some(tip(c0, a0)),
+        };
+        let (model, report) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        assert!(
+            report.views[0] >= 1 && report.background[0] >= 1,
+            "{report:?}"
+        );
+        assert_eq!(model.views(0).len(), report.views[0]);
+        for (c1, a1) in [([130.0, 100.0], 0.9), ([120.0, 90.0], -0.6)] {
+            let query = scene(c1, a1, true);
+            let votes = model.votes(0, &query).unwrap();
+            let best = super::super::vote::mode(&votes, 2.0).expect("votes");
+            let t = tip(c1, a1);
+            let err = (best.position[0] - t[0]).hypot(best.position[1] - t[1]);
+            assert!(err < 1.5, "tip error {err:.2} px at {a1} rad ({votes:?})");
+            // The recovered rotation is the L's turn (either sign convention would pass the
+            // position test only by accident; check it too).
+            let turn = votes
+                .iter()
+                .map(|v| v.rotation)
+                .fold(f64::NAN, |a, r| if a.is_nan() { r } else { a });
+            let d = (turn.abs() - (a1 - a0).abs()).abs();
+            assert!(d < 0.1, "rotation {turn:.3} vs {:.3}", a1 - a0);
+        }
+        // Without the L only the background is left: no vote.
+        assert!(model.votes(0, &scene(c0, a0, false)).unwrap().is_empty());
+        // An unknown camera is a typed error.
+        assert!(matches!(
+            model.votes(1, &rest),
+            Err(PipelineError::InvalidParameter { name: "camera", .. })
+        ));
+    }
+
+    #[test]
+    fn nothing_changed_is_not_enough_data_and_bad_settings_are_refused() {
+        let img = scene([100.0, 80.0], 0.0, true);
+        let pair = ActionPair {
+            camera: 0,
+            rest: &img,
+            moved: &img,
+            tip: Some([100.0, 80.0]),
+        };
+        assert!(matches!(
+            ShapeModel::learn(&ShapeConfig::default(), 1, &[pair]),
+            Err(PipelineError::NotEnoughData(_))
+        ));
+        let bad = ShapeConfig {
+            ratio_threshold: 0.0,
+            ..ShapeConfig::default()
+        };
+        assert!(matches!(
+            ShapeModel::learn(&bad, 1, &[pair]),
+            Err(PipelineError::InvalidParameter {
+                name: "ratio_threshold",
+                ..
+            })
+        ));
+        let far = ActionPair { camera: 3, ..pair };
+        assert!(matches!(
+            ShapeModel::learn(&ShapeConfig::default(), 1, &[far]),
+            Err(PipelineError::InvalidParameter { name: "camera", .. })
+        ));
+    }
+}
