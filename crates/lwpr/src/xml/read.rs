@@ -20,7 +20,9 @@ fn err(s: impl Into<String>) -> LwprError {
 
 /// The numbers of one `<integer>`, `<scalar>`, `<vector>` or `<matrix>` element.
 enum Value {
-    Int(i64),
+    /// Wide enough for every `u64` count our writer emits and every negative the reference's
+    /// `int` can hold.
+    Int(i128),
     Scalar(f64),
     /// Values and declared length.
     Vector(Vec<f64>),
@@ -143,7 +145,7 @@ impl Fields<'_> {
             .remove(name)
             .ok_or_else(|| err(format!("`{name}` missing inside <{}>", self.owner)))
     }
-    fn int(&mut self, name: &str) -> Result<i64> {
+    fn int(&mut self, name: &str) -> Result<i128> {
         match self.take(name)? {
             Value::Int(v) => Ok(v),
             _ => Err(err(format!("`{name}` must be an <integer>"))),
@@ -158,7 +160,7 @@ impl Fields<'_> {
     }
     fn count(&mut self, name: &str) -> Result<u64> {
         let v = self.int(name)?;
-        u64::try_from(v).map_err(|_| err(format!("`{name}` is negative ({v})")))
+        u64::try_from(v).map_err(|_| err(format!("`{name}` is negative or too large ({v})")))
     }
     fn scalar(&mut self, name: &str) -> Result<f64> {
         match self.take(name)? {
