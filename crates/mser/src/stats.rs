@@ -47,21 +47,27 @@ impl Sums {
         x1: -1,
     };
 
+    /// Adds one pixel: padded index `i` at padded column `x` and row `y`.
+    #[inline(always)]
+    fn add_pixel(&mut self, i: u32, x: u32, y: u32) {
+        let (xl, yl) = (x as u64, y as u64);
+        self.sx += xl;
+        self.sy += yl;
+        self.sxx += xl * xl;
+        self.sxy += xl * yl;
+        self.syy += yl * yl;
+        self.first = self.first.min(i as i32);
+        self.last = self.last.max(i as i32);
+        self.x0 = self.x0.min(x as i32);
+        self.x1 = self.x1.max(x as i32);
+    }
+
     /// Adds the pixels with padded indices `idx`.
     fn add_run(&mut self, idx: &[u32], div: RowDiv) {
         let mut s = *self;
         for &i in idx {
             let (x, y) = div.col_row(i);
-            let (xl, yl) = (x as u64, y as u64);
-            s.sx += xl;
-            s.sy += yl;
-            s.sxx += xl * xl;
-            s.sxy += xl * yl;
-            s.syy += yl * yl;
-            s.first = s.first.min(i as i32);
-            s.last = s.last.max(i as i32);
-            s.x0 = s.x0.min(x as i32);
-            s.x1 = s.x1.max(x as i32);
+            s.add_pixel(i, x, y);
         }
         *self = s;
     }
@@ -73,16 +79,7 @@ impl Sums {
         for (&i, out) in idx.iter().zip(xy) {
             let (x, y) = div.col_row(i);
             *out = (x, y - 1);
-            let (xl, yl) = (x as u64, y as u64);
-            s.sx += xl;
-            s.sy += yl;
-            s.sxx += xl * xl;
-            s.sxy += xl * yl;
-            s.syy += yl * yl;
-            s.first = s.first.min(i as i32);
-            s.last = s.last.max(i as i32);
-            s.x0 = s.x0.min(x as i32);
-            s.x1 = s.x1.max(x as i32);
+            s.add_pixel(i, x, y);
         }
         *self = s;
     }
