@@ -654,29 +654,17 @@ impl Lwpr {
     }
 }
 
+/// The 5-D model the save/load tests share with `tests/xml.rs`.
+#[cfg(test)]
+#[path = "../tests/common/five_d.rs"]
+mod five_d;
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::LwprBuilder;
 
     fn trained() -> Lwpr {
-        let mut m = LwprBuilder::new(5, 1)
-            .init_d_spherical(4.0)
-            .diag_only(false)
-            .build()
-            .unwrap();
-        for k in 0..200 {
-            let t = k as f64 * 0.37;
-            let x = [
-                t.sin(),
-                t.cos(),
-                (2.0 * t).sin(),
-                0.1 * t % 1.0,
-                (0.7 * t).cos(),
-            ];
-            m.update(&x, &[x[0] * x[1] + x[2]]).unwrap();
-        }
-        m
+        five_d::trained(five_d::builder(), 200)
     }
 
     /// Writes `payload` in the binary frame of format `version`.

@@ -108,12 +108,19 @@
 //! the data and keeps wide untrained ones, which then suppress the creation of new fields. On
 //! the 25-D rotated cross (20 000 samples, full metric, meta learning, `w_prune = 0.7`; eight
 //! sample streams, seeds 1–8, same settings, nothing tuned) its nMSE was higher in all eight
-//! (median 0.036 against 0.025), and in one (seed 7) the wide field survived every pruning, no
-//! field was created again and the model ended with a single field (nMSE 1.02 against 0.022);
-//! the per-seed table is in `docs/performance.md` (lwpr). With the reference's rule the model
-//! also stays bit-identical to the C library when pruning fires. With the default
-//! `w_prune = 1` and a Gaussian kernel pruning never fires, so the choice matters only when
-//! `w_prune` is lowered.
+//! (median 0.035 against 0.025), and in one (seed 7) the wide field survived every pruning, no
+//! field was created again and the model ended with a single field (nMSE 1.02 against 0.022).
+//! Receptive fields / nMSE on the 41×41 grid per seed (measured at commit ab96433; the
+//! reference C library gave the `ReferenceC` column exactly):
+//!
+//! | seed | 1 | 2 | 3 | 4 | 5 | 6 | 7 | 8 |
+//! |---|---:|---:|---:|---:|---:|---:|---:|---:|
+//! | `Published` | 43 / 0.0383 | 45 / 0.0269 | 46 / 0.0239 | 33 / 0.0898 | 55 / 0.0253 | 40 / 0.0358 | 1 / 1.018 | 45 / 0.0346 |
+//! | `ReferenceC` | 47 / 0.0358 | 48 / 0.0258 | 51 / 0.0173 | 56 / 0.0213 | 46 / 0.0242 | 44 / 0.0298 | 57 / 0.0219 | 49 / 0.0273 |
+//!
+//! With the reference's rule the model also stays bit-identical to the C library when pruning
+//! fires. With the default `w_prune = 1` and a Gaussian kernel pruning never fires, so the
+//! choice matters only when `w_prune` is lowered.
 //!
 //! ## Confidence and Jacobian
 //! [`Lwpr::predict_with_confidence`] returns the reference's bound (docs/methods.md § LWPR); it

@@ -2,9 +2,11 @@
 //! A and B, the reference's 1-D test and the cross function rotated into 25 dimensions. Thresholds
 //! are the reference library's measured ranges (docs/methods.md § LWPR), not tuned values.
 
+mod common;
 #[path = "../peer/harness.rs"]
 mod harness;
 
+use common::Cross25;
 use harness::*;
 use lwpr::{Lwpr, LwprBuilder};
 
@@ -106,24 +108,19 @@ fn one_d_test_function() {
 /// docs, "Pruning", and the bench).
 #[test]
 fn cross_in_25_dimensions() {
-    let dim = 25;
-    let q = random_rotation(dim, 7);
-    let (x2, y) = cross_samples(5, 4_000, 0.1);
-    let x = embed(&x2, &q, dim);
-    let mut m = setting_25d(dim)
-        .prune_rule(lwpr::PruneRule::ReferenceC)
-        .build()
-        .unwrap();
+    let c = Cross25::new();
+    let (x, y) = (&c.x, &c.y);
+    let mut m = c.builder().build().unwrap();
     let fresh = m.clone();
-    for (a, b) in x.chunks(dim).zip(&y) {
+    for (a, b) in x.chunks(c.dim).zip(y) {
         m.update(a, &[*b]).unwrap();
     }
     let (gx, gy) = cross_grid();
-    let tx = embed(&gx, &q, dim);
+    let tx = c.embed(&gx);
     let e = nmse(&m.predict_batch(&tx, 0.001).unwrap(), &gy);
     eprintln!("25-D: {} RFs, nMSE {e:.5}", m.num_rfs()[0]);
     assert!(e < 0.1, "nMSE {e}");
-    if let Some(r) = reference_nmse(&fresh, &x, &y, &tx, &gy) {
+    if let Some(r) = reference_nmse(&fresh, x, y, &tx, &gy) {
         eprintln!("25-D reference nMSE {r:.5}");
         assert!(e <= r * (1.0 + 1e-9), "ours {e} vs reference {r}");
     }

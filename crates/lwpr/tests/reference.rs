@@ -2,34 +2,25 @@
 //! receptive fields, the same predictions on the 41×41 grid (to 1e-6) and the same prediction
 //! returned by every update. Skipped with a printed reason when the reference cannot be built (a failure with `CI=true`).
 
+mod common;
 #[path = "../peer/harness.rs"]
 mod harness;
 
+use common::{Cross25, two_output_builder, two_outputs};
 use harness::*;
-use lwpr::{Arithmetic, Lwpr, LwprBuilder};
+use lwpr::{Arithmetic, Lwpr};
 use std::path::Path;
 
-fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
+/// Trains `model` and the reference on `(x, y)` and compares every update's prediction and,
+/// at the end, the receptive-field counts and the predictions at the test points `gx`.
+fn compare(mut model: Lwpr, x: &[f64], y: &[f64], gx: &[f64], label: &str) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let Some(driver) = peer_or_skip(&root, label) else {
         return;
     };
-    let (gx, _) = cross_grid();
     let n = model.n_in();
-    let gx = if n == 2 {
-        gx
-    } else {
-        embed(&gx, &random_rotation(n, 7), n)
-    };
-    let peer = run_peer(
-        &driver,
-        &PeerSettings::of(&model),
-        x,
-        y,
-        &gx,
-        &[x.len() / n],
-    )
-    .expect("reference run");
+    let peer = run_peer(&driver, &PeerSettings::of(&model), x, y, gx, &[x.len() / n])
+        .expect("reference run");
     let m = model.n_out();
     let mut first_divergence = None;
     for (t, (xs, ys)) in x.chunks(n).zip(y.chunks(m)).enumerate() {
@@ -47,7 +38,7 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
     );
     let (nrf, pred) = &peer.checkpoints[0];
     assert_eq!(&model.num_rfs(), nrf, "{label}: receptive-field counts");
-    let ours = model.predict_batch(&gx, 0.001).unwrap();
+    let ours = model.predict_batch(gx, 0.001).unwrap();
     let worst = max_abs_diff(&ours, pred);
     assert!(
         worst <= 1e-6,
@@ -60,55 +51,49 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], label: &str) {
 fn cross_setting_a_matches_reference() {
     let (x, y) = cross_samples(1, 20_000, 0.1);
     let model = setting_a_builder(2).build().unwrap();
-    compare(model, &x, &y, "cross, setting A, seed 1");
+    compare(model, &x, &y, &cross_grid().0, "cross, setting A, seed 1");
 }
 
 #[test]
 fn cross_full_metric_meta_matches_reference() {
     let (x, y) = cross_samples(2, 5_000, 0.1);
     let model = setting_b_builder().build().unwrap();
-    compare(model, &x, &y, "cross, full metric + meta, seed 2");
+    compare(
+        model,
+        &x,
+        &y,
+        &cross_grid().0,
+        "cross, full metric + meta, seed 2",
+    );
 }
 
 #[test]
 fn cross_bisquare_two_outputs_normalised_matches_reference() {
     let (x, y1) = cross_samples(3, 4_000, 0.1);
-    let y: Vec<f64> = y1
-        .iter()
-        .zip(x.chunks(2))
-        .flat_map(|(a, p)| [*a, 10.0 * (p[0] + p[1]).sin()])
-        .collect();
-    let model = LwprBuilder::new(2, 2)
-        .init_d_spherical(10.0)
-        .w_gen(0.2)
-        .norm_in(&[2.0, 1.0])
-        .norm_out(&[1.0, 10.0])
-        .kernel(lwpr::Kernel::BiSquare)
-        .build()
-        .unwrap();
+    let y = two_outputs(&x, &y1);
+    let model = two_output_builder().build().unwrap();
     compare(
         model,
         &x,
         &y,
+        &cross_grid().0,
         "cross, BiSquare, 2 outputs, norm_in/out, seed 3",
     );
 }
 
 #[test]
 fn cross_25d_full_metric_meta_pruning_matches_reference() {
-    let dim = 25;
-    let q = random_rotation(dim, 7);
-    let (x2, y) = cross_samples(5, 4_000, 0.1);
-    let x = embed(&x2, &q, dim);
-    let model = setting_25d(dim)
-        .prune_rule(lwpr::PruneRule::ReferenceC)
+    let c = Cross25::new();
+    let model = c
+        .builder()
         .arithmetic(Arithmetic::Reference)
         .build()
         .unwrap();
     compare(
         model,
-        &x,
-        &y,
+        &c.x,
+        &c.y,
+        &c.embed(&cross_grid().0),
         "cross in 25-D, full metric + meta, w_prune 0.7, reference pruning rule",
     );
 }
@@ -118,25 +103,19 @@ fn cross_25d_full_metric_meta_pruning_matches_reference() {
 /// same receptive fields and grid predictions within 1e-6 of the reference's.
 #[test]
 fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
-    let dim = 25;
-    let q = random_rotation(dim, 7);
-    let (x2, y) = cross_samples(5, 4_000, 0.1);
-    let x = embed(&x2, &q, dim);
-    let (gx, _) = cross_grid();
-    let gx = embed(&gx, &q, dim);
+    let c = Cross25::new();
+    let (x, y, dim) = (&c.x, &c.y, c.dim);
+    let gx = c.embed(&cross_grid().0);
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let Some(driver) = peer_or_skip(&root, "25-D fast arithmetic") else {
         return;
     };
-    let mut model = setting_25d(dim)
-        .prune_rule(lwpr::PruneRule::ReferenceC)
-        .build()
-        .unwrap();
+    let mut model = c.builder().build().unwrap();
     assert_eq!(model.params().arithmetic, Arithmetic::Fast);
-    let peer = run_peer(&driver, &PeerSettings::of(&model), &x, &y, &gx, &[y.len()])
-        .expect("reference run");
+    let peer =
+        run_peer(&driver, &PeerSettings::of(&model), x, y, &gx, &[y.len()]).expect("reference run");
     let mut worst_update: f64 = 0.0;
-    for (t, (xs, ys)) in x.chunks(dim).zip(&y).enumerate() {
+    for (t, (xs, ys)) in x.chunks(dim).zip(y).enumerate() {
         let ours = model.update(xs, &[*ys]).unwrap()[0];
         worst_update = worst_update.max((ours - peer.update_predictions[t]).abs());
     }

@@ -5,11 +5,15 @@
 //! printed reason when the reference (with libexpat for its reader) cannot be built, and fail
 //! instead with `CI=true`. Hostile files are typed errors.
 
+mod common;
+#[path = "common/five_d.rs"]
+mod five_d;
 #[path = "../peer/harness.rs"]
 mod harness;
 
+use common::{two_output_builder, two_outputs};
 use harness::*;
-use lwpr::{Arithmetic, Kernel, Lwpr, LwprBuilder, LwprError};
+use lwpr::{Arithmetic, Lwpr, LwprBuilder, LwprError};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
@@ -22,12 +26,12 @@ fn scratch(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// Two-output samples: the cross function and `10 sin(x₁ + x₂)`.
-fn two_outputs(x: &[f64], y1: &[f64]) -> Vec<f64> {
-    y1.iter()
-        .zip(x.chunks(2))
-        .flat_map(|(a, p)| [*a, 10.0 * (p[0] + p[1]).sin()])
-        .collect()
+/// A scratch file `{who}-{label}.xml` for one case.
+fn scratch_for(who: &str, label: &str) -> PathBuf {
+    scratch(&format!(
+        "{who}-{}.xml",
+        label.replace([' ', ',', '/', '+'], "_")
+    ))
 }
 
 /// The models the tests move between the implementations: (label, builder, samples, outputs).
@@ -41,23 +45,21 @@ fn cases() -> Vec<(&'static str, LwprBuilder, Vec<f64>, Vec<f64>)> {
         ("full metric + meta", setting_b_builder(), xb, yb),
         (
             "BiSquare, 2 outputs, norm_in/out",
-            LwprBuilder::new(2, 2)
-                .init_d_spherical(10.0)
-                .w_gen(0.2)
-                .norm_in(&[2.0, 1.0])
-                .norm_out(&[1.0, 10.0])
-                .kernel(Kernel::BiSquare),
+            two_output_builder(),
             xc,
             yc,
         ),
     ]
 }
 
-fn train_all(model: &mut Lwpr, x: &[f64], y: &[f64]) {
+/// Trains `model` on `(x, y)` (2-D inputs), returning the prediction of every update.
+fn updates(model: &mut Lwpr, x: &[f64], y: &[f64]) -> Vec<f64> {
     let (n, m) = (model.n_in(), model.n_out());
+    let mut out = Vec::with_capacity(y.len());
     for (a, b) in x.chunks(n).zip(y.chunks(m)) {
-        model.update(a, b).unwrap();
+        out.extend(model.update(a, b).unwrap());
     }
+    out
 }
 
 /// Continuation samples for `m` outputs.
@@ -72,7 +74,7 @@ fn our_xml_round_trips_exactly() {
     for (label, b, x, y) in cases() {
         for arithmetic in [Arithmetic::Fast, Arithmetic::Reference] {
             let mut model = b.clone().arithmetic(arithmetic).build().unwrap();
-            train_all(&mut model, &x, &y);
+            updates(&mut model, &x, &y);
             let back = Lwpr::from_xml(&model.to_xml()).unwrap();
             assert_eq!(back, model, "{label}");
             let (gx, _) = cross_grid();
@@ -83,33 +85,18 @@ fn our_xml_round_trips_exactly() {
             // and it trains on exactly like the original
             let (mut a, mut c) = (model.clone(), back);
             let (mx, my) = more_samples(model.n_out());
-            let m = model.n_out();
-            for (p, q) in mx.chunks(2).zip(my.chunks(m)) {
-                assert_eq!(a.update(p, q).unwrap(), c.update(p, q).unwrap());
-            }
+            assert_eq!(updates(&mut a, &mx, &my), updates(&mut c, &mx, &my));
             assert_eq!(a, c, "{label}");
         }
     }
     // 5-D full metric with the published pruning rule: our attributes survive.
-    let mut m5 = LwprBuilder::new(5, 1)
-        .init_d_spherical(4.0)
-        .diag_only(false)
-        .meta(true)
-        .w_prune(0.7)
-        .prune_rule(lwpr::PruneRule::Published)
-        .build()
-        .unwrap();
-    for k in 0..400 {
-        let t = k as f64 * 0.37;
-        let x = [
-            t.sin(),
-            t.cos(),
-            (2.0 * t).sin(),
-            0.1 * t % 1.0,
-            (0.7 * t).cos(),
-        ];
-        m5.update(&x, &[x[0] * x[1] + x[2]]).unwrap();
-    }
+    let m5 = five_d::trained(
+        five_d::builder()
+            .meta(true)
+            .w_prune(0.7)
+            .prune_rule(lwpr::PruneRule::Published),
+        400,
+    );
     assert_eq!(Lwpr::from_xml(&m5.to_xml()).unwrap(), m5);
 }
 
@@ -117,7 +104,7 @@ fn our_xml_round_trips_exactly() {
 fn xml_files_save_load_and_are_detected_by_load() {
     let mut model = setting_b_builder().build().unwrap();
     let (x, y) = cross_samples(3, 800, 0.1);
-    train_all(&mut model, &x, &y);
+    updates(&mut model, &x, &y);
     let path = scratch("model.xml");
     model.save_xml(&path).unwrap();
     assert_eq!(Lwpr::load_xml(&path).unwrap(), model);
@@ -149,19 +136,48 @@ fn worst(ours: &[f64], theirs: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Our predictions, confidence bounds and Jacobians (row-major) at the grid points.
-fn ours_at(model: &Lwpr, gx: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+/// Asserts that `ours` has the receptive fields the reference read and predicts what it
+/// predicted at the grid points `gx` (values and confidence bounds within 1e-12, Jacobians
+/// within 1e-10, relative to `max(1, |reference|)`); returns the three worst differences.
+fn assert_predicts_like(label: &str, ours: &Lwpr, theirs: &XmlPeerRun, gx: &[f64]) -> [f64; 3] {
+    assert_eq!(ours.num_rfs(), theirs.num_rfs, "{label}");
     let (mut y, mut conf, mut jac) = (Vec::new(), Vec::new(), Vec::new());
-    for p in gx.chunks(model.n_in()) {
-        let c = model.predict_with_confidence(p, 0.001).unwrap();
+    for p in gx.chunks(ours.n_in()) {
+        let c = ours.predict_with_confidence(p, 0.001).unwrap();
         y.extend(c.y);
         conf.extend(c.confidence);
-        let j = model.predict_with_jacobian(p, 0.001).unwrap();
-        for i in 0..model.n_out() {
+        let j = ours.predict_with_jacobian(p, 0.001).unwrap();
+        for i in 0..ours.n_out() {
             jac.extend(j.jacobian.row(i).iter());
         }
     }
-    (y, conf, jac)
+    let (dy, dc, dj) = (
+        worst(&y, &theirs.y),
+        worst(&conf, &theirs.conf),
+        worst(&jac, &theirs.jacobian),
+    );
+    assert!(
+        dy <= 1e-12 && dc <= 1e-12 && dj <= 1e-10,
+        "{label}: {dy:e} {dc:e} {dj:e}"
+    );
+    [dy, dc, dj]
+}
+
+/// Has the reference train a model of `template`'s settings on `(x, y)` and write it to `path`
+/// (`lwpr_write_xml`).
+fn reference_writes(writer: &Path, template: &LwprBuilder, x: &[f64], y: &[f64], path: &Path) {
+    let (gx, _) = cross_grid();
+    let settings = template.clone().build().unwrap();
+    run_peer_with_xml(
+        writer,
+        &PeerSettings::of(&settings),
+        x,
+        y,
+        &gx,
+        &[],
+        Some(path),
+    )
+    .expect("reference run");
 }
 
 #[test]
@@ -174,45 +190,17 @@ fn reference_files_are_read_and_predict_like_the_reference() {
     };
     let (gx, _) = cross_grid();
     for (label, b, x, y) in cases() {
-        let template = b.build().unwrap();
-        let path = scratch(&format!(
-            "reference-{}.xml",
-            label.replace([' ', ',', '/', '+'], "_")
-        ));
-        run_peer_with_xml(
-            &writer,
-            &PeerSettings::of(&template),
-            &x,
-            &y,
-            &gx,
-            &[],
-            Some(&path),
-        )
-        .expect("reference run");
-        let ours = Lwpr::load_xml(&path).unwrap_or_else(|e| panic!("{label}: {e}"));
+        let path = scratch_for("reference", label);
+        reference_writes(&writer, &b, &x, &y, &path);
+        let mut ours = Lwpr::load_xml(&path).unwrap_or_else(|e| panic!("{label}: {e}"));
         let (mx, my) = more_samples(ours.n_out());
         let theirs = run_xml_peer(&reader, &path, &gx, &mx, &my, 2, ours.n_out())
             .expect("reference reads its own file");
-        assert_eq!(ours.num_rfs(), theirs.num_rfs, "{label}");
         assert_eq!(ours.params().arithmetic, Arithmetic::Reference);
-        let (y, conf, jac) = ours_at(&ours, &gx);
-        let (dy, dc, dj) = (
-            worst(&y, &theirs.y),
-            worst(&conf, &theirs.conf),
-            worst(&jac, &theirs.jacobian),
-        );
-        assert!(
-            dy <= 1e-12 && dc <= 1e-12 && dj <= 1e-10,
-            "{label}: {dy:e} {dc:e} {dj:e}"
-        );
+        let [dy, dc, dj] = assert_predicts_like(label, &ours, &theirs, &gx);
         // Training on from the file: the factor M we recompute from the file's D differs from
         // the file's M (six decimals), so the two models drift apart at that level.
-        let mut ours = ours;
-        let mut upd = Vec::new();
-        for (p, q) in mx.chunks(2).zip(my.chunks(ours.n_out())) {
-            upd.extend(ours.update(p, q).unwrap());
-        }
-        let du = worst(&upd, &theirs.update_predictions);
+        let du = worst(&updates(&mut ours, &mx, &my), &theirs.update_predictions);
         let da = worst(&ours.predict_batch(&gx, 0.001).unwrap(), &theirs.y_after);
         assert_eq!(ours.num_rfs(), theirs.num_rfs_after, "{label}");
         assert!(du <= 1e-6 && da <= 1e-6, "{label}: {du:e} {da:e}");
@@ -232,32 +220,16 @@ fn our_files_are_read_by_the_reference_and_train_on_bit_for_bit() {
     let (gx, _) = cross_grid();
     for (label, b, x, y) in cases() {
         let mut ours = b.build().unwrap();
-        train_all(&mut ours, &x, &y);
-        let path = scratch(&format!(
-            "ours-{}.xml",
-            label.replace([' ', ',', '/', '+'], "_")
-        ));
+        updates(&mut ours, &x, &y);
+        let path = scratch_for("ours", label);
         ours.save_xml(&path).unwrap();
         let (mx, my) = more_samples(ours.n_out());
         let theirs = run_xml_peer(&reader, &path, &gx, &mx, &my, 2, ours.n_out())
             .expect("reference reads our file");
-        assert_eq!(ours.num_rfs(), theirs.num_rfs, "{label}");
-        let (y, conf, jac) = ours_at(&ours, &gx);
-        let (dy, dc, dj) = (
-            worst(&y, &theirs.y),
-            worst(&conf, &theirs.conf),
-            worst(&jac, &theirs.jacobian),
-        );
-        assert!(
-            dy <= 1e-12 && dc <= 1e-12 && dj <= 1e-10,
-            "{label}: {dy:e} {dc:e} {dj:e}"
-        );
-        let mut upd = Vec::new();
-        for (p, q) in mx.chunks(2).zip(my.chunks(ours.n_out())) {
-            upd.extend(ours.update(p, q).unwrap());
-        }
+        let [dy, dc, dj] = assert_predicts_like(label, &ours, &theirs, &gx);
         assert_eq!(
-            upd, theirs.update_predictions,
+            updates(&mut ours, &mx, &my),
+            theirs.update_predictions,
             "{label}: update predictions"
         );
         assert_eq!(ours.num_rfs(), theirs.num_rfs_after, "{label}");
@@ -273,7 +245,7 @@ fn our_files_are_read_by_the_reference_and_train_on_bit_for_bit() {
 fn small_model_xml() -> (Lwpr, String) {
     let mut m = setting_b_builder().build().unwrap();
     let (x, y) = cross_samples(9, 150, 0.1);
-    train_all(&mut m, &x, &y);
+    updates(&mut m, &x, &y);
     let s = m.to_xml();
     (m, s)
 }
@@ -436,19 +408,8 @@ fn reference_fixture_is_what_the_reference_writes() {
         return;
     };
     let (x, y) = cross_samples(31, 150, 0.1);
-    let (gx, _) = cross_grid();
     let path = scratch("fixture.xml");
-    let template = setting_a_builder(2).build().unwrap();
-    run_peer_with_xml(
-        &writer,
-        &PeerSettings::of(&template),
-        &x,
-        &y,
-        &gx,
-        &[],
-        Some(&path),
-    )
-    .expect("reference run");
+    reference_writes(&writer, &setting_a_builder(2), &x, &y, &path);
     let fresh = std::fs::read(&path).unwrap();
     if std::env::var_os("LWPR_XML_BLESS").is_some() {
         std::fs::create_dir_all(fixture().parent().unwrap()).unwrap();
