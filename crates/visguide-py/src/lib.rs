@@ -24,6 +24,7 @@
 
 use pyo3::prelude::*;
 
+mod cbt_config;
 mod errors;
 mod fd_py;
 mod image;

@@ -2,16 +2,16 @@
 //! baselines, frame by frame (`step`) or over a whole sequence (`run`, without the GIL).
 
 use cbt_tracker::{
-    CbtConfig, CbtModel, CbtTracker, Clutter, Detection, KalmanParams, KalmanTracker, Layout,
-    ObservationFallback, Order, ParticleFilter, PfModel, Space, SystemFallback, Tracker,
-    TrainingFrame,
+    CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker, ParticleFilter,
+    PfModel, Space, Tracker, TrainingFrame,
 };
 use numpy::ndarray::Array2;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike2};
 use pyo3::exceptions::PyOSError;
 use pyo3::prelude::*;
-use pyo3::types::{PyTuple, PyType};
+use pyo3::types::{PyDict, PyTuple, PyType};
 
+use crate::cbt_config::{config_dict, config_from};
 use crate::errors::{from_track, value_error};
 
 /// Points from an `(n, 2)` array, or detections from `(n, 2)` / `(n, 3)` (third column: weight).
@@ -191,99 +191,6 @@ pub struct PyCbt {
     t: CbtTracker,
 }
 
-/// `name` as a count (`ValueError`, not `OverflowError`, for a negative value).
-fn count(name: &str, v: i64) -> PyResult<usize> {
-    usize::try_from(v).map_err(|_| value_error(format!("{name} = {v} must be ≥ 0")))
-}
-
-/// One of the names in `options` (`ValueError` naming them otherwise).
-fn choice<T: Copy>(name: &str, v: &str, options: &[(&str, T)]) -> PyResult<T> {
-    options
-        .iter()
-        .find(|(k, _)| *k == v)
-        .map(|(_, t)| *t)
-        .ok_or_else(|| {
-            let known: Vec<String> = options.iter().map(|(k, _)| format!("'{k}'")).collect();
-            value_error(format!(
-                "{name} must be one of {}, not '{v}'",
-                known.join(", ")
-            ))
-        })
-}
-
-const ORDERS: &[(&str, Order)] = &[("first", Order::First), ("second", Order::Second)];
-const LAYOUTS: &[(&str, Layout)] = &[
-    ("separable", Layout::Separable),
-    ("sparse_joint", Layout::SparseJoint),
-    ("stationary", Layout::Stationary),
-];
-const CLUTTERS: &[(&str, Clutter)] = &[
-    ("model", Clutter::Model),
-    ("subtract", Clutter::Subtract),
-    ("uniform", Clutter::Uniform),
-];
-const OBSERVATION_FALLBACKS: &[(&str, ObservationFallback)] = &[
-    ("identity", ObservationFallback::Identity),
-    ("uniform", ObservationFallback::Uniform),
-];
-const SYSTEM_FALLBACKS: &[(&str, SystemFallback)] = &[
-    ("constant_velocity", SystemFallback::ConstantVelocity),
-    ("first_order", SystemFallback::FirstOrder),
-];
-
-/// The name of `v` in `options`.
-fn name_of<T: PartialEq>(v: T, options: &[(&'static str, T)]) -> &'static str {
-    options
-        .iter()
-        .find(|(_, t)| *t == v)
-        .map(|(k, _)| *k)
-        .expect("every variant is listed")
-}
-
-/// A configuration from keyword arguments (`None`: the crate's default), validated.
-#[allow(clippy::too_many_arguments)]
-fn config_of(
-    order: &str,
-    layout: &str,
-    clutter: &str,
-    observation_fallback: &str,
-    system_fallback: &str,
-    prior_weight: f64,
-    fallback_sigma: f64,
-    observation_floor: f64,
-    mixing: f64,
-    prune: f64,
-    online_weight: f64,
-    runner_ups: i64,
-    obs_radius: i64,
-    support: f64,
-    decode_radius: i64,
-) -> PyResult<CbtConfig> {
-    let c = CbtConfig {
-        order: choice("order", order, ORDERS)?,
-        layout: choice("layout", layout, LAYOUTS)?,
-        clutter: choice("clutter", clutter, CLUTTERS)?,
-        observation_fallback: choice(
-            "observation_fallback",
-            observation_fallback,
-            OBSERVATION_FALLBACKS,
-        )?,
-        system_fallback: choice("system_fallback", system_fallback, SYSTEM_FALLBACKS)?,
-        prior_weight,
-        fallback_sigma,
-        observation_floor,
-        mixing,
-        prune,
-        online_weight,
-        runner_ups: count("runner_ups", runner_ups)?,
-        obs_radius: count("obs_radius", obs_radius)?,
-        support,
-        decode_radius: count("decode_radius", decode_radius)?,
-    };
-    c.validate().map_err(from_track)?;
-    Ok(c)
-}
-
 tracker_methods!(PyCbt, {
     /// Learns the system and observation models from ``sequences``: each a list of frames
     /// ``(truths, detections)`` with ``truths`` an ``(k, 2)`` array (usually one row; empty when
@@ -291,7 +198,8 @@ tracker_methods!(PyCbt, {
     /// clutter included, no association needed. The grid covers ``[0, width] × [0, height]``
     /// with channels ``spacing`` apart. Releases the GIL while learning.
     ///
-    /// The keywords are the crate's ``CbtConfig`` (defaults: the second-order separable
+    /// The keywords ``**config`` are the fields of the crate's ``CbtConfig``, by name
+    /// (:meth:`default_config` lists them with their defaults: the second-order separable
     /// tracker of Paper B): ``order`` (``"first"``, ``"second"``), ``layout``
     /// (``"separable"``, ``"sparse_joint"``, ``"stationary"``), ``clutter`` (``"model"``,
     /// ``"subtract"``, ``"uniform"``), ``observation_fallback`` (``"identity"``,
@@ -300,56 +208,20 @@ tracker_methods!(PyCbt, {
     /// ``mixing``, ``prune`` and ``support`` (in [0, 1]), ``online_weight`` (> 0),
     /// ``runner_ups``, ``obs_radius`` (1–64 channels) and ``decode_radius`` (channels).
     /// ``self_learning=True`` makes every :meth:`step` also learn from the tracker's own
-    /// estimate (:meth:`learn_online`). ``ValueError`` for any invalid value.
+    /// estimate (:meth:`learn_online`). ``TypeError`` for an unknown keyword, ``ValueError``
+    /// for any invalid value.
     #[staticmethod]
-    #[pyo3(signature = (
-        sequences, width, height, spacing = 10.0, *, order = "second", layout = "separable",
-        clutter = "model", observation_fallback = "identity", system_fallback = "first_order",
-        prior_weight = 1.0, fallback_sigma = 1.0, observation_floor = 1e-3, mixing = 1e-3,
-        prune = 0.01, online_weight = 1.0, runner_ups = 3, obs_radius = 10, support = 1e-2,
-        decode_radius = 4, self_learning = false
-    ))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (sequences, width, height, spacing = 10.0, *, self_learning = false, **config))]
     fn learn(
         py: Python<'_>,
         sequences: &Bound<'_, PyAny>,
         width: f64,
         height: f64,
         spacing: f64,
-        order: &str,
-        layout: &str,
-        clutter: &str,
-        observation_fallback: &str,
-        system_fallback: &str,
-        prior_weight: f64,
-        fallback_sigma: f64,
-        observation_floor: f64,
-        mixing: f64,
-        prune: f64,
-        online_weight: f64,
-        runner_ups: i64,
-        obs_radius: i64,
-        support: f64,
-        decode_radius: i64,
         self_learning: bool,
+        config: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let config = config_of(
-            order,
-            layout,
-            clutter,
-            observation_fallback,
-            system_fallback,
-            prior_weight,
-            fallback_sigma,
-            observation_floor,
-            mixing,
-            prune,
-            online_weight,
-            runner_ups,
-            obs_radius,
-            support,
-            decode_radius,
-        )?;
+        let config = config_from("learn", config)?;
         let mut seqs = Vec::new();
         for s in sequences.try_iter()? {
             let mut frames = Vec::new();
@@ -381,31 +253,14 @@ tracker_methods!(PyCbt, {
 
     /// The model's configuration as a dict (the keywords of :meth:`learn`).
     #[getter]
-    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        let c = self.t.model().config();
-        let d = pyo3::types::PyDict::new(py);
-        d.set_item("order", name_of(c.order, ORDERS))?;
-        d.set_item("layout", name_of(c.layout, LAYOUTS))?;
-        d.set_item("clutter", name_of(c.clutter, CLUTTERS))?;
-        d.set_item(
-            "observation_fallback",
-            name_of(c.observation_fallback, OBSERVATION_FALLBACKS),
-        )?;
-        d.set_item(
-            "system_fallback",
-            name_of(c.system_fallback, SYSTEM_FALLBACKS),
-        )?;
-        d.set_item("prior_weight", c.prior_weight)?;
-        d.set_item("fallback_sigma", c.fallback_sigma)?;
-        d.set_item("observation_floor", c.observation_floor)?;
-        d.set_item("mixing", c.mixing)?;
-        d.set_item("prune", c.prune)?;
-        d.set_item("online_weight", c.online_weight)?;
-        d.set_item("runner_ups", c.runner_ups)?;
-        d.set_item("obs_radius", c.obs_radius)?;
-        d.set_item("support", c.support)?;
-        d.set_item("decode_radius", c.decode_radius)?;
-        Ok(d)
+    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        config_dict(py, self.t.model().config())
+    }
+
+    /// The keywords of :meth:`learn` with their defaults, as a dict.
+    #[staticmethod]
+    fn default_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+        config_dict(py, &CbtConfig::default())
     }
 
     /// Adds one frame (``truths`` ``(k, 2)``, ``detections`` ``(n, 2)`` or ``(n, 3)``) to both

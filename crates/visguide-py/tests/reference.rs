@@ -11,17 +11,21 @@ use serde_json::{Value, json};
 const W: usize = 96;
 const H: usize = 72;
 
-/// The test image; `python/tests/conftest.py` has the same formula.
+/// The discs of the test image, `(cx, cy, r², level)`: the first disc containing a pixel sets
+/// it; the rest is a ramp. Stored in the JSON (`image.discs`), from which `conftest.py` reads
+/// them.
+const DISCS: [(i64, i64, i64, i64); 6] = [
+    (60, 25, 16, 250),
+    (20, 20, 64, 30),
+    (60, 25, 100, 200),
+    (40, 50, 36, 60),
+    (75, 55, 49, 230),
+    (20, 55, 25, 160),
+];
+
+/// The test image; `python/tests/conftest.py` has the same formula, checked against the
+/// image's digest stored in the JSON.
 fn image() -> Vec<u8> {
-    // (cx, cy, r², level): the first disc containing a pixel sets it; the rest is a ramp.
-    const DISCS: [(i64, i64, i64, i64); 6] = [
-        (60, 25, 16, 250),
-        (20, 20, 64, 30),
-        (60, 25, 100, 200),
-        (40, 50, 36, 60),
-        (75, 55, 49, 230),
-        (20, 55, 25, 160),
-    ];
     let mut px = vec![0u8; W * H];
     for y in 0..H as i64 {
         for x in 0..W as i64 {
@@ -488,7 +492,12 @@ fn pair_cases(px: &[u8]) -> Value {
 fn reference() -> Value {
     let px = image();
     json!({
-        "image": {"width": W, "height": H},
+        "image": {
+            "width": W,
+            "height": H,
+            "discs": DISCS,
+            "pixels": {"len": px.len(), "fnv1a": fnv1a(px.iter().copied())},
+        },
         "mser": mser_cases(&px),
         "lwpr": lwpr_cases(),
         "fd": fd_cases(&px),

@@ -12,15 +12,11 @@ import pytest
 CRATE = pathlib.Path(__file__).resolve().parents[2]
 REFERENCE = CRATE / "tests" / "reference.json"
 
-# (cx, cy, r², level), the same as `image()` in tests/reference.rs.
-DISCS = [
-    (60, 25, 16, 250),
-    (20, 20, 64, 30),
-    (60, 25, 100, 200),
-    (40, 50, 36, 60),
-    (75, 55, 49, 230),
-    (20, 55, 25, 160),
-]
+with open(REFERENCE) as _f:
+    _REFERENCE = json.load(_f)
+
+# (cx, cy, r², level) of the test image's discs, as tests/reference.rs defines them.
+DISCS = [tuple(d) for d in _REFERENCE["image"]["discs"]]
 
 
 def fnv1a(data: bytes) -> str:
@@ -55,13 +51,14 @@ def synthetic_image(width=96, height=72):
 
 @pytest.fixture(scope="session")
 def reference():
-    with open(REFERENCE) as f:
-        return json.load(f)
+    return _REFERENCE
 
 
 @pytest.fixture(scope="session")
 def image(reference):
+    """The image the reference values were computed on (its digest checks the formula)."""
     img = synthetic_image(reference["image"]["width"], reference["image"]["height"])
+    assert bytes_digest(img.tobytes()) == reference["image"]["pixels"]
     return img
 
 

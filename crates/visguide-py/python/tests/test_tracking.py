@@ -1,7 +1,10 @@
 """visguide.tracking against the cbt-tracker crate (tests/reference.json): a CBT learned from
 the same simulated sequences, the Kalman and particle-filter baselines, round trips, errors."""
 
+import ast
 import copy
+import json
+import pathlib
 import pickle
 
 import numpy as np
@@ -199,7 +202,35 @@ def test_cbt_configurations_track_exactly_as_in_rust(data, name):
 
 def test_cbt_default_configuration(data):
     _, train, _ = data
-    assert CBT.learn(train, 320.0, 240.0).config == DEFAULT_CONFIG
+    assert CBT.default_config() == DEFAULT_CONFIG
+    cbt = CBT.learn(train, 320.0, 240.0)
+    assert cbt.config == DEFAULT_CONFIG
+    # The keywords are the crate's serde form of CbtConfig, field for field, with their types.
+    assert json.loads(cbt.to_json())["model"]["config"] == cbt.config
+    assert {k: type(v) for k, v in cbt.config.items()} == {k: type(v) for k, v in DEFAULT_CONFIG.items()}
+
+
+def test_cbt_configuration_takes_numpy_scalars(data):
+    _, train, _ = data
+    kw = dict(runner_ups=np.int64(1), prior_weight=np.float32(2.0), obs_radius=np.uint8(6))
+    config = CBT.learn(train, 320.0, 240.0, **kw).config
+    assert (config["runner_ups"], config["prior_weight"], config["obs_radius"]) == (1, 2.0, 6)
+
+
+def test_stub_and_docstring_name_every_configuration_keyword():
+    """The type stub's keywords of CBT.learn (names, types, defaults) and the docstring follow
+    the crate's CbtConfig, whose serde form CBT.default_config() is."""
+    stub = pathlib.Path(__file__).parents[1] / "visguide" / "_visguide.pyi"
+    tree = ast.parse(stub.read_text())
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "CBT")
+    learn = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == "learn")
+    args = learn.args
+    stub_kw = {a.arg: (a.annotation.id, ast.literal_eval(d)) for a, d in zip(args.kwonlyargs, args.kw_defaults)}
+    assert stub_kw.pop("self_learning") == ("bool", False)
+    defaults = CBT.default_config()
+    assert stub_kw == {k: (type(v).__name__, v) for k, v in defaults.items()}
+    for k in defaults:
+        assert f"``{k}``" in CBT.learn.__doc__, k
 
 
 @pytest.mark.parametrize(
@@ -227,6 +258,23 @@ def test_cbt_default_configuration(data):
 def test_invalid_cbt_configuration_is_a_value_error(data, kw):
     _, train, _ = data
     with pytest.raises(ValueError):
+        CBT.learn(train, 320.0, 240.0, **kw)
+
+
+@pytest.mark.parametrize(
+    "kw, error, message",
+    [
+        (dict(order=3), ValueError, "order"),
+        (dict(runner_ups=1.5), ValueError, "runner_ups"),
+        (dict(prior_weight="big"), ValueError, "prior_weight"),
+        (dict(layout=None), TypeError, "layout"),
+        (dict(mixing=[0.1]), TypeError, "mixing"),
+        (dict(ordre="first"), TypeError, "unexpected keyword argument 'ordre'"),
+    ],
+)
+def test_wrong_cbt_keyword_names_itself(data, kw, error, message):
+    _, train, _ = data
+    with pytest.raises(error, match=message):
         CBT.learn(train, 320.0, 240.0, **kw)
 
 

@@ -193,6 +193,9 @@ class CBT(_Tracker):
         height: float,
         spacing: float = 10.0,
         *,
+        self_learning: bool = False,
+        # The fields of cbt_tracker::CbtConfig (test_tracking.py checks these against
+        # CBT.default_config(), which the crate's defaults fill):
         order: str = "second",  # "first" | "second"
         layout: str = "separable",  # "separable" | "sparse_joint" | "stationary"
         clutter: str = "model",  # "model" | "subtract" | "uniform"
@@ -208,8 +211,9 @@ class CBT(_Tracker):
         obs_radius: int = 10,
         support: float = 1e-2,
         decode_radius: int = 4,
-        self_learning: bool = False,
     ) -> "CBT": ...
+    @staticmethod
+    def default_config() -> dict[str, Any]: ...
     @property
     def config(self) -> dict[str, Any]: ...
     def learn_online(self, truths: _Floats, detections: _Floats) -> None: ...

@@ -2,9 +2,10 @@
 
 - :class:`CBT` -- grid Bayesian filter on channel-coded densities, with system and observation
   models learned by :meth:`CBT.learn` from lists of ``(truths, detections)`` arrays per frame
-  (no associations needed); its keywords are the crate's whole ``CbtConfig`` (order, layout,
-  clutter handling, fallbacks, priors, pruning, ...; :attr:`CBT.config` returns them), and
-  ``self_learning=True`` / :meth:`CBT.learn_online` learn incrementally.
+  (no associations needed); its keywords are the fields of the crate's ``CbtConfig`` (order,
+  layout, clutter handling, fallbacks, priors, pruning, ...; :meth:`CBT.default_config` lists
+  them with their defaults, :attr:`CBT.config` returns a model's), and ``self_learning=True`` /
+  :meth:`CBT.learn_online` learn incrementally.
 - :class:`Kalman` -- constant-velocity Kalman filter with nearest-neighbour gating.
 - :class:`ParticleFilter` -- SIR particle filter with a clutter-aware likelihood (seeded).
 
