@@ -279,6 +279,7 @@ fn config_of(
         obs_radius: count("obs_radius", obs_radius)?,
         support,
         decode_radius: count("decode_radius", decode_radius)?,
+        input: None,
     };
     c.validate().map_err(from_track)?;
     Ok(c)
