@@ -52,8 +52,15 @@ pub struct CbtTracker {
     /// The last two frames of [`learn_online`](Self::learn_online) (saved as their states).
     #[serde(serialize_with = "save_history")]
     history: History,
+    /// Time index of the posterior (a [`crate::PeriodicInput`]'s `k`; stays 0 without one).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    time: u64,
     #[serde(skip)]
     scratch: Scratch,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 fn save_history<S: serde::Serializer>(h: &History, s: S) -> Result<S::Ok, S::Error> {
@@ -76,6 +83,8 @@ struct CbtTrackerRaw {
     /// starts a new chain (as it did when those files were loaded then).
     #[serde(default)]
     history: history::Saved,
+    #[serde(default)]
+    time: u64,
 }
 
 impl TryFrom<CbtTrackerRaw> for CbtTracker {
@@ -92,6 +101,7 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
             self_learning: raw.self_learning,
             win: raw.win,
             history: History::default(),
+            time: raw.time,
             scratch: Scratch::default(),
         };
         let space = t.model.space();
@@ -150,6 +160,11 @@ impl CbtTracker {
             (Order::Second, Layout::Stationary) => "CBT 2nd order",
             (Order::First, Layout::Stationary) => "CBT 1st order",
         };
+        let name = if model.config().input.is_some() {
+            format!("{name} + phase")
+        } else {
+            name.to_string()
+        };
         let stationary = model.config().layout == Layout::Stationary;
         let g = if stationary { 0 } else { g };
         let marg: Vec<Vec<f64>> = (0..dims)
@@ -167,7 +182,7 @@ impl CbtTracker {
             win.start(point_patch(model.space(), [c[0], c[1]]));
         }
         CbtTracker {
-            name: name.to_string(),
+            name,
             post: vec![1.0 / g as f64; g],
             prev: vec![1.0 / g as f64; g],
             marg_prev: marg.clone(),
@@ -176,6 +191,7 @@ impl CbtTracker {
             model,
             self_learning: false,
             history: History::default(),
+            time: 0,
             scratch: Scratch::default(),
         }
     }
@@ -218,6 +234,21 @@ impl CbtTracker {
             let p = &self.win.post;
             ([p.i0, p.j0], [p.h, p.w])
         })
+    }
+
+    /// The time index of the posterior: 0 after a reset, one more after each step (only
+    /// counted when the model has a [`crate::PeriodicInput`]; 0 otherwise).
+    pub fn time(&self) -> u64 {
+        self.time
+    }
+
+    /// Sets the time index of the posterior (a track that starts at frame `k` of a
+    /// sequence whose input phase is `ω·k`); the next step predicts into `k + 1`. No effect
+    /// on a model without a [`crate::PeriodicInput`].
+    pub fn set_time(&mut self, k: u64) {
+        if self.model.config().input.is_some() {
+            self.time = k;
+        }
     }
 
     fn is_stationary(&self) -> bool {
@@ -285,6 +316,7 @@ impl CbtTracker {
         self.update_marginals();
         self.marg_prev = self.marg.clone();
         self.history = History::default();
+        self.time = 0;
         Ok(())
     }
 
@@ -309,13 +341,29 @@ impl CbtTracker {
         let g = space.cells();
         prior.resize(g, 0.0);
         match &self.model.sys {
-            SystemModel::Separable { first, second } => {
+            SystemModel::Separable {
+                first,
+                second,
+                phased,
+            } => {
                 axis.resize(space.dims(), Vec::new());
+                let phase = cfg.input.map(|i| i.weights(self.time + 1));
                 for (d, p) in axis.iter_mut().enumerate() {
                     p.resize(space.axis_len(d), 0.0);
-                    match (cfg.order, second) {
-                        (Order::Second, Some(s)) => {
+                    match (cfg.order, second, &phase) {
+                        (Order::Second, Some(s), _) => {
                             s[d].predict(&self.marg[d], &self.marg_prev[d], cfg.prune, p)
+                        }
+                        (_, _, Some(phase)) => {
+                            // S(φ_k) q = Σ_p β_p(φ_k) S_p q (module `input`).
+                            let mut one = vec![0.0; p.len()];
+                            p.iter_mut().for_each(|v| *v = 0.0);
+                            for &(c, w) in phase {
+                                phased[c][d].predict(&self.marg[d], cfg.prune, &mut one);
+                                for (o, v) in p.iter_mut().zip(&one) {
+                                    *o += w * v;
+                                }
+                            }
                         }
                         _ => first[d].predict(&self.marg[d], cfg.prune, p),
                     }
@@ -440,6 +488,27 @@ impl CbtTracker {
         Ok(())
     }
 
+    /// The update's likelihood `ℓ[g]` of a detection set over the joint grid (dense layouts),
+    /// `None` for an empty set; the detections are validated first (an error changes nothing
+    /// but the work buffer).
+    pub(crate) fn grid_likelihood(
+        &mut self,
+        detections: &[Detection],
+    ) -> Result<Option<&[f64]>, TrackError> {
+        let joint = self.model.config().layout == Layout::SparseJoint;
+        let z = encode_detections(self.model.space(), detections, 1.0, joint)?;
+        if z.is_empty() {
+            return Ok(None);
+        }
+        self.likelihood(&z, detections)?;
+        Ok(Some(&self.scratch.lik))
+    }
+
+    /// The likelihood the last [`grid_likelihood`](Self::grid_likelihood) computed.
+    pub(crate) fn last_likelihood(&self) -> &[f64] {
+        &self.scratch.lik
+    }
+
     /// Prediction and update with `detections`; on error (non-finite or off-grid
     /// detection) the tracker is unchanged.
     pub fn filter(&mut self, detections: &[Detection]) -> Result<(), TrackError> {
@@ -481,6 +550,9 @@ impl CbtTracker {
             new_post.extend_from_slice(&prior);
         }
         self.scratch.prior = prior;
+        if self.model.config().input.is_some() {
+            self.time += 1;
+        }
         self.prev = std::mem::replace(&mut self.post, new_post);
         std::mem::swap(&mut self.marg, &mut self.marg_prev);
         self.update_marginals();
@@ -523,7 +595,9 @@ impl CbtTracker {
     ) -> Result<(), TrackError> {
         let w = self.model.config().online_weight;
         let mut h = std::mem::take(&mut self.history);
-        let r = self.model.add_frame(&mut h, states, detections, w, true);
+        let r = self
+            .model
+            .add_frame(&mut h, states, detections, w, true, self.time);
         self.history = h;
         r
     }

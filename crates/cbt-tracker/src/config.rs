@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
 use crate::error::{positive, unit};
+pub use crate::input::PeriodicInput;
 
 /// Order of the learned Markov model of the position.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -143,6 +144,11 @@ pub struct CbtConfig {
     /// first moment is the estimate. Default 4.
     #[serde(default = "default_decode_radius")]
     pub decode_radius: usize,
+    /// A known periodic input the first-order system model is conditioned on (e.g. UNGM's
+    /// time-dependent drive `8·cos(1.2k)`): [`PeriodicInput`]. Only with [`Order::First`] and
+    /// [`Layout::Separable`]. Default `None` (the model does not depend on time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<PeriodicInput>,
 }
 
 fn default_obs_radius() -> usize {
@@ -175,6 +181,7 @@ impl Default for CbtConfig {
             obs_radius: default_obs_radius(),
             support: default_support(),
             decode_radius: default_decode_radius(),
+            input: None,
         }
     }
 }
@@ -214,6 +221,16 @@ impl CbtConfig {
         unit("prune", self.prune, true)?;
         positive("online_weight", self.online_weight)?;
         unit("support", self.support, true)?;
+        if let Some(input) = &self.input {
+            input.validate()?;
+            if self.order != Order::First || self.layout != Layout::Separable {
+                return Err(TrackError::InvalidParameter {
+                    name: "input",
+                    value: input.omega,
+                    reason: "a periodic input needs the first order and the separable layout",
+                });
+            }
+        }
         if self.obs_radius == 0 || self.obs_radius > 64 {
             return Err(TrackError::InvalidParameter {
                 name: "obs_radius",

@@ -80,11 +80,22 @@
 //!   whose first frames are missed is also often held by `S`'s spike at zero displacement —
 //!   real training data hold many standing people).
 //!
+//! - **A known input** (a system model that depends on time, e.g. UNGM's drive
+//!   `8·cos(1.2k)`): [`CbtConfig::input`] with a [`PeriodicInput`] conditions the first-order
+//!   model on the phase `φ_k = ω·k mod 2π`, channel-coded on the circle:
+//!   `S_p ∝ Σ_t β_p(φ_t) a_t a_{t−1}ᵀ`, predicted with `S(φ_k) = Σ_p β_p(φ_k) S_p` (module
+//!   `input`; first order, separable layout). On UNGM (`fixtures/paper-b/summary.md`) this
+//!   is what CBT needs: without the time step it cannot learn the drive.
+//!
 //! ## Baselines behind the same [`Tracker`] interface
 //! [`KalmanTracker`]: constant-velocity Kalman filter with nearest-neighbour gating;
 //! [`ParticleFilter`]: SIR with systematic resampling and the clutter-aware likelihood
 //! `(1 − P_D) + P_D/λ · Σ_i N(z_i; h(x), R)` (for one detection and `λ = 1/area`, the
-//! `P_D·N + (1 − P_D)/area` of the issue, up to a constant factor).
+//! `P_D·N + (1 − P_D)/area` of the issue, up to a constant factor);
+//! [`LearnedParticleFilter`]: the same SIR filter knowing only what CBT learned — its
+//! transition and likelihood are a [`CbtModel`]'s first-order densities, sampled and
+//! evaluated at continuous particle positions (module `learned_pf`): the like-for-like
+//! particle filter where the true model is not CBT's to have.
 //!
 //! ## Saving and loading
 //! [`CbtModel`], [`CbtTracker`], [`KalmanTracker`] and [`ParticleFilter`] serialise with serde.
@@ -131,8 +142,10 @@ mod decode;
 mod encode;
 mod error;
 mod history;
+mod input;
 mod integrity;
 mod kalman;
+mod learned_pf;
 pub mod metrics;
 mod model;
 pub mod mot;
@@ -149,10 +162,13 @@ mod window;
 
 pub use calibrate::Calibration;
 pub use cbt::CbtTracker;
-pub use config::{CbtConfig, Clutter, Layout, ObservationFallback, Order, SystemFallback};
+pub use config::{
+    CbtConfig, Clutter, Layout, ObservationFallback, Order, PeriodicInput, SystemFallback,
+};
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame};
 pub use error::TrackError;
 pub use kalman::{GATE_99, KalmanParams, KalmanTracker};
+pub use learned_pf::LearnedParticleFilter;
 pub use model::{CbtModel, LearnStats};
 pub use particle::{ParticleFilter, PfModel};
 pub use space::{DEFAULT_KERNEL, Scales, Space, axis};

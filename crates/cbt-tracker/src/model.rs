@@ -27,6 +27,10 @@ pub(crate) enum SystemModel {
     Separable {
         first: Vec<AxisSystem1>,
         second: Option<Vec<AxisSystem2>>,
+        /// With a [`crate::PeriodicInput`]: the first-order model per phase channel `p`
+        /// (`phased[p][d]`, module `input`); empty without.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        phased: Vec<Vec<AxisSystem1>>,
     },
     Joint(JointSystem),
     Stationary(Vec<StatSystem>),
@@ -123,10 +127,25 @@ impl TryFrom<CbtModelRaw> for CbtModel {
         }
         let second_order = config.order == Order::Second;
         match &mut sys {
-            SystemModel::Separable { first, second } if config.layout == Layout::Separable => {
+            SystemModel::Separable {
+                first,
+                second,
+                phased,
+            } if config.layout == Layout::Separable => {
                 len("first-order axes", first.len(), dims)?;
                 for (d, s) in first.iter().enumerate() {
                     s.check(space.axis_len(d))?;
+                }
+                len(
+                    "phase channels of the system model",
+                    phased.len(),
+                    config.input.map_or(0, |i| i.channels),
+                )?;
+                for p in phased.iter() {
+                    len("phase-channel first-order axes", p.len(), dims)?;
+                    for (d, s) in p.iter().enumerate() {
+                        s.check(space.axis_len(d))?;
+                    }
                 }
                 match second {
                     Some(second) if second_order => {
@@ -193,9 +212,14 @@ impl CbtModel {
                         .map(|d| AxisSystem2::new(space.axis_len(d), &config, &first[d]))
                         .collect()
                 });
+                let phased = vec![first.clone(); config.input.map_or(0, |i| i.channels)];
                 (
                     ObservationModel::Separable(obs),
-                    SystemModel::Separable { first, second },
+                    SystemModel::Separable {
+                        first,
+                        second,
+                        phased,
+                    },
                 )
             }
             Layout::Stationary => {
@@ -243,8 +267,8 @@ impl CbtModel {
         };
         for seq in sequences {
             let mut h = History::default();
-            for f in seq {
-                model.add_frame(&mut h, &f.states, &f.detections, 1.0, false)?;
+            for (k, f) in seq.iter().enumerate() {
+                model.add_frame(&mut h, &f.states, &f.detections, 1.0, false, k as u64)?;
             }
         }
         if model.stats.observation_frames == 0 {
@@ -292,8 +316,9 @@ impl CbtModel {
     }
 
     /// Adds one frame's soft counts with weight `weight`; with `renormalise`, updates the
-    /// normalised columns the frame touched (online learning). All input is validated before
-    /// anything is counted, so an error leaves the model unchanged.
+    /// normalised columns the frame touched (online learning). `time` is the frame's time
+    /// index (the phase of a [`crate::PeriodicInput`]; unused without one). All input is
+    /// validated before anything is counted, so an error leaves the model unchanged.
     pub(crate) fn add_frame(
         &mut self,
         h: &mut History,
@@ -301,6 +326,7 @@ impl CbtModel {
         dets: &[crate::Detection],
         weight: f64,
         renormalise: bool,
+        time: u64,
     ) -> Result<(), TrackError> {
         let joint = self.config.layout == Layout::SparseJoint;
         let x = encode_states(&self.space, states, weight, joint)?;
@@ -341,12 +367,23 @@ impl CbtModel {
             }
             let cfg = self.config;
             match &mut self.sys {
-                SystemModel::Separable { first, second } => {
+                SystemModel::Separable {
+                    first,
+                    second,
+                    phased,
+                } => {
+                    let phase = cfg.input.map(|i| i.weights(time)).unwrap_or_default();
                     for d in 0..dims {
                         first[d].add(&x.axes[d], &p1.axes[d]);
                         let cols: Vec<usize> = p1.axes[d].iter().map(|e| e.0).collect();
                         if renormalise {
                             first[d].normalise_columns(&cols, &cfg);
+                        }
+                        for &(p, w) in &phase {
+                            phased[p][d].add_weighted(&x.axes[d], &p1.axes[d], w);
+                            if renormalise {
+                                phased[p][d].normalise_columns(&cols, &cfg);
+                            }
                         }
                         let Some(second) = second.as_mut() else {
                             continue;
@@ -397,12 +434,19 @@ impl CbtModel {
             ObservationModel::Stationary(o) => o.normalise(&cfg),
         }
         match &mut self.sys {
-            SystemModel::Separable { first, second } => {
+            SystemModel::Separable {
+                first,
+                second,
+                phased,
+            } => {
                 for (d, f) in first.iter_mut().enumerate() {
                     let n = self.space.axis_len(d);
                     f.normalise_columns(&(0..n).collect::<Vec<_>>(), &cfg);
                     if let Some(s) = second.as_mut() {
                         s[d].normalise_columns(&(0..n * n).collect::<Vec<_>>(), &cfg, f);
+                    }
+                    for p in phased.iter_mut() {
+                        p[d].normalise_columns(&(0..n).collect::<Vec<_>>(), &cfg);
                     }
                 }
             }
@@ -434,6 +478,37 @@ impl CbtModel {
         match &self.sys {
             SystemModel::Separable { first, .. } => first.get(d).map(|s| s.model()),
             SystemModel::Joint(_) | SystemModel::Stationary(_) => None,
+        }
+    }
+
+    /// The normalised first-order matrix of phase channel `p` and axis `d` (separable layout
+    /// with a [`crate::PeriodicInput`]), laid out as [`first_order_matrix`](Self::first_order_matrix).
+    pub fn phase_matrix(&self, p: usize, d: usize) -> Option<&[f64]> {
+        match &self.sys {
+            SystemModel::Separable { phased, .. } => {
+                phased.get(p).and_then(|s| s.get(d)).map(|s| s.model())
+            }
+            SystemModel::Joint(_) | SystemModel::Stationary(_) => None,
+        }
+    }
+
+    /// The first-order column `p(x_k | x_{k−1} = x̃_n)` of axis `d` for a step into time
+    /// index `k` (separable layout): with a [`crate::PeriodicInput`] the phase channels' mix
+    /// `Σ_p β_p(φ_k) S_p[·, n]`, else the column of `S`. Written into `out` (length `N_d`).
+    pub(crate) fn transition_column(&self, d: usize, n: usize, k: u64, out: &mut [f64]) {
+        let SystemModel::Separable { first, phased, .. } = &self.sys else {
+            return;
+        };
+        match self.config.input {
+            Some(i) if !phased.is_empty() => {
+                out.iter_mut().for_each(|v| *v = 0.0);
+                for (p, w) in i.weights(k) {
+                    for (o, s) in out.iter_mut().zip(phased[p][d].column(n)) {
+                        *o += w * s;
+                    }
+                }
+            }
+            _ => out.copy_from_slice(first[d].column(n)),
         }
     }
 

@@ -275,22 +275,62 @@ impl ParticleFilter {
     }
 
     fn systematic_resample(&mut self) {
-        let n = self.particles.len();
-        let u0: f64 = self.rng.random::<f64>() / n as f64;
-        let mut out = Vec::with_capacity(n);
-        let mut cum = self.weights[0];
-        let mut i = 0;
-        for j in 0..n {
-            let u = u0 + j as f64 / n as f64;
-            while u > cum && i + 1 < n {
-                i += 1;
-                cum += self.weights[i];
-            }
-            out.push(self.particles[i]);
-        }
-        self.particles = out;
-        self.weights.iter_mut().for_each(|w| *w = 1.0 / n as f64);
+        systematic_resample(&mut self.particles, &mut self.weights, &mut self.rng);
     }
+}
+
+/// Systematic resampling (one uniform draw): `particles` replaced by `n` draws in proportion
+/// to `weights` (normalised), every weight then `1/n`. Shared by the particle filters.
+pub(crate) fn systematic_resample<P: Copy>(
+    particles: &mut Vec<P>,
+    weights: &mut [f64],
+    rng: &mut Xoshiro256PlusPlus,
+) {
+    let n = particles.len();
+    let u0: f64 = rng.random::<f64>() / n as f64;
+    let mut out = Vec::with_capacity(n);
+    let mut cum = weights[0];
+    let mut i = 0;
+    for j in 0..n {
+        let u = u0 + j as f64 / n as f64;
+        while u > cum && i + 1 < n {
+            i += 1;
+            cum += weights[i];
+        }
+        out.push(particles[i]);
+    }
+    *particles = out;
+    weights.iter_mut().for_each(|w| *w = 1.0 / n as f64);
+}
+
+/// Multiplies `weights` by `exp(logw − max)` and normalises them; uniform weights when the
+/// product has no mass. Shared by the particle filters.
+pub(crate) fn reweight(weights: &mut [f64], logw: &[f64]) {
+    let m = logw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    if !m.is_finite() {
+        return;
+    }
+    let mut s = 0.0;
+    for (w, lw) in weights.iter_mut().zip(logw) {
+        *w *= (lw - m).exp();
+        s += *w;
+    }
+    if s > 0.0 && s.is_finite() {
+        weights.iter_mut().for_each(|w| *w /= s);
+    } else {
+        let n = weights.len() as f64;
+        weights.iter_mut().for_each(|w| *w = 1.0 / n);
+    }
+}
+
+/// The weighted mean of the particles' positions.
+pub(crate) fn weighted_mean(weights: &[f64], particles: impl Iterator<Item = Point>) -> Point {
+    let mut e = [0.0; 2];
+    for (w, p) in weights.iter().zip(particles) {
+        e[0] += w * p[0];
+        e[1] += w * p[1];
+    }
+    e
 }
 
 impl Tracker for ParticleFilter {
@@ -334,27 +374,9 @@ impl Tracker for ParticleFilter {
         }
         self.propagate();
         if self.log_likelihoods(detections) {
-            let m = self.logw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-            if m.is_finite() {
-                let mut s = 0.0;
-                for (w, lw) in self.weights.iter_mut().zip(&self.logw) {
-                    *w *= (lw - m).exp();
-                    s += *w;
-                }
-                if s > 0.0 && s.is_finite() {
-                    self.weights.iter_mut().for_each(|w| *w /= s);
-                } else {
-                    let n = self.weights.len() as f64;
-                    self.weights.iter_mut().for_each(|w| *w = 1.0 / n);
-                }
-            }
+            reweight(&mut self.weights, &self.logw);
         }
-        let mut e = [0.0; 2];
-        for (w, p) in self.weights.iter().zip(&self.particles) {
-            e[0] += w * p[0];
-            e[1] += w * p[1];
-        }
-        self.estimate = e;
+        self.estimate = weighted_mean(&self.weights, self.particles.iter().map(|p| [p[0], p[1]]));
         self.systematic_resample();
         Ok(self.estimate())
     }

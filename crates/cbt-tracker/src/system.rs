@@ -93,6 +93,16 @@ impl AxisSystem1 {
         }
     }
 
+    /// Adds `w · a_t ⊗ a_{t−1}` (a phase channel's share of a transition).
+    pub fn add_weighted(&mut self, now: &[(usize, f64)], prev: &[(usize, f64)], w: f64) {
+        for &(n, vp) in prev {
+            let col = &mut self.counts[n * self.n..(n + 1) * self.n];
+            for &(m, v) in now {
+                col[m] += w * (v * vp);
+            }
+        }
+    }
+
     pub fn normalise_columns(&mut self, cols: &[usize], cfg: &CbtConfig) {
         let alpha = cfg.prior_weight;
         for &n in cols {

@@ -18,6 +18,19 @@ pub fn thread_seconds() -> Option<f64> {
     schedstat_seconds(std::path::Path::new("/proc/thread-self/schedstat"))
 }
 
+/// CPU time of the calling thread in seconds from `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`
+/// (`None` where it fails): exact to the nanosecond at any moment, where `schedstat` can lag
+/// by up to a scheduler tick (too coarse for runs of a fraction of a millisecond).
+pub fn thread_cpu_clock() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
 /// CPU time of all live threads of this process in seconds (Linux; `None` elsewhere). Threads
 /// that have exited are not counted, so measure with long-lived pools (rayon's).
 pub fn process_seconds() -> Option<f64> {

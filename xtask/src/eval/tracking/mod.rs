@@ -154,9 +154,15 @@ pub fn synthetic_sets(test_per_level: usize, frames: usize, levels: &[usize]) ->
             "UNGM (Arulampalam et al. 2002): x_k = x/2 + 25x/(1+x²) + 8cos(1.2k) + v, \
              z = x²/20 + n, v ~ N(0, 10), n ~ N(0, 1), x_0 = 0.1; 20 training runs × 100 \
              steps (seed 3000), {} test runs × 100 steps (seed 3001). The Kalman filter does \
-             not apply (non-linear, sign-ambiguous measurement); the particle filters use the \
-             true model.",
-            2 * test_per_level
+             not apply (non-linear, sign-ambiguous measurement). PF 100/1000/10000 use the \
+             true model, time step k included; CBT learns a time-independent model and cannot \
+             know the 8cos(1.2k) drive. The like-for-like rows: *CBT 1st order + phase* is \
+             given k as a known input (its first-order model conditioned on the phase \
+             1.2k mod 2π in {} periodic channels, learned from the same training runs); \
+             *PF 1000 learned* knows only CBT's learned first-order models (transition and \
+             likelihood, no k), *PF 1000 learned + phase* the phase-conditioned ones.",
+            2 * test_per_level,
+            study::UNGM_PHASE_CHANNELS
         ),
         clutter_rate: None,
         kind: SetKind::Ungm,

@@ -53,8 +53,8 @@ pub const MIN_TEST_FRAMES: usize = 10;
 pub const MAX_TEST_FRAMES: usize = 60;
 /// Tracks of the small-training run.
 pub const FEW_TRACKS: usize = 5;
-/// Seeds of the particle filters.
-pub const SEEDS: u64 = 5;
+/// Seeds of the particle filters (those of the synthetic study).
+pub const SEEDS: u64 = super::study::SEEDS;
 /// Track-loss radius (px): one metre at [`PX_PER_M`], 3.3 × the hard level's detection noise σ.
 pub const LOSS_RADIUS: f64 = 20.0;
 
@@ -276,7 +276,9 @@ pub fn run(scenes: &[Scene]) -> Result<Vec<FoldResult>> {
     Ok(folds)
 }
 
-fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
+/// The set of one fold and level: training tracks of the other scenes, test tracks of the
+/// held-out one.
+fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
     let si = job.scene;
     let held = &scenes[si];
     let test_idx = pick(held, si, TEST_TRACKS, 1, |t| {
@@ -309,7 +311,7 @@ fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
         pool.truncate(FEW_TRACKS);
         train = pool;
     }
-    let spec = SetSpec {
+    SetSpec {
         name: format!("{}-{}", held.name, Difficulty::ALL[job.level].level().name),
         description: String::new(),
         clutter_rate: None,
@@ -323,7 +325,13 @@ fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
         test,
         radius: LOSS_RADIUS,
         seed: 0,
-    };
+    }
+}
+
+fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
+    let si = job.scene;
+    let held = &scenes[si];
+    let spec = fold_spec(scenes, job, area);
     let (trackers, ..) = Trackers::for_set(&spec)?;
     let mut out = Vec::new();
     for (ti, make) in trackers.makers.iter().enumerate() {
@@ -373,6 +381,46 @@ fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
         sequences: spec.test.iter().map(|s| s.name.clone()).collect(),
         trackers: out,
     })
+}
+
+/// Thread CPU time per frame of the named trackers on the study's test sequences (every
+/// scene and level, trained on the other scenes; the particle filters' first seed), one
+/// fold after the other on the calling thread, the trackers interleaved sequence by
+/// sequence: `(tracker, CPU seconds of the steps, frames stepped)`, in the order of `names`.
+pub fn cpu_times(scenes: &[Scene], names: &[&str]) -> Result<Vec<(String, f64, usize)>> {
+    let area = canvas(scenes);
+    let mut out: Vec<(String, f64, usize)> =
+        names.iter().map(|n| (n.to_string(), 0.0, 0)).collect();
+    for scene in 0..scenes.len() {
+        for level in 0..3 {
+            let spec = fold_spec(
+                scenes,
+                &Job {
+                    scene,
+                    level,
+                    few: false,
+                },
+                area,
+            );
+            let (trackers, ..) = Trackers::for_set(&spec)?;
+            let mut picked = Vec::new();
+            for make in &trackers.makers {
+                let name = make(0)?.name();
+                if let Some(k) = names.iter().position(|n| *n == name) {
+                    picked.push((k, make));
+                }
+            }
+            for (i, s) in spec.test.iter().enumerate() {
+                for (k, make) in &picked {
+                    let mut t = make(100 * scene as u64 + i as u64)?;
+                    let r = run_one(t.as_mut(), s, 2, LOSS_RADIUS)?;
+                    out[*k].1 += r.cpu_seconds;
+                    out[*k].2 += r.estimates.len() - 1;
+                }
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Per-tracker figures over a group of folds.

@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use cbt_tracker::metrics::{Score, score};
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ObservationFallback,
-    Order, ParticleFilter, PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis,
+    Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker,
+    LearnedParticleFilter, ObservationFallback, Order, ParticleFilter, PeriodicInput, PfModel,
+    Point, Scales, Sequence, Space, TrackError, Tracker, axis,
 };
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -15,6 +16,18 @@ use crate::Result;
 
 /// Particle counts of the particle-filter baselines.
 pub const PARTICLES: [usize; 3] = [100, 1000, 10_000];
+
+/// Seeds of every random tracker (particle filters): seed `s` of test sequence `i` is
+/// `set seed + i + s·SEED_STRIDE`.
+pub const SEEDS: u64 = 5;
+/// Distance between the seeds of one sequence.
+pub const SEED_STRIDE: u64 = 100_000;
+
+/// UNGM's known input: the drive `8·cos(1.2k)` has the phase `1.2k mod 2π`.
+pub const UNGM_OMEGA: f64 = 1.2;
+/// Phase channels of the UNGM input (chosen on development runs, seed 3002, not the test
+/// runs: docs/methods.md § Tracking).
+pub const UNGM_PHASE_CHANNELS: usize = 12;
 
 /// What kind of data a set holds.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -60,17 +73,48 @@ pub struct SetSpec {
 pub struct Run {
     /// Tracker label.
     pub tracker: String,
-    /// RMSE, track-loss share, scored frames.
+    /// RMSE, track-loss share (random trackers: means over the [`SEEDS`] seeds), scored frames.
     #[serde(flatten)]
     pub score: Score,
+    /// Random trackers: the RMSE of each seed (empty for deterministic trackers).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seed_rmse: Vec<f64>,
     /// Frames whose detections the tracker rejected (off its grid) and treated as empty.
     pub rejected_frames: usize,
-    /// The estimates (frame 0 = the given start); not serialised.
+    /// The estimates (frame 0 = the given start; random trackers: the first seed's); not
+    /// serialised.
     #[serde(skip)]
     pub estimates: Vec<Point>,
-    /// Wall time of the steps in seconds; not serialised (fixtures hold no timings).
+    /// Wall time of the steps in seconds (random trackers: mean over seeds); not serialised
+    /// (fixtures hold no timings).
     #[serde(skip)]
     pub seconds: f64,
+    /// Thread CPU time of the steps in seconds (`clock_gettime`'s thread clock; as `seconds`;
+    /// 0 where the OS does not say).
+    #[serde(skip)]
+    pub cpu_seconds: f64,
+}
+
+impl Run {
+    /// The runs of seeds `0, 1, …` as one entry: means over seeds, the first seed's
+    /// estimates.
+    pub fn over_seeds(mut first: Run, rest: Vec<Run>) -> Run {
+        let n = (1 + rest.len()) as f64;
+        if rest.is_empty() {
+            return first;
+        }
+        first.seed_rmse = std::iter::once(first.score.rmse)
+            .chain(rest.iter().map(|r| r.score.rmse))
+            .collect();
+        first.score.rmse = first.seed_rmse.iter().sum::<f64>() / n;
+        first.score.loss_share =
+            (first.score.loss_share + rest.iter().map(|r| r.score.loss_share).sum::<f64>()) / n;
+        first.seconds = (first.seconds + rest.iter().map(|r| r.seconds).sum::<f64>()) / n;
+        first.cpu_seconds =
+            (first.cpu_seconds + rest.iter().map(|r| r.cpu_seconds).sum::<f64>()) / n;
+        first.rejected_frames += rest.iter().map(|r| r.rejected_frames).sum::<usize>();
+        first
+    }
 }
 
 /// All trackers on one sequence.
@@ -227,7 +271,26 @@ impl Trackers {
                     ..CbtConfig::default()
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
+                // The like-for-like pair: CBT given UNGM's known input (the phase of 1.2k),
+                // and particle filters that know only CBT's learned first-order models.
+                let phased = CbtModel::learn_sequences(
+                    space.clone(),
+                    CbtConfig {
+                        order: Order::First,
+                        input: Some(PeriodicInput {
+                            omega: UNGM_OMEGA,
+                            channels: UNGM_PHASE_CHANNELS,
+                        }),
+                        ..cfg
+                    },
+                    &spec.train,
+                )?;
+                let learned = first.clone();
                 let mut makers = cbt_makers(second, first);
+                let p = phased.clone();
+                makers.push(Box::new(move |_| {
+                    Ok(Box::new(CbtTracker::new(p.clone())) as Box<dyn Tracker>)
+                }));
                 let mut seeded = vec![false; makers.len()];
                 for n in PARTICLES {
                     let model = PfModel::Ungm {
@@ -237,6 +300,13 @@ impl Trackers {
                     };
                     makers.push(Box::new(move |seed| {
                         Ok(Box::new(ParticleFilter::new(model, n, seed)?) as Box<dyn Tracker>)
+                    }));
+                    seeded.push(true);
+                }
+                for m in [learned, phased] {
+                    makers.push(Box::new(move |seed| {
+                        Ok(Box::new(LearnedParticleFilter::new(m.clone(), 1000, seed)?)
+                            as Box<dyn Tracker>)
                     }));
                     seeded.push(true);
                 }
@@ -264,6 +334,7 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
     let mut est = vec![start];
     let mut rejected = 0;
     let t0 = Instant::now();
+    let c0 = crate::bench::thread_cpu_clock().unwrap_or(0.0);
     for f in &frames[1..] {
         let e = match t.step(&f.detections) {
             Ok(e) => e,
@@ -276,13 +347,16 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
         est.push(e.position);
     }
     let seconds = t0.elapsed().as_secs_f64();
+    let cpu_seconds = crate::bench::thread_cpu_clock().map_or(0.0, |c| c - c0);
     let truths: Vec<Option<Point>> = frames.iter().map(|f| f.truth).collect();
     Ok(Run {
         tracker: t.name(),
         score: score(&est, &truths, dims, radius),
+        seed_rmse: Vec::new(),
         rejected_frames: rejected,
         estimates: est,
         seconds,
+        cpu_seconds,
     })
 }
 
@@ -300,9 +374,19 @@ pub fn run_set(spec: &SetSpec, pb: &ProgressBar) -> Result<SetResult> {
             return Err(format!("test sequence {} has no frames", s.name).into());
         }
         let mut runs = Vec::new();
-        for make in &trackers.makers {
-            let mut t = make(spec.seed.wrapping_add(i as u64))?;
-            runs.push(run_one(t.as_mut(), s, dims, spec.radius)?);
+        for (ti, make) in trackers.makers.iter().enumerate() {
+            let seeds = if trackers.seeded[ti] { SEEDS } else { 1 };
+            let mut per_seed = Vec::new();
+            for k in 0..seeds {
+                let seed = spec
+                    .seed
+                    .wrapping_add(i as u64)
+                    .wrapping_add(k * SEED_STRIDE);
+                let mut t = make(seed)?;
+                per_seed.push(run_one(t.as_mut(), s, dims, spec.radius)?);
+            }
+            let first = per_seed.remove(0);
+            runs.push(Run::over_seeds(first, per_seed));
         }
         if names.is_empty() {
             names = runs.iter().map(|r| r.tracker.clone()).collect();
@@ -335,8 +419,11 @@ pub fn run_set(spec: &SetSpec, pb: &ProgressBar) -> Result<SetResult> {
 pub struct Aggregate {
     /// Tracker label.
     pub tracker: String,
-    /// Mean over sequences of the per-sequence RMSE.
+    /// Mean over sequences of the per-sequence RMSE (random trackers: its mean over seeds).
     pub mean_rmse: f64,
+    /// Random trackers: the standard deviation over seeds of the mean over sequences
+    /// (0 for deterministic trackers).
+    pub spread: f64,
     /// Median over sequences of the per-sequence RMSE.
     pub median_rmse: f64,
     /// Mean track-loss share.
@@ -359,6 +446,7 @@ pub fn aggregate(sets: &[&SetResult]) -> Vec<Aggregate> {
         .enumerate()
         .map(|(ti, name)| {
             let mut rmse = Vec::new();
+            let mut per_seed: Vec<f64> = Vec::new();
             let (mut loss, mut best) = (0.0, 0);
             for set in sets {
                 for s in &set.sequences {
@@ -366,6 +454,10 @@ pub fn aggregate(sets: &[&SetResult]) -> Vec<Aggregate> {
                         continue;
                     };
                     rmse.push(r.score.rmse);
+                    per_seed.resize(per_seed.len().max(r.seed_rmse.len()), 0.0);
+                    for (a, v) in per_seed.iter_mut().zip(&r.seed_rmse) {
+                        *a += v;
+                    }
                     loss += r.score.loss_share;
                     let min = s
                         .runs
@@ -385,9 +477,18 @@ pub fn aggregate(sets: &[&SetResult]) -> Vec<Aggregate> {
                 crate::stats::median(&mut rmse)
             };
             let _ = ti;
+            let seeds = per_seed.len();
+            let spread = if seeds > 1 {
+                let m: Vec<f64> = per_seed.iter().map(|v| v / n.max(1) as f64).collect();
+                let mu = m.iter().sum::<f64>() / seeds as f64;
+                (m.iter().map(|v| (v - mu).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt()
+            } else {
+                0.0
+            };
             Aggregate {
                 tracker: name.clone(),
                 mean_rmse: mean,
+                spread,
                 median_rmse: median,
                 mean_loss_share: loss / n.max(1) as f64,
                 best_in: best,

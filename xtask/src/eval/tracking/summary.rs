@@ -3,7 +3,7 @@
 use crate::markdown::Table;
 use std::fmt::Write;
 
-use super::study::{SetResult, aggregate, head_to_head};
+use super::study::{SEEDS, SetResult, aggregate, head_to_head};
 
 /// The tracker the paper's claim is about, and its reference.
 pub const CBT: &str = "CBT 2nd order";
@@ -24,6 +24,13 @@ pub fn render(sets: &[SetResult], protocol: &str) -> String {
          Euclidean position error over the later frames with truth; *lost* is the share of \
          those frames whose error exceeds the set's track-loss radius; *best in* counts the \
          sequences where the tracker has the lowest RMSE (ties count for each).\n"
+    );
+    let _ = writeln!(
+        s,
+        "Random trackers (the particle filters) run with {SEEDS} seeds per sequence: their \
+         per-sequence RMSE and loss are means over seeds (the *best in* count uses them), \
+         *spread* is the standard deviation over seeds of the set's mean RMSE. CBT and Kalman \
+         are deterministic (—).\n"
     );
     let _ = writeln!(
         s,
@@ -82,11 +89,24 @@ pub fn render(sets: &[SetResult], protocol: &str) -> String {
 }
 
 fn table(s: &mut String, sets: &[&SetResult]) {
-    let mut t = Table::new(["tracker", "mean RMSE", "median RMSE", "lost", "best in"]).right(1..5);
+    let mut t = Table::new([
+        "tracker",
+        "mean RMSE",
+        "spread over seeds",
+        "median RMSE",
+        "lost",
+        "best in",
+    ])
+    .right(1..6);
     for a in aggregate(sets) {
         t.row([
             a.tracker,
             format!("{:.2}", a.mean_rmse),
+            if a.spread > 0.0 {
+                format!("± {:.2}", a.spread)
+            } else {
+                "—".into()
+            },
             format!("{:.2}", a.median_rmse),
             format!("{:.1} %", 100.0 * a.mean_loss_share),
             format!("{} / {}", a.best_in, a.sequences),
