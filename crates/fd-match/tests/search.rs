@@ -221,3 +221,129 @@ fn incompatible_sets_are_rejected() {
         Err(FdError::IndexOutOfRange { .. })
     ));
 }
+
+/// A unit-norm FD with `|C(n)| ~ (0.2 + u)·|n|^-decay` and random phases, as a descriptor of
+/// `cfg` (its AFDs are a fixed unit vector: the FD Corr search reads only the FD).
+fn random_descriptor(rng: &mut StdRng, cfg: DescriptorConfig, decay: f64) -> Descriptor {
+    let k = cfg.max_frequency();
+    let mut fd: Vec<Complex64> = (0..2 * k)
+        .map(|i| {
+            let n = fd_frequency(i, k).unsigned_abs() as f64;
+            Complex64::from_polar(
+                (0.2 + rng.random_range(0.0..1.0)) * n.powf(-decay),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            )
+        })
+        .collect();
+    normalise(&mut fd);
+    let mut afd0 = vec![0.0; 2 * k - 1];
+    afd0[0] = 1.0;
+    let afd1 = afd0.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+    Descriptor { fd, afd0, afd1 }
+}
+
+fn normalise(fd: &mut [Complex64]) {
+    let e = fd.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
+    fd.iter_mut().for_each(|c| *c /= e);
+}
+
+/// `d` rotated by `phi` and start-shifted by `theta` (eq. 3–4): the same shape, error ≈ 0.
+fn modulated(d: &Descriptor, k: usize, phi: f64, theta: f64) -> Descriptor {
+    let mut d = d.clone();
+    for (i, c) in d.fd.iter_mut().enumerate() {
+        *c *= Complex64::from_polar(1.0, phi - fd_frequency(i, k) as f64 * theta);
+    }
+    normalise(&mut d.fd);
+    d
+}
+
+/// `d` with the phases of every frequency with `|n| > band` redrawn: the same magnitudes (the
+/// magnitude bound is 0), a different shape in the high frequencies only.
+fn rephased(rng: &mut StdRng, d: &Descriptor, k: usize, band: usize) -> Descriptor {
+    let mut d = d.clone();
+    for (i, c) in d.fd.iter_mut().enumerate() {
+        if fd_frequency(i, k).unsigned_abs() > band {
+            *c = Complex64::from_polar(c.norm(), rng.random_range(0.0..std::f64::consts::TAU));
+        }
+    }
+    d
+}
+
+/// Two small sets of random descriptors built to stress the pruned search: spectra from flat to
+/// steep, modulated copies (near-zero errors), exact duplicates within a set and across sets
+/// (exact ties), and copies that share all magnitudes but differ in the phases of the high or
+/// of all frequencies (magnitude bound 0 while the error is not).
+fn stress_sets(seed: u64, na: usize, nb: usize) -> (DescriptorSet, DescriptorSet) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let cfg = DescriptorConfig::with_sampling(Sampling::ArcLength);
+    let k = cfg.max_frequency();
+    let decay = [0.0, 0.5, 1.0, 1.5, 2.5][(seed % 5) as usize];
+    let mut a = DescriptorSet::new(cfg).unwrap();
+    let mut b = DescriptorSet::new(cfg).unwrap();
+    let base: Vec<Descriptor> = (0..na)
+        .map(|_| random_descriptor(&mut rng, cfg, decay))
+        .collect();
+    for (i, d) in base.iter().enumerate() {
+        a.push(d, i).unwrap();
+        if rng.random_range(0..4) == 0 {
+            a.push(d, i).unwrap(); // a duplicate within A
+        }
+    }
+    for j in 0..nb {
+        let d = &base[rng.random_range(0..na)];
+        let phi = rng.random_range(-3.0..3.0);
+        let theta = rng.random_range(0.0..std::f64::consts::TAU);
+        let e = match rng.random_range(0..6) {
+            0 => random_descriptor(&mut rng, cfg, decay),
+            1 => d.clone(),
+            2 => modulated(d, k, phi, theta),
+            3 => {
+                let band = rng.random_range(0..8);
+                rephased(&mut rng, d, k, band)
+            }
+            4 => rephased(&mut rng, d, k, 0),
+            _ => modulated(&rephased(&mut rng, d, k, 7), k, phi, theta),
+        };
+        b.push(&e, j).unwrap();
+        if rng.random_range(0..5) == 0 {
+            b.push(&e, j).unwrap(); // a duplicate within B
+        }
+    }
+    (a, b)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig {
+        cases: 64,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(2026),
+        ..proptest::prelude::ProptestConfig::default()
+    })]
+
+    /// The pruned search (magnitude bound, band screens, early exits) equals brute force on
+    /// small sets full of ties, near-ties and equal magnitudes, in both directions and within a
+    /// set; so does `min_errors_within`.
+    #[test]
+    fn pruned_search_equals_brute_force_on_stress_sets(
+        seed in 0u64..1_000_000,
+        na in 1usize..10,
+        nb in 1usize..14,
+    ) {
+        let (a, b) = stress_sets(seed, na, nb);
+        for (q, t) in [(&a, &b), (&b, &a), (&a, &a), (&b, &b)] {
+            let fast = best_two(q, t, Method::FdCorr).unwrap();
+            let brute = best_two_brute_force(q, t, Method::FdCorr).unwrap();
+            proptest::prop_assert_eq!(fast, brute);
+        }
+        for s in [&a, &b] {
+            let fast = min_errors_within(s, Method::FdCorr).unwrap();
+            let mut cor = Correlator::new(s.config().max_frequency(), s.config().samples).unwrap();
+            for (i, e) in fast.iter().enumerate() {
+                let direct = (0..s.len())
+                    .filter(|&j| j != i)
+                    .map(|j| cor.correlate(s.fd(i), s.fd(j)).unwrap().error)
+                    .fold(f64::INFINITY, f64::min);
+                proptest::prop_assert_eq!(*e, direct, "descriptor {}", i);
+            }
+        }
+    }
+}

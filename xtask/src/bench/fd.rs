@@ -20,13 +20,10 @@
 //! `ximgproc::ContourFitting` (a different estimator, so no equality and no ratio) is timed per
 //! pair on a sample and printed for information.
 
-use std::f64::consts::PI;
-
 use fd_match::{
     BestTwo, DescriptorConfig, DescriptorSet, Method, Sampling, best_two_brute_force,
     best_two_with_stats, describe_all,
 };
-use rand::{RngExt, SeedableRng, rngs::StdRng, seq::SliceRandom};
 
 use super::BenchArgs;
 use super::cpu::{Clock, interleaved, load_average};
@@ -38,39 +35,11 @@ use crate::report::BenchRow;
 mod shapes;
 
 pub use shapes::Contour;
-use shapes::shape;
 
 const N: usize = 1000;
 
 fn data() -> (Vec<Contour>, Vec<Contour>) {
-    let mut rng = StdRng::seed_from_u64(20091201);
-    let a: Vec<Contour> = (0..N).map(|_| shape(&mut rng)).collect();
-    let mut b: Vec<Contour> = Vec::with_capacity(N);
-    for c in a.iter().take(700) {
-        let (phi, s) = (rng.random_range(-PI..PI), rng.random_range(0.5..2.0));
-        let (tx, ty) = (rng.random_range(0.0..800.0), rng.random_range(0.0..600.0));
-        let shift = rng.random_range(0..c.len());
-        let mut t: Contour = (0..c.len())
-            .map(|i| {
-                let (x, y) = c[(i + shift) % c.len()];
-                let (sx, sy) = (
-                    s * (x * phi.cos() - y * phi.sin()),
-                    s * (x * phi.sin() + y * phi.cos()),
-                );
-                (
-                    sx + tx + rng.random_range(-0.3..0.3),
-                    sy + ty + rng.random_range(-0.3..0.3),
-                )
-            })
-            .collect();
-        t.dedup();
-        b.push(t);
-    }
-    for _ in 0..300 {
-        b.push(shape(&mut rng));
-    }
-    b.shuffle(&mut rng);
-    (a, b)
+    shapes::bench_images(N)
 }
 
 /// The outer contours of every MSER region of an Oxford image (module docs).

@@ -6,7 +6,7 @@
 use std::f64::consts::PI;
 
 use fd_match::Complex64;
-use rand::{RngExt, SeedableRng, rngs::StdRng};
+use rand::{RngExt, SeedableRng, rngs::StdRng, seq::SliceRandom};
 
 /// A closed contour as `(x, y)` points.
 pub type Contour = Vec<(f64, f64)>;
@@ -45,4 +45,39 @@ pub fn shape(rng: &mut StdRng) -> Contour {
 pub fn contours(n: usize, seed: u64) -> Vec<Contour> {
     let mut rng = StdRng::seed_from_u64(seed);
     (0..n).map(|_| shape(&mut rng)).collect()
+}
+
+/// The synthetic images of `cargo xtask bench fd` and of the instruction-count example: image A
+/// holds `n` random curves; image B holds similarity-transformed, start-shifted, jittered copies
+/// of the first `7n/10` of them and `n − 7n/10` unrelated curves, shuffled (fixed seed).
+pub fn bench_images(n: usize) -> (Vec<Contour>, Vec<Contour>) {
+    let mut rng = StdRng::seed_from_u64(20091201);
+    let a: Vec<Contour> = (0..n).map(|_| shape(&mut rng)).collect();
+    let copies = 7 * n / 10;
+    let mut b: Vec<Contour> = Vec::with_capacity(n);
+    for c in a.iter().take(copies) {
+        let (phi, s) = (rng.random_range(-PI..PI), rng.random_range(0.5..2.0));
+        let (tx, ty) = (rng.random_range(0.0..800.0), rng.random_range(0.0..600.0));
+        let shift = rng.random_range(0..c.len());
+        let mut t: Contour = (0..c.len())
+            .map(|i| {
+                let (x, y) = c[(i + shift) % c.len()];
+                let (sx, sy) = (
+                    s * (x * phi.cos() - y * phi.sin()),
+                    s * (x * phi.sin() + y * phi.cos()),
+                );
+                (
+                    sx + tx + rng.random_range(-0.3..0.3),
+                    sy + ty + rng.random_range(-0.3..0.3),
+                )
+            })
+            .collect();
+        t.dedup();
+        b.push(t);
+    }
+    for _ in copies..n {
+        b.push(shape(&mut rng));
+    }
+    b.shuffle(&mut rng);
+    (a, b)
 }
