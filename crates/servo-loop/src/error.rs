@@ -42,6 +42,17 @@ pub enum ServoError {
         /// Captures tried.
         captures: usize,
     },
+    /// A percept disagrees with the last accepted one and the move commanded in between
+    /// ([`crate::TemporalCheck`]): refused, the loop does not move on it.
+    #[error(
+        "percept refused: temporal residual {residual:.2} exceeds {threshold:.2} (the move commanded since the last accepted percept does not explain it)"
+    )]
+    PerceptInconsistent {
+        /// The residual `‖Δy − (f̂(x) − f̂(x₀))‖`.
+        residual: f64,
+        /// The learned threshold at this move's distance.
+        threshold: f64,
+    },
     /// A command left the servo range; nothing was sent.
     #[error("command for joint {joint} is {value:.1}, outside the servo range [{min}, {max}]")]
     OutOfServoRange {

@@ -59,6 +59,11 @@
 //! camera is doubted (unless it lies on the other view's epipolar line). A [`VisualPlant`]
 //! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
 //! counted): learning skips it and the servo loop stops rather than move on it.
+//! A tip found at the wrong place *along* the epipolar line passes that check; the arm's own
+//! move does not ([`TemporalCheck`], [`TemporalPlant`]): with `(x₀, y₀)` the last accepted
+//! percept and its command, a new percept `x` after command `y` is refused
+//! ([`ServoError::PerceptInconsistent`]) when `‖(y − y₀) − (f̂(x) − f̂(x₀))‖` (to first order
+//! `Δy − J Δx`) exceeds a threshold learned from the training moves' own residuals.
 //! [`check_image_target`] checks a user's pixel target the same way (one 3-D point, inside
 //! the learned model) before any move.
 //!
@@ -95,6 +100,7 @@ pub mod recognition;
 mod robot;
 mod servo;
 mod target;
+mod temporal;
 mod visual;
 
 pub use approach::{Approach, ApproachDirection, ApproachState};
@@ -116,6 +122,7 @@ pub use servo::{
     servo_lwpr,
 };
 pub use target::check_image_target;
+pub use temporal::{TemporalCheck, TemporalConfig, TemporalPlant, Verdict};
 pub use visual::{
     ControlSpace, PerceptPolicy, VisualPlant, capture_training_views, learn_recognition,
     observe_averaged, observe_averaged_by, observe_checked,

@@ -25,7 +25,7 @@ use crate::error::{Result, ServoError};
 use crate::recognition::change::{changed_mask, changed_region};
 use crate::recognition::features::{FeatureMap, FeatureParams};
 use crate::recognition::image::{FloatImage, half_resolution};
-use crate::recognition::{Localisation, TrainingView};
+use crate::recognition::{Localisation, TrainingView, training_image_sizes};
 
 /// Settings of recognition.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -137,14 +137,15 @@ impl GripperModel {
         views: &[TrainingView],
     ) -> Result<(GripperModel, RecognitionReport)> {
         config.validate()?;
-        let first = views
-            .first()
-            .ok_or_else(|| ServoError::NotEnoughData("no training views".into()))?;
-        let cams = first.before.len();
-        if cams == 0 {
-            return Err(ServoError::NotEnoughData("views without images".into()));
+        let sizes = training_image_sizes(views)?;
+        let cams = sizes.len();
+        let size = sizes[0];
+        if sizes.iter().any(|s| *s != size) {
+            return Err(ServoError::InvalidParameter {
+                name: "views",
+                reason: "all cameras' images must have the same size".into(),
+            });
         }
-        let size = [first.before[0].width(), first.before[0].height()];
         let fp = config.feature_params();
         let mut samples: Vec<Vec<Vec<f32>>> = vec![Vec::new(); cams];
         let mut background: Vec<Vec<f32>> = vec![Vec::new(); cams];
@@ -155,21 +156,6 @@ impl GripperModel {
             change_points: vec![Vec::new(); cams],
         };
         for view in views {
-            for imgs in [&view.before, &view.after] {
-                if imgs.len() != cams {
-                    return Err(ServoError::DimensionMismatch {
-                        what: "images per view",
-                        expected: cams,
-                        got: imgs.len(),
-                    });
-                }
-                if imgs.iter().any(|i| [i.width(), i.height()] != size) {
-                    return Err(ServoError::InvalidParameter {
-                        name: "views",
-                        reason: "all images must have the same size".into(),
-                    });
-                }
-            }
             for cam in 0..cams {
                 let (a, b) = (
                     half_resolution(&view.before[cam]),

@@ -9,7 +9,8 @@
 //! B-spline (chan-repr [`Kernel::BSpline2`], channel spacing = `block` pixels), `φ = 2·atan2(g_y,
 //! g_x)` is the double-angle gradient orientation (a line and its reversed-contrast twin give
 //! the same channel, so the map survives lighting and background changes), coded with cyclic
-//! cos² channels (`m = 3`, chan-repr [`Kernel::Cos2`]), and `w = |g| / (|g| + g₀)` a saturated
+//! cos² channels (`m = 3`, chan-repr [`PeriodicBasis`] with [`Kernel::Cos2`], channel `o`
+//! centred at `φ = 2π·o/orientations`), and `w = |g| / (|g| + g₀)` a saturated
 //! gradient magnitude (strong clutter edges cannot dominate; global gain changes cancel in the
 //! normalised comparison of [`crate::recognition::ccfm`]). Finally every orientation channel
 //! is divided by its mean over the image (plus 10 % of the overall mean): orientations present
@@ -19,7 +20,9 @@
 //! `(k + 0.5)·block − 0.5`, i.e. `t = (x_full + 0.5) / (2·block) − 0.5` for a full-resolution
 //! coordinate `x_full`.
 
-use chan_repr::{ChannelBasis, Kernel};
+use chan_repr::{ChannelBasis, Kernel, PeriodicBasis};
+
+use std::f64::consts::TAU;
 
 use crate::error::Result;
 use crate::recognition::image::FloatImage;
@@ -35,6 +38,28 @@ pub struct FeatureParams {
     pub magnitude_half: f32,
     /// Number of grey-level channels (cos², over 0–255; 0 = none), each pixel weighted 1.
     pub intensities: usize,
+}
+
+/// The cyclic cos² orientation channels (chan-repr [`PeriodicBasis`] over `[0, 2π)`) of the
+/// double-angle orientation `φ = 2·atan2(g_y, g_x)` of gradient `(g_x, g_y)`, each value times
+/// `weight`: at most 3 active `(channel, value)` pairs and their count.
+#[inline]
+fn orientation_channels(
+    basis: &PeriodicBasis,
+    gx: f32,
+    gy: f32,
+    weight: f32,
+) -> ([(usize, f32); 3], usize) {
+    let phi = f64::from(gy * gx * 2.0).atan2(f64::from(gx * gx - gy * gy));
+    let mut oc = [(0usize, 0.0f32); 3];
+    let mut n = 0;
+    basis.for_each_active(basis.to_index(phi), |k, val| {
+        if n < 3 {
+            oc[n] = (k, val as f32 * weight);
+            n += 1;
+        }
+    });
+    (oc, n)
 }
 
 /// A dense channel-coded feature map: `blocks_y × blocks_x × channels` values (the
@@ -73,7 +98,7 @@ impl FeatureMap {
         let by = h.div_ceil(b).max(1);
         let sx = ChannelBasis::integer(bx.max(3), Kernel::BSpline2)?;
         let sy = ChannelBasis::integer(by.max(3), Kernel::BSpline2)?;
-        let orient = ChannelBasis::integer(no0 + 3, Kernel::Cos2 { m: 3 })?;
+        let orient = PeriodicBasis::new(TAU, no0, Kernel::Cos2 { m: 3 })?;
         let tcoord = |x: usize| (x as f64 + 0.5) / b as f64 - 0.5;
         let weights = |basis: &ChannelBasis, t: f64, n: usize| {
             let mut v = [(0usize, 0.0f32); 3];
@@ -89,7 +114,6 @@ impl FeatureMap {
         let col_w: Vec<_> = (0..w).map(|x| weights(&sx, tcoord(x), bx)).collect();
         let mut data = vec![0.0f32; bx * by * no];
         let mut row = vec![0.0f32; bx * no];
-        let tau = std::f64::consts::TAU;
         for y in 1..h.saturating_sub(1) {
             row.iter_mut().for_each(|v| *v = 0.0);
             let mut any = false;
@@ -113,17 +137,7 @@ impl FeatureMap {
                 }
                 let m = m2.sqrt();
                 let wgt = m / (m + p.magnitude_half);
-                let phi = f64::from(gy * gx * 2.0).atan2(f64::from(gx * gx - gy * gy));
-                let phi = if phi < 0.0 { phi + tau } else { phi };
-                let t = phi / tau * no0 as f64 + 1.0;
-                let mut oc = [(0usize, 0.0f32); 3];
-                let mut n_oc = 0;
-                orient.for_each_active(t, |k, val| {
-                    if n_oc < 3 {
-                        oc[n_oc] = ((k + no0 - 1) % no0, val as f32 * wgt);
-                        n_oc += 1;
-                    }
-                });
+                let (oc, n_oc) = orientation_channels(&orient, gx, gy, wgt);
                 for &(kx, vx) in &xw[..*nxw] {
                     let base = kx * no;
                     for &(o, vo) in &oc[..n_oc] {
@@ -219,6 +233,53 @@ impl FeatureMap {
                     }
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hand-written cyclic channels this module used before chan-repr had periodic bases:
+    /// an integer cos² basis of `no0 + 3` channels at `t = φ/2π·no0 + 1`, channel `k` folded
+    /// to `(k + no0 − 1) mod no0`.
+    fn folded_integer_channels(no0: usize, gx: f32, gy: f32, weight: f32) -> Vec<f32> {
+        let basis = ChannelBasis::integer(no0 + 3, Kernel::Cos2 { m: 3 }).unwrap();
+        let phi = f64::from(gy * gx * 2.0).atan2(f64::from(gx * gx - gy * gy));
+        let phi = if phi < 0.0 { phi + TAU } else { phi };
+        let mut out = vec![0.0f32; no0];
+        basis.for_each_active(phi / TAU * no0 as f64 + 1.0, |k, v| {
+            out[(k + no0 - 1) % no0] += v as f32 * weight
+        });
+        out
+    }
+
+    #[test]
+    fn periodic_orientation_channels_equal_the_folded_integer_basis() {
+        for no0 in [3usize, 4, 8, 12] {
+            let basis = PeriodicBasis::new(TAU, no0, Kernel::Cos2 { m: 3 }).unwrap();
+            let mut worst = 0.0f32;
+            for i in 0..20_000 {
+                // Gradient directions all around the circle, the axes and diagonals exactly.
+                let a = TAU * f64::from(i) / 20_000.0;
+                let (gx, gy) = ((3.0 * a.cos()) as f32, (3.0 * a.sin()) as f32);
+                let w = 0.25 + (i % 7) as f32 / 10.0;
+                let (oc, n) = orientation_channels(&basis, gx, gy, w);
+                assert!((1..=3).contains(&n));
+                let mut dense = vec![0.0f32; no0];
+                for &(o, v) in &oc[..n] {
+                    assert!(o < no0);
+                    dense[o] += v;
+                }
+                let want = folded_integer_channels(no0, gx, gy, w);
+                for (d, e) in dense.iter().zip(&want) {
+                    worst = worst.max((d - e).abs());
+                }
+                // cos² with m = 3: the active channels sum to 1.5 (times the weight).
+                assert!((dense.iter().sum::<f32>() - 1.5 * w).abs() < 1e-5);
+            }
+            assert!(worst < 1e-6, "no0 = {no0}: largest difference {worst}");
         }
     }
 }

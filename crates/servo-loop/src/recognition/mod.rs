@@ -68,6 +68,49 @@ pub struct TrainingView {
     pub after: Vec<GrayImage>,
 }
 
+/// Checks a set of training views before a model learns from it (shared by
+/// [`GripperModel::learn`] and [`TipModel::learn`]): at least one view, at least one camera
+/// image in the first view, every view with that many images in both states, and each
+/// camera's images all of one size. Returns each camera's image size `[width, height]`.
+pub(crate) fn training_image_sizes(views: &[TrainingView]) -> crate::Result<Vec<[u32; 2]>> {
+    let first = views
+        .first()
+        .ok_or_else(|| crate::ServoError::NotEnoughData("no training views".into()))?;
+    let cams = first.before.len();
+    if cams == 0 {
+        return Err(crate::ServoError::NotEnoughData(
+            "training views without camera images".into(),
+        ));
+    }
+    let sizes: Vec<[u32; 2]> = first
+        .before
+        .iter()
+        .map(|i| [i.width(), i.height()])
+        .collect();
+    for view in views {
+        for images in [&view.before, &view.after] {
+            if images.len() != cams {
+                return Err(crate::ServoError::DimensionMismatch {
+                    what: "camera images per training view",
+                    expected: cams,
+                    got: images.len(),
+                });
+            }
+            if images
+                .iter()
+                .zip(&sizes)
+                .any(|(i, s)| [i.width(), i.height()] != *s)
+            {
+                return Err(crate::ServoError::InvalidParameter {
+                    name: "views",
+                    reason: "a camera's training images differ in size".into(),
+                });
+            }
+        }
+    }
+    Ok(sizes)
+}
+
 /// The percept seam: anything that finds the gripper point in one image per camera, each with
 /// a certainty in `[0, 1]`. [`crate::VisualPlant`] and the learning and servo loops see a
 /// recogniser only through this trait, so a user's own detector plugs in without touching
@@ -102,5 +145,60 @@ impl Recogniser for TipModel {
     }
     fn locate_all(&self, images: &[::image::GrayImage]) -> crate::Result<Vec<Localisation>> {
         TipModel::locate_all(self, images)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ServoError;
+
+    fn view(sizes: &[(u32, u32)], after: &[(u32, u32)]) -> TrainingView {
+        let imgs = |s: &[(u32, u32)]| s.iter().map(|&(w, h)| GrayImage::new(w, h)).collect();
+        TrainingView {
+            before: imgs(sizes),
+            after: imgs(after),
+        }
+    }
+
+    /// Both learners open with the same checks, so the same bad views give the same error.
+    fn both_refuse(views: &[TrainingView]) -> ServoError {
+        let a = training_image_sizes(views).unwrap_err();
+        let g = GripperModel::learn(&RecognitionConfig::default(), views).unwrap_err();
+        let t = TipModel::learn(&SilhouetteConfig::default(), views).unwrap_err();
+        assert_eq!(a.to_string(), g.to_string());
+        assert_eq!(a.to_string(), t.to_string());
+        a
+    }
+
+    #[test]
+    fn training_views_are_checked_in_one_place() {
+        let two = [(32, 24), (40, 30)];
+        assert_eq!(
+            training_image_sizes(&[view(&two, &two), view(&two, &two)]).unwrap(),
+            vec![[32, 24], [40, 30]]
+        );
+        assert!(matches!(both_refuse(&[]), ServoError::NotEnoughData(_)));
+        assert!(matches!(
+            both_refuse(&[view(&[], &[])]),
+            ServoError::NotEnoughData(_)
+        ));
+        assert!(matches!(
+            both_refuse(&[view(&two, &two), view(&two, &two[..1])]),
+            ServoError::DimensionMismatch {
+                expected: 2,
+                got: 1,
+                ..
+            }
+        ));
+        assert!(matches!(
+            both_refuse(&[view(&two, &two), view(&two, &[(32, 24), (40, 31)])]),
+            ServoError::InvalidParameter { name: "views", .. }
+        ));
+        // The feature-map model also needs one size for all cameras.
+        assert!(matches!(
+            GripperModel::learn(&RecognitionConfig::default(), &[view(&two, &two)]),
+            Err(ServoError::InvalidParameter { name: "views", .. })
+        ));
     }
 }

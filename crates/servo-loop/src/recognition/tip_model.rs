@@ -18,7 +18,7 @@ use crate::recognition::silhouette::{
 };
 use crate::recognition::tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
 use crate::recognition::tip_rule::{EndEstimate, TipRule, far_end};
-use crate::recognition::{Localisation, TrainingView};
+use crate::recognition::{Localisation, TrainingView, training_image_sizes};
 
 /// Settings of the silhouette recogniser.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -122,23 +122,15 @@ impl TipModel {
         views: &[TrainingView],
     ) -> Result<(TipModel, SilhouetteReport)> {
         config.validate()?;
-        let first = views
-            .first()
-            .ok_or_else(|| ServoError::NotEnoughData("no training views".into()))?;
-        let cams = first.before.len();
-        if cams == 0 {
-            return Err(ServoError::NotEnoughData("no camera images".into()));
-        }
+        let sizes = training_image_sizes(views)?;
+        let cams = sizes.len();
         let mut report = SilhouetteReport {
             frames: 2 * views.len(),
             ..SilhouetteReport::default()
         };
         let mut cameras = Vec::with_capacity(cams);
         for cam in 0..cams {
-            let (w, h) = (
-                first.before[cam].width() as usize,
-                first.before[cam].height() as usize,
-            );
+            let (w, h) = (sizes[cam][0] as usize, sizes[cam][1] as usize);
             if w < 8 || h < 8 {
                 return Err(ServoError::InvalidParameter {
                     name: "image",
@@ -148,18 +140,7 @@ impl TipModel {
             let mut frames = Vec::with_capacity(2 * views.len());
             for v in views {
                 for set in [&v.before, &v.after] {
-                    let img = set.get(cam).ok_or(ServoError::DimensionMismatch {
-                        what: "camera images",
-                        expected: cams,
-                        got: set.len(),
-                    })?;
-                    if img.width() as usize != w || img.height() as usize != h {
-                        return Err(ServoError::InvalidParameter {
-                            name: "image",
-                            reason: "training images differ in size".into(),
-                        });
-                    }
-                    frames.push(to_f32(img));
+                    frames.push(to_f32(&set[cam]));
                 }
             }
             let mut scene = learn_scene(&frames, w, h);
