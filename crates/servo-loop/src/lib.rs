@@ -63,7 +63,10 @@
 //! move does not ([`TemporalCheck`], [`TemporalPlant`]): with `(x₀, y₀)` the last accepted
 //! percept and its command, a new percept `x` after command `y` is refused
 //! ([`ServoError::PerceptInconsistent`]) when `‖(y − y₀) − (f̂(x) − f̂(x₀))‖` (to first order
-//! `Δy − J Δx`) exceeds a threshold learned from the training moves' own residuals.
+//! `Δy − J Δx`) exceeds a threshold learned from the training moves' own residuals. It is an
+//! opt-in: on our arms the recogniser's remaining errors are mostly systematic at a pose, so
+//! consecutive percepts agree and pass, and what it refuses stops a run; measured, it made the
+//! default arm's servo worse, so the study does not use it (`docs/methods.md`, *Temporal check*).
 //! [`check_image_target`] checks a user's pixel target the same way (one 3-D point, inside
 //! the learned model) before any move.
 //!
