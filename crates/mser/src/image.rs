@@ -141,5 +141,9 @@ pub fn to_gray(img: &image::DynamicImage) -> image::GrayImage {
 /// default decoding limits apply (at most 512 MiB allocated, checked from the header before
 /// decoding), and [`GrayView::new`] then bounds the size to 2^28 padded pixels.
 pub fn load_gray(path: impl AsRef<std::path::Path>) -> Result<image::GrayImage> {
-    Ok(to_gray(&image::open(path)?))
+    // A grey file is kept as decoded (no copy).
+    Ok(match image::open(path)? {
+        image::DynamicImage::ImageLuma8(g) => g,
+        other => to_gray(&other),
+    })
 }

@@ -157,6 +157,17 @@
 //!   294, boat 984, leuven 243), all of them OpenCV regions where they avoid the border.
 //! - **Ties.** OpenCV picks the main child by merge order when two children have equal area; we
 //!   pick by raster order, so results are deterministic and independent of scan order.
+//! - **Ties with the parent.** OpenCV 4.x drops a region whose variation is positive and equal
+//!   to its parent's (`var > 0 && var >= parent.var` in its `checkAndCapture`), while it keeps a
+//!   region tied with a child; we keep ties on both sides (rule 2 above). On the 12 of 100
+//!   Oxford crops of `cargo xtask bench cli` where OpenCV finds one or two regions fewer, every
+//!   one we examined (the five graf img2 crops among them) differs by exactly such ties: e.g.
+//!   graf img2, crop at (0, 0), the bright region at level 113 with
+//!   variation 42/294 under a parent of 43/301 (`tests/opencv_crosscheck.rs` checks the tie by
+//!   thresholding; `tests/variation_ties.rs` builds one). OpenCV also computes variations in
+//!   32-bit floats, so two different variations that round to the same float tie for it too
+//!   (not seen in the images here). And it can report its root, the whole flooded image, when
+//!   `max_area` allows; by definition 1 the root is never a region here.
 //! - OpenCV 4.x finds dark regions by its first pass and bright regions by its second in one call;
 //!   it cannot detect dark regions alone ([`Polarities::Dark`] has no OpenCV counterpart).
 //!

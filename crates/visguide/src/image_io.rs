@@ -43,7 +43,11 @@ pub fn decode_gray(path: &Path, bytes: &[u8]) -> Result<GrayImage> {
             img.height()
         )));
     }
-    Ok(mser::to_gray(&img))
+    // A grey file is kept as decoded (no copy); anything else is converted.
+    Ok(match img {
+        image::DynamicImage::ImageLuma8(g) => g,
+        other => mser::to_gray(&other),
+    })
 }
 
 /// Reads an image file (PNG, PGM, PPM) and converts it to grey. A directory, a missing file, an

@@ -165,7 +165,7 @@ fn one(
         // Without contours the library's detector alone is called (no contour tracing).
         let view = mser::GrayView::from_image(&img)?;
         Features {
-            regions: mser::detect(&view, &params)?,
+            regions: detect_reusing(&view, &params)?,
             ..Features::default()
         }
     };
@@ -196,6 +196,27 @@ fn one(
         files.push((staged, target));
     }
     Ok((files, features.regions.len()))
+}
+
+thread_local! {
+    /// Each worker thread's detector, kept between images so that its buffers (about 20 bytes
+    /// per pixel) are allocated once per thread, not once per image.
+    static DETECTOR: std::cell::RefCell<Option<mser::Mser>> = const { std::cell::RefCell::new(None) };
+}
+
+/// `mser::detect` with this thread's detector (made anew when the parameters differ). The
+/// result is the same: a detector's output does not depend on what it detected before.
+fn detect_reusing(
+    view: &mser::GrayView,
+    params: &mser::MserParams,
+) -> CliResult<Vec<mser::Region>> {
+    DETECTOR.with_borrow_mut(|slot| {
+        let det = match slot {
+            Some(d) if d.params() == params => d,
+            _ => slot.insert(mser::Mser::new(params.clone())?),
+        };
+        Ok(det.detect(view)?)
+    })
 }
 
 /// The staging name of an output file (same folder, hidden).
