@@ -1,37 +1,16 @@
 //! Proofs on an analytic plant (a planar two-link arm seen by an ideal "camera"): the learned
 //! inverse Jacobian matches the true one, and the loops converge as theory says.
 
-use nalgebra::{DMatrix, Matrix2};
+use nalgebra::DMatrix;
 use servo_loop::{
     BroydenConfig, InverseModel, InverseModelConfig, JacobianAt, LearnConfig, Observation, Plant,
     RangePolicy, ServoConfig, ServoError, learn_control, open_loop, servo_broyden,
     servo_image_jacobian, servo_lwpr,
 };
 
-const L1: f64 = 1.2;
-const L2: f64 = 1.0;
-const PX: f64 = 100.0; // pixels per unit length
-const RANGE: [[f64; 2]; 2] = [[0.1, 1.5], [0.3, 2.0]];
-
-/// `x = g(y)`: the tip of a planar 2-link arm in pixels.
-fn g(y: &[f64]) -> [f64; 2] {
-    let (a, b) = (y[0], y[0] + y[1]);
-    [
-        320.0 + PX * (L1 * a.cos() + L2 * b.cos()),
-        240.0 + PX * (L1 * a.sin() + L2 * b.sin()),
-    ]
-}
-
-/// `∂g/∂y`.
-fn jac_g(y: &[f64]) -> Matrix2<f64> {
-    let (a, b) = (y[0], y[0] + y[1]);
-    Matrix2::new(
-        PX * (-L1 * a.sin() - L2 * b.sin()),
-        PX * (-L2 * b.sin()),
-        PX * (L1 * a.cos() + L2 * b.cos()),
-        PX * (L2 * b.cos()),
-    )
-}
+#[path = "common/two_link.rs"]
+mod two_link;
+use two_link::{RANGE, g, jac_g};
 
 struct Arm {
     y: Vec<f64>,

@@ -6,16 +6,9 @@ use servo_loop::{
     ServoError, TemporalCheck, TemporalConfig, TemporalPlant, Verdict, learn_control, servo_lwpr,
 };
 
-const PX: f64 = 100.0;
-const RANGE: [[f64; 2]; 2] = [[0.1, 1.5], [0.3, 2.0]];
-
-fn g(y: &[f64]) -> [f64; 2] {
-    let (a, b) = (y[0], y[0] + y[1]);
-    [
-        320.0 + PX * (1.2 * a.cos() + b.cos()),
-        240.0 + PX * (1.2 * a.sin() + b.sin()),
-    ]
-}
+#[path = "common/two_link.rs"]
+mod two_link;
+use two_link::{RANGE, g};
 
 /// The arm; `offset` is added to the next percept only (a recogniser's one-off mistake).
 struct Arm {
