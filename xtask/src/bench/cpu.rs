@@ -1,44 +1,36 @@
-//! CPU time for speed ratios on a shared machine: the scheduler's per-thread run time
-//! (`/proc/.../schedstat`, nanoseconds), which other processes competing for the cores disturb
+//! CPU time for speed ratios on a shared machine: the kernel's per-thread and per-process CPU
+//! clocks (`clock_gettime`, nanoseconds), which other processes competing for the cores disturb
 //! far less than wall time, and interleaved repeats of the two sides of a comparison, so that
 //! a slow phase of the machine hits both.
+//!
+//! Not `/proc/.../schedstat`: the kernel adds a running thread's time to it only at a scheduler
+//! tick or a context switch, so a read inside a run lags by up to one tick (4 ms at 250 Hz).
+//! On runs of about 10 ms that quantised every time to whole ticks (12 / 24 / 28 ms) and moved
+//! ratios by ±20 %; the clocks below are exact at the moment they are read.
 
 use crate::Result;
 use crate::report::median;
 
-/// Run time of one thread in seconds from a `schedstat` file (its first field, nanoseconds).
-fn schedstat_seconds(path: &std::path::Path) -> Option<f64> {
-    let s = std::fs::read_to_string(path).ok()?;
-    let ns: u64 = s.split_whitespace().next()?.parse().ok()?;
-    Some(ns as f64 * 1e-9)
-}
-
-/// CPU time of the calling thread in seconds (Linux; `None` elsewhere).
-pub fn thread_seconds() -> Option<f64> {
-    schedstat_seconds(std::path::Path::new("/proc/thread-self/schedstat"))
-}
-
-/// CPU time of the calling thread in seconds from `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`
-/// (`None` where it fails): exact to the nanosecond at any moment, where `schedstat` can lag
-/// by up to a scheduler tick (too coarse for runs of a fraction of a millisecond).
-pub fn thread_cpu_clock() -> Option<f64> {
+/// Seconds of one of the kernel's CPU clocks (`None` where `clock_gettime` fails).
+fn cpu_clock(id: libc::clockid_t) -> Option<f64> {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
     // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    let rc = unsafe { libc::clock_gettime(id, &mut ts) };
     (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
 }
 
-/// CPU time of all live threads of this process in seconds (Linux; `None` elsewhere). Threads
-/// that have exited are not counted, so measure with long-lived pools (rayon's).
+/// CPU time of the calling thread in seconds (`CLOCK_THREAD_CPUTIME_ID`).
+pub fn thread_seconds() -> Option<f64> {
+    cpu_clock(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+/// CPU time of the whole process in seconds (`CLOCK_PROCESS_CPUTIME_ID`): every thread, those
+/// that have exited included, for work spread over a thread pool.
 pub fn process_seconds() -> Option<f64> {
-    let mut total = 0.0;
-    for task in std::fs::read_dir("/proc/self/task").ok()? {
-        total += schedstat_seconds(&task.ok()?.path().join("schedstat"))?;
-    }
-    Some(total)
+    cpu_clock(libc::CLOCK_PROCESS_CPUTIME_ID)
 }
 
 /// The machine's load averages over 1, 5 and 15 minutes as printed by `uptime` (Linux;
@@ -65,10 +57,8 @@ pub enum Clock {
 impl Clock {
     fn now(self, t0: std::time::Instant) -> Result<f64> {
         match self {
-            Clock::Thread => {
-                thread_seconds().ok_or_else(|| "no /proc/thread-self/schedstat".into())
-            }
-            Clock::Process => process_seconds().ok_or_else(|| "no /proc/self/task".into()),
+            Clock::Thread => thread_seconds().ok_or_else(|| "no thread CPU clock".into()),
+            Clock::Process => process_seconds().ok_or_else(|| "no process CPU clock".into()),
             Clock::Wall => Ok(t0.elapsed().as_secs_f64()),
         }
     }

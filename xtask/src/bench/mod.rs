@@ -7,7 +7,7 @@
 mod chan_repr;
 mod cli;
 mod cpu;
-pub use cpu::thread_cpu_clock;
+pub use cpu::thread_seconds;
 mod fd;
 #[cfg(feature = "opencv")]
 mod fd_opencv;

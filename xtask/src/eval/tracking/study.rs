@@ -334,7 +334,7 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
     let mut est = vec![start];
     let mut rejected = 0;
     let t0 = Instant::now();
-    let c0 = crate::bench::thread_cpu_clock().unwrap_or(0.0);
+    let c0 = crate::bench::thread_seconds().unwrap_or(0.0);
     for f in &frames[1..] {
         let e = match t.step(&f.detections) {
             Ok(e) => e,
@@ -347,7 +347,7 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
         est.push(e.position);
     }
     let seconds = t0.elapsed().as_secs_f64();
-    let cpu_seconds = crate::bench::thread_cpu_clock().map_or(0.0, |c| c - c0);
+    let cpu_seconds = crate::bench::thread_seconds().map_or(0.0, |c| c - c0);
     let truths: Vec<Option<Point>> = frames.iter().map(|f| f.truth).collect();
     Ok(Run {
         tracker: t.name(),
