@@ -45,8 +45,7 @@ pub fn load_average() -> String {
 /// Which clock [`interleaved`] reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Clock {
-    /// [`thread_seconds`]: for work on the calling thread (the OpenCV benches use it).
-    #[cfg_attr(not(feature = "opencv"), allow(dead_code))]
+    /// [`thread_seconds`]: for work on the calling thread.
     Thread,
     /// [`process_seconds`]: for work spread over a thread pool.
     Process,
