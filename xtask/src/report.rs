@@ -69,21 +69,6 @@ pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<
     Ok(())
 }
 
-/// Median wall time in seconds of `runs` calls of `f`, after `warmup` calls.
-pub fn time_median<F: FnMut()>(warmup: usize, runs: usize, mut f: F) -> f64 {
-    for _ in 0..warmup {
-        f();
-    }
-    let mut ts: Vec<f64> = (0..runs.max(1))
-        .map(|_| {
-            let t0 = std::time::Instant::now();
-            f();
-            t0.elapsed().as_secs_f64()
-        })
-        .collect();
-    median(&mut ts)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -149,8 +149,8 @@ impl SoftHistogram {
         Ok(())
     }
 
-    /// Adds many 1-D values of weight 1 (the histogram must be 1-D). Stops at the first bad
-    /// value, leaving the values before it added.
+    /// Adds many 1-D values of weight 1 (the histogram must be 1-D). All or nothing: every
+    /// value is checked before any is added, so a rejected batch changes no state.
     pub fn extend_1d(&mut self, xs: &[f64]) -> Result<(), ChanError> {
         if self.grid.dims() != 1 {
             return Err(ChanError::LengthMismatch {
@@ -159,15 +159,21 @@ impl SoftHistogram {
                 got: 1,
             });
         }
+        let ceiling = raise_ceiling(self.ceiling, xs.len() as f64)?;
         let basis = self.grid.basis(0);
+        for &x in xs {
+            basis.checked_index(x)?;
+        }
+        // Every value passed `checked_index`, so its index is finite and inside the
+        // representable range up to the slack that `checked_index` clamps away.
+        let (tlo, thi) = basis.representable_index_range();
         let counts = &mut self.counts;
         for &x in xs {
-            let ceiling = raise_ceiling(self.ceiling, 1.0)?;
-            let t = basis.checked_index(x)?;
+            let t = basis.to_index(x).clamp(tlo, thi);
             basis.for_each_active(t, |k, v| counts[k] += v);
-            self.total_weight += 1.0;
-            self.ceiling = ceiling;
         }
+        self.total_weight += xs.len() as f64;
+        self.ceiling = ceiling;
         Ok(())
     }
 
@@ -403,6 +409,25 @@ mod tests {
         let mut full = SoftHistogram::one_d(ChannelBasis::integer(10, Kernel::BSpline2).unwrap());
         assert!(full.extend_1d(&[4.0; 3]).is_ok());
         assert_eq!(full.total_weight(), 3.0);
+    }
+
+    #[test]
+    fn a_rejected_batch_changes_nothing() {
+        let mut h = SoftHistogram::one_d(ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap());
+        h.extend_1d(&[3.3, 6.8]).unwrap();
+        let before = h.clone();
+        for bad in [f64::NAN, f64::INFINITY, 42.0, -7.0] {
+            assert!(h.extend_1d(&[4.0, 5.5, bad, 2.0]).is_err());
+            assert_eq!(h.counts(), before.counts(), "{bad}");
+            assert_eq!(h.total_weight(), before.total_weight(), "{bad}");
+        }
+        let mut one = before.clone();
+        one.extend_1d(&[4.0, 5.5]).unwrap();
+        let mut each = before.clone();
+        each.add(&[4.0], 1.0).unwrap();
+        each.add(&[5.5], 1.0).unwrap();
+        assert_eq!(one.counts(), each.counts());
+        assert_eq!(one.total_weight(), each.total_weight());
     }
 
     #[test]

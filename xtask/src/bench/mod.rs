@@ -56,7 +56,7 @@ pub struct Bench {
 pub const BENCHES: &[Bench] = &[
     Bench {
         name: "chan-repr",
-        peer: "dense O(N) encoding (eq. 2.1 evaluated for every channel)",
+        peer: "the plain per-channel loop over each value's support (eq. 2.1 on the active channels)",
         run: chan_repr::run,
     },
     Bench {
