@@ -6,7 +6,8 @@
 //! # Paper A: image → regions → descriptors → matches → geometry
 //!
 //! 1. [`load_gray`]: an image file (PNG, PGM, PPM) to 8-bit grey with BT.601 weights
-//!    ([`mser::to_gray`]).
+//!    ([`mser::to_gray`]); [`GrayReader`] reads many files with the same result, keeping its
+//!    buffers (8-bit grey PNGs decoded straight into them).
 //! 2. [`features::detect`]: MSER regions ([`MserSettings`] / [`Preset`]: OpenCV's, Paper A's
 //!    or VLFeat's setting, any parameter overridden), each with its frame ellipse
 //!    `dᵀ Σ⁻¹ d = 1` (Σ the region's second moments) and its exact outer contour.
@@ -78,7 +79,7 @@ pub use combination::Combination;
 pub use error::{Result, VisguideError};
 pub use features::{Features, detect};
 pub use geometry::{Homography, HomographyFit, LocalAffine, RansacConfig, fit_homography};
-pub use image_io::{decode_gray, load_gray};
+pub use image_io::{GrayReader, decode_gray, load_gray};
 pub use matching::{MatchSettings, PairMatches, RegionMatch, match_images, match_regions};
 pub use preset::{MserSettings, Preset};
 pub use sim_robot::SimRobot;

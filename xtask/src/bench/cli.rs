@@ -12,10 +12,13 @@
 //! regions for every image.
 //!
 //! Rows:
-//! - binary `--threads 1`, CPU time per image (the process's user + system time, from
-//!   `/proc/self/stat`'s children fields, so decoding, writing and process start are all
-//!   counted) against the library call `mser::detect` on the decoded image (thread CPU time);
-//! - the same binary run against the library's decode + detect + format of every image;
+//! - binary `--threads 1`, CPU time per image (the child's user + system time from
+//!   `getrusage(RUSAGE_CHILDREN)`, microseconds, so decoding, writing, the file system calls
+//!   and process start are all counted) against the library call `mser::detect` on the same
+//!   100 decoded images (thread CPU time);
+//! - the same binary run against the library's decode + detect + format of every image
+//!   (`load_gray`, `mser::detect`, the region file's text in memory), whose three parts are
+//!   printed with what the binary spends beyond them (process, file system, threads);
 //! - binary with every thread against `--threads 1`, wall time (the speed-up; on a loaded
 //!   machine it shows the load, not the code: re-run on an idle one);
 //! - with the xtask feature `opencv`: OpenCV 4.x `MSER::detectRegions` on the same decoded
@@ -113,6 +116,8 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
     let n = paths.len() as f64;
     let (mut lib, mut lib_io, mut bin_cpu, mut wall1, mut wall_all, mut cpu_all) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
+    // The library's decode + detect + write in its three parts.
+    let (mut decode, mut detect, mut text) = (vec![], vec![], vec![]);
     let out = bench_dir.join("cli-out-timed");
     for _ in 0..ROUNDS {
         let t0 = thread_seconds().ok_or("no thread CPU clock")?;
@@ -121,11 +126,24 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         }
         let t1 = thread_seconds().ok_or("no thread CPU clock")?;
         lib.push((t1 - t0) / n);
+        let mut parts = [0.0; 3];
+        let mut t = t1;
         for p in &paths {
             let g = visguide::load_gray(p)?;
-            std::hint::black_box(library_file(p, &g, &params)?.len());
+            let t_decoded = thread_seconds().ok_or("no thread CPU clock")?;
+            let regions = mser::detect(&GrayView::from_image(&g)?, &params)?;
+            let t_detected = thread_seconds().ok_or("no thread CPU clock")?;
+            std::hint::black_box(region_file(p, g.dimensions(), &params, regions)?.len());
+            let t_written = thread_seconds().ok_or("no thread CPU clock")?;
+            parts[0] += t_decoded - t;
+            parts[1] += t_detected - t_decoded;
+            parts[2] += t_written - t_detected;
+            t = t_written;
         }
-        lib_io.push((thread_seconds().ok_or("no thread CPU clock")? - t1) / n);
+        lib_io.push((t - t1) / n);
+        decode.push(parts[0] / n);
+        detect.push(parts[1] / n);
+        text.push(parts[2] / n);
         let (cpu, wall) = run_binary(&bin, &img_dir, &out, "1")?;
         bin_cpu.push(cpu / n);
         wall1.push(wall);
@@ -140,6 +158,16 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         median(&mut cpu_all),
     );
     let (wall1, wall_all) = (median(&mut wall1), median(&mut wall_all));
+    let (decode, detect, text) = (median(&mut decode), median(&mut detect), median(&mut text));
+    println!(
+        "per image, ms CPU: library decode (load_gray) {:.3} + detect (mser::detect) {:.3} + region text {:.3} = {:.3}; the binary {:.3}, i.e. {:+.3} beyond these three (process, file system calls, threads; the binary's detector is reused, the library's is made per call)",
+        decode * 1e3,
+        detect * 1e3,
+        text * 1e3,
+        (decode + detect + text) * 1e3,
+        bin_cpu * 1e3,
+        (bin_cpu - decode - detect - text) * 1e3
+    );
     println!(
         "binary with {cores} threads: {:.2} ms CPU per image (all threads); wall {:.3} s vs {:.3} s with 1 thread ({:.2}× speed-up); times: median of {ROUNDS} interleaved rounds",
         cpu_all * 1e3,
@@ -361,9 +389,19 @@ fn print_rows(rows: &[BenchRow]) {
 
 /// The library's Oxford region file of one image, as the binary writes it.
 fn library_file(path: &Path, gray: &GrayImage, params: &MserParams) -> Result<Vec<u8>> {
-    let view = GrayView::from_image(gray)?;
+    let regions = mser::detect(&GrayView::from_image(gray)?, params)?;
+    region_file(path, gray.dimensions(), params, regions)
+}
+
+/// The Oxford region file of detected regions.
+fn region_file(
+    path: &Path,
+    size: (u32, u32),
+    params: &MserParams,
+    regions: Vec<mser::Region>,
+) -> Result<Vec<u8>> {
     let features = Features {
-        regions: mser::detect(&view, params)?,
+        regions,
         ..Features::default()
     };
     let mut bytes = Vec::new();
@@ -371,7 +409,7 @@ fn library_file(path: &Path, gray: &GrayImage, params: &MserParams) -> Result<Ve
         &mut bytes,
         Format::Oxford,
         &path.display().to_string(),
-        gray.dimensions(),
+        size,
         params,
         &features,
         false,
@@ -470,28 +508,18 @@ fn run_binary(bin: &Path, images: &Path, out: &Path, threads: &str) -> Result<(f
     Ok((children_cpu()? - before, wall))
 }
 
-/// User + system CPU seconds of this process's waited-for children (`/proc/self/stat` fields
-/// 16 and 17, clock ticks of `getconf CLK_TCK`).
+/// User + system CPU seconds of this process's waited-for children
+/// (`getrusage(RUSAGE_CHILDREN)`, microseconds; `/proc/self/stat`'s children fields are whole
+/// clock ticks of 10 ms, each truncated, up to 2 % of a 1 s run).
 fn children_cpu() -> Result<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat")?;
-    // Fields after the command name (which may hold spaces) start at field 3.
-    let rest = stat
-        .rsplit_once(')')
-        .map(|(_, r)| r)
-        .ok_or("malformed /proc/self/stat")?;
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: f64 = f[13].parse::<f64>()? + f[14].parse::<f64>()?;
-    Ok(ticks / clock_ticks())
-}
-
-fn clock_ticks() -> f64 {
-    Command::new("getconf")
-        .arg("CLK_TCK")
-        .output()
-        .ok()
-        .and_then(|o| String::from_utf8(o.stdout).ok())
-        .and_then(|s| s.trim().parse().ok())
-        .unwrap_or(100.0)
+    // SAFETY: an all-zero `rusage` is a valid value of the plain C struct.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `ru` is a valid, writable rusage for the duration of the call.
+    if unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru) } != 0 {
+        return Err(format!("getrusage: {}", std::io::Error::last_os_error()).into());
+    }
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Ok(secs(ru.ru_utime) + secs(ru.ru_stime))
 }
 
 fn load_average() -> String {

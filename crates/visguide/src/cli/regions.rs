@@ -5,10 +5,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
-use visguide::output::atomic::{save_png, write_atomic};
+use visguide::output::atomic::{save_png, write_synced};
 use visguide::output::draw;
 use visguide::output::regions::{Format, write};
-use visguide::{Features, load_gray};
+use visguide::{Features, GrayReader};
 
 use super::CliResult;
 use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for};
@@ -157,36 +157,60 @@ fn one(
     format: Format,
     path: &std::path::Path,
 ) -> CliResult<Staged> {
-    let img = load_gray(path)?;
+    // This thread's buffers, taken out for the call (a nested call on this thread, should the
+    // contour tracing's pool run another image here, starts with fresh ones).
+    let mut worker = WORKER.take();
+    let result = one_with(&mut worker, a, settings, format, path);
+    WORKER.set(worker);
+    result
+}
+
+fn one_with(
+    worker: &mut Worker,
+    a: &RegionsArgs,
+    settings: &visguide::MserSettings,
+    format: Format,
+    path: &std::path::Path,
+) -> CliResult<Staged> {
+    let Worker {
+        detector,
+        reader,
+        text,
+    } = worker;
+    let img = reader.read(path)?;
     let params = settings.resolve(img.width(), img.height())?;
     let features = if a.contours || a.draw {
-        visguide::detect(&img, &params)?
+        visguide::detect(img, &params)?
     } else {
-        // Without contours the library's detector alone is called (no contour tracing).
-        let view = mser::GrayView::from_image(&img)?;
+        // Without contours the library's detector alone is called (no contour tracing), the
+        // thread's own detector: a detector's output does not depend on what it detected
+        // before, so the regions are `mser::detect`'s.
+        let det = match detector {
+            Some(d) if d.params() == &params => d,
+            _ => detector.insert(mser::Mser::new(params.clone())?),
+        };
         Features {
-            regions: detect_reusing(&view, &params)?,
+            regions: det.detect(&mser::GrayView::from_image(img)?)?,
             ..Features::default()
         }
     };
+    text.clear();
+    write(
+        text,
+        format,
+        &path.display().to_string(),
+        img.dimensions(),
+        &params,
+        &features,
+        a.contours,
+    )?;
     let target = output_for(&a.out, path, &format!(".{}", format.extension()));
     let mut files = vec![(staging(&target), target)];
-    let staged = &files[0].0;
-    write_atomic(staged, |w| {
-        write(
-            w,
-            format,
-            &path.display().to_string(),
-            img.dimensions(),
-            &params,
-            &features,
-            a.contours,
-        )
-    })?;
+    write_synced(&files[0].0, text)?;
     if a.draw {
         let ellipses: Vec<mser::Ellipse> =
             features.regions.iter().map(mser::Region::ellipse).collect();
-        let pic = draw::ellipses(&img, &ellipses, draw::YELLOW);
+        let pic = draw::ellipses(img, &ellipses, draw::YELLOW);
         let target = output_for(&a.out, path, "-regions.png");
         let staged = staging(&target);
         if let Err(e) = save_png(&staged, &pic) {
@@ -198,25 +222,21 @@ fn one(
     Ok((files, features.regions.len()))
 }
 
-thread_local! {
-    /// Each worker thread's detector, kept between images so that its buffers (about 20 bytes
-    /// per pixel) are allocated once per thread, not once per image.
-    static DETECTOR: std::cell::RefCell<Option<mser::Mser>> = const { std::cell::RefCell::new(None) };
+/// What a worker thread keeps between images, so that an image costs no allocation of the
+/// detector's buffers (about 20 bytes per pixel), the file's bytes, the grey pixels or the
+/// region file's text.
+#[derive(Default)]
+struct Worker {
+    /// The detector, made anew when the parameters differ.
+    detector: Option<mser::Mser>,
+    /// File bytes and grey pixels.
+    reader: GrayReader,
+    /// The region file's text.
+    text: Vec<u8>,
 }
 
-/// `mser::detect` with this thread's detector (made anew when the parameters differ). The
-/// result is the same: a detector's output does not depend on what it detected before.
-fn detect_reusing(
-    view: &mser::GrayView,
-    params: &mser::MserParams,
-) -> CliResult<Vec<mser::Region>> {
-    DETECTOR.with_borrow_mut(|slot| {
-        let det = match slot {
-            Some(d) if d.params() == params => d,
-            _ => slot.insert(mser::Mser::new(params.clone())?),
-        };
-        Ok(det.detect(view)?)
-    })
+thread_local! {
+    static WORKER: std::cell::Cell<Worker> = std::cell::Cell::new(Worker::default());
 }
 
 /// The staging name of an output file (same folder, hidden).

@@ -46,6 +46,22 @@ where
     result
 }
 
+/// Writes `bytes` to a new file `path` with one `write` and flushes it to disk (`fsync`); on
+/// any error the file is removed. For a staging file that is renamed into place later (as
+/// `visguide regions` does once every image succeeded), so it needs no temporary file of its
+/// own; [`write_atomic`] writes a file in place.
+pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
+    let result = (|| {
+        let mut file = std::fs::File::create(path)?;
+        file.write_all(bytes)?;
+        file.sync_all()
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(path);
+    }
+    result.map_err(io(path))
+}
+
 /// Writes bytes atomically.
 pub fn write_bytes(target: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(target, |w| w.write_all(bytes).map_err(io(target)))
