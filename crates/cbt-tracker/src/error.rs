@@ -18,6 +18,13 @@ pub enum TrackError {
         /// What was missing.
         reason: &'static str,
     },
+    /// Held-out smoothing selection ([`crate::smoothing::select`]) impossible on these data
+    /// or this configuration (one training sequence, nothing to hold out, …).
+    #[error("smoothing selection: {reason}")]
+    Selection {
+        /// Why.
+        reason: &'static str,
+    },
     /// A parameter outside its valid range (zero channels, negative noise, …).
     #[error("invalid parameter `{name}` = {value}: {reason}")]
     InvalidParameter {

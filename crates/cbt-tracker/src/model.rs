@@ -8,6 +8,7 @@ use crate::encode::{encode_detections, encode_states};
 use crate::history::History;
 use crate::integrity::{corrupt, len};
 use crate::observation::{AxisObservation, JointObservation};
+use crate::smoothing::{Smoothing, SmoothingGrid, select};
 use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
 use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
 use crate::{Sequence, Space, TrackError, TrainingFrame};
@@ -251,12 +252,20 @@ impl CbtModel {
 
     /// Learns both models from training sequences, each a list of frames with unordered state
     /// and detection sets (docs/methods.md § Tracking). Every state and detection must lie on
-    /// the grid; errors name the first that does not.
+    /// the grid; errors name the first that does not. With [`Smoothing::HeldOut`] the system
+    /// model's `α` and `σ` are first chosen by held-out likelihood
+    /// ([`crate::smoothing::select`]); the model's configuration holds the chosen values.
     pub fn learn(
         space: Space,
         config: CbtConfig,
         sequences: &[Vec<TrainingFrame>],
     ) -> Result<Self, TrackError> {
+        let mut config = config;
+        if config.smoothing == Smoothing::HeldOut {
+            let pick = select(&space, &config, sequences, &SmoothingGrid::default())?;
+            config.prior_weight = pick.prior_weight;
+            config.fallback_sigma = pick.fallback_sigma;
+        }
         let mut model = if config.layout == Layout::Stationary {
             config.validate()?;
             check_space(&space)?;

@@ -56,6 +56,20 @@ pub struct TrackingArgs {
     /// σ 2 px, no clutter), `medium` (0.9, 4 px, 2 a frame) or `hard` (0.7, 6 px, 6 a frame).
     #[arg(long, value_enum, default_value_t = Difficulty::Medium)]
     pub level: Difficulty,
+    /// Development runs: only the pedestrian study, only the folds of its validation scenes
+    /// (both trainings, every level; the synthetic sets are skipped). Its summary and folds
+    /// go into the target's pedestrian folder (use `--out DIR`: `DIR-pedestrians`).
+    #[arg(long, conflicts_with = "train")]
+    pub validation_only: bool,
+    /// With `--validation-only`: run only the trackers whose label starts with PREFIX (e.g.
+    /// `CBT`), the rows of the others are left out.
+    #[arg(long, value_name = "PREFIX", requires = "validation_only")]
+    pub trackers: Option<String>,
+    /// With `--validation-only`: CBT's system-model smoothing chosen by held-out likelihood
+    /// (`cbt_tracker::Smoothing::HeldOut`) instead of the fixed constants of
+    /// `CbtConfig::stationary`.
+    #[arg(long, requires = "validation_only")]
+    pub held_out_smoothing: bool,
 }
 
 /// File format of the user's sequences.
@@ -204,6 +218,12 @@ struct SetFile<'a> {
 
 /// Runs the target.
 pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
+    if args.validation_only {
+        if args.held_out_smoothing {
+            study::set_smoothing(cbt_tracker::Smoothing::HeldOut);
+        }
+        return run_pedestrians(ctx, args);
+    }
     let specs = match (&args.train, &args.test) {
         (Some(train), Some(test)) => vec![user_set(train, test, args)?],
         _ => synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4]),
@@ -282,7 +302,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         plots::rmse_vs_clutter(&image, &ctx.out_dir.join("rmse-vs-clutter.svg"))?;
     }
     if args.train.is_none() {
-        run_pedestrians(ctx)?;
+        run_pedestrians(ctx, args)?;
     }
     Ok(())
 }
@@ -293,7 +313,7 @@ pub const PEDESTRIANS_DIR: &str = "paper-b-pedestrians";
 /// The real-motion study, when `pedestrians/` is in the data folder: written into
 /// [`PEDESTRIANS_DIR`] beside the target's folder. Without the data it is skipped with a note
 /// (its committed fixtures untouched); under `CI=true` a missing data folder is an error.
-fn run_pedestrians(ctx: &EvalContext) -> Result<()> {
+fn run_pedestrians(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
     let Some(dir) = pedestrians::folder(ctx.data_dir.as_deref()) else {
         let why = "the pedestrian study needs `pedestrians/eth-ucy/` in the data folder \
                    (--data or VISGUIDE_DATA)";
@@ -306,7 +326,11 @@ fn run_pedestrians(ctx: &EvalContext) -> Result<()> {
     // Staged beside the target's own folder (`fixtures/paper-b-pedestrians`, `DIR-pedestrians`).
     let out = ctx.sibling("-pedestrians");
     let scenes = pedestrians::load(&dir)?;
-    let folds = pedestrians::run(&scenes)?;
+    let only = pedestrians::Only {
+        validation: args.validation_only,
+        trackers: args.trackers.clone(),
+    };
+    let folds = pedestrians::run(&scenes, &only)?;
     let text = pedestrians::summary(&scenes, &folds);
     std::fs::create_dir_all(&out)?;
     write_json(&out, "folds.json", &folds)?;

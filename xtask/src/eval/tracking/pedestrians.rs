@@ -246,19 +246,29 @@ struct Job {
     few: bool,
 }
 
-/// Runs the study: every fold and level, full and small training.
-pub fn run(scenes: &[Scene]) -> Result<Vec<FoldResult>> {
+/// A development subset of the study (`cargo xtask eval tracking --validation-only`).
+#[derive(Debug, Clone, Default)]
+pub struct Only {
+    /// Only the folds of the [`VALIDATION`] scenes.
+    pub validation: bool,
+    /// Only the trackers whose label starts with this.
+    pub trackers: Option<String>,
+}
+
+/// Runs the study: every fold and level, full and small training (or the subset `only`).
+pub fn run(scenes: &[Scene], only: &Only) -> Result<Vec<FoldResult>> {
     let area = canvas(scenes);
     let jobs: Vec<Job> = [false, true]
         .into_iter()
         .flat_map(|few| {
             (0..scenes.len())
+                .filter(|&s| !only.validation || VALIDATION.contains(&scenes[s].name.as_str()))
                 .flat_map(move |scene| (0..3).map(move |level| Job { scene, level, few }))
         })
         .collect();
     let folds = jobs
         .par_iter()
-        .map(|j| run_fold(scenes, j, area))
+        .map(|j| run_fold(scenes, j, area, only.trackers.as_deref()))
         .collect::<Result<Vec<FoldResult>>>()?;
     // Time per frame, on stderr only (fixtures hold no timings; noisy when run in parallel).
     if let Some(f) = folds.first() {
@@ -328,13 +338,16 @@ fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
     }
 }
 
-fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<FoldResult> {
+fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4], only: Option<&str>) -> Result<FoldResult> {
     let si = job.scene;
     let held = &scenes[si];
     let spec = fold_spec(scenes, job, area);
     let (trackers, ..) = Trackers::for_set(&spec)?;
     let mut out = Vec::new();
     for (ti, make) in trackers.makers.iter().enumerate() {
+        if only.is_some_and(|p| !make(0).is_ok_and(|t| t.name().starts_with(p))) {
+            continue;
+        }
         let seeds = if trackers.seeded[ti] { SEEDS } else { 1 };
         let n = spec.test.len();
         let (mut rmse, mut loss) = (vec![0.0; n], vec![0.0; n]);

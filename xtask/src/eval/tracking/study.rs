@@ -169,6 +169,15 @@ pub struct Trackers {
     pub seeded: Vec<bool>,
 }
 
+/// The smoothing of CBT's models on the image sets (`--held-out-smoothing`, development runs
+/// only; unset: [`CbtConfig::stationary`]'s).
+static SMOOTHING: std::sync::OnceLock<cbt_tracker::Smoothing> = std::sync::OnceLock::new();
+
+/// Sets the smoothing of CBT's models on the image sets for this process (first call wins).
+pub fn set_smoothing(s: cbt_tracker::Smoothing) {
+    let _ = SMOOTHING.set(s);
+}
+
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
     let second = CbtModel::learn_sequences(space.clone(), base, train)?;
     let first = CbtModel::learn_sequences(
@@ -216,7 +225,10 @@ impl Trackers {
                 let space = Space::new(vec![bx.clone(), by.clone()], vec![bx, by])?;
                 // The image-tracking configuration (its docs: why, measured on the
                 // pedestrian study's validation scenes).
-                let cfg = CbtConfig::stationary();
+                let cfg = CbtConfig {
+                    smoothing: SMOOTHING.get().copied().unwrap_or_default(),
+                    ..CbtConfig::stationary()
+                };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
                 let cal = Calibration::estimate(&spec.train, extent / 10.0)?;
                 let area = (x_hi - x_lo) * (y_hi - y_lo);
