@@ -8,8 +8,8 @@ use crate::encode::{Encoded, encode_detections};
 use crate::history::{self, History};
 use crate::integrity::{len, nonneg};
 use crate::model::{ObservationModel, SystemModel};
+use crate::stationary::{Patch, WindowState};
 use crate::tracker::{Estimate, Hypothesis, Tracker};
-use crate::window::{Patch, WindowState};
 use crate::{CbtModel, Detection, Point, TrackError};
 
 /// A CBT tracker: a learned [`CbtModel`] and the posterior over the joint state grid.
@@ -610,7 +610,7 @@ impl CbtTracker {
             return self.win.decode(space, cfg.decode_radius, cfg.runner_ups);
         }
         let modes =
-            crate::decode::decode_posterior(space, &self.post, self.model.config().runner_ups + 1);
+            crate::dense::decode_posterior(space, &self.post, self.model.config().runner_ups + 1);
         let to_point = |v: &[f64]| -> Point {
             let mut p = [0.0; 2];
             p[..v.len()].copy_from_slice(v);

@@ -132,44 +132,32 @@
 //! ```
 #![deny(missing_docs)]
 
-mod calibrate;
+mod baselines;
 mod cbt;
 mod config;
-mod cover;
-pub mod csv;
 mod data;
-mod decode;
+mod dense;
 mod encode;
 mod error;
 mod history;
 mod input;
 mod integrity;
-mod kalman;
-mod learned_pf;
 pub mod metrics;
 mod model;
-pub mod mot;
-mod observation;
-mod particle;
-mod pool;
-pub mod sim;
-mod simd;
 mod space;
 mod stationary;
-mod system;
 mod tracker;
-mod window;
 
-pub use calibrate::Calibration;
+pub use baselines::{
+    Calibration, GATE_99, KalmanParams, KalmanTracker, LearnedParticleFilter, ParticleFilter,
+    PfModel,
+};
 pub use cbt::CbtTracker;
 pub use config::{
     CbtConfig, Clutter, Layout, ObservationFallback, Order, PeriodicInput, SystemFallback,
 };
-pub use data::{Detection, Frame, Point, Sequence, TrainingFrame};
+pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use error::TrackError;
-pub use kalman::{GATE_99, KalmanParams, KalmanTracker};
-pub use learned_pf::LearnedParticleFilter;
 pub use model::{CbtModel, LearnStats};
-pub use particle::{ParticleFilter, PfModel};
 pub use space::{DEFAULT_KERNEL, Scales, Space, axis};
 pub use tracker::{Estimate, Hypothesis, Tracker};

@@ -20,7 +20,7 @@
 //! 2. **Prediction** `q⁻ = (1 − γ)·q_{k−1}⁺ ⊛ (D_x ⊗ D_y) + γ/G`: a separable convolution of
 //!    the joint posterior (no ghost combinations of one mode's x with another's y), evaluated
 //!    lazily only on the cells the update needs.
-//! 3. **Update** with the mixture likelihood of [`crate::stationary`]: the floor part
+//! 3. **Update** with the mixture likelihood of [`super::model`]: the floor part
 //!    `floor·q⁻` (kept only when it holds more than `support` of the posterior mass, i.e. when
 //!    no detection explains the prediction) and one bump per detection `q⁻ ⊙ (b(z_i) ⋆ A)` on
 //!    the `(2 r_A + 3)²` cells around it (kept when it holds more than `support` of the mass).
@@ -56,23 +56,23 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, Order};
-use crate::cover::{self, Block};
-use crate::integrity::{corrupt, len, nonneg};
-use crate::pool::{self, refill};
-use crate::simd::{
+use super::cover::{self, Block};
+use super::model::{StatObservation, StatSystem};
+use super::pool::{self, refill};
+use super::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
     lane_max, lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents,
     scale_into, with_avx,
 };
-use crate::stationary::{StatObservation, StatSystem};
+use crate::config::{CbtConfig, Order};
+use crate::integrity::{corrupt, len, nonneg};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Space, TrackError};
 
 /// Cells below this share of the posterior's maximum are cropped from the window.
 const CROP: f64 = 1e-4;
 // The peak scan skips cells outside each row's crop extent: they are below its cut.
-const _: () = assert!(crate::decode::MIN_SHARE >= 10.0 * CROP);
+const _: () = assert!(crate::dense::MIN_SHARE >= 10.0 * CROP);
 
 /// Windows of at least this many cells keep their rows' crop extents for the peak scan
 /// (below it, the bookkeeping costs more than the scan it saves).
@@ -1115,7 +1115,7 @@ impl WindowState {
         } else {
             lane_max(&p.v)
         };
-        let cut = crate::decode::MIN_SHARE * max;
+        let cut = crate::dense::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::with_capacity(16);
         // Cells below the crop's share of the maximum cannot be candidates: only each row's
         // crop extent is scanned when known (the same candidates).
@@ -1252,7 +1252,7 @@ fn sparse_prior(
     kpad: &[f64],
     base: i64,
 ) {
-    let len = kpad.len() as i64 - 2 * crate::simd::KPAD as i64;
+    let len = kpad.len() as i64 - 2 * super::simd::KPAD as i64;
     for run in runs {
         let (mut c0, mut c1) = (nc, 0);
         for (r, &(f, l)) in (run.start..run.end).zip(&run.ext) {
@@ -1463,7 +1463,7 @@ mod tests {
         );
         post.v.iter_mut().for_each(|x| *x *= inv);
         assert_eq!(ext.len(), post.h, "a large window keeps its extents");
-        let cut = crate::decode::MIN_SHARE * lane_max(&post.v);
+        let cut = crate::dense::MIN_SHARE * lane_max(&post.v);
         let (mut with, mut without) = (Vec::new(), Vec::new());
         peak_scan::<true>(&post, &ext, cut, &mut with);
         peak_scan::<false>(&post, &ext, cut, &mut without);
