@@ -24,7 +24,10 @@ fn scripted() -> Vec<(String, CbtTracker)> {
     for layout in [Layout::Separable, Layout::SparseJoint, Layout::Stationary] {
         for order in [Order::First, Order::Second] {
             let (cfg, spacing) = if layout == Layout::Stationary {
-                let s = Scales::estimate(&train, W).unwrap().fine_spacing(W).max(2.0);
+                let s = Scales::estimate(&train, W)
+                    .unwrap()
+                    .fine_spacing(W)
+                    .max(2.0);
                 (CbtConfig::stationary(), s)
             } else {
                 (CbtConfig::default(), 16.0)
@@ -110,11 +113,17 @@ fn files_saved_before_the_layout_enum_load_and_save_byte_identically() {
         let file = std::fs::read_to_string(path(&name)).unwrap();
         let loaded: CbtTracker = serde_json::from_str(&file)
             .unwrap_or_else(|e| panic!("{name}: the saved file no longer loads: {e}"));
-        assert!(loaded == t, "{name}: the loaded tracker differs from the replayed one");
+        assert!(
+            loaded == t,
+            "{name}: the loaded tracker differs from the replayed one"
+        );
         assert!(
             serde_json::to_string(&loaded).unwrap() == file,
             "{name}: saved again, the text differs from the file"
         );
-        assert!(now == file, "{name}: the replayed tracker saves different text");
+        assert!(
+            now == file,
+            "{name}: the replayed tracker saves different text"
+        );
     }
 }

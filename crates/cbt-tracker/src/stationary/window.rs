@@ -67,7 +67,7 @@ use super::simd::{
 use crate::config::{CbtConfig, Order};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::tracker::{Estimate, Hypothesis};
-use crate::{Detection, Space, TrackError};
+use crate::{Detection, Point, Space, TrackError};
 
 /// Cells below this share of the posterior's maximum are cropped from the window.
 const CROP: f64 = 1e-4;
@@ -94,6 +94,52 @@ pub(crate) struct Patch {
     pub h: usize,
     pub w: usize,
     pub v: Vec<f64>,
+}
+
+impl Patch {
+    /// The channel encoding of a (validated, on-grid) point.
+    pub fn at_point(space: &Space, p: Point) -> Patch {
+        let mut ax: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
+        for (d, a) in ax.iter_mut().enumerate() {
+            let b = space.state_basis(d);
+            b.for_each_active(b.to_index(p[d]), |k, v| a.push((k, v)));
+        }
+        let (i0, j0) = (ax[0][0].0, ax[1][0].0);
+        let (h, w) = (ax[0].len(), ax[1].len());
+        let mut v = vec![0.0; h * w];
+        for &(i, a) in &ax[0] {
+            for &(j, b) in &ax[1] {
+                v[(i - i0) * w + j - j0] = a * b;
+            }
+        }
+        Patch { i0, j0, h, w, v }
+    }
+
+    /// The bounding rectangle of the positive cells of a (validated, non-negative, with
+    /// positive mass) joint density over a grid of rows of `ny` cells, with its values.
+    pub fn support_of(density: &[f64], ny: usize) -> Patch {
+        let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
+        for (k, &v) in density.iter().enumerate() {
+            if v > 0.0 {
+                let (i, j) = (k / ny, k % ny);
+                a0 = a0.min(i);
+                a1 = a1.max(i + 1);
+                b0 = b0.min(j);
+                b1 = b1.max(j + 1);
+            }
+        }
+        let mut v = Vec::with_capacity((a1 - a0) * (b1 - b0));
+        for i in a0..a1 {
+            v.extend_from_slice(&density[i * ny + b0..i * ny + b1]);
+        }
+        Patch {
+            i0: a0,
+            j0: b0,
+            h: a1 - a0,
+            w: b1 - b0,
+            v,
+        }
+    }
 }
 
 /// A kernel over offsets `lo..lo + v.len()`.
