@@ -3,13 +3,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Clutter, Layout, Order};
-use crate::encode::{Encoded, encode_detections};
+use crate::config::{Layout, Order};
+use crate::dense::{DensePosterior, check_marginals, uniform_marginals};
 use crate::history::{self, History};
-use crate::integrity::{len, nonneg};
 use crate::model::{ObservationModel, SystemModel};
-use crate::tracker::{Estimate, Hypothesis, Tracker};
-use crate::window::{Patch, WindowState};
+use crate::stationary::{Patch, StatObservation, StatSystem, WindowState};
+use crate::tracker::{Estimate, Tracker};
 use crate::{CbtModel, Detection, Point, TrackError};
 
 /// A CBT tracker: a learned [`CbtModel`] and the posterior over the joint state grid.
@@ -28,43 +27,92 @@ use crate::{CbtModel, Detection, Point, TrackError};
 /// 3. **estimate**: the posterior decoded with `chan-repr`'s local decoder
 ///    ([`chan_repr::ChannelGrid::decode`]): best mode, certainty = its window mass, runner-ups.
 ///
+/// The stationary layout runs the same steps on the window of the posterior's support
+/// (module `stationary`, its own numbered steps).
+///
 /// A tracker read back with serde is validated: its model as [`CbtModel`] is, and its
 /// posterior's sizes against the model's space, its values finite and non-negative, the
 /// states of its online-learning history on the grid ([`TrackError::Corrupt`] otherwise).
 /// Work buffers are neither saved nor compared: a loaded tracker equals its original.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(try_from = "CbtTrackerRaw")]
 pub struct CbtTracker {
     model: CbtModel,
     name: String,
-    /// `q_k⁺` (joint).
-    post: Vec<f64>,
-    /// `q_{k−1}⁺` (joint; used by the joint second-order layout).
-    prev: Vec<f64>,
-    /// Per-axis marginals of `q_k⁺` and `q_{k−1}⁺`.
-    marg: Vec<Vec<f64>>,
-    marg_prev: Vec<Vec<f64>>,
+    /// The posterior, held as the model's layout needs it.
+    state: LayoutState,
     /// Learn from every step's own estimate.
     self_learning: bool,
-    /// The windowed posterior of the stationary layout (`post`, `prev`, `marg*` unused).
-    #[serde(default)]
-    win: WindowState,
     /// The last two frames of [`learn_online`](Self::learn_online) (saved as their states).
-    #[serde(serialize_with = "save_history")]
     history: History,
     /// Time index of the posterior (a [`crate::PeriodicInput`]'s `k`; stays 0 without one).
-    #[serde(default, skip_serializing_if = "is_zero")]
     time: u64,
-    #[serde(skip)]
-    scratch: Scratch,
+}
+
+/// The per-layout state of a [`CbtTracker`]: which one follows from the model's layout.
+#[derive(Debug, Clone, PartialEq)]
+enum LayoutState {
+    /// [`Layout::Separable`] and [`Layout::SparseJoint`]: the posterior over every cell.
+    Dense(DensePosterior),
+    /// [`Layout::Stationary`]: the posterior on the window of its support.
+    Stationary(Box<WindowState>),
+}
+
+/// A [`CbtTracker`] as saved: every layout's fields side by side (the form files have
+/// always had; the layout that does not use a field saves its starting value: the
+/// stationary layout empty posteriors and uniform marginals, the dense ones an empty window).
+#[derive(Serialize)]
+struct CbtTrackerSaved<'a> {
+    model: &'a CbtModel,
+    name: &'a str,
+    post: &'a [f64],
+    prev: &'a [f64],
+    marg: &'a [Vec<f64>],
+    marg_prev: &'a [Vec<f64>],
+    self_learning: bool,
+    win: &'a WindowState,
+    history: &'a history::Saved,
+    #[serde(skip_serializing_if = "is_zero")]
+    time: u64,
 }
 
 fn is_zero(v: &u64) -> bool {
     *v == 0
 }
 
-fn save_history<S: serde::Serializer>(h: &History, s: S) -> Result<S::Ok, S::Error> {
-    h.saved().serialize(s)
+impl Serialize for CbtTracker {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let (empty_win, uniform);
+        let (post, prev, marg, marg_prev, win) = match &self.state {
+            LayoutState::Dense(d) => {
+                empty_win = WindowState::default();
+                (
+                    &d.post[..],
+                    &d.prev[..],
+                    &d.marg[..],
+                    &d.marg_prev[..],
+                    &empty_win,
+                )
+            }
+            LayoutState::Stationary(w) => {
+                uniform = uniform_marginals(self.model.space());
+                (&[][..], &[][..], &uniform[..], &uniform[..], &**w)
+            }
+        };
+        CbtTrackerSaved {
+            model: &self.model,
+            name: &self.name,
+            post,
+            prev,
+            marg,
+            marg_prev,
+            self_learning: self.self_learning,
+            win,
+            history: self.history.saved(),
+            time: self.time,
+        }
+        .serialize(s)
+    }
 }
 
 /// A [`CbtTracker`] as read, before its consistency check.
@@ -91,67 +139,54 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
     type Error = TrackError;
 
     fn try_from(raw: CbtTrackerRaw) -> Result<Self, TrackError> {
-        let mut t = CbtTracker {
-            model: raw.model,
-            name: raw.name,
-            post: raw.post,
-            prev: raw.prev,
-            marg: raw.marg,
-            marg_prev: raw.marg_prev,
-            self_learning: raw.self_learning,
-            win: raw.win,
-            history: History::default(),
-            time: raw.time,
-            scratch: Scratch::default(),
-        };
-        let space = t.model.space();
-        let cfg = t.model.config();
-        t.history = History::restore(
+        let space = raw.model.space();
+        let cfg = raw.model.config();
+        let history = History::restore(
             raw.history,
             space,
             cfg.online_weight,
             cfg.layout == Layout::SparseJoint,
         )?;
-        if t.is_stationary() {
-            t.win.check(space)?;
+        let state = if cfg.layout == Layout::Stationary {
+            let mut win = raw.win;
+            win.check(space)?;
+            check_marginals(space, &raw.marg, &raw.marg_prev)?;
+            LayoutState::Stationary(Box::new(win))
         } else {
-            for (what, v) in [("posterior", &t.post), ("previous posterior", &t.prev)] {
-                len(what, v.len(), space.cells())?;
-                nonneg(what, v)?;
-            }
-        }
-        for (what, m) in [("marginals", &t.marg), ("previous marginals", &t.marg_prev)] {
-            len(what, m.len(), space.dims())?;
-            for (d, v) in m.iter().enumerate() {
-                len(what, v.len(), space.axis_len(d))?;
-                nonneg(what, v)?;
-            }
-        }
-        Ok(t)
+            LayoutState::Dense(DensePosterior::restore(
+                space,
+                raw.post,
+                raw.prev,
+                raw.marg,
+                raw.marg_prev,
+            )?)
+        };
+        Ok(CbtTracker {
+            model: raw.model,
+            name: raw.name,
+            state,
+            self_learning: raw.self_learning,
+            history,
+            time: raw.time,
+        })
     }
 }
 
-/// Reused work buffers of one step: not part of the filter's state (not saved, and equal
-/// whatever they hold, so a tracker loaded from a file compares equal to its original).
-#[derive(Debug, Clone, Default)]
-struct Scratch {
-    prior: Vec<f64>,
-    lik: Vec<f64>,
-    axis: Vec<Vec<f64>>,
-    axis_lik: Vec<Vec<f64>>,
-}
-
-impl PartialEq for Scratch {
-    fn eq(&self, _: &Scratch) -> bool {
-        true
+/// The stationary models (present exactly when the layout is stationary: a model whose
+/// observation and system layouts differ from its configuration is rejected when it is
+/// built or read).
+fn stationary_models(model: &CbtModel) -> Result<(&StatObservation, &[StatSystem]), TrackError> {
+    match (&model.obs, &model.sys) {
+        (ObservationModel::Stationary(obs), SystemModel::Stationary(sys)) => Ok((obs, sys)),
+        _ => Err(TrackError::Mismatch(
+            "the stationary layout needs the stationary models".into(),
+        )),
     }
 }
 
 impl CbtTracker {
     /// A tracker with the given model, started at the centre of the grid.
     pub fn new(model: CbtModel) -> Self {
-        let g = model.space().cells();
-        let dims = model.space().dims();
         let name = match (model.config().order, model.config().layout) {
             (Order::Second, Layout::Separable) => "CBT 2nd order",
             (Order::First, Layout::Separable) => "CBT 1st order",
@@ -165,13 +200,7 @@ impl CbtTracker {
         } else {
             name.to_string()
         };
-        let stationary = model.config().layout == Layout::Stationary;
-        let g = if stationary { 0 } else { g };
-        let marg: Vec<Vec<f64>> = (0..dims)
-            .map(|d| vec![1.0 / model.space().axis_len(d) as f64; model.space().axis_len(d)])
-            .collect();
-        let mut win = WindowState::default();
-        if stationary {
+        let state = if model.config().layout == Layout::Stationary {
             // Started at the centre of the grid (a sharp prior; `reset` places it).
             let c: Vec<f64> = (0..2)
                 .map(|d| {
@@ -179,20 +208,19 @@ impl CbtTracker {
                     0.5 * (lo + hi)
                 })
                 .collect();
-            win.start(point_patch(model.space(), [c[0], c[1]]));
-        }
+            let mut win = WindowState::default();
+            win.start(Patch::at_point(model.space(), [c[0], c[1]]));
+            LayoutState::Stationary(Box::new(win))
+        } else {
+            LayoutState::Dense(DensePosterior::uniform(model.space()))
+        };
         CbtTracker {
             name,
-            post: vec![1.0 / g as f64; g],
-            prev: vec![1.0 / g as f64; g],
-            marg_prev: marg.clone(),
-            marg,
-            win,
+            state,
             model,
             self_learning: false,
             history: History::default(),
             time: 0,
-            scratch: Scratch::default(),
         }
     }
 
@@ -219,10 +247,9 @@ impl CbtTracker {
     /// The posterior `q_k⁺` over the joint grid (sums to 1). For the stationary layout, the
     /// posterior on its window only (see [`posterior_window`](Self::posterior_window)).
     pub fn posterior(&self) -> &[f64] {
-        if self.is_stationary() {
-            &self.win.post.v
-        } else {
-            &self.post
+        match &self.state {
+            LayoutState::Dense(d) => &d.post,
+            LayoutState::Stationary(w) => &w.post.v,
         }
     }
 
@@ -230,10 +257,13 @@ impl CbtTracker {
     /// rectangle [`posterior`](Self::posterior) covers (row-major, rows along axis 0); outside
     /// it the posterior is below `support × max` and taken as 0. `None` for other layouts.
     pub fn posterior_window(&self) -> Option<([usize; 2], [usize; 2])> {
-        self.is_stationary().then(|| {
-            let p = &self.win.post;
-            ([p.i0, p.j0], [p.h, p.w])
-        })
+        match &self.state {
+            LayoutState::Dense(_) => None,
+            LayoutState::Stationary(w) => {
+                let p = &w.post;
+                Some(([p.i0, p.j0], [p.h, p.w]))
+            }
+        }
     }
 
     /// The time index of the posterior: 0 after a reset, one more after each step (only
@@ -251,14 +281,11 @@ impl CbtTracker {
         }
     }
 
-    fn is_stationary(&self) -> bool {
-        self.model.config().layout == Layout::Stationary
-    }
-
     /// Starts from a given joint density (normalised here; must be non-negative, finite, of
     /// length `G`, with positive mass); both previous posteriors are set to it.
     pub fn reset_to(&mut self, density: &[f64]) -> Result<(), TrackError> {
-        let g = self.model.space().cells();
+        let space = self.model.space();
+        let g = space.cells();
         if density.len() != g {
             return Err(TrackError::Mismatch(format!(
                 "a density over {g} grid cells was expected, got {}",
@@ -285,207 +312,29 @@ impl CbtTracker {
                 reason: "must have positive mass",
             });
         }
-        if self.is_stationary() {
-            let ny = self.model.space().axis_len(1);
-            let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
-            for (k, &v) in density.iter().enumerate() {
-                if v > 0.0 {
-                    let (i, j) = (k / ny, k % ny);
-                    a0 = a0.min(i);
-                    a1 = a1.max(i + 1);
-                    b0 = b0.min(j);
-                    b1 = b1.max(j + 1);
-                }
-            }
-            let mut v = Vec::with_capacity((a1 - a0) * (b1 - b0));
-            for i in a0..a1 {
-                v.extend_from_slice(&density[i * ny + b0..i * ny + b1]);
-            }
-            self.win.start(Patch {
-                i0: a0,
-                j0: b0,
-                h: a1 - a0,
-                w: b1 - b0,
-                v,
-            });
-            self.history = History::default();
-            return Ok(());
-        }
-        self.post = density.iter().map(|v| v / s).collect();
-        self.prev = self.post.clone();
-        self.update_marginals();
-        self.marg_prev = self.marg.clone();
         self.history = History::default();
-        self.time = 0;
+        match &mut self.state {
+            LayoutState::Dense(d) => {
+                d.start(space, density, s);
+                self.time = 0;
+            }
+            LayoutState::Stationary(w) => w.start(Patch::support_of(density, space.axis_len(1))),
+        }
         Ok(())
     }
 
     /// The prior `q_k⁻` of the next step (prediction and lost-track mixing), without
     /// changing the tracker.
     pub fn predict(&self) -> Vec<f64> {
-        if let SystemModel::Stationary(sys) = &self.model.sys {
-            return self
-                .win
-                .clone()
-                .dense_prior(self.model.space(), self.model.config(), sys);
-        }
-        let mut prior = Vec::new();
-        let mut axis = Vec::new();
-        self.predict_into(&mut prior, &mut axis);
-        prior
-    }
-
-    fn predict_into(&self, prior: &mut Vec<f64>, axis: &mut Vec<Vec<f64>>) {
-        let space = self.model.space();
-        let cfg = *self.model.config();
-        let g = space.cells();
-        prior.resize(g, 0.0);
-        match &self.model.sys {
-            SystemModel::Separable {
-                first,
-                second,
-                phased,
-            } => {
-                axis.resize(space.dims(), Vec::new());
-                let phase = cfg.input.map(|i| i.weights(self.time + 1));
-                for (d, p) in axis.iter_mut().enumerate() {
-                    p.resize(space.axis_len(d), 0.0);
-                    match (cfg.order, second, &phase) {
-                        (Order::Second, Some(s), _) => {
-                            s[d].predict(&self.marg[d], &self.marg_prev[d], cfg.prune, p)
-                        }
-                        (_, _, Some(phase)) => {
-                            // S(φ_k) q = Σ_p β_p(φ_k) S_p q (module `input`).
-                            let mut one = vec![0.0; p.len()];
-                            p.iter_mut().for_each(|v| *v = 0.0);
-                            for &(c, w) in phase {
-                                phased[c][d].predict(&self.marg[d], cfg.prune, &mut one);
-                                for (o, v) in p.iter_mut().zip(&one) {
-                                    *o += w * v;
-                                }
-                            }
-                        }
-                        _ => first[d].predict(&self.marg[d], cfg.prune, p),
-                    }
-                }
-                if space.dims() == 1 {
-                    prior.copy_from_slice(&axis[0]);
-                } else {
-                    let ny = axis[1].len();
-                    for (i, &a) in axis[0].iter().enumerate() {
-                        for (dst, &b) in prior[i * ny..(i + 1) * ny].iter_mut().zip(&axis[1]) {
-                            *dst = a * b;
-                        }
-                    }
-                }
-            }
-            SystemModel::Joint(s) => match cfg.order {
-                Order::Second => s.predict2(space, &self.post, &self.prev, &cfg, prior),
-                Order::First => s.predict1(space, &self.post, &cfg, prior),
+        match &self.state {
+            LayoutState::Dense(d) => d.predict(&self.model, self.time),
+            LayoutState::Stationary(w) => match stationary_models(&self.model) {
+                Ok((_, sys)) => w
+                    .clone()
+                    .dense_prior(self.model.space(), self.model.config(), sys),
+                Err(_) => unreachable!("a stationary tracker's model has the stationary models"),
             },
-            SystemModel::Stationary(sys) => {
-                // Held on a window: the dense prior of its next step (normalised).
-                *prior = self.win.clone().dense_prior(space, &cfg, sys);
-                return;
-            }
         }
-        let total: f64 = prior.iter().sum();
-        let gamma = cfg.mixing;
-        let scale = if total > 0.0 {
-            (1.0 - gamma) / total
-        } else {
-            0.0
-        };
-        let u = if total > 0.0 {
-            gamma / g as f64
-        } else {
-            1.0 / g as f64
-        };
-        prior.iter_mut().for_each(|v| *v = *v * scale + u);
-    }
-
-    /// The likelihood `ℓ[g] = Σ_i w_i · p(z_i | x̃_g)` of an encoded detection set.
-    fn likelihood(&mut self, z: &Encoded, dets: &[Detection]) -> Result<(), TrackError> {
-        let space = self.model.space();
-        let cfg = *self.model.config();
-        let g = space.cells();
-        let s = &mut self.scratch;
-        s.lik.clear();
-        s.lik.resize(g, 0.0);
-        match &self.model.obs {
-            ObservationModel::Separable(axes) => {
-                // Clutter::Uniform: (1 − π)·Π_d O'_d + π·Π_d (Σ_m b_m / N_z,d) per detection.
-                let (keep, uniform) = if cfg.clutter == Clutter::Uniform {
-                    let pi = axes[0].clutter_share();
-                    let mut u = pi;
-                    for d in 0..space.dims() {
-                        u /= space.meas_len(d) as f64;
-                    }
-                    (1.0 - pi, u)
-                } else {
-                    (1.0, 0.0)
-                };
-                s.axis_lik.resize(space.dims(), Vec::new());
-                let mut per: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
-                let mut umass = 0.0;
-                for det in dets {
-                    if det.weight == 0.0 {
-                        continue;
-                    }
-                    let t = space.detection_index(det)?;
-                    let mut mass = det.weight * uniform;
-                    for d in 0..space.dims() {
-                        per[d].clear();
-                        space
-                            .meas_basis(d)
-                            .for_each_active(t[d], |k, v| per[d].push((k, v)));
-                        mass *= per[d].iter().map(|e| e.1).sum::<f64>();
-                        if d + 1 == space.dims() {
-                            umass += mass;
-                        }
-                        s.axis_lik[d].resize(space.axis_len(d), 0.0);
-                        axes[d].likelihood(&per[d], &mut s.axis_lik[d]);
-                    }
-                    let w = det.weight * keep;
-                    if space.dims() == 1 {
-                        for (l, a) in s.lik.iter_mut().zip(&s.axis_lik[0]) {
-                            *l += w * a;
-                        }
-                    } else {
-                        let ny = space.axis_len(1);
-                        let (lx, ly) = (&s.axis_lik[0], &s.axis_lik[1]);
-                        for (i, &a) in lx.iter().enumerate() {
-                            let wa = w * a;
-                            for (l, &b) in s.lik[i * ny..(i + 1) * ny].iter_mut().zip(ly) {
-                                *l += wa * b;
-                            }
-                        }
-                    }
-                }
-                if umass > 0.0 {
-                    s.lik.iter_mut().for_each(|l| *l += umass);
-                }
-            }
-            ObservationModel::Stationary(_) => {
-                // `filter` updates the stationary layout in its window; a model whose system
-                // layout differs is rejected when it is built or read.
-                return Err(TrackError::Mismatch(
-                    "the stationary observation model needs the stationary system model".into(),
-                ));
-            }
-            ObservationModel::Joint(o) => {
-                // `z.joint` holds every detection's weighted joint encoding; the likelihood
-                // is linear in it, so one pass gives the mixture.
-                o.add_likelihood(&z.joint, &cfg, &mut s.lik);
-                if cfg.clutter == Clutter::Uniform {
-                    let pi = o.clutter_share();
-                    let total: f64 = z.joint.iter().map(|e| e.1).sum();
-                    let u = pi * total / o.meas_cells() as f64;
-                    s.lik.iter_mut().for_each(|l| *l = (1.0 - pi) * *l + u);
-                }
-            }
-        }
-        Ok(())
     }
 
     /// The update's likelihood `ℓ[g]` of a detection set over the joint grid (dense layouts),
@@ -495,93 +344,39 @@ impl CbtTracker {
         &mut self,
         detections: &[Detection],
     ) -> Result<Option<&[f64]>, TrackError> {
-        let joint = self.model.config().layout == Layout::SparseJoint;
-        let z = encode_detections(self.model.space(), detections, 1.0, joint)?;
-        if z.is_empty() {
-            return Ok(None);
+        match &mut self.state {
+            LayoutState::Dense(d) => d.grid_likelihood(&self.model, detections),
+            LayoutState::Stationary(_) => Err(TrackError::Mismatch(
+                "the grid likelihood is the dense layouts'".into(),
+            )),
         }
-        self.likelihood(&z, detections)?;
-        Ok(Some(&self.scratch.lik))
     }
 
-    /// The likelihood the last [`grid_likelihood`](Self::grid_likelihood) computed.
+    /// The likelihood the last [`grid_likelihood`](Self::grid_likelihood) computed (empty
+    /// for the stationary layout).
     pub(crate) fn last_likelihood(&self) -> &[f64] {
-        &self.scratch.lik
+        match &self.state {
+            LayoutState::Dense(d) => d.last_likelihood(),
+            LayoutState::Stationary(_) => &[],
+        }
     }
 
     /// Prediction and update with `detections`; on error (non-finite or off-grid
     /// detection) the tracker is unchanged.
     pub fn filter(&mut self, detections: &[Detection]) -> Result<(), TrackError> {
-        if let (ObservationModel::Stationary(obs), SystemModel::Stationary(sys)) =
-            (&self.model.obs, &self.model.sys)
-        {
-            return self.win.step(
-                self.model.space(),
-                self.model.config(),
-                obs,
-                sys,
-                detections,
-            );
-        }
-        let joint = self.model.config().layout == Layout::SparseJoint;
-        // Validate (and, for the joint layout, encode) everything before changing state.
-        let z = encode_detections(self.model.space(), detections, 1.0, joint)?;
-        if !z.is_empty() {
-            self.likelihood(&z, detections)?;
-        }
-        let mut prior = std::mem::take(&mut self.scratch.prior);
-        let mut axis = std::mem::take(&mut self.scratch.axis);
-        self.predict_into(&mut prior, &mut axis);
-        self.scratch.axis = axis;
-        let mut new_post = std::mem::take(&mut self.prev);
-        new_post.clear();
-        let mut updated = false;
-        if !z.is_empty() {
-            new_post.extend(self.scratch.lik.iter().zip(&prior).map(|(l, p)| l * p));
-            let s: f64 = new_post.iter().sum();
-            if s > 0.0 && s.is_finite() {
-                new_post.iter_mut().for_each(|v| *v /= s);
-                updated = true;
-            } else {
-                new_post.clear();
+        let model = &self.model;
+        match &mut self.state {
+            LayoutState::Dense(d) => {
+                d.step(model, self.time, detections)?;
+                if model.config().input.is_some() {
+                    self.time += 1;
+                }
+                Ok(())
             }
-        }
-        if !updated {
-            new_post.extend_from_slice(&prior);
-        }
-        self.scratch.prior = prior;
-        if self.model.config().input.is_some() {
-            self.time += 1;
-        }
-        self.prev = std::mem::replace(&mut self.post, new_post);
-        std::mem::swap(&mut self.marg, &mut self.marg_prev);
-        self.update_marginals();
-        Ok(())
-    }
-
-    fn update_marginals(&mut self) {
-        let space = self.model.space();
-        let dims = space.dims();
-        self.marg.resize(dims, Vec::new());
-        if dims == 1 {
-            self.marg[0].clear();
-            self.marg[0].extend_from_slice(&self.post);
-            return;
-        }
-        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
-        let (mx, my) = self.marg.split_at_mut(1);
-        let (mx, my) = (&mut mx[0], &mut my[0]);
-        mx.clear();
-        mx.resize(nx, 0.0);
-        my.clear();
-        my.resize(ny, 0.0);
-        for (i, row) in self.post.chunks_exact(ny).enumerate() {
-            let mut s = 0.0;
-            for (j, &v) in row.iter().enumerate() {
-                s += v;
-                my[j] += v;
+            LayoutState::Stationary(w) => {
+                let (obs, sys) = stationary_models(model)?;
+                w.step(model.space(), model.config(), obs, sys, detections)
             }
-            mx[i] = s;
         }
     }
 
@@ -605,44 +400,10 @@ impl CbtTracker {
     /// Decodes the posterior: best mode, its certainty, and runner-ups.
     pub fn decode(&self) -> Estimate {
         let space = self.model.space();
-        if self.is_stationary() {
-            let cfg = self.model.config();
-            return self.win.decode(space, cfg.decode_radius, cfg.runner_ups);
-        }
-        let modes =
-            crate::decode::decode_posterior(space, &self.post, self.model.config().runner_ups + 1);
-        let to_point = |v: &[f64]| -> Point {
-            let mut p = [0.0; 2];
-            p[..v.len()].copy_from_slice(v);
-            p
-        };
-        match modes.split_first() {
-            Some((best, rest)) => Estimate {
-                position: to_point(&best.value),
-                certainty: Some(best.certainty),
-                runner_ups: rest
-                    .iter()
-                    .take(self.model.config().runner_ups)
-                    .map(|m| Hypothesis {
-                        position: to_point(&m.value),
-                        certainty: m.certainty,
-                    })
-                    .collect(),
-            },
-            None => {
-                // No window with a valid estimate (e.g. a flat posterior): the best cell.
-                let (g, &v) = self
-                    .post
-                    .iter()
-                    .enumerate()
-                    .max_by(|a, b| a.1.total_cmp(b.1))
-                    .unwrap_or((0, &0.0));
-                Estimate {
-                    position: space.cell_centre(g),
-                    certainty: Some(v),
-                    runner_ups: Vec::new(),
-                }
-            }
+        let cfg = self.model.config();
+        match &self.state {
+            LayoutState::Dense(d) => d.decode(space, cfg.runner_ups),
+            LayoutState::Stationary(w) => w.decode(space, cfg.decode_radius, cfg.runner_ups),
         }
     }
 }
@@ -656,14 +417,17 @@ impl Tracker for CbtTracker {
     fn reset(&mut self, start: Point) -> Result<(), TrackError> {
         let space = self.model.space();
         space.state_index(&start)?;
-        if self.is_stationary() {
-            self.win.start(point_patch(space, start));
-            self.history = History::default();
-            return Ok(());
+        match &mut self.state {
+            LayoutState::Dense(_) => {
+                let c = space.grid().encode(&start[..space.dims()])?;
+                self.reset_to(&c)
+            }
+            LayoutState::Stationary(w) => {
+                w.start(Patch::at_point(space, start));
+                self.history = History::default();
+                Ok(())
+            }
         }
-        let dims = space.dims();
-        let c = space.grid().encode(&start[..dims])?;
-        self.reset_to(&c)
     }
 
     fn step(&mut self, detections: &[Detection]) -> Result<Estimate, TrackError> {
@@ -693,22 +457,4 @@ impl CbtTracker {
         }
         q
     }
-}
-
-/// The channel encoding of a (validated, on-grid) point as a window patch.
-fn point_patch(space: &crate::Space, p: Point) -> Patch {
-    let mut ax: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
-    for (d, a) in ax.iter_mut().enumerate() {
-        let b = space.state_basis(d);
-        b.for_each_active(b.to_index(p[d]), |k, v| a.push((k, v)));
-    }
-    let (i0, j0) = (ax[0][0].0, ax[1][0].0);
-    let (h, w) = (ax[0].len(), ax[1].len());
-    let mut v = vec![0.0; h * w];
-    for &(i, a) in &ax[0] {
-        for &(j, b) in &ax[1] {
-            v[(i - i0) * w + j - j0] = a * b;
-        }
-    }
-    Patch { i0, j0, h, w, v }
 }

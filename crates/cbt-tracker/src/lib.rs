@@ -32,14 +32,14 @@
 //!
 //! ## The stationary layout (image tracking)
 //! The same correspondence-free soft counts pooled over the grid by displacement, so every
-//! model depends on `m − n` only (module `stationary`): per-axis `S[δ]` and `T[δ | v]`, and a
+//! model depends on `m − n` only (module `stationary::model`): per-axis `S[δ]` and `T[δ | v]`, and a
 //! joint 2-D observation kernel `A[δx, δy]` whose clutter floor `λ` is measured against each
 //! displacement's exposure and whose sum is the learned `P̂_D`. The likelihood of a detection
 //! set is the clutter-aware mixture `(1 − P̂_D)·λ + Σ_i (b(z_i) ⋆ A)`. The posterior is held
-//! jointly on the window of its support (module `window`); the prediction is a separable
+//! jointly on the window of its support (module `stationary::window`); the prediction is a separable
 //! convolution of it with per-axis displacement kernels `D_d = Σ_v c_d[v] T_d[· | v]`
 //! (`c_d` the velocity distribution the filter carries in its state: propagated through a
-//! missed frame by `T`, sharpened by each detection; module `window`, step 5), evaluated
+//! missed frame by `T`, sharpened by each detection; module `stationary::window`, step 5), evaluated
 //! only where the update needs it; the estimate is the first moment of the channel
 //! coefficients around the best cell. Storage does not grow with the channel count and a
 //! step costs what the posterior's support costs, so the grid can be as fine as the detection
@@ -50,21 +50,38 @@
 //! processed on its non-zero blocks only (the same values), and large work buffers are
 //! recycled across the trackers of a thread.
 //!
-//! ## Which layout, which settings
-//! - **Image tracking** (state and detections in the same pixel units):
-//!   [`CbtConfig::stationary`] ([`Layout::Stationary`], second order, constant-velocity
+//! ## Which layout for what
+//! - [`Layout::Stationary`] ([`CbtConfig::stationary`]): 2-D tracking whose detections and
+//!   states share units and channels (image tracking; the space is checked for it). The
+//!   models depend on displacements only, so every training frame teaches every grid
+//!   position (it learns from a few tracks), storage does not grow with the channel count
+//!   (the grid can be as fine as the detection noise: [`Scales::fine_spacing`]), and a step
+//!   costs what the posterior's support costs. The layout of every image set in
+//!   `fixtures/paper-b/summary.md` (synthetic RC-car) and of
+//!   `fixtures/paper-b-pedestrians/summary.md` (real walkers). Not for motion or detection
+//!   statistics that depend on where the target is (a lane, a wall): pooled over the grid,
+//!   the models cannot know.
+//! - [`Layout::Separable`] ([`CbtConfig::default`]): a measurement that is another
+//!   quantity than the state (UNGM's `z = x²/20`, with [`ObservationFallback::Uniform`]:
+//!   `fixtures/paper-b/summary.md` § ungm), 1-D spaces,
+//!   models that depend on the position, and a known input ([`CbtConfig::input`] needs it).
+//!   Dense per-axis matrices (`N²` per axis, `N³` for the second order), so small grids
+//!   (tens of channels per axis); the prediction acts on the posterior's per-axis marginals,
+//!   so it cannot couple the axes.
+//! - [`Layout::SparseJoint`]: a small 2-D grid whose axes are coupled (motion along a
+//!   diagonal or a curve): the models over the joint grid of `G = N_x·N_y` cells, stored for
+//!   the cells the training data touched; their size and a step's cost grow with those cells
+//!   and the posterior's support, so keep the grid small.
+//!
+//! ## Which settings
+//! - **Image tracking**: [`CbtConfig::stationary`] (second order, constant-velocity
 //!   fallback for thinly trained velocity columns, `α = 10`) on a grid of spacing
-//!   [`Scales::fine_spacing`] (0.75 × the training data's detection noise). It pools every
-//!   training frame into every grid position, so it learns from a few tracks, and a step
-//!   costs what the posterior's support costs.
-//! - **Measurement ≠ state** (e.g. UNGM's `z = x²/20`): [`Layout::Separable`] with
-//!   [`ObservationFallback::Uniform`]; [`Layout::SparseJoint`] only when the axes are coupled
-//!   and the grid is small.
+//!   [`Scales::fine_spacing`] (0.75 × the training data's detection noise).
 //! - **Real motion** (measured on the ETH/UCY pedestrians, leave-one-scene-out; every choice
 //!   made on the validation scenes `biwi_hotel` and `crowds_zara02`, the six others scored
 //!   once; `fixtures/paper-b-pedestrians/summary.md`): use [`CbtConfig::stationary`],
 //!   second order. The stationary layout carries the velocity in its state (module
-//!   `window`, step 5: a velocity distribution per axis, propagated through missed frames by
+//!   `stationary::window`, step 5: a velocity distribution per axis, propagated through missed frames by
 //!   the learned `T` and sharpened by each detection, like a particle filter's particles
 //!   carry theirs), and the second order then beats the first at every detector level and
 //!   training size (validation, trained on the other scenes, mean RMSE px easy/medium/hard:
@@ -100,7 +117,7 @@
 //! `P_D·N + (1 − P_D)/area` of the issue, up to a constant factor);
 //! [`LearnedParticleFilter`]: the same SIR filter knowing only what CBT learned — its
 //! transition and likelihood are a [`CbtModel`]'s first-order densities, sampled and
-//! evaluated at continuous particle positions (module `learned_pf`): the like-for-like
+//! evaluated at continuous particle positions (module `baselines::learned_pf`): the like-for-like
 //! particle filter where the true model is not CBT's to have.
 //!
 //! ## Saving and loading
@@ -138,46 +155,34 @@
 //! ```
 #![deny(missing_docs)]
 
-mod calibrate;
+mod baselines;
 mod cbt;
 mod config;
-mod cover;
-pub mod csv;
 mod data;
-mod decode;
+mod dense;
 mod encode;
 mod error;
 mod history;
 mod input;
 mod integrity;
-mod kalman;
-mod learned_pf;
 pub mod metrics;
 mod model;
-pub mod mot;
-mod observation;
-mod particle;
-mod pool;
-pub mod sim;
-mod simd;
 pub mod smoothing;
 mod space;
 mod stationary;
-mod system;
 mod tracker;
-mod window;
 
-pub use calibrate::Calibration;
+pub use baselines::{
+    Calibration, GATE_99, KalmanParams, KalmanTracker, LearnedParticleFilter, ParticleFilter,
+    PfModel,
+};
 pub use cbt::CbtTracker;
 pub use config::{
     CbtConfig, Clutter, Layout, ObservationFallback, Order, PeriodicInput, SystemFallback,
 };
-pub use data::{Detection, Frame, Point, Sequence, TrainingFrame};
+pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use error::TrackError;
-pub use kalman::{GATE_99, KalmanParams, KalmanTracker};
-pub use learned_pf::LearnedParticleFilter;
 pub use model::{CbtModel, LearnStats};
-pub use particle::{ParticleFilter, PfModel};
 pub use smoothing::Smoothing;
 pub use space::{DEFAULT_KERNEL, Scales, Space, axis};
 pub use tracker::{Estimate, Hypothesis, Tracker};

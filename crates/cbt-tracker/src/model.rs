@@ -4,13 +4,12 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Layout, Order, SystemFallback};
+use crate::dense::{AxisObservation, AxisSystem1, AxisSystem2, JointObservation, JointSystem};
 use crate::encode::{encode_detections, encode_states};
 use crate::history::History;
 use crate::integrity::{corrupt, len};
-use crate::observation::{AxisObservation, JointObservation};
 use crate::smoothing::{Smoothing, SmoothingGrid, select};
 use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
-use crate::system::{AxisSystem1, AxisSystem2, JointSystem};
 use crate::{Sequence, Space, TrackError, TrainingFrame};
 
 /// The observation model in one of the two layouts.

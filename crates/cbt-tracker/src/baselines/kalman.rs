@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2, Matrix2x4, Matrix4, Matrix4x2, Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::Calibration;
+use super::calibrate::Calibration;
 use crate::error::positive;
 use crate::integrity::finite;
 use crate::tracker::{Estimate, Tracker};

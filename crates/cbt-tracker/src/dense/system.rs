@@ -23,9 +23,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::observation::{add_sorted, split};
 use crate::config::{CbtConfig, SystemFallback};
 use crate::integrity::{corrupt, len, nonneg, nonneg1, sparse};
-use crate::observation::{add_sorted, split};
 use crate::{Space, TrackError};
 
 /// Normalised Gaussian column of `n` cells around integer `centre`, truncated at 3σ:

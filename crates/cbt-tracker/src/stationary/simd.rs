@@ -11,27 +11,38 @@
 //! posterior, a bound to skip negligible bumps (approximations that would need a validation
 //! check).
 
+/// The run-time dispatch of every function below, written once: when the CPU has AVX,
+/// evaluates `$call` (an `unsafe` call of the function's `#[target_feature(enable = "avx")]`
+/// copy, with the SAFETY comment of that copy's other preconditions) and returns its value
+/// from the enclosing function; otherwise does nothing, and the plain code after it runs.
+/// Compiled on x86-64 only (elsewhere the plain code always runs); the standard library
+/// caches the CPU check.
+macro_rules! avx_first {
+    ($call:expr) => {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            return $call;
+        }
+    };
+}
+
 /// `dst[i] += k · src[i]` over the common length.
 #[inline]
 pub(crate) fn axpy(dst: &mut [f64], src: &[f64], k: f64) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        unsafe { axpy_avx(dst, src, k) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { axpy_avx(dst, src, k) }
+    );
     axpy_body(dst, src, k);
 }
 
 /// `dst[i] = k · src[i]` over the common length.
 #[inline]
 pub(crate) fn scale_into(dst: &mut [f64], src: &[f64], k: f64) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        unsafe { scale_avx(dst, src, k) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { scale_avx(dst, src, k) }
+    );
     scale_body(dst, src, k);
 }
 
@@ -39,11 +50,10 @@ pub(crate) fn scale_into(dst: &mut [f64], src: &[f64], k: f64) {
 /// bodies below many times: one check instead of one per call).
 #[inline]
 pub(crate) fn with_avx<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        return unsafe { with_avx_enabled(f) };
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { with_avx_enabled(f) }
+    );
     f()
 }
 
@@ -116,13 +126,11 @@ pub(crate) fn axpy_taps(
         dst.len() >= n * ds && src.len() >= n * ss,
         "rows beyond the buffers"
     );
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); every tap stays within its row
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); every tap stays within its row
         // and every row within its buffer (asserted above).
-        unsafe { axpy_taps_avx(dst, ds, src, ss, n, taps) };
-        return;
-    }
+        unsafe { axpy_taps_avx(dst, ds, src, ss, n, taps) }
+    );
     for r in 0..n {
         let (d, s) = (&mut dst[r * ds..(r + 1) * ds], &src[r * ss..(r + 1) * ss]);
         for &(b0, len, d0, k) in taps {
@@ -158,12 +166,11 @@ pub(crate) fn mul_sum_rows(
             "rows beyond the source"
         );
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); rows lie within the buffers
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); rows lie within the buffers
         // (asserted above).
-        return unsafe { mul_sum_rows_avx(out, nc, src, b, bs, q0, n) };
-    }
+        unsafe { mul_sum_rows_avx(out, nc, src, b, bs, q0, n) }
+    );
     let mut mass = 0.0;
     for r in 0..n {
         let row = &mut out[r * nc..(r + 1) * nc];
@@ -257,13 +264,11 @@ pub(crate) fn peak_candidates(
 ) {
     let n = cur.len();
     assert!(above.is_none_or(|a| a.len() >= n) && below.is_none_or(|b| b.len() >= n));
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); the rows are as long as `cur`
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); the rows are as long as `cur`
         // (asserted above).
-        unsafe { peak_candidates_avx(cur, above, below, cut, &mut f) };
-        return;
-    }
+        unsafe { peak_candidates_avx(cur, above, below, cut, &mut f) }
+    );
     for (j, &v) in cur.iter().enumerate() {
         if candidate(v, above.map(|a| a[j]), below.map(|b| b[j]), cut) {
             f(j);
@@ -334,11 +339,10 @@ unsafe fn peak_candidates_avx(
 /// same ordered predicates) and returns the same indices.
 #[inline]
 pub(crate) fn extent(row: &[f64], cut: f64) -> Option<(usize, usize)> {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        return unsafe { extent_avx(row, cut) };
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { extent_avx(row, cut) }
+    );
     extent_body(row, cut)
 }
 
@@ -346,12 +350,10 @@ pub(crate) fn extent(row: &[f64], cut: f64) -> Option<(usize, usize)> {
 /// grid `v` (rows of `w` cells) that has one; one dispatch for all the rows.
 #[inline]
 pub(crate) fn row_extents(v: &[f64], w: usize, cut: f64, mut f: impl FnMut(usize, usize, usize)) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        unsafe { row_extents_avx(v, w, cut, &mut f) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { row_extents_avx(v, w, cut, &mut f) }
+    );
     for (i, row) in v.chunks_exact(w.max(1)).enumerate() {
         if let Some((a, b)) = extent_body(row, cut) {
             f(i, a, b);
@@ -480,12 +482,10 @@ pub(crate) fn conv_rows(
 ) {
     let len = kpad.len() as i64 - 2 * KPAD as i64;
     assert!(len >= 1 && sc <= ss && dst.len() >= n * dc && src.len() >= n * ss);
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); buffers as asserted above.
-        unsafe { conv_rows_avx(dst, dc, src, ss, sc, n, kpad, base) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); buffers as asserted above.
+        unsafe { conv_rows_avx(dst, dc, src, ss, sc, n, kpad, base) }
+    );
     for r in 0..n {
         for j in 0..dc {
             let mut acc = 0.0;
@@ -639,12 +639,10 @@ pub(crate) fn conv_cols(
     base: i64,
 ) {
     assert!(out.len() >= n * nc && src.len() >= m * nc);
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); buffers as asserted above.
-        unsafe { conv_cols_avx(out, n, src, m, nc, kern, base) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); buffers as asserted above.
+        unsafe { conv_cols_avx(out, n, src, m, nc, kern, base) }
+    );
     conv_cols_body(out, n, src, m, nc, kern, base);
 }
 
@@ -788,16 +786,16 @@ unsafe fn conv_cols_avx(
 /// lane's extra terms are `+0`, which leave its non-negative sum unchanged, so the values are
 /// the plain loop's.
 pub(crate) fn correlate(out: &mut [f64], m1: &[f64], m2: &[f64], d_hi: i64, rev: &mut Vec<f64>) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") && !out.is_empty() {
-        rev.clear();
-        rev.extend_from_slice(&[0.0; 4]);
-        rev.extend(m2.iter().rev());
-        rev.extend_from_slice(&[0.0; 4]);
-        // SAFETY: the CPU supports AVX (checked just above); `rev` is `m2` reversed with four
-        // zeros on each side.
-        unsafe { correlate_avx(out, m1, m2.len(), d_hi, rev) };
-        return;
+    if !out.is_empty() {
+        avx_first!({
+            rev.clear();
+            rev.extend_from_slice(&[0.0; 4]);
+            rev.extend(m2.iter().rev());
+            rev.extend_from_slice(&[0.0; 4]);
+            // SAFETY: the CPU supports AVX (the macro checked); `rev` is `m2` reversed with four
+            // zeros on each side.
+            unsafe { correlate_avx(out, m1, m2.len(), d_hi, rev) }
+        });
     }
     let _ = rev;
     correlate_body(out, m1, m2, d_hi);
@@ -871,12 +869,10 @@ unsafe fn correlate_avx(out: &mut [f64], m1: &[f64], n2: usize, d_hi: i64, rev: 
 pub(crate) fn column_sum(out: &mut [f64], cols: &[f64], stride: usize, terms: &[(usize, f64)]) {
     assert!(stride.is_multiple_of(16) && out.len() <= stride);
     assert!(terms.iter().all(|&(v, _)| (v + 1) * stride <= cols.len()));
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); columns as asserted above.
-        unsafe { column_sum_avx(out, cols, stride, terms) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); columns as asserted above.
+        unsafe { column_sum_avx(out, cols, stride, terms) }
+    );
     for &(v, c) in terms {
         axpy_body(out, &cols[v * stride..], c);
     }
@@ -928,12 +924,10 @@ unsafe fn column_sum_avx(out: &mut [f64], cols: &[f64], stride: usize, terms: &[
 /// the rows (lane masks at the right edge): the same additions per column, no stores between.
 pub(crate) fn column_totals(out: &mut [f64], v: &[f64], w: usize, h: usize) {
     assert!(out.len() == w && v.len() >= w * h);
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above); the grid lies in `v` (asserted).
-        unsafe { column_totals_avx(out, v, w, h) };
-        return;
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked); the grid lies in `v` (asserted).
+        unsafe { column_totals_avx(out, v, w, h) }
+    );
     for row in v[..w * h].chunks_exact(w.max(1)) {
         axpy_body(out, row, 1.0);
     }
@@ -1036,22 +1030,20 @@ unsafe fn axpy_taps_avx(
 /// only by rounding).
 #[inline]
 pub(crate) fn lane_sum(v: &[f64]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        return unsafe { lane_sum_avx(v) };
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { lane_sum_avx(v) }
+    );
     lane_sum_body(v)
 }
 
 /// Largest value (0 for an empty slice or all values below 0), with eight lanes.
 #[inline]
 pub(crate) fn lane_max(v: &[f64]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the CPU supports AVX (checked just above).
-        return unsafe { lane_max_avx(v) };
-    }
+    avx_first!(
+        // SAFETY: the CPU supports AVX (the macro checked).
+        unsafe { lane_max_avx(v) }
+    );
     lane_max_body(v)
 }
 

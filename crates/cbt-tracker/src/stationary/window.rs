@@ -20,7 +20,7 @@
 //! 2. **Prediction** `q⁻ = (1 − γ)·q_{k−1}⁺ ⊛ (D_x ⊗ D_y) + γ/G`: a separable convolution of
 //!    the joint posterior (no ghost combinations of one mode's x with another's y), evaluated
 //!    lazily only on the cells the update needs.
-//! 3. **Update** with the mixture likelihood of [`crate::stationary`]: the floor part
+//! 3. **Update** with the mixture likelihood of [`super::model`]: the floor part
 //!    `floor·q⁻` (kept only when it holds more than `support` of the posterior mass, i.e. when
 //!    no detection explains the prediction) and one bump per detection `q⁻ ⊙ (b(z_i) ⋆ A)` on
 //!    the `(2 r_A + 3)²` cells around it (kept when it holds more than `support` of the mass).
@@ -56,23 +56,23 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, Order};
-use crate::cover::{self, Block};
-use crate::integrity::{corrupt, len, nonneg};
-use crate::pool::{self, refill};
-use crate::simd::{
+use super::cover::{self, Block};
+use super::model::{StatObservation, StatSystem};
+use super::pool::{self, refill};
+use super::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
     lane_max, lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents,
     scale_into, with_avx,
 };
-use crate::stationary::{StatObservation, StatSystem};
+use crate::config::{CbtConfig, Order};
+use crate::integrity::{corrupt, len, nonneg};
 use crate::tracker::{Estimate, Hypothesis};
-use crate::{Detection, Space, TrackError};
+use crate::{Detection, Point, Space, TrackError};
 
 /// Cells below this share of the posterior's maximum are cropped from the window.
 const CROP: f64 = 1e-4;
 // The peak scan skips cells outside each row's crop extent: they are below its cut.
-const _: () = assert!(crate::decode::MIN_SHARE >= 10.0 * CROP);
+const _: () = assert!(crate::dense::MIN_SHARE >= 10.0 * CROP);
 
 /// Windows of at least this many cells keep their rows' crop extents for the peak scan
 /// (below it, the bookkeeping costs more than the scan it saves).
@@ -94,6 +94,52 @@ pub(crate) struct Patch {
     pub h: usize,
     pub w: usize,
     pub v: Vec<f64>,
+}
+
+impl Patch {
+    /// The channel encoding of a (validated, on-grid) point.
+    pub fn at_point(space: &Space, p: Point) -> Patch {
+        let mut ax: [Vec<(usize, f64)>; 2] = [Vec::new(), Vec::new()];
+        for (d, a) in ax.iter_mut().enumerate() {
+            let b = space.state_basis(d);
+            b.for_each_active(b.to_index(p[d]), |k, v| a.push((k, v)));
+        }
+        let (i0, j0) = (ax[0][0].0, ax[1][0].0);
+        let (h, w) = (ax[0].len(), ax[1].len());
+        let mut v = vec![0.0; h * w];
+        for &(i, a) in &ax[0] {
+            for &(j, b) in &ax[1] {
+                v[(i - i0) * w + j - j0] = a * b;
+            }
+        }
+        Patch { i0, j0, h, w, v }
+    }
+
+    /// The bounding rectangle of the positive cells of a (validated, non-negative, with
+    /// positive mass) joint density over a grid of rows of `ny` cells, with its values.
+    pub fn support_of(density: &[f64], ny: usize) -> Patch {
+        let (mut a0, mut a1, mut b0, mut b1) = (usize::MAX, 0, usize::MAX, 0);
+        for (k, &v) in density.iter().enumerate() {
+            if v > 0.0 {
+                let (i, j) = (k / ny, k % ny);
+                a0 = a0.min(i);
+                a1 = a1.max(i + 1);
+                b0 = b0.min(j);
+                b1 = b1.max(j + 1);
+            }
+        }
+        let mut v = Vec::with_capacity((a1 - a0) * (b1 - b0));
+        for i in a0..a1 {
+            v.extend_from_slice(&density[i * ny + b0..i * ny + b1]);
+        }
+        Patch {
+            i0: a0,
+            j0: b0,
+            h: a1 - a0,
+            w: b1 - b0,
+            v,
+        }
+    }
 }
 
 /// A kernel over offsets `lo..lo + v.len()`.
@@ -244,6 +290,41 @@ impl PartialEq for Scratch {
 struct DispWork {
     out: Vec<f64>,
     terms: Vec<(usize, f64)>,
+}
+
+/// What steps 2 and 3 of [`WindowState::step`] found before the update is assembled: the
+/// prediction's support, where its shared prior was made, and the masses of the update's
+/// parts and floor.
+struct Bumps {
+    /// The prediction's support (the posterior's window grown by the kernels).
+    full: Rect,
+    /// Where the shared prior was made: the near bumps' span, or the whole support when they
+    /// cover much of it (`None`: no detection near the support).
+    span: Option<Rect>,
+    /// The near bumps cover little of their span: each made its own prior, the shared one
+    /// was not made.
+    per_bump: bool,
+    /// `1 − γ`.
+    keep: f64,
+    /// `γ/G`.
+    u: f64,
+    /// The parts in use: the first `n_parts` of the scratch's `parts`.
+    n_parts: usize,
+    /// Mass of the parts, of the far detections and of the floor.
+    total: f64,
+    /// Mass of the floor part (the miss).
+    floor_mass: f64,
+    /// `support`: a part holding more than this share of `total` is significant.
+    eps: f64,
+    /// Whether the floor part is kept (no detection, no mass, or a significant floor).
+    use_floor: bool,
+}
+
+impl Bumps {
+    /// Whether a part of mass `m` is significant.
+    fn significant(&self, m: f64) -> bool {
+        self.total > 0.0 && m > self.eps * self.total
+    }
 }
 
 /// One detection in channel-index coordinates, its active channels per axis and its weight.
@@ -662,8 +743,8 @@ impl WindowState {
         mul_sum_rows(out, nc, src, b, ww, q0, r1 - r0)
     }
 
-    /// One predict + update step. Validates and encodes every detection first: on error the
-    /// state is unchanged.
+    /// One predict + update step, in the phases of the module doc. Validates and encodes
+    /// every detection first: on error the state is unchanged.
     pub fn step(
         &mut self,
         space: &Space,
@@ -672,6 +753,26 @@ impl WindowState {
         sys: &[StatSystem],
         dets: &[Detection],
     ) -> Result<(), TrackError> {
+        let enc = self.encode(space, dets)?;
+        let (kx, ky) = self.kernels(sys, cfg.order);
+        let bumps = self.bumps(space, cfg, obs, &enc, &kx, &ky);
+        let rect = self.hypotheses(cfg, obs, sys, &enc, (&kx, &ky), &bumps);
+        let Some(rect) = rect else {
+            // Nothing significant (cannot happen with a positive floor): keep the prior.
+            self.scratch.enc = enc;
+            self.scratch.kernels = (kx, ky);
+            return Ok(());
+        };
+        let (out, blocks, sparse) = self.assemble(&kx, &ky, &bumps, enc.is_empty(), rect);
+        self.scratch.enc = enc;
+        self.scratch.kernels = (kx, ky);
+        self.normalise(out, blocks, sparse);
+        Ok(())
+    }
+
+    /// Validates every detection and encodes it in channel-index coordinates (detections of
+    /// weight 0 or no channel mass are left out).
+    fn encode(&mut self, space: &Space, dets: &[Detection]) -> Result<Vec<Det>, TrackError> {
         let mut enc = std::mem::take(&mut self.scratch.enc);
         enc.clear();
         for det in dets {
@@ -691,14 +792,35 @@ impl WindowState {
                 });
             }
         }
-        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+        Ok(enc)
+    }
+
+    /// Step 1 of the module doc: the displacement kernels `(D_x, D_y)` (first order on the
+    /// first step after a start).
+    fn kernels(&mut self, sys: &[StatSystem], order: Order) -> (Kernel1, Kernel1) {
         let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
         let mut work = std::mem::take(&mut self.scratch.disp);
-        let order = if self.fresh { Order::First } else { cfg.order };
+        let order = if self.fresh { Order::First } else { order };
         self.displacement_into(&sys[0], 0, order, &mut work, &mut kx);
         self.displacement_into(&sys[1], 1, order, &mut work, &mut ky);
         self.fresh = false;
         self.scratch.disp = work;
+        (kx, ky)
+    }
+
+    /// Steps 2 and 3 of the module doc up to the assembly: the prediction on the cells the
+    /// update needs (the shared prior), and the update's parts (one per detection whose bump
+    /// meets the prediction's support, and each significant far one) with their masses.
+    fn bumps(
+        &mut self,
+        space: &Space,
+        cfg: &CbtConfig,
+        obs: &StatObservation,
+        enc: &[Det],
+        kx: &Kernel1,
+        ky: &Kernel1,
+    ) -> Bumps {
+        let (nx, ny) = (space.axis_len(0), space.axis_len(1));
         let gamma = cfg.mixing;
         let keep = 1.0 - gamma;
         let u = gamma / space.cells() as f64;
@@ -771,7 +893,7 @@ impl WindowState {
         let per_bump = span.is_some_and(|sp| 4 * bump_cells < area(&sp));
         let mut shared = std::mem::take(&mut self.scratch.shared);
         if let Some(sp) = span.filter(|_| !per_bump) {
-            self.prior_into(&kx, &ky, keep, u, sp, &mut shared);
+            self.prior_into(kx, ky, keep, u, sp, &mut shared);
         }
         for &(k, near) in &nears {
             if parts.len() <= n_parts {
@@ -779,7 +901,7 @@ impl WindowState {
             }
             let mut buf = std::mem::take(&mut parts[n_parts].2);
             let sh = span.filter(|_| !per_bump).map(|sp| (sp, &shared[..]));
-            let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, near, sh, &mut buf);
+            let mass = self.bump_part(&enc[k], obs, kx, ky, keep, u, near, sh, &mut buf);
             parts[n_parts] = (near, mass, buf);
             part_det.push(k);
             n_parts += 1;
@@ -795,7 +917,7 @@ impl WindowState {
                     parts.push((r, 0.0, Vec::new()));
                 }
                 let mut buf = std::mem::take(&mut parts[n_parts].2);
-                let mass = self.bump_part(&enc[k], obs, &kx, &ky, keep, u, r, None, &mut buf);
+                let mass = self.bump_part(&enc[k], obs, kx, ky, keep, u, r, None, &mut buf);
                 parts[n_parts] = (r, mass, buf);
                 part_det.push(k);
                 n_parts += 1;
@@ -805,49 +927,86 @@ impl WindowState {
         let floor_mass = obs.floor();
         total += floor_mass;
         let eps = cfg.support;
-        let mut rect: Option<Rect> = None;
         let use_floor = enc.is_empty()
             || total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
             || floor_mass > eps * total;
-        if use_floor {
-            rect = Some(full);
+        self.scratch.parts = parts;
+        self.scratch.part_det = part_det;
+        Bumps {
+            full,
+            span,
+            per_bump,
+            keep,
+            u,
+            n_parts,
+            total,
+            floor_mass,
+            eps,
+            use_floor,
         }
-        let sig = |m: f64| total > 0.0 && m > eps * total;
-        for &(r, mass, _) in &parts[..n_parts] {
-            if sig(mass) {
+    }
+
+    /// Step 5 of the module doc: the hypotheses the posterior is made of (the miss, i.e. the
+    /// floor part, and each significant detection, with their masses) carry the velocity to
+    /// the next step (second order). Reads the marginals of `q_{k−1}⁺`, so it runs before
+    /// they are replaced. Returns the update's rectangle (`None`: nothing significant).
+    fn hypotheses(
+        &mut self,
+        cfg: &CbtConfig,
+        obs: &StatObservation,
+        sys: &[StatSystem],
+        enc: &[Det],
+        kernels: (&Kernel1, &Kernel1),
+        b: &Bumps,
+    ) -> Option<Rect> {
+        let parts = std::mem::take(&mut self.scratch.parts);
+        let part_det = std::mem::take(&mut self.scratch.part_det);
+        let mut rect: Option<Rect> = None;
+        if b.use_floor {
+            rect = Some(b.full);
+        }
+        for &(r, mass, _) in &parts[..b.n_parts] {
+            if b.significant(mass) {
                 rect = Some(rect.map_or(r, |x| x.union(r)));
             }
         }
-        // The hypotheses the posterior is made of (step 5 of the module doc): the miss (the
-        // floor part) and each significant detection, with their masses.
         let mut hyps = std::mem::take(&mut self.scratch.hyps);
         hyps.clear();
         let miss = if enc.is_empty() {
             1.0
-        } else if use_floor {
-            floor_mass
+        } else if b.use_floor {
+            b.floor_mass
         } else {
             0.0
         };
         if !enc.is_empty() {
-            for (&(_, mass, _), &k) in parts[..n_parts].iter().zip(&part_det) {
-                if sig(mass) {
+            for (&(_, mass, _), &k) in parts[..b.n_parts].iter().zip(&part_det) {
+                if b.significant(mass) {
                     hyps.push((k, mass));
                 }
             }
         }
         self.scratch.part_det = part_det;
+        self.scratch.parts = parts;
         if cfg.order == Order::Second {
-            self.carry_velocity(sys, obs, (&kx, &ky), &enc, &hyps, miss);
+            self.carry_velocity(sys, obs, kernels, enc, &hyps, miss);
         }
         self.scratch.hyps = hyps;
-        let Some(rect) = rect else {
-            // Nothing significant (cannot happen with a positive floor): keep the prior.
-            self.scratch.parts = parts;
-            self.scratch.enc = enc;
-            self.scratch.kernels = (kx, ky);
-            return Ok(());
-        };
+        rect
+    }
+
+    /// Step 3 of the module doc, assembled: the floor part (when kept) and the significant
+    /// parts added into the update on `rect`. Returns it, the blocks outside which it is
+    /// zero (relative to `rect`), and whether they cover under half of it (parts far apart).
+    fn assemble(
+        &mut self,
+        kx: &Kernel1,
+        ky: &Kernel1,
+        bu: &Bumps,
+        no_dets: bool,
+        rect: Rect,
+    ) -> (Patch, Vec<Block>, bool) {
+        let parts = std::mem::take(&mut self.scratch.parts);
         let mut buf = std::mem::take(&mut self.scratch.out);
         refill(&mut buf, rect.rows() * rect.cols(), 0.0);
         let mut out = Patch {
@@ -867,30 +1026,30 @@ impl WindowState {
         };
         let mut blocks = std::mem::take(&mut self.scratch.blocks);
         blocks.clear();
-        if use_floor {
-            let f = if enc.is_empty() { 1.0 } else { floor_mass };
-            let pr = if span == Some(full) {
+        if bu.use_floor {
+            let f = if no_dets { 1.0 } else { bu.floor_mass };
+            let pr = if bu.span == Some(bu.full) {
                 let mut pr = std::mem::take(&mut self.scratch.shared);
-                if per_bump {
+                if bu.per_bump {
                     // Not made above: the same prior on the whole support, γ/G included.
-                    self.prior_into(&kx, &ky, keep, u, full, &mut pr);
+                    self.prior_into(kx, ky, bu.keep, bu.u, bu.full, &mut pr);
                 }
                 self.scratch.prior_blocks = None;
                 pr
             } else {
                 let mut pr = std::mem::take(&mut self.scratch.prior);
-                self.prior_into(&kx, &ky, keep, 0.0, full, &mut pr);
+                self.prior_into(kx, ky, bu.keep, 0.0, bu.full, &mut pr);
                 pr
             };
-            let (di, dj) = (full.a0 - rect.a0, full.b0 - rect.b0);
+            let (di, dj) = (bu.full.a0 - rect.a0, bu.full.b0 - rect.b0);
             match &self.scratch.prior_blocks {
                 // Elsewhere the prior is zero: `0 + f·0` leaves the zeros of `out` as they are.
                 Some(pb) => {
                     for b in pb {
                         let dst = &mut out.v[(di + b.r0) * out.w..];
-                        let src = &pr[b.r0 * full.cols()..];
+                        let src = &pr[b.r0 * bu.full.cols()..];
                         let tap = [(b.c0, b.c1 - b.c0, dj + b.c0, f)];
-                        axpy_taps(dst, out.w, src, full.cols(), b.r1 - b.r0, &tap);
+                        axpy_taps(dst, out.w, src, bu.full.cols(), b.r1 - b.r0, &tap);
                         blocks.push(Block {
                             r0: di + b.r0,
                             r1: di + b.r1,
@@ -901,20 +1060,20 @@ impl WindowState {
                 }
                 None => {
                     let dst = &mut out.v[di * out.w..];
-                    let tap = [(0, full.cols(), dj, f)];
-                    axpy_taps(dst, out.w, &pr, full.cols(), full.rows(), &tap);
-                    blocks.push(rel(&full));
+                    let tap = [(0, bu.full.cols(), dj, f)];
+                    axpy_taps(dst, out.w, &pr, bu.full.cols(), bu.full.rows(), &tap);
+                    blocks.push(rel(&bu.full));
                 }
             }
-            if span == Some(full) {
+            if bu.span == Some(bu.full) {
                 self.scratch.shared = pr;
             } else {
                 self.scratch.prior = pr;
             }
         }
-        if !enc.is_empty() {
-            for (r, mass, v) in &parts[..n_parts] {
-                if !sig(*mass) {
+        if !no_dets {
+            for (r, mass, v) in &parts[..bu.n_parts] {
+                if !bu.significant(*mass) {
                     continue;
                 }
                 let dst = &mut out.v[(r.a0 - rect.a0) * out.w..];
@@ -922,18 +1081,23 @@ impl WindowState {
                 axpy_taps(dst, out.w, v, r.cols(), r.rows(), &tap);
             }
         }
-        self.scratch.enc = enc;
-        self.scratch.kernels = (kx, ky);
-        for (r, mass, _) in &parts[..n_parts] {
-            if sig(*mass) {
+        for (r, mass, _) in &parts[..bu.n_parts] {
+            if bu.significant(*mass) {
                 blocks.push(rel(r));
             }
         }
         // Parts far apart (their blocks, overlaps counted twice, cover under half the rect):
         // the passes below visit the blocks only (module `cover`: the same values).
         let cover: usize = blocks.iter().map(|b| (b.r1 - b.r0) * (b.c1 - b.c0)).sum();
-        let sparse = 2 * cover < area(&rect);
+        let sparse = 2 * cover < rect.rows() * rect.cols();
         self.scratch.parts = parts;
+        (out, blocks, sparse)
+    }
+
+    /// The update normalised and cropped into the new posterior (the crop is relative to the
+    /// maximum), and its marginals (the previous ones kept for step 5); an update without
+    /// mass leaves the posterior as it was.
+    fn normalise(&mut self, out: Patch, blocks: Vec<Block>, sparse: bool) {
         let (s, max) = if sparse {
             (
                 cover::lane_sum(&out.v, out.w, out.h, &blocks),
@@ -945,7 +1109,7 @@ impl WindowState {
         if !(s > 0.0 && s.is_finite()) {
             self.scratch.out = out.v;
             self.scratch.blocks = blocks;
-            return Ok(());
+            return;
         }
         // The old posterior's buffer receives the cropped new one (the crop is relative to
         // the maximum, so it needs no normalised input); the uncropped one goes back to the
@@ -977,7 +1141,6 @@ impl WindowState {
             marginals_into(&self.post, &mut self.cur);
         }
         self.scratch.post_blocks = post_blocks;
-        Ok(())
     }
 
     /// The velocity distribution of the next step (step 5 of the module doc): per axis, the
@@ -1115,7 +1278,7 @@ impl WindowState {
         } else {
             lane_max(&p.v)
         };
-        let cut = crate::decode::MIN_SHARE * max;
+        let cut = crate::dense::MIN_SHARE * max;
         let mut peaks: Vec<(f64, usize, usize)> = Vec::with_capacity(16);
         // Cells below the crop's share of the maximum cannot be candidates: only each row's
         // crop extent is scanned when known (the same candidates).
@@ -1252,7 +1415,7 @@ fn sparse_prior(
     kpad: &[f64],
     base: i64,
 ) {
-    let len = kpad.len() as i64 - 2 * crate::simd::KPAD as i64;
+    let len = kpad.len() as i64 - 2 * super::simd::KPAD as i64;
     for run in runs {
         let (mut c0, mut c1) = (nc, 0);
         for (r, &(f, l)) in (run.start..run.end).zip(&run.ext) {
@@ -1463,7 +1626,7 @@ mod tests {
         );
         post.v.iter_mut().for_each(|x| *x *= inv);
         assert_eq!(ext.len(), post.h, "a large window keeps its extents");
-        let cut = crate::decode::MIN_SHARE * lane_max(&post.v);
+        let cut = crate::dense::MIN_SHARE * lane_max(&post.v);
         let (mut with, mut without) = (Vec::new(), Vec::new());
         peak_scan::<true>(&post, &ext, cut, &mut with);
         peak_scan::<false>(&post, &ext, cut, &mut without);

@@ -15,8 +15,8 @@
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 
+use super::particle::{systematic_resample, weighted_mean};
 use crate::config::{Layout, Order};
-use crate::particle::{systematic_resample, weighted_mean};
 use crate::tracker::{Estimate, Tracker};
 use crate::{CbtModel, CbtTracker, Detection, Point, TrackError};
 
@@ -212,7 +212,7 @@ impl Tracker for LearnedParticleFilter {
                 }
                 *lw = l.ln();
             }
-            crate::particle::reweight(&mut self.weights, &logw);
+            super::particle::reweight(&mut self.weights, &logw);
             self.logw = logw;
         }
         self.estimate = weighted_mean(&self.weights, self.particles.iter().copied());

@@ -6,7 +6,7 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::Calibration;
+use super::calibrate::Calibration;
 use crate::error::{positive, unit};
 use crate::integrity::{corrupt, finite, len, nonneg};
 use crate::tracker::{Estimate, Tracker};

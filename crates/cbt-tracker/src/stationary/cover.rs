@@ -7,7 +7,7 @@
 //! cell, whose additions of `+0` leave the non-negative sums unchanged; a maximum, an extent
 //! or a scaling has no order to keep, and zeros never pass an extent's test.
 
-use crate::simd::with_avx;
+use super::simd::with_avx;
 
 /// A block of cells: rows `r0..r1`, columns `c0..c1`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -94,7 +94,7 @@ fn add_range(
     }
 }
 
-/// [`crate::simd::lane_sum`] of the `h × w` grid `v`, zero outside `blocks`.
+/// [`super::simd::lane_sum`] of the `h × w` grid `v`, zero outside `blocks`.
 pub(crate) fn lane_sum(v: &[f64], w: usize, h: usize, blocks: &[Block]) -> f64 {
     let main = w * h / 8 * 8;
     let (mut acc, mut rest, mut next) = ([0.0f64; 8], 0.0, 0);
@@ -111,7 +111,7 @@ pub(crate) fn lane_sum(v: &[f64], w: usize, h: usize, blocks: &[Block]) -> f64 {
     combine(&acc, rest)
 }
 
-/// [`crate::simd::lane_max`] of the grid `v` (rows of `w` cells), zero outside `blocks`.
+/// [`super::simd::lane_max`] of the grid `v` (rows of `w` cells), zero outside `blocks`.
 pub(crate) fn lane_max(v: &[f64], w: usize, blocks: &[Block]) -> f64 {
     let mut m = 0.0f64;
     for b in blocks {
@@ -124,7 +124,7 @@ pub(crate) fn lane_max(v: &[f64], w: usize, blocks: &[Block]) -> f64 {
     m
 }
 
-/// [`crate::simd::row_extents`] of the `h × w` grid `v`, zero outside `blocks` (zeros never
+/// [`super::simd::row_extents`] of the `h × w` grid `v`, zero outside `blocks` (zeros never
 /// pass the test).
 pub(crate) fn row_extents(
     v: &[f64],
@@ -140,19 +140,19 @@ pub(crate) fn row_extents(
         let row = &v[i * w..(i + 1) * w];
         let first = segs
             .iter()
-            .find_map(|&(c0, c1)| crate::simd::extent(&row[c0..c1], cut).map(|(a, _)| c0 + a));
+            .find_map(|&(c0, c1)| super::simd::extent(&row[c0..c1], cut).map(|(a, _)| c0 + a));
         if let Some(a) = first {
             let last = segs
                 .iter()
                 .rev()
-                .find_map(|&(c0, c1)| crate::simd::extent(&row[c0..c1], cut).map(|(_, b)| c0 + b))
+                .find_map(|&(c0, c1)| super::simd::extent(&row[c0..c1], cut).map(|(_, b)| c0 + b))
                 .unwrap_or(a);
             f(i, a, last);
         }
     }
 }
 
-/// Multiplies the grid by `s` and writes its row sums (each [`crate::simd::lane_sum`]'s
+/// Multiplies the grid by `s` and writes its row sums (each [`super::simd::lane_sum`]'s
 /// eight lanes within the row) into `mx` and its column totals (rows added in order) into
 /// `my` (both zeroed here): the values of scaling every cell and then
 /// `window::marginals_into`, for a grid zero outside `blocks`.
@@ -193,7 +193,7 @@ pub(crate) fn normalise_marginals(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simd;
+    use crate::stationary::simd;
 
     /// A grid with values inside overlapping and separate blocks only.
     fn grid(w: usize, h: usize, blocks: &[Block]) -> Vec<f64> {

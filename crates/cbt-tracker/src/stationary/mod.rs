@@ -1,0 +1,17 @@
+//! The stationary layout ([`Layout::Stationary`](crate::Layout)): shift-invariant models and
+//! the filter that runs them on the posterior's support only.
+//!
+//! - `model`: the models pooled by displacement (`S[δ]`, `T[δ | v]`, the joint kernel `A`);
+//! - `window`: the windowed posterior and its step;
+//! - `cover`: exact passes over a grid whose non-zero cells lie in a few blocks;
+//! - `pool`: large work buffers recycled across the trackers of a thread;
+//! - `simd`: the inner loops, with AVX chosen at run time (bit-identical either way).
+
+mod cover;
+mod model;
+mod pool;
+mod simd;
+mod window;
+
+pub(crate) use model::{StatObservation, StatSystem, check_space, motion_radius};
+pub(crate) use window::{Patch, WindowState};
