@@ -194,6 +194,7 @@ mod region;
 mod region_pixels;
 mod select;
 mod stats;
+mod thresholds;
 mod tree;
 
 pub use contour::trace_outer_contour;
@@ -210,6 +211,7 @@ pub use params::{MserParams, Polarities, Variation};
 pub use pixels::flood_pixels;
 pub use region::{BoundingBox, Ellipse, Moments, Polarity, Region};
 pub use region_pixels::RegionsWithPixels;
+pub use thresholds::{Ratio, Variations, variations_by_thresholds};
 
 #[cfg(feature = "opencv")]
 mod opencv_peer;
