@@ -30,6 +30,9 @@ use crate::report::BenchRow;
 
 const WARMUP: usize = 3;
 const ROUNDS: usize = 15;
+/// Rounds of the wall-time polarity rows (one call ~11 ms), and of the 18-image batch.
+const WALL_ROUNDS: usize = 41;
+const BATCH_ROUNDS: usize = 9;
 const SEQUENCES: [&str; 3] = ["graf", "boat", "leuven"];
 /// Images per sequence (img1 to img6).
 const IMAGES: usize = 6;
@@ -295,7 +298,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
     let (t_par, t_seq) = interleaved(
         Clock::Wall,
         WARMUP,
-        ROUNDS,
+        WALL_ROUNDS,
         || {
             std::hint::black_box(par.detect_parallel(&img).expect("valid").len());
         },
@@ -313,7 +316,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
     let (t_par, t_seq) = interleaved(
         Clock::Wall,
         WARMUP,
-        ROUNDS,
+        WALL_ROUNDS,
         || {
             std::hint::black_box(par.detect_with_pixels_parallel(&img).expect("valid").len());
         },
@@ -333,6 +336,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
         t_seq * 1e3,
         "ms wall",
     ));
+    polarity_split(&img, &p)?;
 
     // A batch: all 18 images of the three sequences.
     let mut grays = Vec::new();
@@ -354,7 +358,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
     let (t_par, t_seq) = interleaved(
         Clock::Wall,
         1,
-        5,
+        BATCH_ROUNDS,
         || {
             std::hint::black_box(mser::detect_many(&imgs, &p).expect("valid").len());
         },
@@ -375,6 +379,76 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
         "ms wall",
     ));
     Ok(rows)
+}
+
+/// Where the wall time of the two polarity tasks goes, on graf img1: each polarity on a
+/// detector of its own, first alone on this thread, then both in one `rayon::join` as
+/// `detect_parallel` does, with each task's start delay after the join began (waking a
+/// worker), its thread CPU time and its wall time (CPU time plus time spent waiting for a core
+/// that other processes held); medians over the rounds. Unequal halves show as unequal CPU
+/// times, shared caches as task CPU times above the solo ones, a busy machine as task wall
+/// above task CPU.
+fn polarity_split(img: &GrayView, p: &MserParams) -> Result<()> {
+    use super::cpu::thread_seconds;
+    use crate::report::median;
+    use std::time::Instant;
+    let one = |polarities| {
+        Mser::new(MserParams {
+            polarities,
+            ..p.clone()
+        })
+    };
+    let mut dets = [one(mser::Polarities::Dark)?, one(mser::Polarities::Bright)?];
+    let cpu = || thread_seconds().ok_or("no thread CPU clock");
+    // (start delay, CPU, wall) of one task.
+    let task = |det: &mut Mser, t0: Instant| -> (f64, f64, f64) {
+        let start = t0.elapsed().as_secs_f64();
+        let c0 = thread_seconds().unwrap_or(f64::NAN);
+        std::hint::black_box(det.detect(img).expect("valid").len());
+        let c = thread_seconds().unwrap_or(f64::NAN) - c0;
+        (start, c, t0.elapsed().as_secs_f64() - start)
+    };
+    let mut solo = [Vec::new(), Vec::new()];
+    let mut split: [[Vec<f64>; 3]; 2] = Default::default();
+    let mut total = Vec::new();
+    for round in 0..WARMUP + WALL_ROUNDS {
+        let mut alone = [0.0; 2];
+        for (a, d) in alone.iter_mut().zip(dets.iter_mut()) {
+            let c0 = cpu()?;
+            std::hint::black_box(d.detect(img)?.len());
+            *a = cpu()? - c0;
+        }
+        let [dark, bright] = &mut dets;
+        let t0 = Instant::now();
+        let (a, b) = rayon::join(|| task(dark, t0), || task(bright, t0));
+        let wall = t0.elapsed().as_secs_f64();
+        if round >= WARMUP {
+            for (k, t) in [a, b].into_iter().enumerate() {
+                solo[k].push(alone[k]);
+                split[k][0].push(t.0);
+                split[k][1].push(t.1);
+                split[k][2].push(t.2);
+            }
+            total.push(wall);
+        }
+    }
+    let ms = |v: &mut Vec<f64>| median(v) * 1e3;
+    println!(
+        "graf img1, the two polarity tasks (medians of {WALL_ROUNDS} rounds, ms): join wall {:.2}; load average {}",
+        ms(&mut total),
+        load_average()
+    );
+    for (k, name) in ["dark", "bright"].into_iter().enumerate() {
+        let [start, c, w] = &mut split[k];
+        println!(
+            "  {name:<6}: alone {:.2} CPU; in the join: start after {:.3}, {:.2} CPU, {:.2} wall",
+            ms(&mut solo[k]),
+            ms(start),
+            ms(c),
+            ms(w)
+        );
+    }
+    Ok(())
 }
 
 /// Prints a multi-core speed-up (sequential over parallel wall time) with the load it was
