@@ -161,10 +161,10 @@
 //!   to its parent's (`var > 0 && var >= parent.var` in its `checkAndCapture`), while it keeps a
 //!   region tied with a child; we keep ties on both sides (rule 2 above). This is the only
 //!   difference on the 18 Oxford images (graf img2: 2 regions, graf img5: 1, boat img3: 1; with
-//!   `min_diversity` 0, ours without the outer ring, checked by `cargo xtask bench mser`), and
-//!   the cause on the 12 of the 100 crops of `cargo xtask bench cli` that differ by one or two
-//!   regions: e.g. graf img2, crop at
-//!   (0, 0), the bright region at level 113 with variation 42/294 under a parent of 43/301.
+//!   `min_diversity` 0, ours without the outer ring, checked by `cargo xtask bench mser`) and on
+//!   the 100 crops of `cargo xtask bench cli` (13 regions on the 12 crops that differ): e.g.
+//!   graf img2, crop at (0, 0), the bright region at level 113 with variation 42/294 under a
+//!   parent of 43/301.
 //!   [`variations_by_thresholds`] recomputes a region's and its parent's variation from the
 //!   image by thresholding, as exact ratios; `cargo xtask bench mser` and `bench cli` excuse a
 //!   region of ours that OpenCV lacks only when it shows such a tie, region by region, and fail
