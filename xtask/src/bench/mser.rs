@@ -29,6 +29,8 @@ use crate::Result;
 use crate::report::BenchRow;
 
 const WARMUP: usize = 3;
+/// Rounds of the single-core (OpenCV) rows.
+#[cfg(feature = "opencv")]
 const ROUNDS: usize = 15;
 /// Rounds of the wall-time polarity rows (one call ~11 ms), and of the 18-image batch.
 const WALL_ROUNDS: usize = 41;
@@ -341,7 +343,7 @@ fn multi_core(root: &std::path::Path) -> Result<Vec<BenchRow>> {
     // A batch: all 18 images of the three sequences.
     let mut grays = Vec::new();
     for s in SEQUENCES {
-        for i in 1..=6 {
+        for i in 1..=IMAGES {
             grays.push(mser::load_gray(root.join(s).join(format!("img{i}.png")))?);
         }
     }
