@@ -6,8 +6,11 @@
 //! ```text
 //! cargo build --release -p mser --features opencv --example instructions
 //! valgrind --tool=callgrind --toggle-collect='*instructions*measured*' \
-//!     target/release/examples/instructions ours|opencv IMAGE.png
+//!     target/release/examples/instructions ours|opencv IMAGE.png [dark|bright|both]
 //! ```
+//!
+//! The optional third argument restricts ours to one polarity (default both), to see how the
+//! work splits between the two tasks of `Mser::detect_parallel`.
 //!
 //! The `Collected` total of each run is the instruction count of one steady-state detection
 //! (buffers already allocated); the ratio of the two is the instruction-count ratio.
@@ -15,12 +18,21 @@
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (Some(which), Some(path)) = (args.first(), args.get(1)) else {
-        eprintln!("usage: instructions ours|opencv IMAGE.png");
+        eprintln!("usage: instructions ours|opencv IMAGE.png [dark|bright|both]");
         std::process::exit(2);
     };
     let gray = mser::load_gray(path)?;
     let img = mser::GrayView::from_image(&gray)?;
-    let params = mser::MserParams::default();
+    let polarities = match args.get(2).map(String::as_str) {
+        None | Some("both") => mser::Polarities::Both,
+        Some("dark") => mser::Polarities::Dark,
+        Some("bright") => mser::Polarities::Bright,
+        Some(other) => return Err(format!("unknown polarity {other}").into()),
+    };
+    let params = mser::MserParams {
+        polarities,
+        ..mser::MserParams::default()
+    };
     let n = match which.as_str() {
         "ours" => {
             let mut det = mser::Mser::new(params)?;

@@ -143,81 +143,6 @@ fn agrees_with_opencv_on_oxford_img1() {
     }
 }
 
-/// The 4-connected component through `seed` of the pixels `keep` accepts, by index.
-fn component(img: &[u8], w: usize, h: usize, seed: usize, keep: impl Fn(u8) -> bool) -> Vec<usize> {
-    let mut seen = vec![false; w * h];
-    let (mut out, mut stack) = (Vec::new(), vec![seed]);
-    seen[seed] = true;
-    while let Some(p) = stack.pop() {
-        out.push(p);
-        let (x, y) = (p % w, p / w);
-        let nbs = [
-            (x > 0).then(|| p - 1),
-            (x + 1 < w).then(|| p + 1),
-            (y > 0).then(|| p - w),
-            (y + 1 < h).then(|| p + w),
-        ];
-        for n in nbs.into_iter().flatten() {
-            if !seen[n] && keep(img[n]) {
-                seen[n] = true;
-                stack.push(n);
-            }
-        }
-    }
-    out.sort_unstable();
-    out
-}
-
-/// The variation of the crate docs, by thresholding (dark polarity of `img`): the region through
-/// `seed` at `level`, as (numerator, denominator) = (|Q_{g+Δ}| − |L|, |S|).
-fn variation_by_thresholds(
-    img: &[u8],
-    w: usize,
-    h: usize,
-    seed: usize,
-    g: u8,
-    delta: u8,
-) -> (usize, usize) {
-    let s = component(img, w, h, seed, |v| v <= g);
-    let up = component(img, w, h, seed, |v| v <= g.saturating_add(delta)).len();
-    // Walk down the main (largest, then first in raster order) children while their level is
-    // at least g − Δ.
-    let mut m = s.clone();
-    let mut gm = g;
-    while gm > 0 {
-        let inside: std::collections::HashSet<usize> = m.iter().copied().collect();
-        let mut done = std::collections::HashSet::new();
-        let mut best: Option<Vec<usize>> = None;
-        for &p in &m {
-            if img[p] < gm && !done.contains(&p) {
-                let c = component(img, w, h, p, |v| v < gm);
-                assert!(c.iter().all(|q| inside.contains(q)));
-                done.extend(c.iter().copied());
-                if best
-                    .as_ref()
-                    .is_none_or(|b| c.len() > b.len() || (c.len() == b.len() && c[0] < b[0]))
-                {
-                    best = Some(c);
-                }
-            }
-        }
-        let Some(c) = best else { break };
-        let gc = c.iter().map(|&q| img[q]).max().unwrap();
-        if (gc as u32) + (delta as u32) < g as u32 {
-            break;
-        }
-        (m, gm) = (c, gc);
-    }
-    (up - m.len(), s.len())
-}
-
-/// The region that contains `s` and is one level up the tree (its parent): (seed, level).
-fn parent_by_thresholds(img: &[u8], w: usize, h: usize, seed: usize, g: u8, area: usize) -> u8 {
-    (g + 1..=255)
-        .find(|&t| component(img, w, h, seed, |v| v <= t).len() > area)
-        .expect("not the root")
-}
-
 /// On two 640×480 crops of graf img2 (the crops of `cargo xtask bench cli`) OpenCV 4.x finds one
 /// or two regions fewer than we do. The whole difference is OpenCV's parent-tie rule (crate docs,
 /// "OpenCV"): every OpenCV region is ours, and every region of ours that OpenCV lacks has a
@@ -251,8 +176,6 @@ fn on_graf_img2_crops_the_only_difference_is_the_parent_tie_rule() {
             .into_iter()
             .collect();
         let inner = GrayView::new(&crop[w + 1..], w - 2, h - 2, w).unwrap();
-        let (iw, ih) = (w - 2, h - 2);
-        let inner_px: Vec<u8> = (0..ih).flat_map(|y| inner.row(y).to_vec()).collect();
         let mut det = Mser::new(p.clone()).unwrap();
         let found = det.detect_with_pixels(&inner).unwrap();
         let mut ours = HashSet::new();
@@ -262,32 +185,17 @@ fn on_graf_img2_crops_the_only_difference_is_the_parent_tie_rule() {
             v.sort_unstable_by_key(|&(x, y)| (y, x));
             if !theirs.contains(&v) {
                 extra += 1;
-                // On the polarity's own scale (bright: 255 − image).
-                let (img_p, g): (Vec<u8>, u8) = match r.polarity {
-                    mser::Polarity::Dark => (inner_px.clone(), r.level),
-                    mser::Polarity::Bright => {
-                        (inner_px.iter().map(|&v| 255 - v).collect(), 255 - r.level)
-                    }
-                };
-                let seed = r.seed.1 as usize * iw + r.seed.0 as usize;
-                let (num, den) = variation_by_thresholds(&img_p, iw, ih, seed, g, p.delta);
-                assert_eq!(den, r.area as usize);
-                assert_eq!(num as f64 / den as f64, r.variation);
-                let gp = parent_by_thresholds(&img_p, iw, ih, seed, g, den);
-                let (pn, pd) = variation_by_thresholds(&img_p, iw, ih, seed, gp, p.delta);
+                let v = mser::variations_by_thresholds(&inner, r, &p).unwrap();
+                assert_eq!(v.region.den, r.area as u64);
+                assert_eq!(v.region.value(), r.variation);
+                let (num, den) = (v.region.num, v.region.den);
+                let (pn, pd) = (v.parent.num, v.parent.den);
                 println!(
                     "ours only: {:?} level {} area {} variation {num}/{den}; parent level {} variation {pn}/{pd}",
-                    r.polarity,
-                    r.level,
-                    r.area,
-                    if r.polarity == mser::Polarity::Bright {
-                        255 - gp
-                    } else {
-                        gp
-                    }
+                    r.polarity, r.level, r.area, v.parent_level
                 );
                 assert!(
-                    num > 0 && num * pd == pn * den,
+                    v.is_positive_parent_tie(),
                     "{r:?}: not a positive tie with its parent"
                 );
             }

@@ -78,6 +78,13 @@ proptest! {
                 (xs.clone().min().unwrap(), xs.max().unwrap(), ys.clone().min().unwrap(), ys.max().unwrap())
             );
             common::check_contour(&r.contour(&img).unwrap(), pixels, w, h);
+            // The variations recomputed by thresholding (the OpenCV tie witness): the region's
+            // equals the detector's, and its parent's is not smaller (selection rule 2).
+            let v = mser::variations_by_thresholds(&img, r, &p).unwrap();
+            prop_assert_eq!(v.region.value(), r.variation);
+            prop_assert_eq!(v.region.den, r.area as u64);
+            prop_assert!(v.parent_area > r.area as u64);
+            prop_assert!(v.parent.value() >= r.variation);
         }
     }
 }

@@ -70,6 +70,17 @@ fn nested_regions_tied_at_a_positive_variation_are_all_kept() {
         .map(|r| (r.polarity, r.level, r.pixels(&img).unwrap()))
         .collect();
     assert_eq!(got, common::reference(&px, W, H, &p));
+    // The tie witness by thresholding: 10 and 11 tie with their parents (OpenCV drops them),
+    // 12 ties only with its child (31/155 against its parent's 95/181).
+    let ties: Vec<(u8, bool, u8)> = found[..3]
+        .iter()
+        .map(|r| {
+            let v = mser::variations_by_thresholds(&img, r, &p).unwrap();
+            assert_eq!(v.region.value(), r.variation);
+            (r.level, v.is_positive_parent_tie(), v.parent_level)
+        })
+        .collect();
+    assert_eq!(ties, vec![(10, true, 11), (11, true, 12), (12, false, 13)]);
     // Dark polarity alone: the same three.
     let dark_only = MserParams {
         polarities: Polarities::Dark,
