@@ -70,6 +70,11 @@ pub struct ServoArgs {
     /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
     #[arg(long)]
     pub no_seeds: bool,
+    /// The opt-in percept: every camera's tip chosen among its candidates (the learned tip,
+    /// the end-face tip) by the cross-camera consistency
+    /// (`servo_loop::SilhouetteConfig::cross_camera_choice` on; the fixtures do not use it).
+    #[arg(long)]
+    pub cross_camera_choice: bool,
 }
 
 /// Where the servo percept comes from.
@@ -90,6 +95,7 @@ impl Default for ServoArgs {
             percept: PerceptMode::Recognised,
             development: false,
             no_seeds: false,
+            cross_camera_choice: false,
         }
     }
 }
@@ -109,6 +115,11 @@ pub struct Protocol {
     /// Random poses captured to learn the `learned` tip rule's correction and the cameras'
     /// epipolar geometry.
     pub correction_poses: usize,
+    /// Whether each camera's tip is chosen among its candidates by the cross-camera
+    /// consistency (`servo_loop::SilhouetteConfig::cross_camera_choice`; not written, the
+    /// summary says which percept the fixtures use).
+    #[serde(skip)]
+    pub cross_camera_choice: bool,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -141,6 +152,7 @@ impl Protocol {
             captures_per_percept: 2,
             min_certainty: PerceptPolicy::default().min_certainty,
             correction_poses: 500,
+            cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -487,6 +499,7 @@ pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecog
         p.seed ^ 0xBEEF,
         &SilhouetteConfig {
             correction_poses: p.correction_poses,
+            cross_camera_choice: p.cross_camera_choice,
             ..SilhouetteConfig::default()
         },
     )?;
@@ -877,6 +890,7 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     };
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
+    p.cross_camera_choice = args.cross_camera_choice;
     let learned = if args.percept == PerceptMode::Recognised {
         let learned = learn_recogniser(&config, &p)?;
         p.recogniser = Some(learned.0.clone());
