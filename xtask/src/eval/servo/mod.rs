@@ -46,7 +46,7 @@ use servo_loop::{
 
 use super::{EvalContext, write_json};
 use crate::Result;
-use plant::{Recogniser, SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
+use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
 
 /// Options of `cargo xtask eval servo`.
 #[derive(Args, Clone, Debug)]
@@ -234,11 +234,11 @@ fn servo_config(p: &Protocol) -> ServoConfig {
 /// The evaluation plant of the protocol's percept mode.
 fn make_plant(config: &SimConfig, p: &Protocol, seed: u64) -> Result<SimPlant> {
     let sim = ArmSim::new(config.clone())?;
-    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
-    if let Some(m) = &p.recogniser {
-        plant.recogniser = Some(Recogniser::new(m.clone(), p.policy()));
-    }
-    Ok(plant)
+    let plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
+    Ok(match &p.recogniser {
+        Some(m) => plant.with_recogniser(m.clone(), p.policy())?,
+        None => plant,
+    })
 }
 
 /// Runs one method on every target, sequentially on its own simulator (`seed`: its noise).
@@ -267,7 +267,7 @@ pub fn run_method(
     );
     let mut out = Vec::with_capacity(targets.len());
     for t in targets {
-        let start = truth(&plant.sim);
+        let start = truth(plant.sim());
         plant.log.clear();
         let result = match method {
             "lwpr" => servo_lwpr(&mut plant, &mut model, &t.x_w, &cfg),
@@ -372,11 +372,11 @@ fn targets_of(
         for (&i, &v) in p.controlled.iter().zip(&y) {
             c[i] = v;
         }
-        plant.sim.command(&c)?;
-        if plant.sim.inspect().last_move().table_contact {
+        plant.sim_mut().command(&c)?;
+        if plant.sim().inspect().last_move().table_contact {
             continue;
         }
-        let t = truth(&plant.sim);
+        let t = truth(plant.sim());
         let inside = (0..cams).all(|k| {
             t.px[k][0] >= 10.0
                 && t.px[k][1] >= 10.0
@@ -389,11 +389,11 @@ fn targets_of(
         // The target is what the learner would see at that pose: the true projection, or
         // with `--percept recognised` the recognised gripper point.
         let x_w = if image {
-            let pose = plant.sim.inspect().pose().clone();
+            let pose = plant.sim().inspect().pose().clone();
             let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
             let mut x = Vec::with_capacity(2 * cams);
             for k in 0..cams {
-                x.extend(plant.sim.inspect().project(k, &mid)?);
+                x.extend(plant.sim().inspect().project(k, &mid)?);
             }
             x
         } else if p.recogniser.is_some() {
@@ -426,9 +426,10 @@ pub fn train(
 ) -> Result<(Vec<(usize, InverseModel)>, Training)> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
     // Training moves use one capture per percept (LWPR averages the noise itself).
-    if let Some(r) = plant.recogniser.as_mut() {
-        r.policy.captures = 1;
-    }
+    plant.set_policy(|policy| PerceptPolicy {
+        captures: 1,
+        ..*policy
+    })?;
     let n_in = 2 * plant.cameras;
     let mut model = InverseModel::new(n_in, p.controlled.len(), &InverseModelConfig::default())?;
     let total = p
@@ -469,7 +470,7 @@ pub fn train(
         snaps,
         Training {
             learn,
-            commands: plant.commands,
+            commands: plant.commands(),
         },
     ))
 }

@@ -240,12 +240,10 @@ fn method_figures(method: &str, r: &[TargetResult]) -> SeedMethod {
 /// finger ends.
 fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
     let mut plant = make_plant(config, p, p.seed ^ 0xFACE)?;
-    if let Some(r) = plant.recogniser.as_mut() {
-        r.policy = PerceptPolicy {
-            captures: 1,
-            ..p.policy()
-        };
-    }
+    plant.set_policy(|_| PerceptPolicy {
+        captures: 1,
+        ..p.policy()
+    })?;
     let cams = plant.cameras;
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
     let (mut refused, mut not_found) = (0, 0);
@@ -255,10 +253,10 @@ fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
         plant.act(&y)?;
         match plant.observe() {
             Ok(o) => {
-                let pose = plant.sim.inspect().pose().clone();
+                let pose = plant.sim().inspect().pose().clone();
                 let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
                 for (cam, e) in errors.iter_mut().enumerate() {
-                    let t = plant.sim.inspect().project(cam, &mid)?;
+                    let t = plant.sim().inspect().project(cam, &mid)?;
                     e.push((o.x[2 * cam] - t[0]).hypot(o.x[2 * cam + 1] - t[1]));
                 }
             }
