@@ -56,7 +56,14 @@
 //! found at its own correction poses (normalised 8-point in a seeded RANSAC), and a pair's
 //! consistency is `exp(−½ (d/s)²)` for its Sampson distance `d` and a scale `s` from the fit's
 //! robust residuals, so a tip found at the wrong end of the silhouette or on clutter in one
-//! camera is doubted (unless it lies on the other view's epipolar line). A [`VisualPlant`]
+//! camera is doubted (unless it lies on the other view's epipolar line). The same geometry
+//! can also *choose* the tip ([`recognition::cross_camera`], opt-in
+//! [`SilhouetteConfig::cross_camera_choice`]): each camera offers its rule's tip and its
+//! end-face tip, and the pair with the smallest normalised Sampson distance (summed over the
+//! camera pairs; ties keep the rule's tip) is reported. On the development seeds it lowered
+//! the recognition p90 on every arm but made the servo worse on the default arm and the
+//! second rig (the percept then switches between two tips whose offsets differ by up to a few
+//! pixels), so it is off by default (`docs/methods.md`, *Cross-camera choice*). A [`VisualPlant`]
 //! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
 //! counted): learning skips it and the servo loop stops rather than move on it.
 //! A tip found at the wrong place *along* the epipolar line passes that check; the arm's own
@@ -115,8 +122,8 @@ pub use learn::{
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry, EpipolarReport,
-    GripperModel, Localisation, Recogniser, RecognitionConfig, SilhouetteConfig, SilhouetteReport,
-    TipCorrection, TipModel, TipRule,
+    GripperModel, Localisation, PairChoice, Recogniser, RecognitionConfig, SilhouetteConfig,
+    SilhouetteReport, TipCorrection, TipModel, TipRule, choose_consistent,
 };
 pub use robot::Robot;
 pub use servo::{

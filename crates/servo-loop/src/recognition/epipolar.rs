@@ -461,13 +461,13 @@ fn eight_point(a: &[[f64; 2]], b: &[[f64; 2]]) -> Option<Matrix3<f64>> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{Rotation3, Vector3};
     use rand_distr::{Distribution, Normal, Uniform};
 
     /// Two pinhole cameras looking at a box of points; returns the pixel pairs.
-    fn scene(n: usize, seed: u64) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    pub(crate) fn scene(n: usize, seed: u64) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let u = Uniform::new(-200.0, 200.0).unwrap();
         let r1 = Rotation3::from_euler_angles(0.1, -0.5, 0.05);

@@ -19,6 +19,8 @@
 //!   learned from the end-face rule at random poses (kernel regression on all cameras' far ends).
 //! - [`epipolar`]: consistency between cameras, the fundamental matrix learned from the
 //!   learner's own percepts (normalised 8-point in RANSAC) and a pair's consistency.
+//! - [`cross_camera`]: every camera's tip chosen among its candidates (the rule's tip, the
+//!   end-face tip) by that consistency ([`choose_consistent`]).
 //! - [`ccfm`]: the channel-coded feature map model ([`GripperModel`]) learned from those regions
 //!   (prototype feature maps around the gripper point) and its localisation in a new image with
 //!   a certainty; it stands aside from the servo path (the servo percept is [`TipModel`]).
@@ -27,6 +29,7 @@
 
 pub mod ccfm;
 pub mod change;
+pub mod cross_camera;
 mod end_face;
 pub mod epipolar;
 pub mod features;
@@ -39,6 +42,7 @@ pub mod tip_model;
 pub mod tip_rule;
 
 pub use ccfm::{GripperModel, RecognitionConfig};
+pub use cross_camera::{PairChoice, choose_consistent};
 pub use epipolar::{EpipolarGeometry, EpipolarReport};
 pub use scene::CameraScene;
 pub use tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};

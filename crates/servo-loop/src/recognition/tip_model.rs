@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError};
 use crate::recognition::change::changed_region;
+use crate::recognition::cross_camera::choose_consistent;
 use crate::recognition::end_face::CoverageGrid;
 use crate::recognition::epipolar::{EpipolarGeometry, EpipolarReport};
 use crate::recognition::image::{
@@ -40,6 +41,13 @@ pub struct SilhouetteConfig {
     /// moves to learn the `Learned` rule's correction (0: none is learned).
     #[serde(default = "default_correction_poses")]
     pub correction_poses: usize,
+    /// Whether every camera's tip is chosen among its candidates (the rule's tip and the
+    /// end-face tip) by the cross-camera consistency (`cross_camera` module), once a
+    /// consistency is learned. Off by default: on the development seeds it lowered the
+    /// recognition p90 but made the servo worse on two of three arms (docs/methods.md,
+    /// *Cross-camera choice*). Files without the field have it off.
+    #[serde(default)]
+    pub cross_camera_choice: bool,
 }
 
 fn default_correction_poses() -> usize {
@@ -55,6 +63,7 @@ impl Default for SilhouetteConfig {
             min_certainty: 0.3,
             tip: TipRule::default(),
             correction_poses: default_correction_poses(),
+            cross_camera_choice: false,
         }
     }
 }
@@ -264,6 +273,18 @@ impl TipModel {
         }
     }
 
+    /// The same learned model with the cross-camera choice of the tip on or off
+    /// ([`SilhouetteConfig::cross_camera_choice`]; nothing is relearned).
+    pub fn with_cross_camera_choice(&self, on: bool) -> TipModel {
+        TipModel {
+            config: SilhouetteConfig {
+                cross_camera_choice: on,
+                ..self.config.clone()
+            },
+            ..self.clone()
+        }
+    }
+
     /// Finds the gripper tip in camera `cam`'s image by the configured single-image rule
     /// (`FarEnd` or `EndFace`). Errors: unknown camera, wrong image size, no silhouette or a
     /// certainty below the configured minimum ([`ServoError::RecognitionFailed`]); the
@@ -297,8 +318,12 @@ impl TipModel {
     }
 
     /// The tips of every camera by the configured rule from their end estimates (in camera
-    /// order; [`TipModel::estimate_end`] of each camera, e.g. computed in parallel). Errors:
-    /// a camera count other than the model's; the `Learned` rule without a correction.
+    /// order; [`TipModel::estimate_end`] of each camera, e.g. computed in parallel). With
+    /// [`SilhouetteConfig::cross_camera_choice`] and a learned consistency, each camera's tip
+    /// is its rule's tip or its end-face tip, whichever pair is the most consistent between
+    /// the cameras (`cross_camera` module; ties keep the rule's tip). Every certainty is at
+    /// most its camera pair's consistency. Errors: a camera count other than the model's; the
+    /// `Learned` rule without a correction.
     pub fn tips(&self, ends: &[EndEstimate]) -> Result<Vec<Localisation>> {
         if ends.len() != self.cameras.len() {
             return Err(ServoError::DimensionMismatch {
@@ -324,6 +349,23 @@ impl TipModel {
                 certainty: e.certainty,
             })
             .collect();
+        if self.config.cross_camera_choice && !self.consistency.is_empty() {
+            // Every camera's candidates: the rule's tip, then the end-face tip where the
+            // outline shows one and it differs (`cross_camera` module).
+            let candidates: Vec<Vec<[f64; 2]>> = locs
+                .iter()
+                .zip(ends)
+                .map(|(l, e)| {
+                    let mut c = vec![l.position];
+                    c.extend(e.end_face.filter(|f| *f != l.position));
+                    c
+                })
+                .collect();
+            let choice = choose_consistent(&candidates, &self.consistency)?;
+            for ((l, c), &i) in locs.iter_mut().zip(&candidates).zip(&choice.chosen) {
+                l.position = c[i];
+            }
+        }
         for (k, geometry) in self.consistency.iter().enumerate() {
             if k + 1 >= locs.len() {
                 break;
@@ -869,10 +911,58 @@ mod tests {
                       "min_certainty": 0.3}"#;
         let c: SilhouetteConfig = serde_json::from_str(old).expect("an old file");
         assert_eq!((c.tip, c.correction_poses), (TipRule::FarEnd, 1000));
+        assert!(!c.cross_camera_choice);
+        assert!(!SilhouetteConfig::default().cross_camera_choice);
         let now = SilhouetteConfig::default();
         let back: SilhouetteConfig =
             serde_json::from_str(&serde_json::to_string(&now).unwrap()).unwrap();
         assert_eq!((back, now.tip), (now.clone(), TipRule::Learned));
+    }
+
+    /// Two cameras of the epipolar tests' pinhole scene: at every pose one camera's rule tip is
+    /// wrong (12 px off the other view's epipolar line) and its end-face tip right. With the
+    /// cross-camera choice the consistent pair is reported with a high certainty; without
+    /// it, the wrong tip is reported and doubted.
+    #[test]
+    fn the_cross_camera_choice_takes_the_consistent_candidate() {
+        use crate::recognition::epipolar::tests::scene as two_views;
+        let (a, b) = two_views(200, 1);
+        let (g, _) = EpipolarGeometry::fit(&a, &b, 7).unwrap();
+        let one = scene(vec![0.0; 64 * 64], 64, 64, [0.0, 0.0]);
+        let model = TipModel {
+            cameras: vec![one.cameras[0].clone(), one.cameras[0].clone()],
+            consistency: vec![g.clone()],
+            ..one
+        }
+        .with_cross_camera_choice(true);
+        let off = |p: [f64; 2], q: [f64; 2]| {
+            let l = g.matrix() * nalgebra::Vector3::new(p[0], p[1], 1.0);
+            let n = l[0].hypot(l[1]);
+            [q[0] + 12.0 * l[0] / n, q[1] + 12.0 * l[1] / n]
+        };
+        let (na, nb) = two_views(8, 31);
+        for (k, (p, q)) in na.iter().zip(&nb).enumerate() {
+            let end = |far_end, end_face| EndEstimate {
+                far_end,
+                end_face,
+                certainty: 0.9,
+            };
+            // Alternate the camera whose rule tip is wrong; the other has no end face.
+            let ends = if k % 2 == 0 {
+                [end(*p, None), end(off(*p, *q), Some(*q))]
+            } else {
+                let wrong0 = [p[0] + 13.0, p[1] - 9.0];
+                [end(wrong0, Some(*p)), end(*q, None)]
+            };
+            let chosen = model.tips(&ends).unwrap();
+            assert_eq!(chosen[0].position, *p);
+            assert_eq!(chosen[1].position, *q);
+            assert!(chosen.iter().all(|l| l.certainty > 0.85), "{chosen:?}");
+            let plain = model.with_cross_camera_choice(false).tips(&ends).unwrap();
+            assert_eq!(plain[0].position, ends[0].far_end);
+            assert_eq!(plain[1].position, ends[1].far_end);
+            assert!(plain.iter().all(|l| l.certainty < 0.05), "{plain:?}");
+        }
     }
 
     #[test]

@@ -46,7 +46,7 @@ use servo_loop::{
 
 use super::{EvalContext, write_json};
 use crate::Result;
-use plant::{Recogniser, SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
+use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
 
 /// Options of `cargo xtask eval servo`.
 #[derive(Args, Clone, Debug)]
@@ -70,6 +70,11 @@ pub struct ServoArgs {
     /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
     #[arg(long)]
     pub no_seeds: bool,
+    /// The opt-in percept: every camera's tip chosen among its candidates (the learned tip,
+    /// the end-face tip) by the cross-camera consistency
+    /// (`servo_loop::SilhouetteConfig::cross_camera_choice` on; the fixtures do not use it).
+    #[arg(long)]
+    pub cross_camera_choice: bool,
 }
 
 /// Where the servo percept comes from.
@@ -90,6 +95,7 @@ impl Default for ServoArgs {
             percept: PerceptMode::Recognised,
             development: false,
             no_seeds: false,
+            cross_camera_choice: false,
         }
     }
 }
@@ -109,6 +115,11 @@ pub struct Protocol {
     /// Random poses captured to learn the `learned` tip rule's correction and the cameras'
     /// epipolar geometry.
     pub correction_poses: usize,
+    /// Whether each camera's tip is chosen among its candidates by the cross-camera
+    /// consistency (`servo_loop::SilhouetteConfig::cross_camera_choice`; not written, the
+    /// summary says which percept the fixtures use).
+    #[serde(skip)]
+    pub cross_camera_choice: bool,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -141,6 +152,7 @@ impl Protocol {
             captures_per_percept: 2,
             min_certainty: PerceptPolicy::default().min_certainty,
             correction_poses: 500,
+            cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -222,11 +234,11 @@ fn servo_config(p: &Protocol) -> ServoConfig {
 /// The evaluation plant of the protocol's percept mode.
 fn make_plant(config: &SimConfig, p: &Protocol, seed: u64) -> Result<SimPlant> {
     let sim = ArmSim::new(config.clone())?;
-    let mut plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
-    if let Some(m) = &p.recogniser {
-        plant.recogniser = Some(Recogniser::new(m.clone(), p.policy()));
-    }
-    Ok(plant)
+    let plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
+    Ok(match &p.recogniser {
+        Some(m) => plant.with_recogniser(m.clone(), p.policy())?,
+        None => plant,
+    })
 }
 
 /// Runs one method on every target, sequentially on its own simulator (`seed`: its noise).
@@ -255,7 +267,7 @@ pub fn run_method(
     );
     let mut out = Vec::with_capacity(targets.len());
     for t in targets {
-        let start = truth(&plant.sim);
+        let start = truth(plant.sim());
         plant.log.clear();
         let result = match method {
             "lwpr" => servo_lwpr(&mut plant, &mut model, &t.x_w, &cfg),
@@ -360,11 +372,11 @@ fn targets_of(
         for (&i, &v) in p.controlled.iter().zip(&y) {
             c[i] = v;
         }
-        plant.sim.command(&c)?;
-        if plant.sim.inspect().last_move().table_contact {
+        plant.sim_mut().command(&c)?;
+        if plant.sim().inspect().last_move().table_contact {
             continue;
         }
-        let t = truth(&plant.sim);
+        let t = truth(plant.sim());
         let inside = (0..cams).all(|k| {
             t.px[k][0] >= 10.0
                 && t.px[k][1] >= 10.0
@@ -377,11 +389,11 @@ fn targets_of(
         // The target is what the learner would see at that pose: the true projection, or
         // with `--percept recognised` the recognised gripper point.
         let x_w = if image {
-            let pose = plant.sim.inspect().pose().clone();
+            let pose = plant.sim().inspect().pose().clone();
             let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
             let mut x = Vec::with_capacity(2 * cams);
             for k in 0..cams {
-                x.extend(plant.sim.inspect().project(k, &mid)?);
+                x.extend(plant.sim().inspect().project(k, &mid)?);
             }
             x
         } else if p.recogniser.is_some() {
@@ -414,9 +426,10 @@ pub fn train(
 ) -> Result<(Vec<(usize, InverseModel)>, Training)> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
     // Training moves use one capture per percept (LWPR averages the noise itself).
-    if let Some(r) = plant.recogniser.as_mut() {
-        r.policy.captures = 1;
-    }
+    plant.set_policy(|policy| PerceptPolicy {
+        captures: 1,
+        ..*policy
+    })?;
     let n_in = 2 * plant.cameras;
     let mut model = InverseModel::new(n_in, p.controlled.len(), &InverseModelConfig::default())?;
     let total = p
@@ -457,7 +470,7 @@ pub fn train(
         snaps,
         Training {
             learn,
-            commands: plant.commands,
+            commands: plant.commands(),
         },
     ))
 }
@@ -487,6 +500,7 @@ pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecog
         p.seed ^ 0xBEEF,
         &SilhouetteConfig {
             correction_poses: p.correction_poses,
+            cross_camera_choice: p.cross_camera_choice,
             ..SilhouetteConfig::default()
         },
     )?;
@@ -877,6 +891,7 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     };
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
+    p.cross_camera_choice = args.cross_camera_choice;
     let learned = if args.percept == PerceptMode::Recognised {
         let learned = learn_recogniser(&config, &p)?;
         p.recogniser = Some(learned.0.clone());

@@ -1,74 +1,17 @@
-//! `arm-sim` connected to `servo-loop`: the evaluation plant (percept = the learned recognition
-//! on rendered images, or the simulator's true tip projection plus detection noise; with a
-//! ground-truth log) and the analytic image Jacobian of the ideal arm. The robot adapter is
-//! `visguide::SimRobot`, re-exported here.
+//! `arm-sim` connected to `servo-loop`: the evaluation plant (percept = servo-loop's own
+//! `VisualPlant` with the learned recognition on rendered images, so the study does not repeat
+//! its mapping of commands and percepts; or the simulator's true tip projection plus detection
+//! noise; with a ground-truth log) and the analytic image Jacobian of the ideal arm. The robot
+//! adapter is `visguide::SimRobot`, re-exported here.
 
 use arm_sim::{ArmSim, NUM_SERVOS, forward_kinematics};
 use nalgebra::{DMatrix, Vector3};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, Normal};
-use rayon::prelude::*;
 use servo_loop::{
-    Localisation, Observation, PerceptPolicy, Plant, ServoError, TipModel, observe_checked,
+    ControlSpace, Observation, PerceptPolicy, Plant, Robot, ServoError, TipModel, VisualPlant,
 };
-
-/// The learned recognition as the percept of a [`SimPlant`]: the mean of `policy.captures`
-/// localisations per camera (the arm stands still between the captures), cameras located in
-/// parallel, re-captured and refused by the policy (servo_loop's `observe_checked`, as its
-/// `VisualPlant` does).
-pub struct Recogniser {
-    pub model: TipModel,
-    pub policy: PerceptPolicy,
-    /// Percepts refused and doubted attempts re-captured so far.
-    pub refused: usize,
-    pub recaptured: usize,
-}
-
-impl Recogniser {
-    pub fn new(model: TipModel, policy: PerceptPolicy) -> Self {
-        Recogniser {
-            model,
-            policy,
-            refused: 0,
-            recaptured: 0,
-        }
-    }
-
-    /// Per camera (the first `cameras`): the averaged localisation (servo_loop's
-    /// `observe_checked`, every camera of the model located in parallel).
-    pub fn observe(
-        &mut self,
-        sim: &mut ArmSim,
-        cameras: usize,
-    ) -> servo_loop::Result<Vec<Localisation>> {
-        let model = &self.model;
-        let recaptured = &mut self.recaptured;
-        let result = observe_checked(
-            model,
-            &self.policy,
-            || Ok(sim.capture()),
-            |images| {
-                // Every camera of the model (the learned rule's correction takes them all);
-                // collected per camera first, so the error reported is the first camera's
-                // whatever the thread count.
-                let ends: Vec<servo_loop::Result<_>> = images
-                    .par_iter()
-                    .enumerate()
-                    .map(|(cam, img)| model.estimate_end(cam, img))
-                    .collect();
-                model.tips(&ends.into_iter().collect::<servo_loop::Result<Vec<_>>>()?)
-            },
-            || *recaptured += 1,
-        );
-        if let Err(ServoError::PerceptRefused { .. }) = &result {
-            self.refused += 1;
-        }
-        let (mut locs, _) = result?;
-        locs.truncate(cameras);
-        Ok(locs)
-    }
-}
 
 /// `ArmSim` as a [`servo_loop::Robot`]: the one adapter, in the `visguide` crate.
 pub use visguide::SimRobot;
@@ -96,25 +39,33 @@ pub fn truth(sim: &ArmSim) -> Truth {
     }
 }
 
-/// The evaluation plant: controlled servos `controlled`, the others held at `rest`; the
-/// percept is the true tip projection plus Gaussian detection noise of `noise_px`; every
-/// observation's ground truth is logged.
+/// How a [`SimPlant`] perceives.
+enum Percept {
+    /// The true tip projection plus Gaussian detection noise (a control-only check).
+    Simulated {
+        robot: Box<SimRobot>,
+        noise: Normal<f64>,
+        rng: Xoshiro256PlusPlus,
+    },
+    /// servo-loop's own visual plant ([`VisualPlant`]): the learned recogniser on the rendered
+    /// images, averaged, re-captured and refused by its policy.
+    Recognised(Box<VisualPlant<SimRobot, TipModel>>),
+}
+
+/// The evaluation plant: controlled servos `controlled`, the others held at `rest`
+/// (servo_loop's [`ControlSpace`]); the percept is servo_loop's [`VisualPlant`] with the learned
+/// recogniser ([`SimPlant::with_recogniser`]) or the true tip projection plus Gaussian
+/// detection noise of `noise_px`; every observation's ground truth is logged.
 pub struct SimPlant {
-    pub sim: ArmSim,
-    pub controlled: Vec<usize>,
-    pub rest: [f64; NUM_SERVOS],
+    space: ControlSpace,
+    percept: Percept,
     pub cameras: usize,
     pub size: [u32; 2],
-    noise: Normal<f64>,
-    rng: Xoshiro256PlusPlus,
     pub log: Vec<Truth>,
-    /// With a recogniser the percept comes from rendered images, not from the projection.
-    pub recogniser: Option<Recogniser>,
-    /// Commands sent (every `act`, approach pre-positions included).
-    pub commands: usize,
 }
 
 impl SimPlant {
+    /// The plant with the simulated percept (true projection + noise of `noise_px`, `seed`).
     pub fn new(
         sim: ArmSim,
         controlled: &[usize],
@@ -126,25 +77,88 @@ impl SimPlant {
         let c = &sim.inspect().config().cameras[0];
         let size = [c.width, c.height];
         SimPlant {
-            sim,
-            controlled: controlled.to_vec(),
-            rest,
+            space: ControlSpace {
+                controlled: controlled.to_vec(),
+                rest: rest.to_vec(),
+                gripper: None,
+            },
+            percept: Percept::Simulated {
+                robot: Box::new(SimRobot::new(sim)),
+                noise: Normal::new(0.0, noise_px.max(0.0)).expect("valid σ"),
+                rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            },
             cameras,
             size,
-            noise: Normal::new(0.0, noise_px.max(0.0)).expect("valid σ"),
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             log: Vec::new(),
-            recogniser: None,
-            commands: 0,
         }
     }
 
-    pub fn full_command(&self, y: &[f64]) -> [f64; NUM_SERVOS] {
-        let mut c = self.rest;
-        for (&i, &v) in self.controlled.iter().zip(y) {
-            c[i] = v;
+    /// The same plant perceiving through servo_loop's [`VisualPlant`] with `model` under
+    /// `policy` (commands sent so far are kept). Errors: a control space that does not fit the
+    /// arm, a model that cannot locate, an invalid policy.
+    pub fn with_recogniser(
+        self,
+        model: TipModel,
+        policy: PerceptPolicy,
+    ) -> servo_loop::Result<Self> {
+        let robot = match self.percept {
+            Percept::Simulated { robot, .. } => *robot,
+            Percept::Recognised(v) => v.into_robot(),
+        };
+        let mut visual = VisualPlant::new(robot, self.space.clone(), model)?;
+        visual.set_policy(policy)?;
+        Ok(SimPlant {
+            percept: Percept::Recognised(Box::new(visual)),
+            ..self
+        })
+    }
+
+    fn robot(&self) -> &SimRobot {
+        match &self.percept {
+            Percept::Simulated { robot, .. } => robot,
+            Percept::Recognised(v) => v.robot(),
         }
+    }
+
+    /// The simulator (ground truth through `sim().inspect()`).
+    pub fn sim(&self) -> &ArmSim {
+        self.robot().sim()
+    }
+
+    /// The simulator, mutably (commands sent through it are not counted).
+    pub fn sim_mut(&mut self) -> &mut ArmSim {
+        match &mut self.percept {
+            Percept::Simulated { robot, .. } => &mut robot.0,
+            Percept::Recognised(v) => &mut v.robot_mut().0,
+        }
+    }
+
+    /// Commands sent through the plant (every `act`, approach pre-positions included).
+    pub fn commands(&self) -> usize {
+        self.robot().commands()
+    }
+
+    /// The full command of the arm for the controlled set-points `y` (the held servos at
+    /// their rest set-points; servo_loop's `ControlSpace::full_command`).
+    pub fn full_command(&self, y: &[f64]) -> [f64; NUM_SERVOS] {
+        let mut c = [0.0; NUM_SERVOS];
+        c.copy_from_slice(&self.space.full_command(y));
         c
+    }
+
+    /// Changes the recognised percept's policy (nothing for the simulated percept). Errors: an
+    /// invalid policy.
+    pub fn set_policy(
+        &mut self,
+        f: impl FnOnce(&PerceptPolicy) -> PerceptPolicy,
+    ) -> servo_loop::Result<()> {
+        match &mut self.percept {
+            Percept::Recognised(v) => {
+                let policy = f(v.policy());
+                v.set_policy(policy)
+            }
+            Percept::Simulated { .. } => Ok(()),
+        }
     }
 }
 
@@ -153,48 +167,60 @@ impl Plant for SimPlant {
         2 * self.cameras
     }
     fn command_dim(&self) -> usize {
-        self.controlled.len()
+        self.space.controlled.len()
     }
     fn command_range(&self, j: usize) -> [f64; 2] {
-        self.sim
-            .servo_range(self.controlled[j])
+        self.sim()
+            .servo_range(self.space.controlled[j])
             .unwrap_or([0.0, 0.0])
     }
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
-        self.commands += 1;
-        let c = self.full_command(y);
-        self.sim.command(&c).map_err(|e| ServoError::Robot {
-            during: "command",
-            message: e.to_string(),
-        })
+        match &mut self.percept {
+            Percept::Recognised(v) => v.act(y),
+            Percept::Simulated { robot, .. } => {
+                robot
+                    .command(&self.space.full_command(y))
+                    .map_err(|e| ServoError::Robot {
+                        during: "command",
+                        message: e.to_string(),
+                    })
+            }
+        }
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
-        let t = truth(&self.sim);
+        let t = truth(self.sim());
         self.log.push(t);
         let cams = self.cameras;
-        if let Some(r) = self.recogniser.as_mut() {
-            let locs = r.observe(&mut self.sim, cams)?;
-            let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
-            let x = locs.iter().flat_map(|l| l.position).collect();
-            return Ok(Observation { x, certainty });
-        }
-        let mut x = Vec::with_capacity(2 * self.cameras);
-        for (cam, p) in t.px.iter().take(self.cameras).enumerate() {
-            let inside = p[0] >= 0.0
-                && p[1] >= 0.0
-                && p[0] < f64::from(self.size[0])
-                && p[1] < f64::from(self.size[1]);
-            if !inside {
-                return Err(ServoError::RecognitionFailed {
-                    camera: cam,
-                    certainty: 0.0,
-                    min: 0.5,
-                });
+        let size = self.size;
+        match &mut self.percept {
+            Percept::Recognised(v) => {
+                // The first `cameras` cameras of the visual plant's percept.
+                v.observe()?;
+                let locs = &v.last_localisations()[..cams];
+                let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
+                let x = locs.iter().flat_map(|l| l.position).collect();
+                Ok(Observation { x, certainty })
             }
-            x.push(p[0] + self.noise.sample(&mut self.rng));
-            x.push(p[1] + self.noise.sample(&mut self.rng));
+            Percept::Simulated { noise, rng, .. } => {
+                let mut x = Vec::with_capacity(2 * cams);
+                for (cam, p) in t.px.iter().take(cams).enumerate() {
+                    let inside = p[0] >= 0.0
+                        && p[1] >= 0.0
+                        && p[0] < f64::from(size[0])
+                        && p[1] < f64::from(size[1]);
+                    if !inside {
+                        return Err(ServoError::RecognitionFailed {
+                            camera: cam,
+                            certainty: 0.0,
+                            min: 0.5,
+                        });
+                    }
+                    x.push(p[0] + noise.sample(rng));
+                    x.push(p[1] + noise.sample(rng));
+                }
+                Ok(Observation { x, certainty: 1.0 })
+            }
         }
-        Ok(Observation { x, certainty: 1.0 })
     }
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
         let (w, h) = (f64::from(self.size[0]) - 1.0, f64::from(self.size[1]) - 1.0);
@@ -231,8 +257,8 @@ pub fn ideal_image_jacobian(plant: &SimPlant, y: &[f64]) -> servo_loop::Result<D
         let (mut yp, mut ym) = (y.to_vec(), y.to_vec());
         yp[k] += h;
         ym[k] -= h;
-        let xp = ideal_pixels(&plant.sim, &plant.full_command(&yp), plant.cameras);
-        let xm = ideal_pixels(&plant.sim, &plant.full_command(&ym), plant.cameras);
+        let xp = ideal_pixels(plant.sim(), &plant.full_command(&yp), plant.cameras);
+        let xm = ideal_pixels(plant.sim(), &plant.full_command(&ym), plant.cameras);
         let (Some(xp), Some(xm)) = (xp, xm) else {
             return Err(ServoError::InvalidParameter {
                 name: "ideal model",

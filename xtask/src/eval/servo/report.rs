@@ -702,7 +702,7 @@ impl Plant for Filming<'_> {
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
         let o = self.inner.observe()?;
-        let img = self.inner.sim.capture().swap_remove(0);
+        let img = self.inner.sim_mut().capture().swap_remove(0);
         let tip = self.inner.log.last().map_or([f64::NAN; 2], |t| t.px[0]);
         self.frames.push((img, tip));
         Ok(o)

@@ -137,7 +137,7 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .collect();
     let results = jobs
         .par_iter()
-        .map(|&(name, config, seed)| run_seed(name, config, seed))
+        .map(|&(name, config, seed)| run_seed(name, config, seed, args.cross_camera_choice))
         .collect::<Result<Vec<_>>>()?;
     Ok(SeedStudy {
         seeds_role: role.into(),
@@ -147,9 +147,16 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
     })
 }
 
-/// The whole pipeline on one arm and seed.
-pub fn run_seed(arm: &str, config: &SimConfig, seed: u64) -> Result<SeedResult> {
+/// The whole pipeline on one arm and seed (`cross_camera_choice`: the recogniser's
+/// `SilhouetteConfig::cross_camera_choice`).
+pub fn run_seed(
+    arm: &str,
+    config: &SimConfig,
+    seed: u64,
+    cross_camera_choice: bool,
+) -> Result<SeedResult> {
     let mut p = Protocol::default_for(seed);
+    p.cross_camera_choice = cross_camera_choice;
     p.curve_moves = vec![p.training_moves];
     p.targets = TARGETS;
     let (model, report, recognition_commands) = learn_recogniser(config, &p)?;
@@ -233,12 +240,10 @@ fn method_figures(method: &str, r: &[TargetResult]) -> SeedMethod {
 /// finger ends.
 fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
     let mut plant = make_plant(config, p, p.seed ^ 0xFACE)?;
-    if let Some(r) = plant.recogniser.as_mut() {
-        r.policy = PerceptPolicy {
-            captures: 1,
-            ..p.policy()
-        };
-    }
+    plant.set_policy(|_| PerceptPolicy {
+        captures: 1,
+        ..p.policy()
+    })?;
     let cams = plant.cameras;
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
     let (mut refused, mut not_found) = (0, 0);
@@ -248,10 +253,10 @@ fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
         plant.act(&y)?;
         match plant.observe() {
             Ok(o) => {
-                let pose = plant.sim.inspect().pose().clone();
+                let pose = plant.sim().inspect().pose().clone();
                 let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
                 for (cam, e) in errors.iter_mut().enumerate() {
-                    let t = plant.sim.inspect().project(cam, &mid)?;
+                    let t = plant.sim().inspect().project(cam, &mid)?;
                     e.push((o.x[2 * cam] - t[0]).hypot(o.x[2 * cam + 1] - t[1]));
                 }
             }
