@@ -153,6 +153,15 @@ impl EvalContext {
     }
 }
 
+/// Whether a staged folder replaces (or, with `--check`, is compared with) its destination.
+/// A sibling the target did not write keeps its old contents. So does the target's own folder
+/// when it wrote nothing (a development run that only prints, e.g. `eval servo --development`,
+/// used to empty `fixtures/paper-c`); `--check` still compares it, so a target that stops
+/// writing fails the check.
+fn replaces_destination(own_folder: bool, check: bool, unused: bool) -> bool {
+    !unused || (own_folder && check)
+}
+
 /// Runs `cargo xtask eval`: checks every destination and the data first, stages each target's
 /// output in a temporary folder beside its destination ([`crate::output`]), and moves all of
 /// them into place only after every target succeeded. With `--check`, the staged folders are
@@ -242,10 +251,15 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         eprintln!("eval {} -> {} (data: {data})", t.name(), dest.display());
         t.run(&ctx)
             .map_err(|e| format!("{}: {e} ({} left unchanged)", t.name(), dest.display()))?;
-        // A sibling the target did not write keeps its old contents (it is dropped here).
         for (i, (name, stage)) in stages.into_iter().enumerate() {
-            if i == 0 || !stage.is_unused() {
+            if replaces_destination(i == 0, check_root.is_some(), stage.is_unused()) {
                 staged.push((name, stage));
+            } else if i == 0 {
+                eprintln!(
+                    "eval {}: wrote nothing; {} left unchanged",
+                    t.name(),
+                    dest.display()
+                );
             }
         }
     }
@@ -286,4 +300,21 @@ pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Res
     let path = dir.join(name);
     std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod staging_tests {
+    use super::replaces_destination;
+
+    #[test]
+    fn a_target_that_wrote_nothing_leaves_its_folder_unless_checked() {
+        // The target's own folder: replaced when written, kept when empty, compared by --check.
+        assert!(replaces_destination(true, false, false));
+        assert!(!replaces_destination(true, false, true));
+        assert!(replaces_destination(true, true, true));
+        // A sibling: only when written, with or without --check.
+        assert!(replaces_destination(false, false, false));
+        assert!(!replaces_destination(false, false, true));
+        assert!(!replaces_destination(false, true, true));
+    }
 }
