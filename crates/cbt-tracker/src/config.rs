@@ -154,7 +154,9 @@ pub struct CbtConfig {
     /// are set when a model is learned: as configured ([`Smoothing::Fixed`], the default, and
     /// what files without this field mean) or chosen from the training data by held-out
     /// likelihood ([`Smoothing::HeldOut`], module `smoothing`; stationary layout only).
-    #[serde(default)]
+    /// Written only when not `Fixed`, so a default tracker saves the same text as before the
+    /// option existed (`tests/saved_form.rs`).
+    #[serde(default, skip_serializing_if = "Smoothing::is_fixed")]
     pub smoothing: Smoothing,
 }
 

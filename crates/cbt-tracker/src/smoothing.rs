@@ -71,6 +71,13 @@ pub enum Smoothing {
     HeldOut,
 }
 
+impl Smoothing {
+    /// Whether this is [`Smoothing::Fixed`] (the default, not written to saved files).
+    pub fn is_fixed(&self) -> bool {
+        *self == Smoothing::Fixed
+    }
+}
+
 /// Candidate smoothing constants.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SmoothingGrid {
