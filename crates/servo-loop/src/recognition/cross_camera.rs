@@ -55,6 +55,12 @@ pub fn choose_consistent(
     candidates: &[Vec<[f64; 2]>],
     geometries: &[EpipolarGeometry],
 ) -> Result<PairChoice> {
+    if candidates.is_empty() {
+        return Err(ServoError::InvalidParameter {
+            name: "candidates",
+            reason: "no camera offers a tip candidate".into(),
+        });
+    }
     if let Some(cam) = candidates.iter().position(Vec::is_empty) {
         return Err(ServoError::InvalidParameter {
             name: "candidates",
@@ -194,6 +200,13 @@ mod tests {
         }
         assert!(matches!(
             choose_consistent(&[vec![[1.0, 2.0]], vec![]], &[g]),
+            Err(ServoError::InvalidParameter {
+                name: "candidates",
+                ..
+            })
+        ));
+        assert!(matches!(
+            choose_consistent(&[], &[]),
             Err(ServoError::InvalidParameter {
                 name: "candidates",
                 ..
