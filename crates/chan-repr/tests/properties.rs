@@ -97,3 +97,68 @@ proptest! {
         prop_assert_eq!(sparse.decode().unwrap(), dense.decode().unwrap());
     }
 }
+
+/// A value in or around a basis's representable range, or a non-finite one.
+fn probe(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    let w = hi - lo;
+    prop_oneof![
+        8 => (-0.2f64..1.2).prop_map(move |u| lo + u * w),
+        1 => Just(lo),
+        1 => Just(hi),
+        1 => prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY), Just(1e308), Just(-1e308)],
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The batch check refuses exactly what the value-by-value check refuses, with the error of
+    /// the first refused value.
+    #[test]
+    fn check_all_equals_value_by_value(
+        (b, xs) in basis().prop_flat_map(|b| {
+            let (lo, hi) = b.representable_range();
+            (Just(b), prop::collection::vec(probe(lo, hi), 0..200))
+        })
+    ) {
+        let one_by_one = xs.iter().try_for_each(|&x| b.checked_index(x).map(|_| ()));
+        prop_assert_eq!(format!("{:?}", b.check_all(&xs)), format!("{:?}", one_by_one));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// A batch equals its values added one by one: exactly for the kernels that share the
+    /// per-value path, up to rounding for the quadratic B-spline's closed-form batch path. The
+    /// range ends are drawn often, where the B-spline path skips the channel past the last.
+    #[test]
+    fn a_batch_equals_its_values_one_by_one(
+        (b, xs) in basis().prop_flat_map(|b| {
+            let (lo, hi) = b.representable_range();
+            let w = hi - lo;
+            let x = prop_oneof![
+                4 => (0.0f64..=1.0).prop_map(move |u| lo + u * w),
+                1 => Just(lo),
+                1 => Just(hi),
+            ];
+            (Just(b), prop::collection::vec(x, 0..100))
+        })
+    ) {
+        let mut batch = SoftHistogram::one_d(b.clone());
+        batch.extend_1d(&xs).unwrap();
+        let mut each = SoftHistogram::one_d(b.clone());
+        for &x in &xs {
+            each.add(&[x], 1.0).unwrap();
+        }
+        prop_assert_eq!(batch.total_weight(), each.total_weight());
+        let exact = b.kernel() != Kernel::BSpline2;
+        for (k, (p, q)) in batch.counts().iter().zip(each.counts()).enumerate() {
+            if exact {
+                prop_assert_eq!(p, q, "channel {}", k);
+            } else {
+                prop_assert!((p - q).abs() <= 1e-12 * (xs.len() as f64).max(1.0), "channel {}: {} vs {}", k, p, q);
+            }
+        }
+    }
+}
