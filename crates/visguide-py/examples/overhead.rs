@@ -1,21 +1,29 @@
 //! The Rust side of `python/benchmarks/overhead.py`: the same MSER detection and LWPR batch
 //! update as the Python calls, on the same bytes, timed in thread CPU time
-//! (`/proc/thread-self/schedstat`, Linux) because the machine is shared.
+//! (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, the clock Python's `time.thread_time` reads)
+//! because the machine is shared.
 //!
-//! `cargo run --release -p visguide-py --example overhead -- IMAGE.raw WIDTH HEIGHT SAMPLES.f64 REPS`
-//! (written by the Python script); prints one JSON line.
+//! `cargo run --release -p visguide-py --example overhead -- IMAGE.raw WIDTH HEIGHT SAMPLES.f64 REPS OUT_DIR`
+//! (written by the Python script); prints one JSON line and writes what the script compares
+//! with its own outputs: `OUT_DIR/regions.txt` (every region, one line, floats as their IEEE
+//! bits) and `OUT_DIR/model.bin` (the trained LWPR model's binary form).
 
-use std::time::Duration;
+use std::fmt::Write as _;
 
-/// CPU time this thread has run.
-fn thread_cpu() -> Duration {
-    let s = std::fs::read_to_string("/proc/thread-self/schedstat").expect("Linux schedstat");
-    let ns: u64 = s.split_whitespace().next().unwrap().parse().unwrap();
-    Duration::from_nanos(ns)
+/// Seconds of CPU time this thread has run.
+fn thread_cpu() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
 /// Seconds of thread CPU time per run of `f`: the median over 5 blocks of the mean of `reps`
-/// runs (schedstat advances in scheduler ticks, so single runs are too short to time).
+/// runs, as the Python side measures.
 fn median_cpu(reps: usize, mut f: impl FnMut()) -> f64 {
     let mut t: Vec<f64> = (0..5)
         .map(|_| {
@@ -23,7 +31,7 @@ fn median_cpu(reps: usize, mut f: impl FnMut()) -> f64 {
             for _ in 0..reps {
                 f();
             }
-            (thread_cpu() - t0).as_secs_f64() / reps as f64
+            (thread_cpu() - t0) / reps as f64
         })
         .collect();
     t.sort_by(f64::total_cmp);
@@ -32,8 +40,8 @@ fn median_cpu(reps: usize, mut f: impl FnMut()) -> f64 {
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let [_, img, w, h, samples, reps] = &a[..] else {
-        eprintln!("usage: overhead IMAGE.raw WIDTH HEIGHT SAMPLES.f64 REPS");
+    let [_, img, w, h, samples, reps, out_dir] = &a[..] else {
+        eprintln!("usage: overhead IMAGE.raw WIDTH HEIGHT SAMPLES.f64 REPS OUT_DIR");
         std::process::exit(2);
     };
     let (w, h, reps): (usize, usize, usize) = (
@@ -44,7 +52,10 @@ fn main() {
     let px = std::fs::read(img).unwrap();
     let view = mser::GrayView::packed(&px, w, h).unwrap();
     let params = mser::MserParams::default();
-    let n_regions = mser::detect(&view, &params).unwrap().len();
+    let regions = mser::detect(&view, &params).unwrap();
+    let out_dir = std::path::Path::new(out_dir);
+    std::fs::write(out_dir.join("regions.txt"), region_lines(&regions)).unwrap();
+    let n_regions = regions.len();
     let mser_s = median_cpu(reps, || {
         std::hint::black_box(mser::detect(&view, &params).unwrap());
     });
@@ -61,17 +72,55 @@ fn main() {
             .build()
             .unwrap()
     };
-    let mut digest = String::new();
+    let mut model = Vec::new();
     let lwpr_s = median_cpu(reps, || {
         let mut m = build();
         let mut out = [0.0];
         for r in v.chunks_exact(3) {
             m.update_into(&r[..2], &r[2..], &mut out).unwrap();
         }
-        digest = format!("{:x}", m.to_binary().len() ^ m.num_rfs()[0]);
+        model = m.to_binary();
     });
+    std::fs::write(out_dir.join("model.bin"), &model).unwrap();
     println!(
-        "{{\"mser_regions\": {n_regions}, \"mser_cpu_s\": {mser_s}, \"lwpr_samples\": {}, \"lwpr_cpu_s\": {lwpr_s}, \"lwpr_check\": \"{digest}\"}}",
+        "{{\"mser_regions\": {n_regions}, \"mser_cpu_s\": {mser_s}, \"lwpr_samples\": {}, \"lwpr_cpu_s\": {lwpr_s}}}",
         v.len() / 3
     );
+}
+
+/// One line per region, every field the Python `Region` exposes (floats as their IEEE-754 bits,
+/// so that equal lines mean bit-identical values): polarity, level, seed, area, variation,
+/// bounding box, raw moments, centroid, ellipse.
+fn region_lines(regions: &[mser::Region]) -> String {
+    let mut s = String::new();
+    for r in regions {
+        let polarity = match r.polarity {
+            mser::Polarity::Dark => "dark",
+            mser::Polarity::Bright => "bright",
+        };
+        let (b, m, c, e) = (r.bbox, r.moments, r.centroid(), r.ellipse());
+        let bits = [r.variation, c.0, c.1, e.u, e.v, e.a, e.b, e.c].map(f64::to_bits);
+        let bits: Vec<String> = bits.iter().map(u64::to_string).collect();
+        writeln!(
+            s,
+            "{polarity} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+            r.level,
+            r.seed.0,
+            r.seed.1,
+            r.area,
+            b.x_min,
+            b.y_min,
+            b.x_max,
+            b.y_max,
+            m.n,
+            m.sx,
+            m.sy,
+            m.sxx,
+            m.sxy,
+            m.syy,
+            bits.join(" ")
+        )
+        .unwrap();
+    }
+    s
 }
