@@ -245,6 +245,22 @@ impl ChannelBasis {
             .for_each_in(self.step, t, lo, hi, |k, v| f(k as usize, v));
     }
 
+    /// [`for_each_active`](Self::for_each_active) for a cos² basis with `m` channels per window
+    /// (the caller has matched the kernel), with the batch encoder's cheaper starting phasor
+    /// (`Kernel::for_each_cos2_reduced`): the same channels, values equal up to a few ulps.
+    #[inline]
+    pub(crate) fn for_each_active_cos2_reduced(
+        &self,
+        m: u32,
+        t: f64,
+        mut f: impl FnMut(usize, f64),
+    ) {
+        let r = 0.5 * f64::from(m);
+        let lo = (t - r).ceil().max(0.0) as i64;
+        let hi = ((t + r).floor() as i64).min(self.n as i64 - 1);
+        Kernel::for_each_cos2_reduced(m, self.step, t, lo, hi, |k, v| f(k as usize, v));
+    }
+
     /// Encodes `x` into a dense channel vector (eq. 2.1).
     ///
     /// ```

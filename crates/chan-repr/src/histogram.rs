@@ -168,6 +168,11 @@ impl SoftHistogram {
         let counts = &mut self.counts;
         if basis.kernel() == Kernel::BSpline2 {
             add_bspline2(basis, (tlo, thi), xs, counts);
+        } else if let Kernel::Cos2 { m } = basis.kernel() {
+            for &x in xs {
+                let t = basis.to_index(x).clamp(tlo, thi);
+                basis.for_each_active_cos2_reduced(m, t, |k, v| counts[k] += v);
+            }
         } else {
             for &x in xs {
                 let t = basis.to_index(x).clamp(tlo, thi);
