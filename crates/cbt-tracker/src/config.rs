@@ -87,6 +87,34 @@ pub enum SystemFallback {
     FirstOrder,
 }
 
+/// What the first prediction after a start ([`CbtTracker::reset`](crate::Tracker::reset): a
+/// position without a velocity) uses as its displacement distribution, in the stationary
+/// layout.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StartMotion {
+    /// The learned displacement distribution `S` of every training step (the velocities'
+    /// marginal). The behaviour of files written before this option existed.
+    #[default]
+    Marginal,
+    /// A start density learned from the training runs' first displacements (the first step
+    /// of every run of frames with states: where targets are first seen, not what they do on
+    /// average), Dirichlet-smoothed toward a broad prior, a zero-mean Gaussian as wide as the
+    /// root mean square displacement of `S` (at least [`CbtConfig::fallback_sigma`]), with
+    /// the pseudo-mass [`CbtConfig::prior_weight`]:
+    /// `S₀[δ] = (C₀[δ] + α·N(δ; 0, σ₀²)) / (Σ C₀ + α)`. With few training runs it is the
+    /// broad prior, never the spike at zero displacement that standing targets put into `S`.
+    /// Stationary layout only.
+    Learned,
+}
+
+impl StartMotion {
+    /// Whether this is [`StartMotion::Marginal`] (the default, not written to saved files).
+    pub fn is_marginal(&self) -> bool {
+        *self == StartMotion::Marginal
+    }
+}
+
 /// Parameters of Channel Based Tracking. The defaults ([`CbtConfig::default`]) are those of
 /// the second-order, separable tracker of Paper B as reconstructed in docs/methods.md § Tracking.
 ///
@@ -158,6 +186,10 @@ pub struct CbtConfig {
     /// option existed (`tests/saved_form.rs`).
     #[serde(default, skip_serializing_if = "Smoothing::is_fixed")]
     pub smoothing: Smoothing,
+    /// The first prediction after a start ([`StartMotion`]; stationary layout only). Written
+    /// only when not [`StartMotion::Marginal`] (what files without this field mean).
+    #[serde(default, skip_serializing_if = "StartMotion::is_marginal")]
+    pub start: StartMotion,
 }
 
 fn default_obs_radius() -> usize {
@@ -192,6 +224,7 @@ impl Default for CbtConfig {
             decode_radius: default_decode_radius(),
             input: None,
             smoothing: Smoothing::Fixed,
+            start: StartMotion::Marginal,
         }
     }
 }
@@ -258,6 +291,13 @@ impl CbtConfig {
                 name: "smoothing",
                 value: 1.0,
                 reason: "held-out smoothing needs the stationary layout",
+            });
+        }
+        if self.start == StartMotion::Learned && self.layout != Layout::Stationary {
+            return Err(TrackError::InvalidParameter {
+                name: "start",
+                value: 1.0,
+                reason: "a learned start density needs the stationary layout",
             });
         }
         if self.obs_radius == 0 || self.obs_radius > 64 {

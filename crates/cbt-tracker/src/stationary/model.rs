@@ -34,7 +34,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, SystemFallback};
+use crate::config::{CbtConfig, StartMotion, SystemFallback};
 use crate::encode::Encoded;
 use crate::integrity::{corrupt, len, nonneg, nonneg1};
 use crate::{Space, TrackError};
@@ -404,6 +404,13 @@ pub(crate) struct StatSystem {
     c2: Vec<f64>,
     s1: Vec<f64>,
     t: Vec<f64>,
+    /// Start counts `C₀[δ]`: the first displacement of every run of frames with states
+    /// ([`StartMotion::Learned`]; empty otherwise, and in files written before it existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    c0: Vec<f64>,
+    /// The start density `S₀` (normalised `C₀`, [`StartMotion::Learned`]; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    s0: Vec<f64>,
     /// Per `v`: the range `[lo, hi)` of `δ + r` outside which `T[· | v]` holds at most
     /// [`BAND_TAIL`] of its mass (derived from `t`; rebuilt after loading).
     #[serde(skip)]
@@ -426,6 +433,12 @@ impl StatSystem {
             c2: vec![0.0; w * w],
             s1: vec![0.0; w],
             t: vec![0.0; w * w],
+            c0: if cfg.start == StartMotion::Learned {
+                vec![0.0; w]
+            } else {
+                Vec::new()
+            },
+            s0: Vec::new(),
             band: Vec::new(),
             banded: Vec::new(),
         };
@@ -433,8 +446,9 @@ impl StatSystem {
         s
     }
 
-    /// Consistency of a deserialised model (and its derived bands rebuilt).
-    pub fn check(&mut self) -> Result<(), TrackError> {
+    /// Consistency of a deserialised model with its configuration (and its derived bands
+    /// rebuilt).
+    pub fn check(&mut self, cfg: &CbtConfig) -> Result<(), TrackError> {
         let w = self
             .r
             .checked_mul(2)
@@ -450,6 +464,17 @@ impl StatSystem {
             len(what, v.len(), n)?;
             nonneg(what, v)?;
         }
+        let learned = cfg.start == StartMotion::Learned;
+        for (what, v) in [("start counts", &self.c0), ("start density", &self.s0)] {
+            if learned {
+                len(what, v.len(), w)?;
+                nonneg(what, v)?;
+            } else if !v.is_empty() {
+                return Err(corrupt(format!(
+                    "{what} in a model whose start motion is the marginal"
+                )));
+            }
+        }
         self.rebuild_bands();
         Ok(())
     }
@@ -459,7 +484,8 @@ impl StatSystem {
         self.r
     }
 
-    /// Adds `a_t ⊗ a_{t−1}` (and `⊗ a_{t−2}`) by displacement.
+    /// Adds `a_t ⊗ a_{t−1}` (and `⊗ a_{t−2}`) by displacement; without `a_{t−2}` (the first
+    /// step of a run) also to the start counts, when kept.
     pub fn add(
         &mut self,
         now: &[(usize, f64)],
@@ -468,6 +494,7 @@ impl StatSystem {
     ) {
         let r = self.r as i64;
         let w = 2 * r + 1;
+        let start = prev2.is_none() && !self.c0.is_empty();
         for &(n, vn) in prev {
             for &(m, vm) in now {
                 let d = m as i64 - n as i64;
@@ -475,6 +502,9 @@ impl StatSystem {
                     continue;
                 }
                 self.c1[(d + r) as usize] += vm * vn;
+                if start {
+                    self.c0[(d + r) as usize] += vm * vn;
+                }
                 if let Some(p2) = prev2 {
                     for &(o, vo) in p2 {
                         let v = n as i64 - o as i64;
@@ -491,21 +521,30 @@ impl StatSystem {
     pub fn normalise(&mut self, cfg: &CbtConfig) {
         let (r, alpha) = (self.r, cfg.prior_weight);
         let w = 2 * r + 1;
-        let gauss = |centre: i64| -> Vec<f64> {
-            let mut g: Vec<f64> = (0..w as i64)
-                .map(|i| {
-                    let d = (i - r as i64 - centre) as f64;
-                    (-d * d / (2.0 * cfg.fallback_sigma * cfg.fallback_sigma)).exp()
-                })
-                .collect();
-            let s: f64 = g.iter().sum();
-            g.iter_mut().for_each(|v| *v /= s);
-            g
-        };
+        let gauss = |centre: i64| gaussian(w, r, centre, cfg.fallback_sigma);
         let g0 = gauss(0);
         let m1: f64 = self.c1.iter().sum();
         for ((s1, &c), &g) in self.s1.iter_mut().zip(&self.c1).zip(&g0) {
             *s1 = (c + alpha * g) / (m1 + alpha);
+        }
+        if cfg.start == StartMotion::Learned {
+            // The broad prior: zero mean, as wide as S's root mean square displacement.
+            let m2: f64 = self
+                .s1
+                .iter()
+                .enumerate()
+                .map(|(i, &p)| p * (i as f64 - r as f64).powi(2))
+                .sum();
+            let f = gaussian(w, r, 0, m2.sqrt().max(cfg.fallback_sigma));
+            let m0: f64 = self.c0.iter().sum();
+            self.s0 = self
+                .c0
+                .iter()
+                .zip(&f)
+                .map(|(&c, &g)| (c + alpha * g) / (m0 + alpha))
+                .collect();
+        } else {
+            self.s0.clear();
         }
         for v in 0..w {
             let col = &self.c2[v * w..(v + 1) * w];
@@ -572,10 +611,34 @@ impl StatSystem {
         &self.s1
     }
 
+    /// The displacement distribution of the first step after a start, `δ = i − r`: the
+    /// start density `S₀` ([`StartMotion::Learned`]) or `S`.
+    pub fn start(&self) -> &[f64] {
+        if self.s0.is_empty() {
+            &self.s1
+        } else {
+            &self.s0
+        }
+    }
+
     /// `T[δ | v]`, `[(v + r)·(2r + 1) + δ + r]`.
     pub fn second(&self) -> &[f64] {
         &self.t
     }
+}
+
+/// A normalised Gaussian of `sigma` channels around `centre` over the displacements `−r..=r`
+/// (`w = 2r + 1` entries).
+fn gaussian(w: usize, r: usize, centre: i64, sigma: f64) -> Vec<f64> {
+    let mut g: Vec<f64> = (0..w as i64)
+        .map(|i| {
+            let d = (i - r as i64 - centre) as f64;
+            (-d * d / (2.0 * sigma * sigma)).exp()
+        })
+        .collect();
+    let s: f64 = g.iter().sum();
+    g.iter_mut().for_each(|v| *v /= s);
+    g
 }
 
 /// Displacement radius (channels) the training data need: the largest step of a state to the

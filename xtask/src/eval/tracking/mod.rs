@@ -14,6 +14,7 @@
 
 pub mod pedestrians;
 mod plots;
+mod rc_dev;
 pub mod study;
 mod summary;
 
@@ -70,6 +71,25 @@ pub struct TrackingArgs {
     /// `CbtConfig::stationary`.
     #[arg(long, requires = "validation_only")]
     pub held_out_smoothing: bool,
+    /// Development runs: CBT (second order) on the synthetic RC-car levels with test
+    /// sequences of development seeds (not the study's), mean RMSE per level printed, nothing
+    /// written. Combines with the CBT options below.
+    #[arg(long, conflicts_with_all = ["train", "validation_only"])]
+    pub rc_car_development: bool,
+    /// With `--validation-only` or `--rc-car-development`: CBT's first step after a start
+    /// predicts with this start motion (`cbt_tracker::StartMotion`) instead of
+    /// `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub start_motion: Option<StartArg>,
+}
+
+/// `--start-motion`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartArg {
+    /// `StartMotion::Marginal`.
+    Marginal,
+    /// `StartMotion::Learned`.
+    Learned,
 }
 
 /// File format of the user's sequences.
@@ -218,6 +238,18 @@ struct SetFile<'a> {
 
 /// Runs the target.
 pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
+    if let Some(m) = args.start_motion {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err("--start-motion needs --validation-only or --rc-car-development".into());
+        }
+        study::set_start(match m {
+            StartArg::Marginal => cbt_tracker::StartMotion::Marginal,
+            StartArg::Learned => cbt_tracker::StartMotion::Learned,
+        });
+    }
+    if args.rc_car_development {
+        return rc_dev::run();
+    }
     if args.validation_only {
         if args.held_out_smoothing {
             study::set_smoothing(cbt_tracker::Smoothing::HeldOut);
