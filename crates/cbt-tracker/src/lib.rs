@@ -178,8 +178,8 @@ pub use baselines::{
 };
 pub use cbt::CbtTracker;
 pub use config::{
-    CbtConfig, Clutter, Layout, ObservationFallback, Order, PeriodicInput, StartMotion,
-    SystemFallback,
+    CbtConfig, Clutter, Displacements, Layout, ObservationFallback, Order, PeriodicInput,
+    StartMotion, SystemFallback,
 };
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use error::TrackError;

@@ -419,7 +419,7 @@ impl CbtModel {
                 }
                 SystemModel::Stationary(s) => {
                     for (d, s) in s.iter_mut().enumerate() {
-                        s.add(&x.axes[d], &p1.axes[d], p2.map(|p| &p.axes[d][..]));
+                        s.add_frames(&cfg, d, &x, p1, p2);
                         if renormalise {
                             s.normalise(&cfg);
                         }

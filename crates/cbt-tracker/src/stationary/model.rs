@@ -34,7 +34,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, StartMotion, SystemFallback};
+use crate::config::{CbtConfig, Displacements, StartMotion, SystemFallback};
 use crate::encode::Encoded;
 use crate::integrity::{corrupt, len, nonneg, nonneg1};
 use crate::{Space, TrackError};
@@ -381,6 +381,19 @@ pub(crate) const UNIT_MASS: f64 = 1.5;
 /// One encoded element's per-axis channel runs.
 type Element<'a> = (&'a [(usize, f64)], &'a [(usize, f64)]);
 
+/// Per element of an encoded set: its channel coordinate on axis `d` (the first moment of its
+/// channel run) and the run's mass.
+pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
+    elements(e)
+        .into_iter()
+        .map(|el| if d == 0 { el.0 } else { el.1 })
+        .filter_map(|run| {
+            let m: f64 = run.iter().map(|e| e.1).sum();
+            (m > 0.0).then(|| (run.iter().map(|e| e.0 as f64 * e.1).sum::<f64>() / m, m))
+        })
+        .collect()
+}
+
 /// Splits an encoded set back into its elements' per-axis channel runs.
 fn elements(e: &Encoded) -> Vec<Element<'_>> {
     let mut start = [0usize; 2];
@@ -510,6 +523,73 @@ impl StatSystem {
                         let v = n as i64 - o as i64;
                         if v.abs() <= r {
                             self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds one transition of axis `d` (the states of a frame, the previous frame and, when
+    /// it had states, the one before) as [`CbtConfig::displacements`] says.
+    pub fn add_frames(
+        &mut self,
+        cfg: &CbtConfig,
+        d: usize,
+        now: &Encoded,
+        prev: &Encoded,
+        prev2: Option<&Encoded>,
+    ) {
+        match cfg.displacements {
+            Displacements::Channels => {
+                self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
+            }
+            Displacements::Interpolated => self.add_points(
+                &coordinates(now, d),
+                &coordinates(prev, d),
+                prev2.map(|p| coordinates(p, d)).as_deref(),
+            ),
+        }
+    }
+
+    /// Adds the displacements of states given as `(channel coordinate, mass)` per element
+    /// ([`Displacements::Interpolated`](crate::Displacements)): every pair (triple) of
+    /// elements of consecutive frames, with the product of their masses, at the two nearest
+    /// integer displacements (four nearest `(v, δ)` pairs) by linear interpolation; without
+    /// `prev2` (the first step of a run) also to the start counts, when kept.
+    pub fn add_points(
+        &mut self,
+        now: &[(f64, f64)],
+        prev: &[(f64, f64)],
+        prev2: Option<&[(f64, f64)]>,
+    ) {
+        let r = self.r as i64;
+        let w = (2 * r + 1) as usize;
+        let start = prev2.is_none() && !self.c0.is_empty();
+        // The two nearest integer displacements of `x` with their weights (inside ±r).
+        let split = |x: f64| -> [(i64, f64); 2] {
+            let lo = x.floor();
+            let f = x - lo;
+            [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
+        };
+        for &(un, mn) in prev {
+            for &(um, mm) in now {
+                let mass = mm * mn;
+                for (d, wd) in split(um - un) {
+                    if d.abs() > r || wd <= 0.0 {
+                        continue;
+                    }
+                    self.c1[(d + r) as usize] += mass * wd;
+                    if start {
+                        self.c0[(d + r) as usize] += mass * wd;
+                    }
+                    let Some(p2) = prev2 else { continue };
+                    for &(uo, mo) in p2 {
+                        for (v, wv) in split(un - uo) {
+                            if v.abs() <= r && wv > 0.0 {
+                                self.c2[(v + r) as usize * w + (d + r) as usize] +=
+                                    mass * mo * wd * wv;
+                            }
                         }
                     }
                 }

@@ -81,6 +81,20 @@ pub struct TrackingArgs {
     /// `CbtConfig::stationary`'s.
     #[arg(long, value_enum)]
     pub start_motion: Option<StartArg>,
+    /// With `--validation-only` or `--rc-car-development`: CBT's system model counts its
+    /// displacements this way (`cbt_tracker::Displacements`) instead of
+    /// `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub displacements: Option<DisplacementsArg>,
+}
+
+/// `--displacements`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DisplacementsArg {
+    /// `Displacements::Channels`.
+    Channels,
+    /// `Displacements::Interpolated`.
+    Interpolated,
 }
 
 /// `--start-motion`.
@@ -245,6 +259,15 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         study::set_start(match m {
             StartArg::Marginal => cbt_tracker::StartMotion::Marginal,
             StartArg::Learned => cbt_tracker::StartMotion::Learned,
+        });
+    }
+    if let Some(m) = args.displacements {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err("--displacements needs --validation-only or --rc-car-development".into());
+        }
+        study::set_displacements(match m {
+            DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
+            DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
         });
     }
     if args.rc_car_development {

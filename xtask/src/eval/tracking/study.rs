@@ -186,6 +186,14 @@ pub fn set_start(s: cbt_tracker::StartMotion) {
     let _ = START.set(s);
 }
 
+static DISPLACEMENTS: std::sync::OnceLock<cbt_tracker::Displacements> = std::sync::OnceLock::new();
+
+/// Sets how CBT's models on the image sets count displacements for this process (first call
+/// wins; development runs).
+pub fn set_displacements(d: cbt_tracker::Displacements) {
+    let _ = DISPLACEMENTS.set(d);
+}
+
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
     let second = CbtModel::learn_sequences(space.clone(), base, train)?;
     let first = CbtModel::learn_sequences(
@@ -239,6 +247,10 @@ impl Trackers {
                         .get()
                         .copied()
                         .unwrap_or(CbtConfig::stationary().start),
+                    displacements: DISPLACEMENTS
+                        .get()
+                        .copied()
+                        .unwrap_or(CbtConfig::stationary().displacements),
                     ..CbtConfig::stationary()
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
