@@ -88,9 +88,18 @@ fn interpolated_counts_keep_the_walking_velocity() {
 fn saved_form_and_checks() {
     let train = runs(6, 10, 4);
     let space = integer_space(200);
-    let m = CbtModel::learn(space.clone(), CbtConfig::stationary(), &train).unwrap();
+    let chan = CbtConfig {
+        displacements: Displacements::Channels,
+        ..CbtConfig::stationary()
+    };
+    let m = CbtModel::learn(space.clone(), chan, &train).unwrap();
     let text = serde_json::to_string(&m).unwrap();
     assert!(!text.contains("\"displacements\""));
+    assert_eq!(
+        CbtConfig::stationary().displacements,
+        Displacements::Interpolated
+    );
+    assert_eq!(CbtConfig::default().displacements, Displacements::Channels);
     let cfg = CbtConfig {
         displacements: Displacements::Interpolated,
         ..CbtConfig::stationary()

@@ -44,6 +44,13 @@ fn learned() -> CbtConfig {
     }
 }
 
+fn marginal() -> CbtConfig {
+    CbtConfig {
+        start: StartMotion::Marginal,
+        ..CbtConfig::stationary()
+    }
+}
+
 /// Index of the largest entry, as a displacement `δ = i − r`.
 fn mode(v: &[f64]) -> i64 {
     let i = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
@@ -64,7 +71,7 @@ fn the_start_density_is_learned_from_first_displacements() {
     // Along y nobody moves: both at zero.
     assert_eq!(mode(m.stationary_start(1).unwrap()), 0);
     // The marginal start is S itself.
-    let marg = CbtModel::learn(space, CbtConfig::stationary(), &train).unwrap();
+    let marg = CbtModel::learn(space, marginal(), &train).unwrap();
     assert_eq!(
         marg.stationary_start(0).unwrap(),
         marg.stationary_system(0).unwrap().0
@@ -96,7 +103,7 @@ fn few_runs_give_a_broad_start_not_the_spike() {
 fn a_walking_start_is_predicted_to_walk() {
     let train = enter_and_stand(20, 4.0, 2, 30);
     let space = integer_space(120);
-    for (cfg, walks) in [(learned(), true), (CbtConfig::stationary(), false)] {
+    for (cfg, walks) in [(learned(), true), (marginal(), false)] {
         let m = CbtModel::learn(space.clone(), cfg, &train).unwrap();
         let mut t = CbtTracker::new(m);
         t.reset([40.0, 60.0]).unwrap();
@@ -123,7 +130,7 @@ fn saved_form_and_checks() {
     let train = enter_and_stand(5, 4.0, 2, 10);
     let space = integer_space(120);
     // The marginal start writes nothing new.
-    let m = CbtModel::learn(space.clone(), CbtConfig::stationary(), &train).unwrap();
+    let m = CbtModel::learn(space.clone(), marginal(), &train).unwrap();
     let text = serde_json::to_string(&m).unwrap();
     for key in ["\"start\"", "\"c0\"", "\"s0\""] {
         assert!(!text.contains(key), "{key} in a marginal-start model");
@@ -177,6 +184,12 @@ fn walk(
         serde_json::Value::Array(a) => a.iter_mut().for_each(|x| walk(x, f)),
         _ => {}
     }
+}
+
+#[test]
+fn the_image_tracking_configuration_learns_its_start() {
+    assert_eq!(CbtConfig::stationary().start, StartMotion::Learned);
+    assert_eq!(CbtConfig::default().start, StartMotion::Marginal);
 }
 
 #[test]

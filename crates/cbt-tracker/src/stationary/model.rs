@@ -30,7 +30,14 @@
 //! of `fallback_sigma` channels, and `T[·, v]` the same with the fallback column `S`
 //! ([`SystemFallback::FirstOrder`]) or a Gaussian around `δ = v`
 //! ([`SystemFallback::ConstantVelocity`]). Displacements are bounded by the radius `r` the
-//! batch training data need (largest step + kernel support).
+//! batch training data need (largest step + kernel support). With
+//! [`Displacements::Interpolated`] (the image-tracking default) `C_2` counts the
+//! displacements of the states' channel coordinates, linearly interpolated onto the integer
+//! displacements, instead of the channel products above (whose shared smear of `a_{t−1}`
+//! biases `T[· | v]` toward the bulk of the training velocities). With
+//! [`StartMotion::Learned`] the first displacement of every run is also counted into `C_0`,
+//! and `S_0[δ] = (C_0[δ] + α·N(δ; 0, σ_0²)) / (Σ C_0 + α)` with `σ_0` the root mean square
+//! displacement of `S` predicts the first step after a start.
 
 use serde::{Deserialize, Serialize};
 
@@ -505,9 +512,31 @@ impl StatSystem {
         prev: &[(usize, f64)],
         prev2: Option<&[(usize, f64)]>,
     ) {
+        self.add_first(now, prev, prev2.is_none());
+        let Some(p2) = prev2 else { return };
         let r = self.r as i64;
         let w = 2 * r + 1;
-        let start = prev2.is_none() && !self.c0.is_empty();
+        for &(n, vn) in prev {
+            for &(m, vm) in now {
+                let d = m as i64 - n as i64;
+                if d.abs() > r {
+                    continue;
+                }
+                for &(o, vo) in p2 {
+                    let v = n as i64 - o as i64;
+                    if v.abs() <= r {
+                        self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds `a_t ⊗ a_{t−1}` by displacement to `C_1` and, for the first step of a run
+    /// (`start`), to the start counts when kept.
+    fn add_first(&mut self, now: &[(usize, f64)], prev: &[(usize, f64)], start: bool) {
+        let r = self.r as i64;
+        let start = start && !self.c0.is_empty();
         for &(n, vn) in prev {
             for &(m, vm) in now {
                 let d = m as i64 - n as i64;
@@ -517,14 +546,6 @@ impl StatSystem {
                 self.c1[(d + r) as usize] += vm * vn;
                 if start {
                     self.c0[(d + r) as usize] += vm * vn;
-                }
-                if let Some(p2) = prev2 {
-                    for &(o, vo) in p2 {
-                        let v = n as i64 - o as i64;
-                        if v.abs() <= r {
-                            self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
-                        }
-                    }
                 }
             }
         }
@@ -544,29 +565,34 @@ impl StatSystem {
             Displacements::Channels => {
                 self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
             }
-            Displacements::Interpolated => self.add_points(
-                &coordinates(now, d),
-                &coordinates(prev, d),
-                prev2.map(|p| coordinates(p, d)).as_deref(),
-            ),
+            Displacements::Interpolated => {
+                // S and S₀ from the channel products (their smear is a symmetric widening,
+                // no bias), T from the coordinates.
+                self.add_first(&now.axes[d], &prev.axes[d], prev2.is_none());
+                if let Some(p2) = prev2 {
+                    self.add_points_second(
+                        &coordinates(now, d),
+                        &coordinates(prev, d),
+                        &coordinates(p2, d),
+                    );
+                }
+            }
         }
     }
 
-    /// Adds the displacements of states given as `(channel coordinate, mass)` per element
-    /// ([`Displacements::Interpolated`](crate::Displacements)): every pair (triple) of
-    /// elements of consecutive frames, with the product of their masses, at the two nearest
-    /// integer displacements (four nearest `(v, δ)` pairs) by linear interpolation; without
-    /// `prev2` (the first step of a run) also to the start counts, when kept.
-    pub fn add_points(
+    /// Adds the second-order displacements of states given as `(channel coordinate, mass)`
+    /// per element ([`Displacements::Interpolated`](crate::Displacements)): every triple of
+    /// elements of three consecutive frames, with the product of their masses, at the four
+    /// nearest integer `(v, δ)` pairs by linear interpolation.
+    pub fn add_points_second(
         &mut self,
         now: &[(f64, f64)],
         prev: &[(f64, f64)],
-        prev2: Option<&[(f64, f64)]>,
+        prev2: &[(f64, f64)],
     ) {
         let r = self.r as i64;
         let w = (2 * r + 1) as usize;
-        let start = prev2.is_none() && !self.c0.is_empty();
-        // The two nearest integer displacements of `x` with their weights (inside ±r).
+        // The two nearest integer displacements of `x` with their weights.
         let split = |x: f64| -> [(i64, f64); 2] {
             let lo = x.floor();
             let f = x - lo;
@@ -574,21 +600,15 @@ impl StatSystem {
         };
         for &(un, mn) in prev {
             for &(um, mm) in now {
-                let mass = mm * mn;
                 for (d, wd) in split(um - un) {
                     if d.abs() > r || wd <= 0.0 {
                         continue;
                     }
-                    self.c1[(d + r) as usize] += mass * wd;
-                    if start {
-                        self.c0[(d + r) as usize] += mass * wd;
-                    }
-                    let Some(p2) = prev2 else { continue };
-                    for &(uo, mo) in p2 {
+                    for &(uo, mo) in prev2 {
                         for (v, wv) in split(un - uo) {
                             if v.abs() <= r && wv > 0.0 {
                                 self.c2[(v + r) as usize * w + (d + r) as usize] +=
-                                    mass * mo * wd * wv;
+                                    mm * mn * mo * wd * wv;
                             }
                         }
                     }

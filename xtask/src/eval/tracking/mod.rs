@@ -232,8 +232,10 @@ fn protocol(sets: &[SetSpec]) -> String {
          first- and second-order motion, a joint 2-D observation kernel with the learned \
          detection probability and clutter density; the posterior held jointly on the window \
          of its support, the velocity carried in the state; `CbtConfig::stationary`: \
-         constant-velocity fallback for thinly trained velocities, prior weight 10), channel \
-         spacing 0.75 × the training data's \
+         constant-velocity fallback for thinly trained velocities, prior weight 10, motion \
+         counted at the states' interpolated coordinates, the first step after a start \
+         predicted with a start density learned from the training runs' first steps), \
+         channel spacing 0.75 × the training data's \
          detection noise. UNGM: the dense separable layout (measurement ≠ state), spacing 1. \
          The baselines' parameters (σ_a, σ_z, P_D, clutter rate) are calibrated on the same \
          training data. Track-loss radius: {} px on the image sets, {} on UNGM.",
