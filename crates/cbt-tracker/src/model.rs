@@ -168,7 +168,7 @@ impl TryFrom<CbtModelRaw> for CbtModel {
             }
             SystemModel::Stationary(s) if config.layout == Layout::Stationary => {
                 len("displacement model axes", s.len(), dims)?;
-                s.iter_mut().try_for_each(StatSystem::check)?;
+                s.iter_mut().try_for_each(|s| s.check(&config))?;
             }
             SystemModel::Separable { .. } => return Err(layout(Layout::Separable)),
             SystemModel::Joint(_) => return Err(layout(Layout::SparseJoint)),
@@ -419,7 +419,7 @@ impl CbtModel {
                 }
                 SystemModel::Stationary(s) => {
                     for (d, s) in s.iter_mut().enumerate() {
-                        s.add(&x.axes[d], &p1.axes[d], p2.map(|p| &p.axes[d][..]));
+                        s.add_frames(&cfg, d, &x, p1, p2);
                         if renormalise {
                             s.normalise(&cfg);
                         }
@@ -556,6 +556,16 @@ impl CbtModel {
     pub fn stationary_system(&self, d: usize) -> Option<(&[f64], &[f64])> {
         match &self.sys {
             SystemModel::Stationary(s) => s.get(d).map(|s| (s.first(), s.second())),
+            _ => None,
+        }
+    }
+
+    /// The stationary layout's displacement distribution of the first step after a start on
+    /// axis `d` (`δ ∈ [−r, r]`): the start density `S₀` with
+    /// [`StartMotion::Learned`](crate::StartMotion), `S` otherwise; `None` for other layouts.
+    pub fn stationary_start(&self, d: usize) -> Option<&[f64]> {
+        match &self.sys {
+            SystemModel::Stationary(s) => s.get(d).map(|s| s.start()),
             _ => None,
         }
     }

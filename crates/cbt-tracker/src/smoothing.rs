@@ -204,7 +204,7 @@ pub fn select(
         let mut sys = [StatSystem::new(r, config), StatSystem::new(r, config)];
         for (i, seq) in used.iter().enumerate() {
             if i % k != fold {
-                count(space, seq, &mut sys)?;
+                count(space, config, seq, &mut sys)?;
             }
         }
         let test: Vec<&Chains> = (0..used.len())
@@ -255,6 +255,7 @@ pub fn select(
 /// [`CbtModel::learn`](crate::CbtModel::learn) does.
 fn count(
     space: &Space,
+    cfg: &CbtConfig,
     seq: &[TrainingFrame],
     sys: &mut [StatSystem; 2],
 ) -> Result<(), TrackError> {
@@ -264,11 +265,7 @@ fn count(
         let (prev, prev2) = h.take();
         if let (false, Some(p1)) = (x.is_empty(), prev.as_ref()) {
             for (d, s) in sys.iter_mut().enumerate() {
-                s.add(
-                    &x.axes[d],
-                    &p1.axes[d],
-                    prev2.as_ref().map(|p| &p.axes[d][..]),
-                );
+                s.add_frames(cfg, d, &x, p1, prev2.as_ref());
             }
         }
         h.push(&f.states, x, prev);

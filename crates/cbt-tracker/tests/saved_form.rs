@@ -10,8 +10,8 @@
 
 use cbt_tracker::sim::Ungm;
 use cbt_tracker::{
-    CbtConfig, CbtModel, CbtTracker, DEFAULT_KERNEL, Layout, ObservationFallback, Order,
-    PeriodicInput, Scales, Space, Tracker, axis,
+    CbtConfig, CbtModel, CbtTracker, DEFAULT_KERNEL, Displacements, Layout, ObservationFallback,
+    Order, PeriodicInput, Scales, Space, StartMotion, Tracker, axis,
 };
 
 mod common;
@@ -28,7 +28,13 @@ fn scripted() -> Vec<(String, CbtTracker)> {
                     .unwrap()
                     .fine_spacing(W)
                     .max(2.0);
-                (CbtConfig::stationary(), s)
+                // The files predate the learned start and the interpolated displacements.
+                let cfg = CbtConfig {
+                    start: StartMotion::Marginal,
+                    displacements: Displacements::Channels,
+                    ..CbtConfig::stationary()
+                };
+                (cfg, s)
             } else {
                 (CbtConfig::default(), 16.0)
             };

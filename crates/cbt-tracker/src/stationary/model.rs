@@ -30,11 +30,18 @@
 //! of `fallback_sigma` channels, and `T[·, v]` the same with the fallback column `S`
 //! ([`SystemFallback::FirstOrder`]) or a Gaussian around `δ = v`
 //! ([`SystemFallback::ConstantVelocity`]). Displacements are bounded by the radius `r` the
-//! batch training data need (largest step + kernel support).
+//! batch training data need (largest step + kernel support). With
+//! [`Displacements::Interpolated`] (the image-tracking default) `C_2` counts the
+//! displacements of the states' channel coordinates, linearly interpolated onto the integer
+//! displacements, instead of the channel products above (whose shared smear of `a_{t−1}`
+//! biases `T[· | v]` toward the bulk of the training velocities). With
+//! [`StartMotion::Learned`] the first displacement of every run is also counted into `C_0`,
+//! and `S_0[δ] = (C_0[δ] + α·N(δ; 0, σ_0²)) / (Σ C_0 + α)` with `σ_0` the root mean square
+//! displacement of `S` predicts the first step after a start.
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, SystemFallback};
+use crate::config::{CbtConfig, Displacements, StartMotion, SystemFallback};
 use crate::encode::Encoded;
 use crate::integrity::{corrupt, len, nonneg, nonneg1};
 use crate::{Space, TrackError};
@@ -381,6 +388,19 @@ pub(crate) const UNIT_MASS: f64 = 1.5;
 /// One encoded element's per-axis channel runs.
 type Element<'a> = (&'a [(usize, f64)], &'a [(usize, f64)]);
 
+/// Per element of an encoded set: its channel coordinate on axis `d` (the first moment of its
+/// channel run) and the run's mass.
+pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
+    elements(e)
+        .into_iter()
+        .map(|el| if d == 0 { el.0 } else { el.1 })
+        .filter_map(|run| {
+            let m: f64 = run.iter().map(|e| e.1).sum();
+            (m > 0.0).then(|| (run.iter().map(|e| e.0 as f64 * e.1).sum::<f64>() / m, m))
+        })
+        .collect()
+}
+
 /// Splits an encoded set back into its elements' per-axis channel runs.
 fn elements(e: &Encoded) -> Vec<Element<'_>> {
     let mut start = [0usize; 2];
@@ -404,6 +424,13 @@ pub(crate) struct StatSystem {
     c2: Vec<f64>,
     s1: Vec<f64>,
     t: Vec<f64>,
+    /// Start counts `C₀[δ]`: the first displacement of every run of frames with states
+    /// ([`StartMotion::Learned`]; empty otherwise, and in files written before it existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    c0: Vec<f64>,
+    /// The start density `S₀` (normalised `C₀`, [`StartMotion::Learned`]; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    s0: Vec<f64>,
     /// Per `v`: the range `[lo, hi)` of `δ + r` outside which `T[· | v]` holds at most
     /// [`BAND_TAIL`] of its mass (derived from `t`; rebuilt after loading).
     #[serde(skip)]
@@ -426,6 +453,12 @@ impl StatSystem {
             c2: vec![0.0; w * w],
             s1: vec![0.0; w],
             t: vec![0.0; w * w],
+            c0: if cfg.start == StartMotion::Learned {
+                vec![0.0; w]
+            } else {
+                Vec::new()
+            },
+            s0: Vec::new(),
             band: Vec::new(),
             banded: Vec::new(),
         };
@@ -433,8 +466,9 @@ impl StatSystem {
         s
     }
 
-    /// Consistency of a deserialised model (and its derived bands rebuilt).
-    pub fn check(&mut self) -> Result<(), TrackError> {
+    /// Consistency of a deserialised model with its configuration (and its derived bands
+    /// rebuilt).
+    pub fn check(&mut self, cfg: &CbtConfig) -> Result<(), TrackError> {
         let w = self
             .r
             .checked_mul(2)
@@ -450,6 +484,17 @@ impl StatSystem {
             len(what, v.len(), n)?;
             nonneg(what, v)?;
         }
+        let learned = cfg.start == StartMotion::Learned;
+        for (what, v) in [("start counts", &self.c0), ("start density", &self.s0)] {
+            if learned {
+                len(what, v.len(), w)?;
+                nonneg(what, v)?;
+            } else if !v.is_empty() {
+                return Err(corrupt(format!(
+                    "{what} in a model whose start motion is the marginal"
+                )));
+            }
+        }
         self.rebuild_bands();
         Ok(())
     }
@@ -459,13 +504,16 @@ impl StatSystem {
         self.r
     }
 
-    /// Adds `a_t ⊗ a_{t−1}` (and `⊗ a_{t−2}`) by displacement.
+    /// Adds `a_t ⊗ a_{t−1}` (and `⊗ a_{t−2}`) by displacement; without `a_{t−2}` (the first
+    /// step of a run) also to the start counts, when kept.
     pub fn add(
         &mut self,
         now: &[(usize, f64)],
         prev: &[(usize, f64)],
         prev2: Option<&[(usize, f64)]>,
     ) {
+        self.add_first(now, prev, prev2.is_none());
+        let Some(p2) = prev2 else { return };
         let r = self.r as i64;
         let w = 2 * r + 1;
         for &(n, vn) in prev {
@@ -474,12 +522,94 @@ impl StatSystem {
                 if d.abs() > r {
                     continue;
                 }
+                for &(o, vo) in p2 {
+                    let v = n as i64 - o as i64;
+                    if v.abs() <= r {
+                        self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds `a_t ⊗ a_{t−1}` by displacement to `C_1` and, for the first step of a run
+    /// (`start`), to the start counts when kept.
+    fn add_first(&mut self, now: &[(usize, f64)], prev: &[(usize, f64)], start: bool) {
+        let r = self.r as i64;
+        let start = start && !self.c0.is_empty();
+        for &(n, vn) in prev {
+            for &(m, vm) in now {
+                let d = m as i64 - n as i64;
+                if d.abs() > r {
+                    continue;
+                }
                 self.c1[(d + r) as usize] += vm * vn;
+                if start {
+                    self.c0[(d + r) as usize] += vm * vn;
+                }
+            }
+        }
+    }
+
+    /// Adds one transition of axis `d` (the states of a frame, the previous frame and, when
+    /// it had states, the one before) as [`CbtConfig::displacements`] says.
+    pub fn add_frames(
+        &mut self,
+        cfg: &CbtConfig,
+        d: usize,
+        now: &Encoded,
+        prev: &Encoded,
+        prev2: Option<&Encoded>,
+    ) {
+        match cfg.displacements {
+            Displacements::Channels => {
+                self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
+            }
+            Displacements::Interpolated => {
+                // S and S₀ from the channel products (their smear is a symmetric widening,
+                // no bias), T from the coordinates.
+                self.add_first(&now.axes[d], &prev.axes[d], prev2.is_none());
                 if let Some(p2) = prev2 {
-                    for &(o, vo) in p2 {
-                        let v = n as i64 - o as i64;
-                        if v.abs() <= r {
-                            self.c2[((v + r) * w + d + r) as usize] += vm * vn * vo;
+                    self.add_points_second(
+                        &coordinates(now, d),
+                        &coordinates(prev, d),
+                        &coordinates(p2, d),
+                    );
+                }
+            }
+        }
+    }
+
+    /// Adds the second-order displacements of states given as `(channel coordinate, mass)`
+    /// per element ([`Displacements::Interpolated`](crate::Displacements)): every triple of
+    /// elements of three consecutive frames, with the product of their masses, at the four
+    /// nearest integer `(v, δ)` pairs by linear interpolation.
+    pub fn add_points_second(
+        &mut self,
+        now: &[(f64, f64)],
+        prev: &[(f64, f64)],
+        prev2: &[(f64, f64)],
+    ) {
+        let r = self.r as i64;
+        let w = (2 * r + 1) as usize;
+        // The two nearest integer displacements of `x` with their weights.
+        let split = |x: f64| -> [(i64, f64); 2] {
+            let lo = x.floor();
+            let f = x - lo;
+            [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
+        };
+        for &(un, mn) in prev {
+            for &(um, mm) in now {
+                for (d, wd) in split(um - un) {
+                    if d.abs() > r || wd <= 0.0 {
+                        continue;
+                    }
+                    for &(uo, mo) in prev2 {
+                        for (v, wv) in split(un - uo) {
+                            if v.abs() <= r && wv > 0.0 {
+                                self.c2[(v + r) as usize * w + (d + r) as usize] +=
+                                    mm * mn * mo * wd * wv;
+                            }
                         }
                     }
                 }
@@ -491,21 +621,30 @@ impl StatSystem {
     pub fn normalise(&mut self, cfg: &CbtConfig) {
         let (r, alpha) = (self.r, cfg.prior_weight);
         let w = 2 * r + 1;
-        let gauss = |centre: i64| -> Vec<f64> {
-            let mut g: Vec<f64> = (0..w as i64)
-                .map(|i| {
-                    let d = (i - r as i64 - centre) as f64;
-                    (-d * d / (2.0 * cfg.fallback_sigma * cfg.fallback_sigma)).exp()
-                })
-                .collect();
-            let s: f64 = g.iter().sum();
-            g.iter_mut().for_each(|v| *v /= s);
-            g
-        };
+        let gauss = |centre: i64| gaussian(w, r, centre, cfg.fallback_sigma);
         let g0 = gauss(0);
         let m1: f64 = self.c1.iter().sum();
         for ((s1, &c), &g) in self.s1.iter_mut().zip(&self.c1).zip(&g0) {
             *s1 = (c + alpha * g) / (m1 + alpha);
+        }
+        if cfg.start == StartMotion::Learned {
+            // The broad prior: zero mean, as wide as S's root mean square displacement.
+            let m2: f64 = self
+                .s1
+                .iter()
+                .enumerate()
+                .map(|(i, &p)| p * (i as f64 - r as f64).powi(2))
+                .sum();
+            let f = gaussian(w, r, 0, m2.sqrt().max(cfg.fallback_sigma));
+            let m0: f64 = self.c0.iter().sum();
+            self.s0 = self
+                .c0
+                .iter()
+                .zip(&f)
+                .map(|(&c, &g)| (c + alpha * g) / (m0 + alpha))
+                .collect();
+        } else {
+            self.s0.clear();
         }
         for v in 0..w {
             let col = &self.c2[v * w..(v + 1) * w];
@@ -572,10 +711,34 @@ impl StatSystem {
         &self.s1
     }
 
+    /// The displacement distribution of the first step after a start, `δ = i − r`: the
+    /// start density `S₀` ([`StartMotion::Learned`]) or `S`.
+    pub fn start(&self) -> &[f64] {
+        if self.s0.is_empty() {
+            &self.s1
+        } else {
+            &self.s0
+        }
+    }
+
     /// `T[δ | v]`, `[(v + r)·(2r + 1) + δ + r]`.
     pub fn second(&self) -> &[f64] {
         &self.t
     }
+}
+
+/// A normalised Gaussian of `sigma` channels around `centre` over the displacements `−r..=r`
+/// (`w = 2r + 1` entries).
+fn gaussian(w: usize, r: usize, centre: i64, sigma: f64) -> Vec<f64> {
+    let mut g: Vec<f64> = (0..w as i64)
+        .map(|i| {
+            let d = (i - r as i64 - centre) as f64;
+            (-d * d / (2.0 * sigma * sigma)).exp()
+        })
+        .collect();
+    let s: f64 = g.iter().sum();
+    g.iter_mut().for_each(|v| *v /= s);
+    g
 }
 
 /// Displacement radius (channels) the training data need: the largest step of a state to the

@@ -6,10 +6,12 @@
 //!
 //! 1. **Displacement kernel.** Per axis `d`, the velocity distribution `c_d[v]` carried from
 //!    the previous step (step 5) gives the predicted displacement
-//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]`; first order, and the first step after a start (a
-//!    position without a velocity): `D_d = S_d`, the learned displacement distribution (the
-//!    velocities' marginal) rather than `T_d[· | v = 0]`, which would claim the target stands
-//!    still. The velocity is part of the filter's state (`(x, v)` factored as
+//!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]`; first order: `D_d = S_d`, the learned displacement
+//!    distribution (the velocities' marginal). The first step after a start (a position
+//!    without a velocity) predicts with the start density `S₀_d` learned from the training
+//!    runs' first displacements ([`StartMotion::Learned`](crate::StartMotion)) or with `S_d`
+//!    ([`StartMotion::Marginal`](crate::StartMotion)), rather than `T_d[· | v = 0]`, which
+//!    would claim the target stands still. The velocity is part of the filter's state (`(x, v)` factored as
 //!    `q(x)·c_x(v_x)·c_y(v_y)`), not re-derived from the last two posteriors: a correlation of
 //!    those, after a missed detection, is the prediction's own spread and loses the walking
 //!    velocity exactly when it is needed (measured on the pedestrian study's validation
@@ -458,7 +460,7 @@ impl WindowState {
     #[inline(never)]
     fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
         let mut k = Kernel1::default();
-        self.displacement_into(sys, d, order, &mut DispWork::default(), &mut k);
+        self.displacement_into(sys, d, order, self.fresh, &mut DispWork::default(), &mut k);
         k
     }
 
@@ -468,6 +470,7 @@ impl WindowState {
         sys: &StatSystem,
         d: usize,
         order: Order,
+        fresh: bool,
         work: &mut DispWork,
         k: &mut Kernel1,
     ) {
@@ -477,6 +480,7 @@ impl WindowState {
         out.clear();
         out.resize(w, 0.0);
         match order {
+            _ if fresh => out.copy_from_slice(sys.start()),
             Order::First => out.copy_from_slice(sys.first()),
             Order::Second => {
                 let c = &self.vel[d];
@@ -800,9 +804,9 @@ impl WindowState {
     fn kernels(&mut self, sys: &[StatSystem], order: Order) -> (Kernel1, Kernel1) {
         let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
         let mut work = std::mem::take(&mut self.scratch.disp);
-        let order = if self.fresh { Order::First } else { order };
-        self.displacement_into(&sys[0], 0, order, &mut work, &mut kx);
-        self.displacement_into(&sys[1], 1, order, &mut work, &mut ky);
+        let fresh = self.fresh;
+        self.displacement_into(&sys[0], 0, order, fresh, &mut work, &mut kx);
+        self.displacement_into(&sys[1], 1, order, fresh, &mut work, &mut ky);
         self.fresh = false;
         self.scratch.disp = work;
         (kx, ky)

@@ -14,6 +14,7 @@
 
 pub mod pedestrians;
 mod plots;
+mod rc_dev;
 pub mod study;
 mod summary;
 
@@ -70,6 +71,39 @@ pub struct TrackingArgs {
     /// `CbtConfig::stationary`.
     #[arg(long, requires = "validation_only")]
     pub held_out_smoothing: bool,
+    /// Development runs: CBT (second order) on the synthetic RC-car levels with test
+    /// sequences of development seeds (not the study's), mean RMSE per level printed, nothing
+    /// written. Combines with the CBT options below.
+    #[arg(long, conflicts_with_all = ["train", "validation_only"])]
+    pub rc_car_development: bool,
+    /// With `--validation-only` or `--rc-car-development`: CBT's first step after a start
+    /// predicts with this start motion (`cbt_tracker::StartMotion`) instead of
+    /// `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub start_motion: Option<StartArg>,
+    /// With `--validation-only` or `--rc-car-development`: CBT's system model counts its
+    /// displacements this way (`cbt_tracker::Displacements`) instead of
+    /// `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub displacements: Option<DisplacementsArg>,
+}
+
+/// `--displacements`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DisplacementsArg {
+    /// `Displacements::Channels`.
+    Channels,
+    /// `Displacements::Interpolated`.
+    Interpolated,
+}
+
+/// `--start-motion`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartArg {
+    /// `StartMotion::Marginal`.
+    Marginal,
+    /// `StartMotion::Learned`.
+    Learned,
 }
 
 /// File format of the user's sequences.
@@ -198,8 +232,10 @@ fn protocol(sets: &[SetSpec]) -> String {
          first- and second-order motion, a joint 2-D observation kernel with the learned \
          detection probability and clutter density; the posterior held jointly on the window \
          of its support, the velocity carried in the state; `CbtConfig::stationary`: \
-         constant-velocity fallback for thinly trained velocities, prior weight 10), channel \
-         spacing 0.75 × the training data's \
+         constant-velocity fallback for thinly trained velocities, prior weight 10, motion \
+         counted at the states' interpolated coordinates, the first step after a start \
+         predicted with a start density learned from the training runs' first steps), \
+         channel spacing 0.75 × the training data's \
          detection noise. UNGM: the dense separable layout (measurement ≠ state), spacing 1. \
          The baselines' parameters (σ_a, σ_z, P_D, clutter rate) are calibrated on the same \
          training data. Track-loss radius: {} px on the image sets, {} on UNGM.",
@@ -218,6 +254,27 @@ struct SetFile<'a> {
 
 /// Runs the target.
 pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
+    if let Some(m) = args.start_motion {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err("--start-motion needs --validation-only or --rc-car-development".into());
+        }
+        study::set_start(match m {
+            StartArg::Marginal => cbt_tracker::StartMotion::Marginal,
+            StartArg::Learned => cbt_tracker::StartMotion::Learned,
+        });
+    }
+    if let Some(m) = args.displacements {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err("--displacements needs --validation-only or --rc-car-development".into());
+        }
+        study::set_displacements(match m {
+            DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
+            DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
+        });
+    }
+    if args.rc_car_development {
+        return rc_dev::run();
+    }
     if args.validation_only {
         if args.held_out_smoothing {
             study::set_smoothing(cbt_tracker::Smoothing::HeldOut);

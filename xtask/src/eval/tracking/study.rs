@@ -178,6 +178,22 @@ pub fn set_smoothing(s: cbt_tracker::Smoothing) {
     let _ = SMOOTHING.set(s);
 }
 
+static START: std::sync::OnceLock<cbt_tracker::StartMotion> = std::sync::OnceLock::new();
+
+/// Sets the start motion of CBT's models on the image sets for this process (first call
+/// wins; development runs).
+pub fn set_start(s: cbt_tracker::StartMotion) {
+    let _ = START.set(s);
+}
+
+static DISPLACEMENTS: std::sync::OnceLock<cbt_tracker::Displacements> = std::sync::OnceLock::new();
+
+/// Sets how CBT's models on the image sets count displacements for this process (first call
+/// wins; development runs).
+pub fn set_displacements(d: cbt_tracker::Displacements) {
+    let _ = DISPLACEMENTS.set(d);
+}
+
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
     let second = CbtModel::learn_sequences(space.clone(), base, train)?;
     let first = CbtModel::learn_sequences(
@@ -227,6 +243,14 @@ impl Trackers {
                 // pedestrian study's validation scenes).
                 let cfg = CbtConfig {
                     smoothing: SMOOTHING.get().copied().unwrap_or_default(),
+                    start: START
+                        .get()
+                        .copied()
+                        .unwrap_or(CbtConfig::stationary().start),
+                    displacements: DISPLACEMENTS
+                        .get()
+                        .copied()
+                        .unwrap_or(CbtConfig::stationary().displacements),
                     ..CbtConfig::stationary()
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;

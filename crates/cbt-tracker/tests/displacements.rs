@@ -1,0 +1,124 @@
+//! How the stationary system model counts displacements ([`Displacements`]): the channel
+//! products' errors-in-variables bias toward the bulk of the training velocities, its absence
+//! with interpolated coordinates, the saved form, and typed errors.
+
+use cbt_tracker::{
+    CbtConfig, CbtModel, Detection, Displacements, Layout, Space, TrackError, TrainingFrame,
+};
+use chan_repr::ChannelBasis;
+use rand::RngExt;
+
+/// A 2-D space with channel centres at the integers 1..=n on both axes.
+fn integer_space(n: usize) -> Space {
+    let b = ChannelBasis::integer(n, cbt_tracker::DEFAULT_KERNEL).unwrap();
+    Space::new(vec![b.clone(), b.clone()], vec![b.clone(), b]).unwrap()
+}
+
+/// Constant-velocity runs along x: three in four nearly standing (|v| < 0.3 channels), the
+/// others walking (|v| up to 3 channels), as in real walkers' training data; detected exactly.
+fn runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
+    let mut rng = cbt_tracker::sim::rng_for(seed, 0);
+    (0..n)
+        .map(|i| {
+            let v: f64 = if i % 4 != 0 {
+                rng.random_range(-0.3..0.3)
+            } else {
+                rng.random_range(-3.0..3.0)
+            };
+            let x0 = 100.0 + rng.random_range(0.0..1.0);
+            (0..len)
+                .map(|k| {
+                    let p = [x0 + v * k as f64, 50.0];
+                    TrainingFrame {
+                        states: vec![p],
+                        detections: vec![Detection::new(p[0], p[1])],
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// `E[δ | v]` of the learned `T` of axis 0 at the integer velocity `v`.
+fn mean_step(m: &CbtModel, v: i64) -> f64 {
+    let (s, t) = m.stationary_system(0).unwrap();
+    let w = s.len();
+    let r = (w / 2) as i64;
+    let col = &t[(v + r) as usize * w..][..w];
+    let mass: f64 = col.iter().sum();
+    col.iter()
+        .enumerate()
+        .map(|(i, &p)| p * (i as i64 - r) as f64)
+        .sum::<f64>()
+        / mass
+}
+
+fn config(d: Displacements) -> CbtConfig {
+    CbtConfig {
+        displacements: d,
+        // A small prior, so that the columns are the data's.
+        prior_weight: 1e-3,
+        ..CbtConfig::stationary()
+    }
+}
+
+#[test]
+fn interpolated_counts_keep_the_walking_velocity() {
+    let train = runs(400, 20, 3);
+    let space = integer_space(200);
+    let chan = CbtModel::learn(space.clone(), config(Displacements::Channels), &train).unwrap();
+    let interp = CbtModel::learn(space, config(Displacements::Interpolated), &train).unwrap();
+    for v in [-2i64, 2] {
+        let (c, i) = (mean_step(&chan, v), mean_step(&interp, v));
+        // Channel products: a walker at 2 channels a frame is predicted far slower.
+        assert!(c.abs() < 1.6, "channels: E[δ | v = {v}] = {c}");
+        // Interpolated: within a quarter channel of constant velocity.
+        assert!(
+            (i - v as f64).abs() < 0.25,
+            "interpolated: E[δ | v = {v}] = {i}"
+        );
+    }
+    // The same mass per transition as the channel products (α keeps its meaning): one
+    // pair of interior cos² vectors carries 1.5² = 2.25 per axis.
+    let (s, _) = interp.stationary_system(0).unwrap();
+    assert!((s.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn saved_form_and_checks() {
+    let train = runs(6, 10, 4);
+    let space = integer_space(200);
+    let chan = CbtConfig {
+        displacements: Displacements::Channels,
+        ..CbtConfig::stationary()
+    };
+    let m = CbtModel::learn(space.clone(), chan, &train).unwrap();
+    let text = serde_json::to_string(&m).unwrap();
+    assert!(!text.contains("\"displacements\""));
+    assert_eq!(
+        CbtConfig::stationary().displacements,
+        Displacements::Interpolated
+    );
+    assert_eq!(CbtConfig::default().displacements, Displacements::Channels);
+    let cfg = CbtConfig {
+        displacements: Displacements::Interpolated,
+        ..CbtConfig::stationary()
+    };
+    let m = CbtModel::learn(space, cfg, &train).unwrap();
+    let text = serde_json::to_string(&m).unwrap();
+    assert!(text.contains("\"displacements\":\"interpolated\""));
+    let back: CbtModel = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.stationary_system(0), m.stationary_system(0));
+    let bad = CbtConfig {
+        displacements: Displacements::Interpolated,
+        layout: Layout::Separable,
+        ..CbtConfig::default()
+    };
+    assert!(matches!(
+        bad.validate(),
+        Err(TrackError::InvalidParameter {
+            name: "displacements",
+            ..
+        })
+    ));
+}
