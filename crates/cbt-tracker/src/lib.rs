@@ -92,10 +92,11 @@
 //!   through missed frames; `T` only, `S` stays channel products), and a start (a position without a velocity) predicts its first
 //!   step with a start density learned from the training runs' first displacements
 //!   ([`StartMotion::Learned`], Dirichlet-smoothed toward a broad Gaussian), not with `S`,
-//!   whose spike at zero displacement held fast walkers at their start. Validation, trained
-//!   on the other scenes, mean RMSE px easy/medium/hard: 2.19/5.16/19.64 (before the two
-//!   choices 2.29/5.53/30.10; PF 1000 2.32/5.21/15.39); on five tracks 2.36/6.74/20.05
-//!   (before 3.24/7.27/22.03; PF 1000 2.32/5.37/17.73). Online learning
+//!   whose spike at zero displacement held fast walkers at their start. Why they were chosen
+//!   (validation scenes, when chosen, mean RMSE px easy/medium/hard): 2.29/5.53/30.10 before
+//!   them and 2.19/5.16/19.64 with them, trained on the other scenes; 3.24/7.27/22.03 and
+//!   2.36/6.74/20.05 on five tracks. Current figures, PF 1000 beside them and the test
+//!   scenes: `fixtures/paper-b-pedestrians/summary.md`. Online learning
 //!   ([`CbtTracker::with_self_learning`]) is not needed: within 0.1 px of the offline model
 //!   trained on all other scenes, better by up to 0.5 px on five tracks, at about nine
 //!   times the wall time per frame (validation run), so the default stays offline. Known limit: with many misses
