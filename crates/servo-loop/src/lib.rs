@@ -25,11 +25,10 @@
 //! the servo percept), which takes the far end and learns its offset from the end face: at
 //! further random poses the offsets `e − f` of every camera are regressed on all cameras' far
 //! ends (Nadaraya–Watson, bandwidth by leave-one-out; [`recognition::tip_correction`]), and the
-//! corrected far end moves towards the end-face tip by at most `max(0.5 px, k σ)`, where `σ` is
-//! the regression's local spread of the offsets (its own certainty: where it is sure the tip
-//! stays the smooth learned one, where it is not the accurate end face takes over, continuously
-//! in the pose; [`SilhouetteConfig::face_gate`] `k` = 1); a camera without an end face is
-//! doubted where `σ` is large ([`SilhouetteConfig::spread_scale`]). How accurate each rule is
+//! corrected far end moves towards the end-face tip by at most 0.5 px (opt-in: by at most
+//! `max(0.5 px, k σ)`, where `σ` is the regression's local spread of the offsets, its own
+//! certainty, [`SilhouetteConfig::face_gate`]; a camera without an end face is then doubted
+//! where `σ` is large, [`SilhouetteConfig::spread_scale`]). How accurate each rule is
 //! on `arm-sim` (median and 90th percentile per camera against the projected middle of the
 //! finger ends, frame-to-frame repeatability, distance to `arm-sim`'s tool point, which lies
 //! 8 mm behind the finger ends where nothing marks it): `fixtures/paper-c/summary.md`.
@@ -68,8 +67,8 @@
 //! the recognition p90 on every arm but made the servo worse on the default arm and the
 //! second rig (sensor noise flips the hard choice between two tips a few pixels apart at one
 //! pose, measured in [`recognition::cross_camera`]), so it is off by default; the learned
-//! tip's gate (section 1) takes the end face where the correction is unsure, continuously, and
-//! is the default instead (`docs/methods.md`, *Cross-camera choice*, *Gated learned tip*). A [`VisualPlant`]
+//! tip's gate (section 1, also an opt-in) takes the end face where the correction is unsure,
+//! continuously (`docs/methods.md`, *Cross-camera choice*, *Gated learned tip*). A [`VisualPlant`]
 //! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
 //! counted): learning skips it and the servo loop stops rather than move on it.
 //! A tip found at the wrong place *along* the epipolar line passes that check; the arm's own

@@ -33,8 +33,8 @@
 //! against 0.05–0.11 px where it did not; the servo ends where the percept matches the
 //! target's, so such a flip between the target's capture and the last one is the final error.
 //! The learned tip's gate ([`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate))
-//! takes the end face where the correction is unsure, continuously, and is the default
-//! instead.
+//! takes the end face where the correction is unsure, continuously, without a switch (also an
+//! opt-in: docs/methods.md, *Gated learned tip*).
 //!
 //! **What it cannot catch.** A wrong tip whose error lies along the other view's epipolar line
 //! is as consistent as the right one; the tie then keeps the configured rule's tip.

@@ -38,7 +38,8 @@
 //! smooth in the pose (no switch between candidates; `k` =
 //! [`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate)). Where a camera shows no
 //! end face, the spread caps that camera's certainty
-//! ([`SilhouetteConfig::spread_scale`](crate::SilhouetteConfig::spread_scale)).
+//! ([`SilhouetteConfig::spread_scale`](crate::SilhouetteConfig::spread_scale)). An opt-in (both
+//! 0 by default): measured in docs/methods.md, *Gated learned tip*.
 
 use serde::{Deserialize, Serialize};
 
