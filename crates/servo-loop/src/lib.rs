@@ -25,7 +25,10 @@
 //! the servo percept), which takes the far end and learns its offset from the end face: at
 //! further random poses the offsets `e − f` of every camera are regressed on all cameras' far
 //! ends (Nadaraya–Watson, bandwidth by leave-one-out; [`recognition::tip_correction`]), and the
-//! corrected far end moves towards the end-face tip by at most 0.5 px. How accurate each rule is
+//! corrected far end moves towards the end-face tip by at most 0.5 px (opt-in: by at most
+//! `max(0.5 px, k σ)`, where `σ` is the regression's local spread of the offsets, its own
+//! certainty, [`SilhouetteConfig::face_gate`]; a camera without an end face is then doubted
+//! where `σ` is large, [`SilhouetteConfig::spread_scale`]). How accurate each rule is
 //! on `arm-sim` (median and 90th percentile per camera against the projected middle of the
 //! finger ends, frame-to-frame repeatability, distance to `arm-sim`'s tool point, which lies
 //! 8 mm behind the finger ends where nothing marks it): `fixtures/paper-c/summary.md`.
@@ -62,8 +65,10 @@
 //! end-face tip, and the pair with the smallest normalised Sampson distance (summed over the
 //! camera pairs; ties keep the rule's tip) is reported. On the development seeds it lowered
 //! the recognition p90 on every arm but made the servo worse on the default arm and the
-//! second rig (the percept then switches between two tips whose offsets differ by up to a few
-//! pixels), so it is off by default (`docs/methods.md`, *Cross-camera choice*). A [`VisualPlant`]
+//! second rig (sensor noise flips the hard choice between two tips a few pixels apart at one
+//! pose, measured in [`recognition::cross_camera`]), so it is off by default; the learned
+//! tip's gate (section 1, also an opt-in) takes the end face where the correction is unsure,
+//! continuously (`docs/methods.md`, *Cross-camera choice*, *Gated learned tip*). A [`VisualPlant`]
 //! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
 //! counted): learning skips it and the servo loop stops rather than move on it.
 //! A tip found at the wrong place *along* the epipolar line passes that check; the arm's own
@@ -121,9 +126,9 @@ pub use learn::{
 };
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
-    CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry, EpipolarReport,
-    GripperModel, Localisation, PairChoice, Recogniser, RecognitionConfig, SilhouetteConfig,
-    SilhouetteReport, TipCorrection, TipModel, TipRule, choose_consistent,
+    CorrectedTip, CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry,
+    EpipolarReport, GripperModel, Localisation, PairChoice, Recogniser, RecognitionConfig,
+    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule, choose_consistent,
 };
 pub use robot::Robot;
 pub use servo::{

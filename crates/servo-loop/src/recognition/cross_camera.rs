@@ -26,7 +26,15 @@
 //! On `arm-sim`'s development seeds 1001–1005 it lowered the 90th percentile of the accepted
 //! percepts' error on every arm, but the servo on the default arm and the second rig ended
 //! further from the target (`docs/methods.md`, *Cross-camera choice*), so the learned
-//! recogniser does not choose by default.
+//! recogniser does not choose by default. The measured cause: the choice is a hard switch that
+//! sensor noise flips. At one pose, two captures differing only in noise chose different
+//! candidates in 16–27 % of the pairs (development seeds, three arms), and where a camera
+//! flipped its percept's error changed by a median 0.31–0.45 px (90th percentile 1.7–2.3 px)
+//! against 0.05–0.11 px where it did not; the servo ends where the percept matches the
+//! target's, so such a flip between the target's capture and the last one is the final error.
+//! The learned tip's gate ([`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate))
+//! takes the end face where the correction is unsure, continuously, without a switch (also an
+//! opt-in: docs/methods.md, *Gated learned tip*).
 //!
 //! **What it cannot catch.** A wrong tip whose error lies along the other view's epipolar line
 //! is as consistent as the right one; the tie then keeps the configured rule's tip.

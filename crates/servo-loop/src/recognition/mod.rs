@@ -45,7 +45,7 @@ pub use ccfm::{GripperModel, RecognitionConfig};
 pub use cross_camera::{PairChoice, choose_consistent};
 pub use epipolar::{EpipolarGeometry, EpipolarReport};
 pub use scene::CameraScene;
-pub use tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
+pub use tip_correction::{CorrectedTip, CorrectionReport, CorrectionSample, TipCorrection};
 pub use tip_model::{SilhouetteConfig, SilhouetteReport, TipModel};
 pub use tip_rule::{EndEstimate, TipRule};
 

@@ -42,7 +42,9 @@
 //! `end_face` module), within `0.6 L` behind the far end, and falls back to the far end when
 //! the outline shows no two sides. [`TipRule::Learned`](crate::TipRule::Learned) (the default and the servo percept)
 //! corrects the far end by an offset learned from the end-face tips of further training poses
-//! and moves it towards the end-face tip by at most half a pixel (`tip_correction` module);
+//! and moves it towards the end-face tip by at most half a pixel (opt-in: by more where the
+//! learned offset is unsure, its local spread; `tip_correction` module, *the correction's own
+//! certainty*);
 //! it locates all cameras together ([`TipModel::locate_all`](crate::TipModel::locate_all)).
 //!
 //! The certainty compares the end window's covered area with the median learned one.

@@ -48,11 +48,32 @@ pub struct SilhouetteConfig {
     /// *Cross-camera choice*). Files without the field have it off.
     #[serde(default)]
     pub cross_camera_choice: bool,
+    /// The `Learned` rule's gate `k`: each camera's tip moves towards its end-face tip by at
+    /// most `max(0.5 px, k σ_c)`, `σ_c` the correction's local spread there
+    /// ([`TipCorrection::tips_gated`]; the `tip_correction` module, *the correction's own
+    /// certainty*). 0 (the default, and files without the field): at most 0.5 px everywhere.
+    /// An opt-in: 1 (with `spread_scale` 1.25 px) improved recognition and kept the servo on
+    /// the development seeds, but made the headline seed 2009 worse (docs/methods.md, *Gated
+    /// learned tip*).
+    #[serde(default)]
+    pub face_gate: f64,
+    /// The `Learned` rule's spread scale `s` (pixels): a camera that shows no end face has a
+    /// certainty of at most `exp(−½ (σ_c / s)²)` (below a percept policy's 0.05 for
+    /// `σ_c > 2.45 s`). 0 (the default, and files without the field): no cap.
+    #[serde(default)]
+    pub spread_scale: f64,
 }
 
 fn default_correction_poses() -> usize {
     1000
 }
+
+/// The opt-in's [`SilhouetteConfig::face_gate`] measured on the development seeds
+/// (docs/methods.md, *Gated learned tip*; the default is 0, off).
+pub const MEASURED_FACE_GATE: f64 = 1.0;
+/// The opt-in's [`SilhouetteConfig::spread_scale`] (pixels) measured with it (the default is
+/// 0, off).
+pub const MEASURED_SPREAD_SCALE: f64 = 1.25;
 
 impl Default for SilhouetteConfig {
     fn default() -> Self {
@@ -64,6 +85,8 @@ impl Default for SilhouetteConfig {
             tip: TipRule::default(),
             correction_poses: default_correction_poses(),
             cross_camera_choice: false,
+            face_gate: 0.0,
+            spread_scale: 0.0,
         }
     }
 }
@@ -84,6 +107,18 @@ impl SilhouetteConfig {
         }
         if !(0.0..=1.0).contains(&self.min_certainty) {
             return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
+        }
+        if !(self.face_gate.is_finite() && self.face_gate >= 0.0) {
+            return Err(ServoError::invalid(
+                "face_gate",
+                "must be finite and non-negative",
+            ));
+        }
+        if !(self.spread_scale.is_finite() && self.spread_scale >= 0.0) {
+            return Err(ServoError::invalid(
+                "spread_scale",
+                "must be finite and non-negative",
+            ));
         }
         Ok(())
     }
@@ -333,22 +368,28 @@ impl TipModel {
             });
         }
         self.check_ready()?;
-        let positions: Vec<[f64; 2]> = match (&self.correction, self.config.tip) {
+        let mut locs: Vec<Localisation> = match (&self.correction, self.config.tip) {
             (Some(correction), TipRule::Learned) => {
                 let far: Vec<[f64; 2]> = ends.iter().map(|e| e.far_end).collect();
                 let faces: Vec<Option<[f64; 2]>> = ends.iter().map(|e| e.end_face).collect();
-                correction.tips(&far, &faces)?
+                correction
+                    .tips_gated(&far, &faces, self.config.face_gate)?
+                    .into_iter()
+                    .zip(ends)
+                    .map(|(t, e)| Localisation {
+                        position: t.position,
+                        certainty: self.spread_certainty(e, t.spread),
+                    })
+                    .collect()
             }
-            (_, rule) => ends.iter().map(|e| e.single_image_tip(rule)).collect(),
+            (_, rule) => ends
+                .iter()
+                .map(|e| Localisation {
+                    position: e.single_image_tip(rule),
+                    certainty: e.certainty,
+                })
+                .collect(),
         };
-        let mut locs: Vec<Localisation> = positions
-            .into_iter()
-            .zip(ends)
-            .map(|(position, e)| Localisation {
-                position,
-                certainty: e.certainty,
-            })
-            .collect();
         if self.config.cross_camera_choice && !self.consistency.is_empty() {
             // Every camera's candidates: the rule's tip, then the end-face tip where the
             // outline shows one and it differs (`cross_camera` module).
@@ -377,6 +418,19 @@ impl TipModel {
         Ok(locs)
     }
 
+    /// A learned tip's certainty: the end's, capped by `exp(−½ (σ / s)²)` for the correction's
+    /// spread `σ` where the camera shows no end face ([`SilhouetteConfig::spread_scale`] `s`;
+    /// 0 = no cap).
+    fn spread_certainty(&self, end: &EndEstimate, spread: f64) -> f64 {
+        let s = self.config.spread_scale;
+        if s > 0.0 && end.end_face.is_none() {
+            let r = spread / s;
+            end.certainty.min((-0.5 * r * r).exp())
+        } else {
+            end.certainty
+        }
+    }
+
     /// Learns the cross-camera consistency ([`crate::recognition::epipolar`]) from `samples`
     /// (the correction poses: every camera's tip by this model's rule), replacing any earlier
     /// one; one geometry per camera `k ≥ 1` with camera 0. Errors: fewer than
@@ -398,10 +452,12 @@ impl TipModel {
                     got: s.far_ends.len(),
                 });
             }
-            let positions = match (&self.correction, self.config.tip) {
-                (Some(correction), TipRule::Learned) => {
-                    correction.tips(&s.far_ends, &s.end_faces)?
-                }
+            let positions: Vec<[f64; 2]> = match (&self.correction, self.config.tip) {
+                (Some(correction), TipRule::Learned) => correction
+                    .tips_gated(&s.far_ends, &s.end_faces, self.config.face_gate)?
+                    .into_iter()
+                    .map(|t| t.position)
+                    .collect(),
                 (_, rule) => s
                     .far_ends
                     .iter()
@@ -912,6 +968,19 @@ mod tests {
         let c: SilhouetteConfig = serde_json::from_str(old).expect("an old file");
         assert_eq!((c.tip, c.correction_poses), (TipRule::FarEnd, 1000));
         assert!(!c.cross_camera_choice);
+        // Files written before the gate keep the 0.5 px clip and no spread cap.
+        assert_eq!((c.face_gate, c.spread_scale), (0.0, 0.0));
+        let learned = r#"{"noise_multiple": 5.0, "min_threshold": 8.0, "min_pixels": 50,
+                          "min_certainty": 0.3, "tip": "learned", "correction_poses": 500,
+                          "cross_camera_choice": false}"#;
+        let c: SilhouetteConfig = serde_json::from_str(learned).expect("last round's file");
+        assert_eq!(
+            (c.tip, c.face_gate, c.spread_scale),
+            (TipRule::Learned, 0.0, 0.0)
+        );
+        // An opt-in: off by default.
+        let d = SilhouetteConfig::default();
+        assert_eq!((d.face_gate, d.spread_scale), (0.0, 0.0));
         assert!(!SilhouetteConfig::default().cross_camera_choice);
         let now = SilhouetteConfig::default();
         let back: SilhouetteConfig =
@@ -965,8 +1034,83 @@ mod tests {
         }
     }
 
+    /// A one-camera learned model whose correction is sure well below `u = 250` and unsure beyond
+    /// (offsets alternating 8 px apart from pose to pose there).
+    fn gated_model(spread_scale: f64) -> TipModel {
+        let samples: Vec<CorrectionSample> = (0..400)
+            .map(|k| {
+                let (i, j) = (k / 20, k % 20);
+                let f = [100.0 + 10.0 * i as f64, 80.0 + 8.0 * j as f64];
+                let o = match (f[0] >= 250.0, (i + j) % 2) {
+                    (true, 0) => 4.0,
+                    (true, _) => -4.0,
+                    (false, _) => 1.0,
+                };
+                CorrectionSample {
+                    far_ends: vec![f],
+                    end_faces: vec![Some([f[0] + o, f[1]])],
+                }
+            })
+            .collect();
+        let (correction, _) = TipCorrection::learn(&samples, &[10.0]).unwrap();
+        let one = scene(vec![0.0; 64 * 64], 64, 64, [0.0, 0.0]);
+        TipModel {
+            config: SilhouetteConfig {
+                tip: TipRule::Learned,
+                spread_scale,
+                ..SilhouetteConfig::default()
+            },
+            correction: Some(correction),
+            ..one
+        }
+    }
+
+    /// Where the camera shows no end face, an unsure correction caps the certainty (so a
+    /// percept policy re-captures and refuses it); a sure one, or an end face, leaves it.
+    #[test]
+    fn an_unsure_correction_without_an_end_face_is_doubted() {
+        let model = gated_model(MEASURED_SPREAD_SCALE);
+        let end = |far_end, end_face| EndEstimate {
+            far_end,
+            end_face,
+            certainty: 0.9,
+        };
+        let sure = model.tips(&[end([105.0, 120.0], None)]).unwrap()[0];
+        assert!(sure.certainty > 0.85, "{sure:?}");
+        let unsure = model.tips(&[end([275.0, 120.0], None)]).unwrap()[0];
+        assert!(unsure.certainty < 0.05, "{unsure:?}");
+        let face = model
+            .tips(&[end([275.0, 120.0], Some([276.0, 120.0]))])
+            .unwrap()[0];
+        assert_eq!(face.certainty, 0.9);
+        // Without the cap (scale 0, as in files written before it) nothing is doubted.
+        let off = gated_model(0.0).tips(&[end([275.0, 120.0], None)]).unwrap()[0];
+        assert_eq!(off.certainty, 0.9);
+    }
+
     #[test]
     fn bad_settings_and_empty_training_are_typed_errors() {
+        for (bad, name) in [
+            (
+                SilhouetteConfig {
+                    face_gate: -1.0,
+                    ..SilhouetteConfig::default()
+                },
+                "face_gate",
+            ),
+            (
+                SilhouetteConfig {
+                    spread_scale: f64::NAN,
+                    ..SilhouetteConfig::default()
+                },
+                "spread_scale",
+            ),
+        ] {
+            assert!(matches!(
+                TipModel::learn(&bad, &[]),
+                Err(ServoError::InvalidParameter { name: n, .. }) if n == name
+            ));
+        }
         let bad = SilhouetteConfig {
             noise_multiple: f32::NAN,
             ..SilhouetteConfig::default()

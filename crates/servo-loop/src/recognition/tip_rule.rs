@@ -32,8 +32,9 @@ pub enum TipRule {
     /// sides.
     EndFace,
     /// The far end corrected by an offset learned from the end-face rule at random poses, then
-    /// moved towards the end-face tip by at most half a pixel (`tip_correction`): as smooth as
-    /// the far end, nearly as accurate as the end face. Locates all cameras together
+    /// moved towards the end-face tip by at most half a pixel (opt-in: by up to `k σ` where the
+    /// correction's local spread `σ` says it is unsure ([`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate);
+    /// `tip_correction`)): as smooth as the far end, nearly as accurate as the end face. Locates all cameras together
     /// ([`TipModel::locate_all`]; the far ends of all cameras describe the pose) and needs
     /// [`TipModel::learn_correction`].
     #[default]

@@ -25,6 +25,7 @@
 //! on its own simulator and model copy under rayon; the chunking is fixed, so the results do
 //! not depend on the thread count.
 
+mod diagnose;
 mod plant;
 mod report;
 mod seeds;
@@ -75,6 +76,32 @@ pub struct ServoArgs {
     /// (`servo_loop::SilhouetteConfig::cross_camera_choice` on; the fixtures do not use it).
     #[arg(long)]
     pub cross_camera_choice: bool,
+    /// Print the recogniser's tip candidates at the development seeds' recognition test poses
+    /// (JSON lines; development data only, nothing is written).
+    #[arg(long)]
+    pub diagnose_recognition: bool,
+    /// The learned tip's gate `k` (`servo_loop::SilhouetteConfig::face_gate`; default: the
+    /// library's).
+    #[arg(long)]
+    pub face_gate: Option<f64>,
+    /// The learned tip's spread scale in pixels (`servo_loop::SilhouetteConfig::spread_scale`;
+    /// default: the library's).
+    #[arg(long)]
+    pub spread_scale: Option<f64>,
+}
+
+impl ServoArgs {
+    /// The recogniser's settings of these options in `p` (cross-camera choice, gate, spread
+    /// scale; the library's defaults where not given).
+    pub fn apply_percept(&self, p: &mut Protocol) {
+        p.cross_camera_choice = self.cross_camera_choice;
+        if let Some(k) = self.face_gate {
+            p.face_gate = k;
+        }
+        if let Some(s) = self.spread_scale {
+            p.spread_scale = s;
+        }
+    }
 }
 
 /// Where the servo percept comes from.
@@ -96,6 +123,9 @@ impl Default for ServoArgs {
             development: false,
             no_seeds: false,
             cross_camera_choice: false,
+            diagnose_recognition: false,
+            face_gate: None,
+            spread_scale: None,
         }
     }
 }
@@ -120,6 +150,12 @@ pub struct Protocol {
     /// summary says which percept the fixtures use).
     #[serde(skip)]
     pub cross_camera_choice: bool,
+    /// The learned tip's gate and spread scale (`servo_loop::SilhouetteConfig::face_gate`,
+    /// `spread_scale`; not written, the summary names them).
+    #[serde(skip)]
+    pub face_gate: f64,
+    #[serde(skip)]
+    pub spread_scale: f64,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -153,6 +189,8 @@ impl Protocol {
             min_certainty: PerceptPolicy::default().min_certainty,
             correction_poses: 500,
             cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
+            face_gate: SilhouetteConfig::default().face_gate,
+            spread_scale: SilhouetteConfig::default().spread_scale,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -501,6 +539,8 @@ pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecog
         &SilhouetteConfig {
             correction_poses: p.correction_poses,
             cross_camera_choice: p.cross_camera_choice,
+            face_gate: p.face_gate,
+            spread_scale: p.spread_scale,
             ..SilhouetteConfig::default()
         },
     )?;
@@ -878,6 +918,9 @@ impl Actions {
 
 /// Runs `cargo xtask eval servo`.
 pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
+    if args.diagnose_recognition {
+        return diagnose::run();
+    }
     if args.development {
         // Development seeds choose settings: the study is printed, no fixture is written.
         let st = seeds::run_all(args)?;
@@ -891,7 +934,7 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     };
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
-    p.cross_camera_choice = args.cross_camera_choice;
+    args.apply_percept(&mut p);
     let learned = if args.percept == PerceptMode::Recognised {
         let learned = learn_recogniser(&config, &p)?;
         p.recogniser = Some(learned.0.clone());

@@ -137,7 +137,7 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .collect();
     let results = jobs
         .par_iter()
-        .map(|&(name, config, seed)| run_seed(name, config, seed, args.cross_camera_choice))
+        .map(|&(name, config, seed)| run_seed(name, config, seed, args))
         .collect::<Result<Vec<_>>>()?;
     Ok(SeedStudy {
         seeds_role: role.into(),
@@ -147,16 +147,11 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
     })
 }
 
-/// The whole pipeline on one arm and seed (`cross_camera_choice`: the recogniser's
-/// `SilhouetteConfig::cross_camera_choice`).
-pub fn run_seed(
-    arm: &str,
-    config: &SimConfig,
-    seed: u64,
-    cross_camera_choice: bool,
-) -> Result<SeedResult> {
+/// The whole pipeline on one arm and seed (the recogniser's settings from `args`,
+/// [`ServoArgs::apply_percept`]).
+pub fn run_seed(arm: &str, config: &SimConfig, seed: u64, args: &ServoArgs) -> Result<SeedResult> {
     let mut p = Protocol::default_for(seed);
-    p.cross_camera_choice = cross_camera_choice;
+    args.apply_percept(&mut p);
     p.curve_moves = vec![p.training_moves];
     p.targets = TARGETS;
     let (model, report, recognition_commands) = learn_recogniser(config, &p)?;
