@@ -32,10 +32,10 @@ impl Workspace {
         xy: Option<&mut Vec<(u32, u32)>>,
     ) {
         let invert = polarity == Polarity::Bright;
-        self.builder.build(img, hist, invert, &mut self.tree);
+        self.builder
+            .build(img, hist, invert, params, &mut self.tree);
         self.picked.clear();
-        self.selector
-            .select(&mut self.tree, params, &mut self.picked);
+        self.selector.select(&self.tree, params, &mut self.picked);
         self.sums.clear();
         let ids = self.picked.iter().map(|&(id, _)| id);
         match xy {

@@ -83,7 +83,7 @@
 //! level or merged into the component below; each such event closes one tree node. There is no
 //! union-find over the image and no sorting. Time is O(pixels · 4) plus O(nodes · Δ) for the
 //! variation walks; memory is O(pixels) in flat arrays (padded grey levels, one byte per pixel,
-//! the boundary stacks, the flood order, and six integers per node), allocated once per [`Mser`]
+//! the boundary stacks, the flood order, and four integers per node), allocated once per [`Mser`]
 //! and reused. (With one byte per cell "reached" is the value 255, so pixels of level 255, which
 //! all belong to the root, are never flooded: the pixels below 255 are flooded part by part and
 //! their roots joined under the root; module `tree` has the details of the flood.) Since

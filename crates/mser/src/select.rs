@@ -1,14 +1,13 @@
-//! Stability measure and selection of maximally stable regions on a component tree; every step
-//! is one linear pass over the nodes (the variation walks at most Δ levels up and down).
+//! Stability measure and selection of maximally stable regions on a component tree: two linear
+//! passes over the nodes of at least `min_area` pixels ([`Tree::big`]), the only ones that can be
+//! selected or take part in the comparisons (the variation walks at most Δ levels up and down).
 
-use crate::params::{MserParams, Variation};
+use crate::params::MserParams;
 use crate::tree::{NONE, Tree};
 
-/// Scratch arrays of the selection, reused between images.
+/// Scratch arrays of the selection, reused between images; indexed like [`Tree::big`].
 #[derive(Debug, Default)]
 pub struct Selector {
-    /// Per node: its main child so far and that child's area (`(NONE, 0)` before the first).
-    main_child: Vec<(u32, u32)>,
     var: Vec<f64>,
     best_desc: Vec<u32>,
 }
@@ -18,62 +17,24 @@ const BEATEN: u32 = 1 << 31;
 
 impl Selector {
     /// Appends the ids of the selected nodes and their variations to `out` (in id order).
-    pub fn select(&mut self, tree: &mut Tree, p: &MserParams, out: &mut Vec<(u32, f64)>) {
-        let n = tree.nodes.len();
-        let min_area = p.min_area.min(u32::MAX as usize) as u32;
+    pub fn select(&mut self, tree: &Tree, p: &MserParams, out: &mut Vec<(u32, f64)>) {
+        let n = tree.big.len();
         let max_area = p.max_area.min(u32::MAX as usize) as u32;
         let delta = p.delta as u32;
-        let symmetric = p.variation == Variation::Symmetric;
-
-        let main = &mut self.main_child;
-        main.clear();
-        main.resize(n, (NONE, 0));
-        // Only entries of nodes with at least `min_area` pixels are written and read.
         let var = &mut self.var;
-        if var.len() < n {
-            var.resize(n, f64::NAN);
-        }
+        var.clear();
+        var.resize(n, 0.0);
 
-        // Pass 1, children before parents: when node i is reached its main (largest, then first
-        // in raster order) child is final, so its variation can be computed; then it competes
-        // for its parent's main child. Seeds are needed only to break ties in area, so they are
-        // computed only then.
-        for (i, var_i) in var[..n].iter_mut().enumerate() {
-            let c = tree.nodes[i];
-            if c.area >= min_area {
-                let g = c.level;
-                let nodes = &tree.nodes[..];
-                let mut up = c;
-                while up.parent != NONE && nodes[up.parent as usize].level <= g + delta {
-                    up = nodes[up.parent as usize];
-                }
-                let lower = if symmetric {
-                    // The smallest region on the largest-child chain whose level is >= g − Δ.
-                    let mut m = i;
-                    loop {
-                        let ch = main[m].0;
-                        if ch == NONE || nodes[ch as usize].level + delta < g {
-                            break nodes[m].area;
-                        }
-                        m = ch as usize;
-                    }
-                } else {
-                    c.area
-                };
-                *var_i = (up.area - lower) as f64 / c.area as f64;
+        // Pass 1: the variations. The walk up follows parents (all listed) while their level is
+        // within Δ; the lower end was found by the flood.
+        for (k, var_k) in var.iter_mut().enumerate() {
+            let c = tree.big[k];
+            let g = c.level;
+            let mut up = c;
+            while up.parent != NONE && tree.big[up.parent as usize].level <= g + delta {
+                up = tree.big[up.parent as usize];
             }
-            if symmetric && c.parent != NONE {
-                // Every area is at least 1, so the first child always takes the empty slot; a
-                // larger child takes it without a branch (conditional moves), and only a tie in
-                // area branches to compare first pixels.
-                let q = c.parent as usize;
-                let (m, ma) = main[q];
-                let mine = (i as u32, c.area);
-                main[q] = std::hint::select_unpredictable(c.area > ma, mine, (m, ma));
-                if c.area == ma && tree.seed(i as u32) < tree.seed(m) {
-                    main[q] = mine;
-                }
-            }
+            *var_k = (up.area - c.lower) as f64 / c.area as f64;
         }
 
         // Pass 2, children before parents: a node is a candidate when its area is admissible,
@@ -84,17 +45,12 @@ impl Selector {
         let best = &mut self.best_desc;
         best.clear();
         best.resize(n, 0);
-        for (i, c) in tree.nodes.iter().enumerate() {
-            if c.area < min_area {
-                // Nothing of `min_area` pixels lies inside, so there is nothing to mark, carry
-                // up or select (and `best[i]` is 0): skip the parent's entries.
-                continue;
-            }
+        for (k, c) in tree.big.iter().enumerate() {
             let q = c.parent;
-            let b = best[i];
+            let b = best[k];
             let mut cand = false;
             if q != NONE {
-                let (vi, vq) = (var[i], var[q as usize]);
+                let (vi, vq) = (var[k], var[q as usize]);
                 if vi < vq {
                     best[q as usize] |= BEATEN;
                 }
@@ -109,7 +65,7 @@ impl Selector {
                 let a = c.area;
                 let similar = below > 0 && ((a - below) as f64 / a as f64) < p.min_diversity;
                 if !similar {
-                    out.push((i as u32, var[i]));
+                    out.push((c.id, var[k]));
                 }
             }
         }
