@@ -41,10 +41,30 @@ pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
     Ok(())
 }
 
-/// Writes ellipses to a file; see [`write_regions`].
+/// Writes ellipses to a file; see [`write_regions`]. The file is written under a temporary
+/// name beside `path` and renamed over it only when everything was written, so a failed write
+/// leaves no partial file (and an existing file at `path` unchanged).
 pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> {
-    let f = std::fs::File::create(path)?;
-    write_regions(std::io::BufWriter::new(f), ellipses)
+    let path = path.as_ref();
+    let name = path
+        .file_name()
+        .map_or_else(|| "regions".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+    let result = (|| {
+        let f = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(f);
+        write_regions(&mut w, ellipses)?;
+        let f = w
+            .into_inner()
+            .map_err(|e| MserError::from(e.into_error()))?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)?;
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 /// Reads a region file. Every ellipse must be finite and positive definite (`a > 0`,

@@ -103,3 +103,42 @@ fn huge_headers_are_rejected_with_the_limit() {
         Err(MserError::Parse { line: 0, .. })
     ));
 }
+
+/// `save_regions` writes under a temporary name and renames (it used to write the target in
+/// place, so a failure part-way, a full disk say, left a truncated region file): a save that
+/// fails after writing leaves no temporary file behind and keeps what was at the target.
+#[test]
+fn a_failed_save_leaves_no_partial_file() {
+    let dir = std::env::temp_dir().join(format!("mser-save-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let es = [Ellipse {
+        u: 1.5,
+        v: 2.25,
+        a: 0.1,
+        b: -0.01,
+        c: 0.2,
+    }];
+    let good = dir.join("good.mser");
+    mser::save_regions(&good, &es).unwrap();
+    let before = std::fs::read(&good).unwrap();
+    assert_eq!(mser::load_regions(&good).unwrap()[0].ellipse, es[0]);
+    // The target is a non-empty directory: everything is written, then the rename fails.
+    let blocked = dir.join("blocked.mser");
+    std::fs::create_dir_all(blocked.join("inside")).unwrap();
+    assert!(matches!(
+        mser::save_regions(&blocked, &es),
+        Err(MserError::Io(_))
+    ));
+    assert!(blocked.join("inside").is_dir());
+    // A file in a missing folder: nothing is created.
+    assert!(mser::save_regions(dir.join("missing/x.mser"), &es).is_err());
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["blocked.mser", "good.mser"]);
+    assert_eq!(std::fs::read(&good).unwrap(), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
