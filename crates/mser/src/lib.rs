@@ -58,7 +58,10 @@
 //! 2. it is a local minimum of `v` in the tree: `v(S) ≤ v(parent)` and `v(S) ≤ v(C)` for every
 //!    child `C` with `|C| ≥ min_area` (children below `min_area` do not take part, as in
 //!    OpenCV); ties keep both, so nested regions of zero variation (perfect step edges) are all
-//!    found;
+//!    found. Variations are compared with each other exactly, as ratios of pixel counts
+//!    (cross-multiplied integers), so ties and order are exact on images of any size
+//!    ([`Region::variation`] is the ratio rounded to `f64`, which is also what is compared with
+//!    `max_variation`);
 //! 3. diversity: among the regions passing 1–2, `S` is dropped when one of them, `D ⊊ S`, covers
 //!    most of it, `(|S| − |D|) / |S| < min_diversity`. This keeps the smaller of two near-identical
 //!    nested regions, as OpenCV 5 does; OpenCV 4.x ignores `min_diversity` on grey images. The
