@@ -299,7 +299,7 @@ impl ChannelGrid {
         let mut unit = 1.0;
         for (d, b) in self.bases.iter().enumerate() {
             let k = b.kernel();
-            let offset = k.decode_window(&s.marginals[d])?;
+            let offset = k.decode_window_unchecked(&s.marginals[d])?;
             let (lo, hi) = k.valid_offsets();
             if offset < lo - VALID_SLACK || offset > hi + VALID_SLACK {
                 return None;
