@@ -1,7 +1,7 @@
 //! Hostile inputs to the public API: each must give a typed error (or a correct answer), never
 //! a panic, an infinite or NaN value claimed valid, or a silently empty encoding.
 
-use chan_repr::{ChanError, Kernel};
+use chan_repr::{ChanError, ChannelBasis, ChannelGrid, Kernel};
 
 #[test]
 fn decode_window_checks_its_window() {
@@ -35,4 +35,12 @@ fn decode_window_checks_its_window() {
         let c: Vec<f64> = (0..k.window()).map(|j| k.value(x - j as f64)).collect();
         assert!((k.decode_window(&c).unwrap().unwrap() - x).abs() < 1e-12);
     }
+}
+
+#[test]
+fn grid_basis_out_of_range_is_none() {
+    let b = ChannelBasis::integer(5, Kernel::BSpline2).unwrap();
+    let g = ChannelGrid::new(vec![b.clone(), b.clone()]).unwrap();
+    assert_eq!(g.basis(1), Some(&b));
+    assert_eq!(g.basis(2), None);
 }
