@@ -83,11 +83,13 @@ impl ChannelBasis {
                 reason: "must be finite",
             });
         }
-        if !(spacing.is_finite() && spacing > 0.0) {
+        // Normal (≥ 2.2e-308), not subnormal: a subnormal spacing has lost the precision that
+        // index coordinates need.
+        if !(spacing.is_normal() && spacing > 0.0) {
             return Err(ChanError::InvalidParameter {
                 name: "spacing",
                 value: spacing,
-                reason: "must be finite and positive",
+                reason: "must be finite, positive and not subnormal",
             });
         }
         if n < kernel.window() {
@@ -101,6 +103,18 @@ impl ChannelBasis {
                 got: n,
                 max: MAX_CHANNELS,
             });
+        }
+        // Every decoded value (valid or not) lies within one window of the centres, so those
+        // positions must be finite numbers: otherwise a decoded mode could be ±∞.
+        let reach = kernel.window() as f64;
+        for t in [-reach, n as f64 + reach] {
+            if !(first + t * spacing).is_finite() {
+                return Err(ChanError::InvalidParameter {
+                    name: "spacing",
+                    value: spacing,
+                    reason: "the channel centres (extended by one decoding window) overflow",
+                });
+            }
         }
         Ok(ChannelBasis {
             kernel,

@@ -97,11 +97,19 @@ impl PeriodicBasis {
                 max: MAX_CHANNELS,
             });
         }
+        let spacing = period / n as f64;
+        if !spacing.is_normal() {
+            return Err(ChanError::InvalidParameter {
+                name: "period",
+                value: period,
+                reason: "period / channels underflows to a subnormal spacing",
+            });
+        }
         Ok(PeriodicBasis {
             kernel,
             n,
             period,
-            spacing: period / n as f64,
+            spacing,
             step: kernel.phase_step(),
         })
     }
