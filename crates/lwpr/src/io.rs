@@ -358,7 +358,9 @@ pub(crate) fn check_metric(
     for j in 0..n {
         for i in 0..=j {
             let mtm: f64 = (0..=i).map(|k| m[k + i * n] * m[k + j * n]).sum();
-            let scale = (d[i + i * n] * d[j + j * n]).sqrt();
+            // √D_ii·√D_jj, not √(D_ii·D_jj): the product overflows to +∞ (accepting any D_ij)
+            // once the diagonal passes ~1e154.
+            let scale = d[i + i * n].sqrt() * d[j + j * n].sqrt();
             let err = (d[i + j * n] - mtm).abs();
             if err.is_nan() || err > METRIC_TOLERANCE * scale || scale.is_nan() {
                 return Err(format!(

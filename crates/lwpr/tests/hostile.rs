@@ -244,3 +244,23 @@ fn sizes_beyond_the_limits_fail_before_allocating() {
     ));
     assert!(LwprBuilder::new(MAX_INPUTS, 1).build().is_ok());
 }
+
+#[test]
+fn huge_metrics_inconsistent_with_their_factor_are_refused() {
+    // The D = MᵀM check scaled its tolerance by √(D_ii·D_jj), which overflows to +∞ once the
+    // diagonal passes ~1e154: then any off-diagonal D was accepted, here an indefinite one
+    // (D_01 = 3·D_00), whose negative distances gave the confidence bound w = e^{+huge} = ∞.
+    let m = trained(true);
+    let mut v = model_json(&m);
+    let r = rf(&mut v);
+    r["m"] = json!([1e100, 0.0, 0.0, 1e100]);
+    r["d"] = json!([1e200, 3e200, 3e200, 1e200]);
+    let (a, b) = load_both(&v);
+    assert!(matches!(a, Err(LwprError::Format(_))), "{a:?}");
+    assert!(b.is_err());
+    // The consistent huge metric still loads.
+    let r = rf(&mut v);
+    r["d"] = json!([1e200, 0.0, 0.0, 1e200]);
+    let (a, b) = load_both(&v);
+    assert!(a.is_ok() && b.is_ok(), "{a:?}");
+}
