@@ -276,10 +276,10 @@ impl Params {
                 }
             }
         }
-        match cholesky_upper(n, &self.init_d) {
-            Some(m) => self.init_m = m,
-            None => return bad("init_D", "must be positive definite".into()),
-        }
+        // Stored only once every check has passed: a rejected call changes nothing.
+        let Some(init_m) = cholesky_upper(n, &self.init_d) else {
+            return bad("init_D", "must be positive definite".into());
+        };
         let unit_open = |v: f64| v > 0.0 && v < 1.0;
         if !unit_open(self.w_gen) {
             return bad("w_gen", format!("{} is not in (0, 1)", self.w_gen));
@@ -316,6 +316,7 @@ impl Params {
         if !(self.penalty >= 0.0 && self.penalty.is_finite()) {
             return bad("penalty", format!("{} must be ≥ 0", self.penalty));
         }
+        self.init_m = init_m;
         Ok(())
     }
 }

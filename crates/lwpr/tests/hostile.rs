@@ -264,3 +264,21 @@ fn huge_metrics_inconsistent_with_their_factor_are_refused() {
     let (a, b) = load_both(&v);
     assert!(a.is_ok() && b.is_ok(), "{a:?}");
 }
+
+#[test]
+fn a_rejected_validate_leaves_the_params_unchanged() {
+    // `Params::validate` wrote the new Cholesky factor into `init_m` before checking the
+    // remaining parameters, so a call that failed on `w_gen` had still changed `init_m`.
+    let mut p = lwpr::Params::defaults(2, 1);
+    p.init_d = vec![4.0, 0.0, 0.0, 4.0];
+    p.w_gen = 2.0;
+    let before = p.clone();
+    assert!(matches!(
+        p.validate(),
+        Err(LwprError::InvalidParameter { name: "w_gen", .. })
+    ));
+    assert_eq!(p, before);
+    p.w_gen = 0.2;
+    p.validate().unwrap();
+    assert_eq!(p.init_m, vec![2.0, 0.0, 0.0, 2.0]);
+}
