@@ -282,3 +282,18 @@ fn a_rejected_validate_leaves_the_params_unchanged() {
     p.validate().unwrap();
     assert_eq!(p.init_m, vec![2.0, 0.0, 0.0, 2.0]);
 }
+
+#[test]
+fn defaults_of_impossible_sizes_allocate_nothing() {
+    // `Params::defaults(2^31, 1)` computed n² = 2^62 elements and panicked (capacity overflow,
+    // or an index out of bounds where the product wrapped); now the sizes are kept, nothing is
+    // allocated, and validation reports them.
+    for (n_in, n_out) in [(1usize << 31, 1usize), (usize::MAX, 1), (2, usize::MAX)] {
+        let p = lwpr::Params::defaults(n_in, n_out);
+        assert_eq!((p.n_in, p.n_out), (n_in, n_out));
+        assert!(matches!(
+            LwprBuilder::from_params(p).build(),
+            Err(LwprError::TooBig { .. })
+        ));
+    }
+}
