@@ -297,3 +297,27 @@ fn defaults_of_impossible_sizes_allocate_nothing() {
         ));
     }
 }
+
+#[test]
+fn concurrent_saves_to_one_path_all_succeed_and_leave_a_whole_file() {
+    // The temporary file was named after the process only, so two threads saving to the same
+    // path shared it: one renamed the other's half-written file into place, and the other's
+    // rename then failed ("No such file or directory").
+    let dir = std::env::temp_dir().join(format!("lwpr-concurrent-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    let m = trained(true);
+    std::thread::scope(|s| {
+        for _ in 0..8 {
+            s.spawn(|| {
+                for _ in 0..25 {
+                    m.save(&path).unwrap();
+                }
+            });
+        }
+    });
+    assert_eq!(Lwpr::load(&path).unwrap(), m);
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(left.len(), 1, "temporary files left behind");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
