@@ -504,13 +504,40 @@ impl SimConfig {
     }
 
     /// Writes the configuration as JSON (e.g. `SimConfig::default()` as a starting point for a
-    /// user's own arm model).
+    /// user's own arm model): into a temporary file beside `path`, flushed and renamed into
+    /// place, so a failed write leaves neither a partial file nor a damaged old one, and a
+    /// concurrent reader sees the old file or the new one, whole.
     pub fn write_file(&self, path: impl AsRef<std::path::Path>) -> Result<()> {
+        use std::io::Write;
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static WRITES: AtomicU64 = AtomicU64::new(0);
         let path = path.as_ref();
-        std::fs::write(path, self.to_json()).map_err(|e| ArmSimError::ConfigIo {
+        let io_err = |e: std::io::Error| ArmSimError::ConfigIo {
             path: path.display().to_string(),
             message: e.to_string(),
-        })
+        };
+        let name = path.file_name().ok_or_else(|| ArmSimError::ConfigIo {
+            path: path.display().to_string(),
+            message: "not a file path".into(),
+        })?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(
+            ".tmp-{}-{}",
+            std::process::id(),
+            WRITES.fetch_add(1, Ordering::Relaxed)
+        ));
+        let tmp = path.with_file_name(tmp_name);
+        let result = std::fs::File::create(&tmp)
+            .and_then(|mut f| {
+                f.write_all(self.to_json().as_bytes())?;
+                f.sync_all()
+            })
+            .and_then(|()| std::fs::rename(&tmp, path));
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result.map_err(io_err)
     }
 
     /// Checks every value; the error names the first impossible key.
