@@ -252,7 +252,7 @@ pub struct Distractor {
     pub path_centre_mm: [f64; 2],
     /// Radius of the path (mm; 0 = it only turns on the spot).
     pub path_radius_mm: f64,
-    /// Frames per turn round the path (its yaw turns with it); must be > 0.
+    /// Frames per turn round the path (its yaw turns with it); must be at least 1.
     pub period_frames: f64,
 }
 
@@ -276,7 +276,7 @@ impl Distractor {
 pub struct LightingDrift {
     /// Relative amplitude of the drift, in [0, 0.5].
     pub amplitude: f64,
-    /// Frames per period; must be > 0.
+    /// Frames per period; must be at least 1.
     pub period_frames: f64,
 }
 
@@ -744,14 +744,14 @@ impl SceneConfig {
                 return invalid("scene.distractor.path_centre_mm", "not finite");
             }
             non_negative("scene.distractor.path_radius_mm", d.path_radius_mm)?;
-            positive("scene.distractor.period_frames", d.period_frames)?;
+            at_least_one_frame("scene.distractor.period_frames", d.period_frames)?;
         }
         if let Some(l) = &self.lighting_drift {
             non_negative("scene.lighting_drift.amplitude", l.amplitude)?;
             if l.amplitude > 0.5 {
                 return invalid("scene.lighting_drift.amplitude", "too large (> 0.5)");
             }
-            positive("scene.lighting_drift.period_frames", l.period_frames)?;
+            at_least_one_frame("scene.lighting_drift.period_frames", l.period_frames)?;
         }
         Ok(())
     }
@@ -777,6 +777,16 @@ fn positive(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         invalid(key, "must be finite and > 0")
+    }
+}
+
+/// A period in frames: finite and at least 1 (a period below one frame is aliasing, and tiny
+/// ones overflowed `frame / period` to +∞, making the phase NaN).
+fn at_least_one_frame(key: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v >= 1.0 {
+        Ok(())
+    } else {
+        invalid(key, "must be finite and >= 1 frame")
     }
 }
 
