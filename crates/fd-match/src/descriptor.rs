@@ -92,9 +92,9 @@ impl DescriptorConfig {
         }
     }
 
-    /// `K`, the highest frequency kept.
+    /// `K`, the highest frequency kept (0 for an invalid `coefficients` of 0).
     pub fn max_frequency(&self) -> usize {
-        (self.coefficients - 1) / 2
+        self.coefficients.saturating_sub(1) / 2
     }
 
     /// Checks the configuration: `coefficients` odd and ≥ 5, `coefficients ≤ samples ≤`

@@ -389,3 +389,15 @@ fn correlation_refuses_descriptors_that_are_not_unit_norm() {
     assert_eq!(cor.correlate(&a.fd, &b.fd).unwrap().error, honest);
 }
 
+/// `DescriptorConfig::max_frequency` on an unvalidated configuration with `coefficients = 0`
+/// computed `0 − 1` and panicked (debug builds) or wrapped to `usize::MAX / 2` (release).
+#[test]
+fn max_frequency_of_an_invalid_configuration_does_not_overflow() {
+    let bad = DescriptorConfig {
+        coefficients: 0,
+        ..DescriptorConfig::default()
+    };
+    assert_eq!(bad.max_frequency(), 0);
+    assert!(bad.validate().is_err());
+    assert_eq!(DescriptorConfig::default().max_frequency(), 25);
+}
