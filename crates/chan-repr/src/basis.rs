@@ -289,25 +289,28 @@ impl ChannelBasis {
 
     /// Encodes `x` with certainty `weight ≥ 0`: the channel vector scaled by the weight.
     pub fn encode_weighted(&self, x: f64, weight: f64) -> Result<Vec<f64>, ChanError> {
-        let mut c = vec![0.0; self.n];
-        self.accumulate(x, weight, &mut c)?;
-        Ok(c)
+        crate::encode::encode_weighted(self, x, weight)
     }
 
     /// Adds `weight ·` the channel vector of `x` into `out` (length `N`): one value of a soft
     /// histogram, touching only the active channels.
     pub fn accumulate(&self, x: f64, weight: f64, out: &mut [f64]) -> Result<(), ChanError> {
-        check_weight(weight)?;
-        if out.len() != self.n {
-            return Err(ChanError::LengthMismatch {
-                what: "channels",
-                expected: self.n,
-                got: out.len(),
-            });
-        }
-        let t = self.checked_index(x)?;
-        self.for_each_active(t, |k, v| out[k] += weight * v);
-        Ok(())
+        crate::encode::accumulate(self, x, weight, out)
+    }
+}
+
+impl crate::encode::Line for ChannelBasis {
+    #[inline]
+    fn channels(&self) -> usize {
+        self.n
+    }
+    #[inline]
+    fn index(&self, x: f64) -> Result<f64, ChanError> {
+        self.checked_index(x)
+    }
+    #[inline]
+    fn each_active(&self, t: f64, f: impl FnMut(usize, f64)) {
+        self.for_each_active(t, f)
     }
 }
 
