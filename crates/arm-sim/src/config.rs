@@ -252,7 +252,7 @@ pub struct Distractor {
     pub path_centre_mm: [f64; 2],
     /// Radius of the path (mm; 0 = it only turns on the spot).
     pub path_radius_mm: f64,
-    /// Frames per turn round the path (its yaw turns with it); must be > 0.
+    /// Frames per turn round the path (its yaw turns with it); must be at least 1.
     pub period_frames: f64,
 }
 
@@ -276,7 +276,7 @@ impl Distractor {
 pub struct LightingDrift {
     /// Relative amplitude of the drift, in [0, 0.5].
     pub amplitude: f64,
-    /// Frames per period; must be > 0.
+    /// Frames per period; must be at least 1.
     pub period_frames: f64,
 }
 
@@ -504,13 +504,40 @@ impl SimConfig {
     }
 
     /// Writes the configuration as JSON (e.g. `SimConfig::default()` as a starting point for a
-    /// user's own arm model).
+    /// user's own arm model): into a temporary file beside `path`, flushed and renamed into
+    /// place, so a failed write leaves neither a partial file nor a damaged old one, and a
+    /// concurrent reader sees the old file or the new one, whole.
     pub fn write_file(&self, path: impl AsRef<std::path::Path>) -> Result<()> {
+        use std::io::Write;
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static WRITES: AtomicU64 = AtomicU64::new(0);
         let path = path.as_ref();
-        std::fs::write(path, self.to_json()).map_err(|e| ArmSimError::ConfigIo {
+        let io_err = |e: std::io::Error| ArmSimError::ConfigIo {
             path: path.display().to_string(),
             message: e.to_string(),
-        })
+        };
+        let name = path.file_name().ok_or_else(|| ArmSimError::ConfigIo {
+            path: path.display().to_string(),
+            message: "not a file path".into(),
+        })?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(
+            ".tmp-{}-{}",
+            std::process::id(),
+            WRITES.fetch_add(1, Ordering::Relaxed)
+        ));
+        let tmp = path.with_file_name(tmp_name);
+        let result = std::fs::File::create(&tmp)
+            .and_then(|mut f| {
+                f.write_all(self.to_json().as_bytes())?;
+                f.sync_all()
+            })
+            .and_then(|()| std::fs::rename(&tmp, path));
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result.map_err(io_err)
     }
 
     /// Checks every value; the error names the first impossible key.
@@ -717,14 +744,14 @@ impl SceneConfig {
                 return invalid("scene.distractor.path_centre_mm", "not finite");
             }
             non_negative("scene.distractor.path_radius_mm", d.path_radius_mm)?;
-            positive("scene.distractor.period_frames", d.period_frames)?;
+            at_least_one_frame("scene.distractor.period_frames", d.period_frames)?;
         }
         if let Some(l) = &self.lighting_drift {
             non_negative("scene.lighting_drift.amplitude", l.amplitude)?;
             if l.amplitude > 0.5 {
                 return invalid("scene.lighting_drift.amplitude", "too large (> 0.5)");
             }
-            positive("scene.lighting_drift.period_frames", l.period_frames)?;
+            at_least_one_frame("scene.lighting_drift.period_frames", l.period_frames)?;
         }
         Ok(())
     }
@@ -750,6 +777,16 @@ fn positive(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         invalid(key, "must be finite and > 0")
+    }
+}
+
+/// A period in frames: finite and at least 1 (a period below one frame is aliasing, and tiny
+/// ones overflowed `frame / period` to +∞, making the phase NaN).
+fn at_least_one_frame(key: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v >= 1.0 {
+        Ok(())
+    } else {
+        invalid(key, "must be finite and >= 1 frame")
     }
 }
 

@@ -117,3 +117,38 @@ fn ideal_switches_every_non_ideality_off() {
     let d = SimConfig::default();
     assert_eq!((c.arm, c.cameras), (d.arm, d.cameras));
 }
+
+/// `write_file` wrote in place (`fs::write` truncates, then writes), so a reader, or a crash,
+/// between the two saw an empty or partial file. It now writes a temporary file beside it and
+/// renames it into place: a concurrent reader always reads a whole configuration.
+#[test]
+fn write_file_replaces_the_file_whole() {
+    let dir = std::env::temp_dir().join(format!("arm-sim-write-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("arm.json");
+    let c = SimConfig::default();
+    c.write_file(&path).unwrap();
+    let done = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            for _ in 0..300 {
+                c.write_file(&path).unwrap();
+            }
+            done.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+        let mut reads = 0;
+        while !done.load(std::sync::atomic::Ordering::Relaxed) || reads == 0 {
+            assert_eq!(SimConfig::read_file(&path).unwrap(), c, "read {reads}");
+            reads += 1;
+        }
+    });
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(left.len(), 1, "temporary files left behind");
+    // A failed write (the folder does not exist) creates nothing.
+    let missing = dir.join("no-such-folder").join("arm.json");
+    assert!(matches!(
+        c.write_file(&missing),
+        Err(ArmSimError::ConfigIo { .. })
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -144,6 +144,24 @@ fn bad_values_are_typed_errors_naming_the_key() {
             });
             (c, "scene.lighting_drift.period_frames")
         },
+        // Periods below one frame were accepted down to 5e-324, where frame / period is +inf
+        // and the drift factor sin(inf) = NaN made every captured image black.
+        {
+            let mut c = SimConfig::default();
+            c.scene.lighting_drift = Some(LightingDrift {
+                amplitude: 0.1,
+                period_frames: 5e-324,
+            });
+            (c, "scene.lighting_drift.period_frames")
+        },
+        {
+            let mut c = SimConfig::default();
+            c.scene.distractor = Some(Distractor {
+                period_frames: 0.5,
+                ..distractor()
+            });
+            (c, "scene.distractor.period_frames")
+        },
     ];
     for (c, key) in cases {
         match ArmSim::new(c.clone()) {

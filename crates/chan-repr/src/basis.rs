@@ -83,11 +83,13 @@ impl ChannelBasis {
                 reason: "must be finite",
             });
         }
-        if !(spacing.is_finite() && spacing > 0.0) {
+        // Normal (≥ 2.2e-308), not subnormal: a subnormal spacing has lost the precision that
+        // index coordinates need.
+        if !(spacing.is_normal() && spacing > 0.0) {
             return Err(ChanError::InvalidParameter {
                 name: "spacing",
                 value: spacing,
-                reason: "must be finite and positive",
+                reason: "must be finite, positive and not subnormal",
             });
         }
         if n < kernel.window() {
@@ -101,6 +103,18 @@ impl ChannelBasis {
                 got: n,
                 max: MAX_CHANNELS,
             });
+        }
+        // Every decoded value (valid or not) lies within one window of the centres, so those
+        // positions must be finite numbers: otherwise a decoded mode could be ±∞.
+        let reach = kernel.window() as f64;
+        for t in [-reach, n as f64 + reach] {
+            if !(first + t * spacing).is_finite() {
+                return Err(ChanError::InvalidParameter {
+                    name: "spacing",
+                    value: spacing,
+                    reason: "the channel centres (extended by one decoding window) overflow",
+                });
+            }
         }
         Ok(ChannelBasis {
             kernel,
@@ -275,25 +289,28 @@ impl ChannelBasis {
 
     /// Encodes `x` with certainty `weight ≥ 0`: the channel vector scaled by the weight.
     pub fn encode_weighted(&self, x: f64, weight: f64) -> Result<Vec<f64>, ChanError> {
-        let mut c = vec![0.0; self.n];
-        self.accumulate(x, weight, &mut c)?;
-        Ok(c)
+        crate::encode::encode_weighted(self, x, weight)
     }
 
     /// Adds `weight ·` the channel vector of `x` into `out` (length `N`): one value of a soft
     /// histogram, touching only the active channels.
     pub fn accumulate(&self, x: f64, weight: f64, out: &mut [f64]) -> Result<(), ChanError> {
-        check_weight(weight)?;
-        if out.len() != self.n {
-            return Err(ChanError::LengthMismatch {
-                what: "channels",
-                expected: self.n,
-                got: out.len(),
-            });
-        }
-        let t = self.checked_index(x)?;
-        self.for_each_active(t, |k, v| out[k] += weight * v);
-        Ok(())
+        crate::encode::accumulate(self, x, weight, out)
+    }
+}
+
+impl crate::encode::Line for ChannelBasis {
+    #[inline]
+    fn channels(&self) -> usize {
+        self.n
+    }
+    #[inline]
+    fn index(&self, x: f64) -> Result<f64, ChanError> {
+        self.checked_index(x)
+    }
+    #[inline]
+    fn each_active(&self, t: f64, f: impl FnMut(usize, f64)) {
+        self.for_each_active(t, f)
     }
 }
 

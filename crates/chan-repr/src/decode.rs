@@ -100,7 +100,7 @@ pub(crate) fn window_estimates(
                 *v = c[(l + j) % n];
             }
             let certainty: f64 = win.iter().sum();
-            let offset = kernel.decode_window(&win);
+            let offset = kernel.decode_window_unchecked(&win);
             WindowEstimate {
                 start: l,
                 value: offset.map(|o| from_index(l as f64 + o)),

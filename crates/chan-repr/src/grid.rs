@@ -96,9 +96,9 @@ impl ChannelGrid {
         false
     }
 
-    /// The basis of dimension `d`.
-    pub fn basis(&self, d: usize) -> &ChannelBasis {
-        &self.bases[d]
+    /// The basis of dimension `d` (`None` when `d ≥ dims()`).
+    pub fn basis(&self, d: usize) -> Option<&ChannelBasis> {
+        self.bases.get(d)
     }
 
     /// All bases, one per dimension.
@@ -299,7 +299,7 @@ impl ChannelGrid {
         let mut unit = 1.0;
         for (d, b) in self.bases.iter().enumerate() {
             let k = b.kernel();
-            let offset = k.decode_window(&s.marginals[d])?;
+            let offset = k.decode_window_unchecked(&s.marginals[d])?;
             let (lo, hi) = k.valid_offsets();
             if offset < lo - VALID_SLACK || offset > hi + VALID_SLACK {
                 return None;
@@ -381,8 +381,8 @@ mod tests {
         let x = [3.1, 7.7];
         let c = g.encode(&x).unwrap();
         let (c0, c1) = (
-            g.basis(0).encode(x[0]).unwrap(),
-            g.basis(1).encode(x[1]).unwrap(),
+            g.bases()[0].encode(x[0]).unwrap(),
+            g.bases()[1].encode(x[1]).unwrap(),
         );
         for i in 0..12 {
             for j in 0..12 {

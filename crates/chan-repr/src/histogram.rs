@@ -160,7 +160,7 @@ impl SoftHistogram {
             });
         }
         let ceiling = raise_ceiling(self.ceiling, xs.len() as f64)?;
-        let basis = self.grid.basis(0);
+        let basis = &self.grid.bases()[0];
         basis.check_all(xs)?;
         // Every value passed `checked_index`, so its index is finite and inside the
         // representable range up to the slack that `checked_index` clamps away.
@@ -345,10 +345,10 @@ impl SparseHistogram {
             }
             // Every window start within W−1 below k in each dimension, clipped to the grid.
             let lo: Vec<usize> = (0..dims)
-                .map(|d| k[d].saturating_sub(g.basis(d).kernel().window() - 1))
+                .map(|d| k[d].saturating_sub(g.bases()[d].kernel().window() - 1))
                 .collect();
             let hi: Vec<usize> = (0..dims)
-                .map(|d| k[d].min(g.basis(d).len() - g.basis(d).kernel().window()))
+                .map(|d| k[d].min(g.bases()[d].len() - g.bases()[d].kernel().window()))
                 .collect();
             if (0..dims).any(|d| lo[d] > hi[d]) {
                 continue;

@@ -230,8 +230,25 @@ impl Kernel {
     /// - Gaussian: the vertex of the parabola through `ln c₀, ln c₁, ln c₂`.
     ///
     /// All three are exact for a single encoded value inside the valid range.
+    ///
+    /// Errors: a window whose length is not [`window`](Self::window)
+    /// ([`ChanError::LengthMismatch`]), or a coefficient that is non-finite, negative or above
+    /// [`crate::MAX_MASS`] (as for [`crate::ChannelBasis::decode`]).
+    ///
+    /// ```
+    /// use chan_repr::Kernel;
+    /// assert_eq!(Kernel::BSpline2.decode_window(&[0.0, 1.0, 0.0]), Ok(Some(1.0)));
+    /// assert!(Kernel::BSpline2.decode_window(&[1.0]).is_err());
+    /// ```
+    pub fn decode_window(&self, c: &[f64]) -> Result<Option<f64>, ChanError> {
+        crate::decode::check_channels(c, self.window())?;
+        Ok(self.decode_window_unchecked(c))
+    }
+
+    /// [`decode_window`](Self::decode_window) for a window the caller has checked (the
+    /// decoders' inner loop).
     #[inline]
-    pub fn decode_window(&self, c: &[f64]) -> Option<f64> {
+    pub(crate) fn decode_window_unchecked(&self, c: &[f64]) -> Option<f64> {
         debug_assert_eq!(c.len(), self.window());
         match *self {
             Kernel::Cos2 { m } => {
@@ -410,7 +427,7 @@ mod tests {
             for i in 0..=20 {
                 let x = lo + (hi - lo) * i as f64 / 20.0;
                 let c: Vec<f64> = (0..k.window()).map(|j| k.value(x - j as f64)).collect();
-                let got = k.decode_window(&c).unwrap();
+                let got = k.decode_window(&c).unwrap().unwrap();
                 assert!((got - x).abs() < 1e-12, "{k:?}: {x} decoded as {got}");
             }
         }
@@ -418,11 +435,11 @@ mod tests {
 
     #[test]
     fn empty_windows_carry_no_estimate() {
-        assert_eq!(Kernel::Cos2 { m: 3 }.decode_window(&[0.0; 3]), None);
-        assert_eq!(Kernel::BSpline2.decode_window(&[0.0; 3]), None);
+        assert_eq!(Kernel::Cos2 { m: 3 }.decode_window(&[0.0; 3]), Ok(None));
+        assert_eq!(Kernel::BSpline2.decode_window(&[0.0; 3]), Ok(None));
         assert_eq!(
             Kernel::Gaussian { sigma: 1.0 }.decode_window(&[0.0, 1.0, 0.5]),
-            None
+            Ok(None)
         );
     }
 }

@@ -66,6 +66,7 @@
 
 mod basis;
 mod decode;
+mod encode;
 mod error;
 mod grid;
 mod histogram;

@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::basis::{MAX_CHANNELS, check_weight};
+use crate::basis::MAX_CHANNELS;
 use crate::decode::{check_channels, merge_modes, window_estimates};
 use crate::{ChanError, Kernel, Mode, WindowEstimate};
 
@@ -97,11 +97,19 @@ impl PeriodicBasis {
                 max: MAX_CHANNELS,
             });
         }
+        let spacing = period / n as f64;
+        if !spacing.is_normal() {
+            return Err(ChanError::InvalidParameter {
+                name: "period",
+                value: period,
+                reason: "period / channels underflows to a subnormal spacing",
+            });
+        }
         Ok(PeriodicBasis {
             kernel,
             n,
             period,
-            spacing: period / n as f64,
+            spacing,
             step: kernel.phase_step(),
         })
     }
@@ -198,25 +206,13 @@ impl PeriodicBasis {
 
     /// Encodes `x` with certainty `weight ≥ 0`: the channel vector scaled by the weight.
     pub fn encode_weighted(&self, x: f64, weight: f64) -> Result<Vec<f64>, ChanError> {
-        let mut c = vec![0.0; self.n];
-        self.accumulate(x, weight, &mut c)?;
-        Ok(c)
+        crate::encode::encode_weighted(self, x, weight)
     }
 
     /// Adds `weight ·` the channel vector of `x` into `out` (length `N`), touching only the
     /// active channels. A rejected value leaves `out` unchanged.
     pub fn accumulate(&self, x: f64, weight: f64, out: &mut [f64]) -> Result<(), ChanError> {
-        check_weight(weight)?;
-        if out.len() != self.n {
-            return Err(ChanError::LengthMismatch {
-                what: "channels",
-                expected: self.n,
-                got: out.len(),
-            });
-        }
-        let t = self.checked_index(x)?;
-        self.for_each_active(t, |k, v| out[k] += weight * v);
-        Ok(())
+        crate::encode::accumulate(self, x, weight, out)
     }
 
     /// Every window's estimate and certainty, valid or not: `N` windows of `W` consecutive
@@ -251,6 +247,21 @@ impl PeriodicBasis {
     /// The mode with the highest certainty, if any.
     pub fn decode_best(&self, c: &[f64]) -> Result<Option<Mode>, ChanError> {
         Ok(self.decode(c)?.into_iter().next())
+    }
+}
+
+impl crate::encode::Line for PeriodicBasis {
+    #[inline]
+    fn channels(&self) -> usize {
+        self.n
+    }
+    #[inline]
+    fn index(&self, x: f64) -> Result<f64, ChanError> {
+        self.checked_index(x)
+    }
+    #[inline]
+    fn each_active(&self, t: f64, f: impl FnMut(usize, f64)) {
+        self.for_each_active(t, f)
     }
 }
 

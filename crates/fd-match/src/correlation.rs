@@ -162,8 +162,9 @@ impl Correlator {
     }
 
     /// Correlates `a` and `b` (FDs in the layout of [`crate::DescriptorSet::fd`], unit norm).
-    /// Both must hold `2K` finite values ([`FdError::LengthMismatch`],
-    /// [`FdError::NonFiniteDescriptor`] otherwise).
+    /// Both must hold `2K` finite values of unit norm within [`crate::UNIT_NORM_TOLERANCE`]
+    /// ([`FdError::LengthMismatch`], [`FdError::NonFiniteDescriptor`],
+    /// [`FdError::NotUnitNorm`] otherwise): the error `2 − 2 max |r₁₂|` is meaningful only then.
     pub fn correlate(&mut self, a: &[Complex64], b: &[Complex64]) -> Result<Correlation, FdError> {
         Ok(self
             .correlate_below(a, b, f64::INFINITY)?
@@ -181,12 +182,7 @@ impl Correlator {
             });
         }
         for (part, v) in [("a", a), ("b", b)] {
-            if let Some(index) = v
-                .iter()
-                .position(|c| !(c.re.is_finite() && c.im.is_finite()))
-            {
-                return Err(FdError::NonFiniteDescriptor { part, index });
-            }
+            crate::descriptor::check_unit(v.iter().map(|c| [c.re, c.im]), part)?;
         }
         Ok(())
     }

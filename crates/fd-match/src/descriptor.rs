@@ -92,9 +92,9 @@ impl DescriptorConfig {
         }
     }
 
-    /// `K`, the highest frequency kept.
+    /// `K`, the highest frequency kept (0 for an invalid `coefficients` of 0).
     pub fn max_frequency(&self) -> usize {
-        (self.coefficients - 1) / 2
+        self.coefficients.saturating_sub(1) / 2
     }
 
     /// Checks the configuration: `coefficients` odd and ≥ 5, `coefficients ≤ samples ≤`
@@ -390,7 +390,10 @@ impl DescriptorSet {
 pub const UNIT_NORM_TOLERANCE: f64 = 1e-6;
 
 /// Checks that the values are finite and of unit norm.
-fn check_unit(values: impl Iterator<Item = [f64; 2]>, part: &'static str) -> Result<(), FdError> {
+pub(crate) fn check_unit(
+    values: impl Iterator<Item = [f64; 2]>,
+    part: &'static str,
+) -> Result<(), FdError> {
     let mut sq = 0.0;
     for (index, [re, im]) in values.enumerate() {
         if !(re.is_finite() && im.is_finite()) {

@@ -361,3 +361,43 @@ fn correlator_sizes_are_bounded() {
     ));
     assert_eq!(Correlator::new(25, 256).unwrap().grid(), 128);
 }
+
+/// `Correlator::correlate` documents unit-norm FDs but only checked lengths and finiteness: a
+/// descriptor scaled by 2 matched itself with error 0 (2 − 2·4, clamped), claimed perfect, and
+/// one scaled by 1e200 overflowed to a NaN error. Both are now `NotUnitNorm`.
+#[test]
+fn correlation_refuses_descriptors_that_are_not_unit_norm() {
+    let a = ex().describe(&[(0, 0), (9, 0), (9, 4), (0, 4)]).unwrap();
+    let b = ex().describe(&[(0, 0), (5, 0), (2, 6)]).unwrap();
+    let mut cor = Correlator::new(25, 256).unwrap();
+    let honest = cor.correlate(&a.fd, &b.fd).unwrap().error;
+    assert!(honest > 0.01);
+    for scale in [2.0, 1e200, 0.5, 0.0] {
+        let scaled: Vec<Complex64> = b.fd.iter().map(|c| c * scale).collect();
+        assert!(
+            matches!(
+                cor.correlate(&a.fd, &scaled),
+                Err(FdError::NotUnitNorm { part: "b", .. })
+            ),
+            "scale {scale}"
+        );
+        assert!(matches!(
+            cor.correlate_below(&scaled, &a.fd, 0.1),
+            Err(FdError::NotUnitNorm { part: "a", .. })
+        ));
+    }
+    assert_eq!(cor.correlate(&a.fd, &b.fd).unwrap().error, honest);
+}
+
+/// `DescriptorConfig::max_frequency` on an unvalidated configuration with `coefficients = 0`
+/// computed `0 − 1` and panicked (debug builds) or wrapped to `usize::MAX / 2` (release).
+#[test]
+fn max_frequency_of_an_invalid_configuration_does_not_overflow() {
+    let bad = DescriptorConfig {
+        coefficients: 0,
+        ..DescriptorConfig::default()
+    };
+    assert_eq!(bad.max_frequency(), 0);
+    assert!(bad.validate().is_err());
+    assert_eq!(DescriptorConfig::default().max_frequency(), 25);
+}

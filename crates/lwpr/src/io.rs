@@ -358,7 +358,9 @@ pub(crate) fn check_metric(
     for j in 0..n {
         for i in 0..=j {
             let mtm: f64 = (0..=i).map(|k| m[k + i * n] * m[k + j * n]).sum();
-            let scale = (d[i + i * n] * d[j + j * n]).sqrt();
+            // √D_ii·√D_jj, not √(D_ii·D_jj): the product overflows to +∞ (accepting any D_ij)
+            // once the diagonal passes ~1e154.
+            let scale = d[i + i * n].sqrt() * d[j + j * n].sqrt();
             let err = (d[i + j * n] - mtm).abs();
             if err.is_nan() || err > METRIC_TOLERANCE * scale || scale.is_nan() {
                 return Err(format!(
@@ -371,17 +373,31 @@ pub(crate) fn check_metric(
     Ok(())
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder renamed into place,
-/// so a failed write leaves neither a partial file nor a damaged old one.
+/// Writes `bytes` to `path` through a temporary file in the same folder, flushed to disk and
+/// renamed into place, so a failed write leaves neither a partial file nor a damaged old one.
+/// The temporary name is unique per process and call, so concurrent saves to one path do not
+/// share (and rename away) each other's temporary file.
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static SAVES: AtomicU64 = AtomicU64::new(0);
     let name = path
         .file_name()
         .ok_or_else(|| LwprError::Io(format!("{} is not a file path", path.display())))?;
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(name);
-    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    tmp_name.push(format!(
+        ".tmp-{}-{}",
+        std::process::id(),
+        SAVES.fetch_add(1, Ordering::Relaxed)
+    ));
     let tmp = path.with_file_name(tmp_name);
-    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    let result = std::fs::File::create(&tmp)
+        .and_then(|mut f| {
+            f.write_all(bytes)?;
+            f.sync_all()
+        })
+        .and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

@@ -6,6 +6,7 @@
 //!
 //! The arithmetic follows the reference operation by operation so results stay bit-identical.
 
+use crate::fast::StepScalars;
 use crate::linalg::{dot, lane_blocks, sum_rows};
 use crate::params::Params;
 use crate::rf::ReceptiveField;
@@ -134,6 +135,24 @@ fn dist_derivatives(
     }
 }
 
+/// `max |M_ij|` of the `n × n` column-major factor `M` (its diagonal with `diag_only`, else
+/// its upper triangle, rows `0..=j` of column `j` being contiguous): `0.1·max` limits the step
+/// of every element in both arithmetics.
+#[inline(always)]
+fn max_abs_m(n: usize, m: &[f64], diag_only: bool) -> f64 {
+    let mut max_m: f64 = 0.0;
+    for j in 0..n {
+        let rows = if diag_only { j..j + 1 } else { 0..j + 1 };
+        for &v in &m[j * n + rows.start..j * n + rows.end] {
+            let v = v.abs();
+            if v > max_m {
+                max_m = v;
+            }
+        }
+    }
+    max_m
+}
+
 /// One IDBD step on one element (log rate `b`, rate `alpha`, trace `h`).
 #[inline(always)]
 fn idbd(
@@ -240,10 +259,21 @@ pub(crate) fn update_distance_metric(
     } else {
         0.0
     };
+    let k = StepScalars {
+        w_w,
+        dj1dw,
+        ddj1dwdw,
+        dwdq,
+        ddwdqdq,
+        meta_rate: p.meta_rate,
+        trans_mul,
+        // From the old M: every element's step is limited by the same bound.
+        limit: 0.1 * max_abs_m(n, &rf.m[..n * n], p.diag_only),
+    };
     if fast {
-        fast_metric_step(n, rf, p, ws, w_w, dj1dw, ddj1dwdw, dwdq, ddwdqdq, trans_mul);
+        fast_metric_step(n, rf, p, ws, &k);
     } else {
-        reference_metric_step(n, rf, p, ws, w_w, dj1dw, ddj1dwdw, dwdq, ddwdqdq, trans_mul);
+        reference_metric_step(n, rf, p, ws, &k);
     }
     let (s, lambda) = (&rf.s[..nr], &rf.lambda[..nr]);
     let (tr_h, tr_r) = (&mut rf.tr_h[..nr], &mut rf.tr_r[..nr]);
@@ -259,20 +289,24 @@ pub(crate) fn update_distance_metric(
 }
 
 /// The metric step in the reference's order of operations (bit-identical to the C library).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn reference_metric_step(
     n: usize,
     rf: &mut ReceptiveField,
     p: &Params,
     ws: &mut Workspace,
-    w_w: f64,
-    dj1dw: f64,
-    ddj1dwdw: f64,
-    dwdq: f64,
-    ddwdqdq: f64,
-    trans_mul: f64,
+    k: &StepScalars,
 ) {
+    let &StepScalars {
+        w_w,
+        dj1dw,
+        ddj1dwdw,
+        dwdq,
+        ddwdqdq,
+        trans_mul,
+        limit,
+        ..
+    } = k;
     let nn = n * n;
     dist_derivatives(
         n,
@@ -291,13 +325,6 @@ fn reference_metric_step(
     let (dj2dm, dwdm) = (&mut ws.dj2dm[..nn], &ws.dwdm[..nn]);
     let (ddj2dmdm, ddwdmdm) = (&ws.ddj2dmdm[..nn], &ws.ddwdmdm[..nn]);
     if p.diag_only {
-        let mut max_m: f64 = 0.0;
-        for j in 0..n {
-            let v = m[j + j * n].abs();
-            if v > max_m {
-                max_m = v;
-            }
-        }
         for j in 0..n {
             let off = j + j * n;
             dj2dm[off] = w_w * dj2dm[off] + dwdm[off] * dj1dw;
@@ -321,7 +348,7 @@ fn reference_metric_step(
         for j in 0..n {
             let off = j + j * n;
             let delta = alpha[off] * trans_mul * dj2dm[off];
-            if delta > 0.1 * max_m {
+            if delta > limit {
                 alpha[off] *= 0.5;
             } else {
                 m[off] -= delta;
@@ -331,18 +358,8 @@ fn reference_metric_step(
             d[j + j * n] = m[j + j * n] * m[j + j * n];
         }
     } else {
-        // The upper triangle column by column: rows 0..=j of column j are contiguous.
-        let mut max_m: f64 = 0.0;
-        for j in 0..n {
-            for &v in &m[j * n..j * n + j + 1] {
-                let v = v.abs();
-                if v > max_m {
-                    max_m = v;
-                }
-            }
-        }
         // Gradient, IDBD step and M step per element in one pass (each element's operations
-        // in the reference's order; the elements are independent, and `max_m` is taken from
+        // in the reference's order; the elements are independent, and `limit` is taken from
         // the old M above).
         let meta = p.meta;
         let dq = &ws.dq[..n];
@@ -372,7 +389,7 @@ fn reference_metric_step(
                     );
                 }
                 let delta = ac[i] * trans_mul * gi;
-                if delta > 0.1 * max_m {
+                if delta > limit {
                     ac[i] *= 0.5;
                 } else {
                     mc[i] -= delta;
@@ -418,21 +435,14 @@ fn reference_metric_step(
 
 /// The metric step of [`crate::Arithmetic::Fast`] (full metric, `n ≥ 5`); `ws.dq` holds
 /// `M(x−c)` from the activation ([`crate::fast::distance_m`]), `ws.dx` holds `x − c`.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fast_metric_step(
     n: usize,
     rf: &mut ReceptiveField,
     p: &Params,
     ws: &mut Workspace,
-    w_w: f64,
-    dj1dw: f64,
-    ddj1dwdw: f64,
-    dwdq: f64,
-    ddwdqdq: f64,
-    trans_mul: f64,
+    k: &StepScalars,
 ) {
-    let nn = n * n;
     let penalty = p.penalty / n as f64;
     // The reference doubles the penalty inside its derivative routine.
     crate::fast::penalty_derivatives(
@@ -445,32 +455,12 @@ fn fast_metric_step(
         &mut ws.dj2dm,
         &mut ws.ddj2dmdm,
     );
-    let m = &rf.m[..nn];
-    let mut max_m: f64 = 0.0;
-    for j in 0..n {
-        for &v in &m[j * n..j * n + j + 1] {
-            let v = v.abs();
-            if v > max_m {
-                max_m = v;
-            }
-        }
-    }
-    let k = crate::fast::StepScalars {
-        w_w,
-        dj1dw,
-        ddj1dwdw,
-        dwdq,
-        ddwdqdq,
-        meta_rate: p.meta_rate,
-        trans_mul,
-        limit: 0.1 * max_m,
-    };
     let (dq, dx, g, ddj2) = (&ws.dq, &ws.dx, &mut ws.dj2dm, &ws.ddj2dmdm);
     let (b, alpha, h, m) = (&mut rf.b, &mut rf.alpha, &mut rf.h, &mut rf.m);
     if p.meta {
-        crate::fast::metric_step::<true>(n, &k, dq, dx, g, ddj2, b, alpha, h, m);
+        crate::fast::metric_step::<true>(n, k, dq, dx, g, ddj2, b, alpha, h, m);
     } else {
-        crate::fast::metric_step::<false>(n, &k, dq, dx, g, ddj2, b, alpha, h, m);
+        crate::fast::metric_step::<false>(n, k, dq, dx, g, ddj2, b, alpha, h, m);
     }
     crate::fast::gram(n, &rf.m, &mut ws.mt, &mut rf.d);
 }

@@ -11,6 +11,20 @@ use crate::params::{Arithmetic, Kernel, MAX_ABS_VALUE, Params, PruneRule};
 use crate::rf::{ReceptiveField, UPDATE_ACTIVATION, diag_distance, distance, kernel_eval};
 use crate::workspace::Workspace;
 
+/// The run-time dispatch of the update's and the prediction's AVX builds, written once: when
+/// the CPU has `$feature`, evaluates `$call` (an `unsafe` call of a function compiled with
+/// `#[target_feature(enable = …)]` for it) and returns its value from the enclosing function;
+/// otherwise does nothing and the plain code after it runs. Compiled on x86-64 only (elsewhere
+/// the plain code always runs); the standard library caches the CPU check.
+macro_rules! avx_first {
+    ($feature:tt, $call:expr) => {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!($feature) {
+            return $call;
+        }
+    };
+}
+
 /// Receptive fields of one output dimension.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(crate) struct SubModel {
@@ -339,11 +353,11 @@ impl Lwpr {
     /// lanes per instruction. Multiplies and adds stay separate instructions (no fused
     /// multiply-add), so the results are the same bits either way.
     fn update_sub_any_n(p: &Params, sub: &mut SubModel, yn: f64, ws: &mut Workspace) -> Activity {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX and AVX2 (checked just above).
-            return unsafe { Self::update_sub_avx(p, sub, yn, ws) };
-        }
+        avx_first!(
+            "avx2",
+            // SAFETY: the CPU supports AVX2, hence AVX (the macro checked).
+            unsafe { Self::update_sub_avx(p, sub, yn, ws) }
+        );
         Self::update_sub::<0>(p, sub, yn, ws)
     }
 
@@ -529,11 +543,11 @@ impl Lwpr {
             3 => self.predict_dim_n::<3>(dim, xn, cutoff, xc, need_max),
             4 => self.predict_dim_n::<4>(dim, xn, cutoff, xc, need_max),
             _ => {
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx") {
-                    // SAFETY: the CPU supports AVX (checked just above).
-                    return unsafe { self.predict_dim_avx(dim, xn, cutoff, xc, need_max) };
-                }
+                avx_first!(
+                    "avx",
+                    // SAFETY: the CPU supports AVX (the macro checked).
+                    unsafe { self.predict_dim_avx(dim, xn, cutoff, xc, need_max) }
+                );
                 self.predict_dim_n::<0>(dim, xn, cutoff, xc, need_max)
             }
         }

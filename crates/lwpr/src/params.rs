@@ -180,9 +180,15 @@ impl TryFrom<ParamsData> for Params {
 
 impl Params {
     /// The reference library's defaults (`lwpr_init_model`) for `n_in` inputs and `n_out` outputs.
-    /// Allocates three `n_in × n_in` matrices without checking the size: use
-    /// [`LwprBuilder::new`], which refuses sizes beyond [`MAX_INPUTS`] before allocating.
+    /// Sizes beyond [`MAX_INPUTS`] or [`MAX_OUTPUTS`] allocate nothing: the vectors are left
+    /// empty and [`validate`](Self::validate) (or [`LwprBuilder::build`]) reports
+    /// [`LwprError::TooBig`].
     pub fn defaults(n_in: usize, n_out: usize) -> Self {
+        if check_sizes(n_in, n_out).is_err() {
+            let mut p = Params::defaults(0, 0);
+            (p.n_in, p.n_out) = (n_in, n_out);
+            return p;
+        }
         let mut init_d = vec![0.0; n_in * n_in];
         let mut init_m = vec![0.0; n_in * n_in];
         for i in 0..n_in {
@@ -276,10 +282,10 @@ impl Params {
                 }
             }
         }
-        match cholesky_upper(n, &self.init_d) {
-            Some(m) => self.init_m = m,
-            None => return bad("init_D", "must be positive definite".into()),
-        }
+        // Stored only once every check has passed: a rejected call changes nothing.
+        let Some(init_m) = cholesky_upper(n, &self.init_d) else {
+            return bad("init_D", "must be positive definite".into());
+        };
         let unit_open = |v: f64| v > 0.0 && v < 1.0;
         if !unit_open(self.w_gen) {
             return bad("w_gen", format!("{} is not in (0, 1)", self.w_gen));
@@ -316,6 +322,7 @@ impl Params {
         if !(self.penalty >= 0.0 && self.penalty.is_finite()) {
             return bad("penalty", format!("{} must be ≥ 0", self.penalty));
         }
+        self.init_m = init_m;
         Ok(())
     }
 }
@@ -364,10 +371,8 @@ impl LwprBuilder {
     /// ```
     pub fn new(n_in: usize, n_out: usize) -> Self {
         if let Err(e) = check_sizes(n_in, n_out) {
-            let mut params = Params::defaults(0, 0);
-            (params.n_in, params.n_out) = (n_in, n_out);
             return LwprBuilder {
-                params,
+                params: Params::defaults(n_in, n_out),
                 error: Some(e),
             };
         }

@@ -244,3 +244,80 @@ fn sizes_beyond_the_limits_fail_before_allocating() {
     ));
     assert!(LwprBuilder::new(MAX_INPUTS, 1).build().is_ok());
 }
+
+#[test]
+fn huge_metrics_inconsistent_with_their_factor_are_refused() {
+    // The D = MᵀM check scaled its tolerance by √(D_ii·D_jj), which overflows to +∞ once the
+    // diagonal passes ~1e154: then any off-diagonal D was accepted, here an indefinite one
+    // (D_01 = 3·D_00), whose negative distances gave the confidence bound w = e^{+huge} = ∞.
+    let m = trained(true);
+    let mut v = model_json(&m);
+    let r = rf(&mut v);
+    r["m"] = json!([1e100, 0.0, 0.0, 1e100]);
+    r["d"] = json!([1e200, 3e200, 3e200, 1e200]);
+    let (a, b) = load_both(&v);
+    assert!(matches!(a, Err(LwprError::Format(_))), "{a:?}");
+    assert!(b.is_err());
+    // The consistent huge metric still loads.
+    let r = rf(&mut v);
+    r["d"] = json!([1e200, 0.0, 0.0, 1e200]);
+    let (a, b) = load_both(&v);
+    assert!(a.is_ok() && b.is_ok(), "{a:?}");
+}
+
+#[test]
+fn a_rejected_validate_leaves_the_params_unchanged() {
+    // `Params::validate` wrote the new Cholesky factor into `init_m` before checking the
+    // remaining parameters, so a call that failed on `w_gen` had still changed `init_m`.
+    let mut p = lwpr::Params::defaults(2, 1);
+    p.init_d = vec![4.0, 0.0, 0.0, 4.0];
+    p.w_gen = 2.0;
+    let before = p.clone();
+    assert!(matches!(
+        p.validate(),
+        Err(LwprError::InvalidParameter { name: "w_gen", .. })
+    ));
+    assert_eq!(p, before);
+    p.w_gen = 0.2;
+    p.validate().unwrap();
+    assert_eq!(p.init_m, vec![2.0, 0.0, 0.0, 2.0]);
+}
+
+#[test]
+fn defaults_of_impossible_sizes_allocate_nothing() {
+    // `Params::defaults(2^31, 1)` computed n² = 2^62 elements and panicked (capacity overflow,
+    // or an index out of bounds where the product wrapped); now the sizes are kept, nothing is
+    // allocated, and validation reports them.
+    for (n_in, n_out) in [(1usize << 31, 1usize), (usize::MAX, 1), (2, usize::MAX)] {
+        let p = lwpr::Params::defaults(n_in, n_out);
+        assert_eq!((p.n_in, p.n_out), (n_in, n_out));
+        assert!(matches!(
+            LwprBuilder::from_params(p).build(),
+            Err(LwprError::TooBig { .. })
+        ));
+    }
+}
+
+#[test]
+fn concurrent_saves_to_one_path_all_succeed_and_leave_a_whole_file() {
+    // The temporary file was named after the process only, so two threads saving to the same
+    // path shared it: one renamed the other's half-written file into place, and the other's
+    // rename then failed ("No such file or directory").
+    let dir = std::env::temp_dir().join(format!("lwpr-concurrent-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    let m = trained(true);
+    std::thread::scope(|s| {
+        for _ in 0..8 {
+            s.spawn(|| {
+                for _ in 0..25 {
+                    m.save(&path).unwrap();
+                }
+            });
+        }
+    });
+    assert_eq!(Lwpr::load(&path).unwrap(), m);
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(left.len(), 1, "temporary files left behind");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
