@@ -84,17 +84,11 @@ fn frames_of(frames: &Bound<'_, PyAny>) -> PyResult<Vec<Vec<Detection>>> {
         .collect()
 }
 
-/// Writes `text` to `path` through a temporary file, so a failed write leaves no partial file.
+/// Writes `text` to `path` atomically (`visguide::output::atomic`: a temporary file beside it,
+/// flushed and renamed), so a failed write leaves no partial file.
 fn write_atomic(path: &std::path::Path, text: &str) -> PyResult<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = std::path::PathBuf::from(tmp);
-    let r = std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = r {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(PyOSError::new_err(format!("{}: {e}", path.display())));
-    }
-    Ok(())
+    visguide::output::atomic::write_bytes(path, text.as_bytes())
+        .map_err(|e| PyOSError::new_err(e.to_string()))
 }
 
 fn read(path: &std::path::Path) -> PyResult<String> {

@@ -5,15 +5,20 @@
 
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Result, VisguideError, io};
 
+/// A temporary name beside `target`, unique to this process and this call (process id and a
+/// counter), so that threads saving to one path at once never write into each other's file.
 fn temp_path(target: &Path) -> PathBuf {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    target.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+    let k = NEXT.fetch_add(1, Ordering::Relaxed);
+    target.with_file_name(format!(".{name}.partial-{}-{k}", std::process::id()))
 }
 
 /// Writes `target` with `fill`, atomically.
@@ -100,6 +105,31 @@ mod tests {
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         assert!(write_bytes(&dir, b"x").is_err());
         assert!(write_bytes(&dir.join("missing/out.txt"), b"x").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Threads saving to one path at once each write their own temporary file: every save
+    /// succeeds and the file is one of the complete contents (with one temporary name per
+    /// process, saves failed or renamed another thread's half-written file into place).
+    #[test]
+    fn concurrent_saves_to_one_path_each_succeed_whole() {
+        let dir = std::env::temp_dir().join(format!("visguide-atomic-par-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let t = dir.join("out.txt");
+        let contents: Vec<Vec<u8>> = (0..8u8).map(|k| vec![b'a' + k; 200_000]).collect();
+        std::thread::scope(|s| {
+            for c in &contents {
+                let t = &t;
+                s.spawn(move || {
+                    for _ in 0..5 {
+                        write_bytes(t, c).unwrap();
+                    }
+                });
+            }
+        });
+        let got = std::fs::read(&t).unwrap();
+        assert!(contents.contains(&got));
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
