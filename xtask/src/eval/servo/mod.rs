@@ -901,7 +901,7 @@ pub fn run_study(
 }
 
 /// Every command the learner sends before servoing.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, serde::Deserialize)]
 pub struct Actions {
     /// Learning recognition: per view a pose, the gripper closed and opened again, then the
     /// correction poses.

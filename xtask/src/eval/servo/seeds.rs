@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use arm_sim::SimConfig;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
 
 use super::{
@@ -51,7 +51,7 @@ pub fn shipped_arms() -> Vec<(String, Option<PathBuf>)> {
 }
 
 /// Recognition at random poses (single captures, the servo percept's policy otherwise).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SeedRecognition {
     pub tests: usize,
     /// Poses whose percept was refused (doubted after the re-capture).
@@ -65,7 +65,7 @@ pub struct SeedRecognition {
 }
 
 /// One method's figures on one seed.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SeedMethod {
     pub method: String,
     /// Median true image error (px) and 3-D error (mm) after [`AT`] moves after the first
@@ -83,7 +83,7 @@ pub struct SeedMethod {
 }
 
 /// Everything one (arm, seed) gives.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SeedResult {
     pub arm: String,
     pub seed: u64,
@@ -103,7 +103,7 @@ pub struct SeedResult {
 }
 
 /// The whole multi-seed study.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SeedStudy {
     /// `evaluation` or `development`.
     pub seeds_role: String,

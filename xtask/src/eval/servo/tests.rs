@@ -57,3 +57,115 @@ fn study_is_independent_of_the_thread_count() {
     assert!(one.0.iter().all(|(_, r)| r.len() == 60));
     assert_eq!(one, run(3));
 }
+
+/// The committed summary's study over arms and seeds is what `report::seeds_section` writes
+/// from the committed `seeds.json` (so a change of the section's text is applied to the
+/// fixture exactly, without rerunning the study). On a mismatch the expected summary is
+/// written to `target/paper-c-summary.expected.md`.
+#[test]
+fn committed_summary_matches_committed_seeds_json() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/paper-c");
+    let st: super::seeds::SeedStudy =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("seeds.json")).unwrap()).unwrap();
+    let summary = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    let section = report::seeds_section(&st);
+    let start = summary
+        .find("\n## Several arms, several seeds")
+        .expect("the summary has the study over arms and seeds");
+    if summary[start..] != section {
+        let expected = format!("{}{section}", &summary[..start]);
+        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../target/paper-c-summary.expected.md");
+        std::fs::write(&out, expected).unwrap();
+        panic!("summary.md differs from seeds.json's section; expected text in {out:?}");
+    }
+}
+
+/// The recognition goal line is judged on the seed median and names the worst seed.
+#[test]
+fn recognition_goal_is_judged_on_the_seed_median() {
+    use super::seeds::{SeedRecognition, SeedResult, SeedStudy};
+    let result = |arm: &str, seed: u64, p90: [f64; 2]| SeedResult {
+        arm: arm.into(),
+        seed,
+        actions: super::Actions::default(),
+        training_refused: 0,
+        training_not_found: 0,
+        consistency: vec![],
+        recognition: SeedRecognition {
+            tests: 40,
+            refused: 0,
+            not_found: 0,
+            median_px: vec![0.5, 0.5],
+            p90_px: p90.to_vec(),
+        },
+        methods: ["lwpr", "broyden", "true-jacobian"]
+            .iter()
+            .map(|m| super::seeds::SeedMethod {
+                method: m.to_string(),
+                median_px: 0.4,
+                median_mm: 0.4,
+                p90_px: 1.0,
+                success: 0.9,
+                median_px_after_corrections: None,
+                refused_runs: 0,
+                other_errors: 0,
+            })
+            .collect(),
+        image_targets: 0,
+        image_targets_refused: 0,
+        image: None,
+    };
+    let study = |p90s: &[[f64; 2]]| SeedStudy {
+        seeds_role: "development".into(),
+        seeds: (1..=p90s.len() as u64).collect(),
+        targets_per_seed: 30,
+        results: p90s
+            .iter()
+            .enumerate()
+            .map(|(i, p)| result("default", i as u64 + 1, *p))
+            .collect(),
+    };
+    let goal = |text: String| -> String {
+        text.lines()
+            .find(|l| l.starts_with("- recognition p90"))
+            .unwrap()
+            .to_string()
+    };
+    // One bad seed of five: the median meets the goal, the worst seed is named.
+    let line = goal(report::seeds_section(&study(&[
+        [1.0, 1.5],
+        [1.2, 1.1],
+        [9.0, 1.3],
+        [0.8, 1.4],
+        [1.1, 1.2],
+    ])));
+    assert!(
+        line.contains("largest seed median 1.30 px (default, camera 1) — met"),
+        "{line}"
+    );
+    assert!(
+        line.contains("worst seed 9.00 px (default, camera 0, seed 3)"),
+        "{line}"
+    );
+    // A median above the limit misses, by how much.
+    let line = goal(report::seeds_section(&study(&[
+        [2.5, 1.0],
+        [2.7, 1.0],
+        [0.5, 1.0],
+    ])));
+    assert!(
+        line.contains("largest seed median 2.50 px (default, camera 0) — MISSED by 0.50 px"),
+        "{line}"
+    );
+    // A seed without accepted percepts on a camera (NaN) is a miss, not a seed left out.
+    let line = goal(report::seeds_section(&study(&[
+        [f64::NAN, 1.0],
+        [1.0, 1.0],
+        [1.0, 1.0],
+    ])));
+    assert!(
+        line.contains("— MISSED (a seed without accepted percepts: default, camera 0)"),
+        "{line}"
+    );
+}
