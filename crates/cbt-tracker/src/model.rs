@@ -8,6 +8,9 @@ use crate::dense::{AxisObservation, AxisSystem1, AxisSystem2, JointObservation, 
 use crate::encode::{encode_detections, encode_states};
 use crate::history::History;
 use crate::integrity::{corrupt, len};
+use crate::observation_smoothing::{
+    ObservationChoice, ObservationGrid, ObservationSmoothing, select_observation,
+};
 use crate::smoothing::{Smoothing, SmoothingGrid, select};
 use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
 use crate::{Sequence, Space, TrackError, TrainingFrame};
@@ -273,6 +276,17 @@ impl CbtModel {
         } else {
             CbtModel::untrained(space, config)?
         };
+        if config.observation_smoothing == ObservationSmoothing::HeldOut {
+            let pick = select_observation(
+                &model.space,
+                &config,
+                sequences,
+                &ObservationGrid::default(),
+            )?;
+            if let ObservationModel::Stationary(o) = &mut model.obs {
+                o.set_choice(Some(pick.choice));
+            }
+        }
         for seq in sequences {
             let mut h = History::default();
             for (k, f) in seq.iter().enumerate() {
@@ -306,6 +320,15 @@ impl CbtModel {
         let frames: Vec<Vec<TrainingFrame>> =
             sequences.iter().map(Sequence::training_frames).collect();
         CbtModel::learn(space, config, &frames)
+    }
+
+    /// The observation model's held-out choice of kernel width, detection probability and
+    /// clutter ([`ObservationSmoothing::HeldOut`]); `None` when it is as counted.
+    pub fn observation_choice(&self) -> Option<ObservationChoice> {
+        match &self.obs {
+            ObservationModel::Stationary(o) => o.choice(),
+            _ => None,
+        }
     }
 
     /// The tracking space.

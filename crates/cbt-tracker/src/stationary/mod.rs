@@ -13,5 +13,5 @@ mod pool;
 mod simd;
 mod window;
 
-pub(crate) use model::{StatObservation, StatSystem, check_space, motion_radius};
+pub(crate) use model::{StatObservation, StatSystem, check_space, coordinate_runs, motion_radius};
 pub(crate) use window::{Patch, WindowState};

@@ -44,6 +44,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{CbtConfig, Displacements, StartMotion, SystemFallback};
 use crate::encode::Encoded;
 use crate::integrity::{corrupt, len, nonneg, nonneg1};
+use crate::observation_smoothing::{ObservationChoice, bilinear};
 use crate::{Space, TrackError};
 
 /// Width (channels) of the ring beyond the observation kernel that measures the clutter floor.
@@ -107,6 +108,11 @@ pub(crate) struct StatObservation {
     p_detect: f64,
     /// Likelihood floor `(1 − P̂_D)·B + ε/G_z`.
     floor: f64,
+    /// The held-out choice of width, detection probability and clutter applied by
+    /// [`Self::normalise`] (module `observation_smoothing`); `None`: as counted (and in files
+    /// written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    choice: Option<ObservationChoice>,
 }
 
 impl StatObservation {
@@ -126,9 +132,31 @@ impl StatObservation {
             background: 0.0,
             p_detect: 0.0,
             floor: 0.0,
+            choice: None,
         };
         o.normalise(cfg);
         o
+    }
+
+    /// Sets the choice [`Self::normalise`] applies (`None`: as counted).
+    pub fn set_choice(&mut self, choice: Option<ObservationChoice>) {
+        self.choice = choice;
+    }
+
+    /// The choice [`Self::normalise`] applies.
+    pub fn choice(&self) -> Option<ObservationChoice> {
+        self.choice
+    }
+
+    /// Adds another model's counts (same space and radius) to this one's.
+    pub fn merge(&mut self, other: &StatObservation) {
+        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
+            *a += b;
+        }
+        for (a, b) in self.exposure.iter_mut().zip(&other.exposure) {
+            *a += b;
+        }
+        self.norm += other.norm;
     }
 
     /// Consistency of a deserialised model with `space`; fills the fields older files lack
@@ -178,6 +206,10 @@ impl StatObservation {
             ));
         }
         self.rebuild_padded();
+        if let Some(c) = &self.choice {
+            c.validate()
+                .map_err(|e| corrupt(format!("observation choice: {e}")))?;
+        }
         for v in [self.norm, self.background, self.floor] {
             nonneg1("observation statistic", v)?;
         }
@@ -285,6 +317,21 @@ impl StatObservation {
                 a[i * kw + j] = (self.counts[k] - self.background * e) * inv;
             }
         }
+        if let Some(c) = self.choice {
+            self.background *= c.clutter_scale;
+            if c.width_scale != 1.0 {
+                // A_s(δ) = A(δ/s)/s², read bilinearly (a linear map: the noise of both
+                // signs stays for the spread measure below).
+                let s = c.width_scale;
+                let src = a.clone();
+                for i in 0..kw {
+                    for j in 0..kw {
+                        let (dx, dy) = (i as f64 - r as f64, j as f64 - r as f64);
+                        a[i * kw + j] = bilinear(&src, r, dx / s, dy / s) / (s * s);
+                    }
+                }
+            }
+        }
         let total: f64 = a.iter().map(|v| v.max(0.0)).sum();
         if total <= 0.0 {
             // Untrained: an ideal sensor (the autocorrelation of the cos² kernel at δ = 0 is
@@ -332,9 +379,16 @@ impl StatObservation {
             .map(|(i, j)| a[(i + r - ra) * kw + j + r - ra])
             .collect();
         self.ra = ra;
+        self.p_detect = total.clamp(0.0, 1.0);
+        if let Some(c) = self.choice {
+            if total > 0.0 {
+                let f = c.p_detect / total;
+                self.kernel.iter_mut().for_each(|v| *v *= f);
+            }
+            self.p_detect = c.p_detect;
+        }
         self.flipped = self.kernel.iter().rev().copied().collect();
         self.rebuild_padded();
-        self.p_detect = total.clamp(0.0, 1.0);
         self.floor =
             (1.0 - self.p_detect) * self.background + cfg.observation_floor / self.cells as f64;
     }
@@ -398,6 +452,23 @@ pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
             let m: f64 = run.iter().map(|e| e.1).sum();
             (m > 0.0).then(|| (run.iter().map(|e| e.0 as f64 * e.1).sum::<f64>() / m, m))
         })
+        .collect()
+}
+
+/// Per element of an encoded set: its per-axis channel runs, each divided by its mass (unit
+/// sum; an axis without mass gives an empty run).
+pub(crate) fn coordinate_runs(e: &Encoded) -> Vec<[Vec<(usize, f64)>; 2]> {
+    let unit = |run: &[(usize, f64)]| -> Vec<(usize, f64)> {
+        let m: f64 = run.iter().map(|e| e.1).sum();
+        if m > 0.0 {
+            run.iter().map(|&(k, v)| (k, v / m)).collect()
+        } else {
+            Vec::new()
+        }
+    };
+    elements(e)
+        .into_iter()
+        .map(|(a, b)| [unit(a), unit(b)])
         .collect()
 }
 

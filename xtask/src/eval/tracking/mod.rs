@@ -63,7 +63,8 @@ pub struct TrackingArgs {
     #[arg(long, conflicts_with = "train")]
     pub validation_only: bool,
     /// With `--validation-only`: run only the trackers whose label starts with PREFIX (e.g.
-    /// `CBT`), the rows of the others are left out.
+    /// `CBT`; ending in `$`: the label exactly, e.g. `CBT 2nd order$`), the rows of the others
+    /// are left out.
     #[arg(long, value_name = "PREFIX", requires = "validation_only")]
     pub trackers: Option<String>,
     /// With `--validation-only`: CBT's system-model smoothing chosen by held-out likelihood
@@ -86,6 +87,19 @@ pub struct TrackingArgs {
     /// `CbtConfig::stationary`'s.
     #[arg(long, value_enum)]
     pub displacements: Option<DisplacementsArg>,
+    /// With `--validation-only` or `--rc-car-development`: CBT's observation model smoothed
+    /// this way (`cbt_tracker::ObservationSmoothing`) instead of `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub observation_smoothing: Option<ObservationArg>,
+}
+
+/// `--observation-smoothing`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObservationArg {
+    /// `ObservationSmoothing::Counted`.
+    Counted,
+    /// `ObservationSmoothing::HeldOut`.
+    HeldOut,
 }
 
 /// `--displacements`.
@@ -270,6 +284,17 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         study::set_displacements(match m {
             DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
             DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
+        });
+    }
+    if let Some(m) = args.observation_smoothing {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err(
+                "--observation-smoothing needs --validation-only or --rc-car-development".into(),
+            );
+        }
+        study::set_observation(match m {
+            ObservationArg::Counted => cbt_tracker::ObservationSmoothing::Counted,
+            ObservationArg::HeldOut => cbt_tracker::ObservationSmoothing::HeldOut,
         });
     }
     if args.rc_car_development {

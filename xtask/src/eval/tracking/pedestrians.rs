@@ -251,7 +251,7 @@ struct Job {
 pub struct Only {
     /// Only the folds of the [`VALIDATION`] scenes.
     pub validation: bool,
-    /// Only the trackers whose label starts with this.
+    /// Only the trackers whose label starts with this (ending in `$`: is this).
     pub trackers: Option<String>,
 }
 
@@ -338,6 +338,15 @@ fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
     }
 }
 
+/// Whether a tracker's label is selected by `--trackers PREFIX` (a PREFIX ending in `$`: the
+/// label exactly).
+fn label_matches(label: &str, prefix: &str) -> bool {
+    match prefix.strip_suffix('$') {
+        Some(exact) => label == exact,
+        None => label.starts_with(prefix),
+    }
+}
+
 fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4], only: Option<&str>) -> Result<FoldResult> {
     let si = job.scene;
     let held = &scenes[si];
@@ -345,7 +354,7 @@ fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4], only: Option<&str>) -> 
     let (trackers, ..) = Trackers::for_set(&spec)?;
     let mut out = Vec::new();
     for (ti, make) in trackers.makers.iter().enumerate() {
-        if only.is_some_and(|p| !make(0).is_ok_and(|t| t.name().starts_with(p))) {
+        if only.is_some_and(|p| !make(0).is_ok_and(|t| label_matches(&t.name(), p))) {
             continue;
         }
         let seeds = if trackers.seeded[ti] { SEEDS } else { 1 };

@@ -194,6 +194,15 @@ pub fn set_displacements(d: cbt_tracker::Displacements) {
     let _ = DISPLACEMENTS.set(d);
 }
 
+static OBSERVATION: std::sync::OnceLock<cbt_tracker::ObservationSmoothing> =
+    std::sync::OnceLock::new();
+
+/// Sets how CBT's observation models on the image sets are smoothed for this process (first
+/// call wins; development runs).
+pub fn set_observation(o: cbt_tracker::ObservationSmoothing) {
+    let _ = OBSERVATION.set(o);
+}
+
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
     let second = CbtModel::learn_sequences(space.clone(), base, train)?;
     let first = CbtModel::learn_sequences(
@@ -251,6 +260,10 @@ impl Trackers {
                         .get()
                         .copied()
                         .unwrap_or(CbtConfig::stationary().displacements),
+                    observation_smoothing: OBSERVATION
+                        .get()
+                        .copied()
+                        .unwrap_or(CbtConfig::stationary().observation_smoothing),
                     ..CbtConfig::stationary()
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;
