@@ -279,3 +279,34 @@ fn simulated_detections_follow_the_level() {
     let per_frame = total as f64 / 400.0;
     assert!((2.5..3.1).contains(&per_frame), "{per_frame}");
 }
+
+/// `csv::write` replaces a file whole (it used to write in place, so a failure part-way left a
+/// truncated sequence): a write whose rename fails leaves no temporary file, and what was in the
+/// folder stays as it was.
+#[test]
+fn a_failed_write_leaves_no_partial_file() {
+    let dir = temp_dir("atomic");
+    let seqs = generate(&Scenario::default(), &Level::preset(1), 2, 20, 5);
+    let first = csv::write(&dir, &seqs[0]).unwrap();
+    let before = std::fs::read(&first).unwrap();
+    // The second sequence's target is a non-empty folder: the text is written, the rename fails.
+    let blocked = dir.join(format!("{}.csv", seqs[1].name));
+    std::fs::create_dir_all(blocked.join("inside")).unwrap();
+    assert!(matches!(
+        csv::write(&dir, &seqs[1]),
+        Err(TrackError::Io { .. })
+    ));
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut want = vec![
+        first.file_name().unwrap().to_string_lossy().into_owned(),
+        blocked.file_name().unwrap().to_string_lossy().into_owned(),
+    ];
+    want.sort();
+    assert_eq!(names, want);
+    assert_eq!(std::fs::read(&first).unwrap(), before);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -27,7 +27,9 @@
 //! assert_eq!(back, s);
 //! ```
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::{Detection, Frame, Sequence, TrackError};
 
@@ -246,11 +248,29 @@ pub(crate) fn files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>, TrackError> {
     Ok(paths)
 }
 
-/// Writes a sequence to `dir/<name>.csv`.
+/// Writes a sequence to `dir/<name>.csv`, atomically: the text goes to a temporary file beside
+/// it (named by process id and a per-process counter), flushed and renamed over the target, so a
+/// failed write leaves no partial file and an existing file unchanged.
 pub fn write(dir: &Path, s: &Sequence) -> Result<PathBuf, TrackError> {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     let path = dir.join(format!("{}.csv", s.name));
-    std::fs::write(&path, to_string(s)).map_err(|e| io(&path, e))?;
+    let k = NEXT.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!(
+        ".{}.csv.partial-{}-{k}",
+        s.name,
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(to_string(s).as_bytes())?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, &path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(&path, e));
+    }
     Ok(path)
 }
 
