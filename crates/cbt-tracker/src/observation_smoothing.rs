@@ -58,9 +58,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, Layout};
+use crate::config::CbtConfig;
 use crate::encode::{encode_detections, encode_states};
-use crate::stationary::{StatObservation, check_space};
+use crate::smoothing::check_selection_setup;
+use crate::stationary::StatObservation;
 use crate::{Space, TrackError, TrainingFrame};
 
 /// How the stationary observation model's kernel width, clutter level and detection
@@ -173,8 +174,9 @@ const MAX_FOLDS: usize = 5;
 /// Chooses `(s, P, c)` for the stationary observation model of `config` on `space` from the
 /// training `sequences` by held-out likelihood (module docs).
 ///
-/// Errors: a configuration that is invalid or not [`Layout::Stationary`], a space the layout
-/// cannot use, an empty or out-of-range candidate list, fewer than two frames with exactly
+/// Errors: a configuration that is invalid or not
+/// [`Layout::Stationary`](crate::config::Layout::Stationary), a space the layout cannot use, an
+/// empty or out-of-range candidate list, fewer than two frames with exactly
 /// one state ([`TrackError::Selection`]: nothing to hold out), and every error of encoding a
 /// state or detection (off the grid, not finite, …).
 pub fn select_observation(
@@ -183,13 +185,11 @@ pub fn select_observation(
     sequences: &[Vec<TrainingFrame>],
     grid: &ObservationGrid,
 ) -> Result<ObservationSelection, TrackError> {
-    config.validate()?;
-    if config.layout != Layout::Stationary {
-        return Err(TrackError::Selection {
-            reason: "held-out observation smoothing is implemented for the stationary layout only",
-        });
-    }
-    check_space(space)?;
+    check_selection_setup(
+        space,
+        config,
+        "held-out observation smoothing is implemented for the stationary layout only",
+    )?;
     if grid.width_scales.is_empty() || grid.p_detects.is_empty() || grid.clutter_scales.is_empty() {
         return Err(TrackError::Selection {
             reason: "no candidate observation smoothing",

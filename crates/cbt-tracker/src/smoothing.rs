@@ -126,6 +126,23 @@ pub struct Selection {
     pub scores: Vec<CandidateScore>,
 }
 
+/// The checks every held-out selection starts with (this one and
+/// [`crate::observation_smoothing::select_observation`]): `config` valid and of the stationary
+/// layout (else [`TrackError::Selection`] with `not_stationary`), `space` one it can use.
+pub(crate) fn check_selection_setup(
+    space: &Space,
+    config: &CbtConfig,
+    not_stationary: &'static str,
+) -> Result<(), TrackError> {
+    config.validate()?;
+    if config.layout != Layout::Stationary {
+        return Err(TrackError::Selection {
+            reason: not_stationary,
+        });
+    }
+    check_space(space)
+}
+
 /// Density given to a held-out displacement outside the model's radius.
 const OUTSIDE: f64 = 1e-9;
 
@@ -146,13 +163,11 @@ pub fn select(
     sequences: &[Vec<TrainingFrame>],
     grid: &SmoothingGrid,
 ) -> Result<Selection, TrackError> {
-    config.validate()?;
-    if config.layout != Layout::Stationary {
-        return Err(TrackError::Selection {
-            reason: "held-out smoothing is implemented for the stationary layout only",
-        });
-    }
-    check_space(space)?;
+    check_selection_setup(
+        space,
+        config,
+        "held-out smoothing is implemented for the stationary layout only",
+    )?;
     if grid.prior_weights.is_empty() || grid.fallback_sigmas.is_empty() {
         return Err(TrackError::Selection {
             reason: "no candidate smoothing",
