@@ -128,7 +128,6 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
     let out = bench_dir.join("cli-out-timed");
     let lib_out = bench_dir.join("cli-out-library");
     std::fs::create_dir_all(&lib_out)?;
-    let clock = || thread_seconds().ok_or("no thread CPU clock");
     for _ in 0..ROUNDS {
         let t0 = clock()?;
         for v in &views {
@@ -292,12 +291,12 @@ fn vlfeat_row(bench_dir: &Path, grays: &[GrayImage], views: &[GrayView]) -> Resu
     let n = views.len() as f64;
     let (mut ours, mut theirs, mut counts) = (Vec::new(), Vec::new(), (0, 0));
     for _ in 0..ROUNDS {
-        let t0 = thread_seconds().ok_or("no thread CPU clock")?;
+        let t0 = clock()?;
         let mut found = 0;
         for v in views {
             found += std::hint::black_box(mser::detect(v, &params)?.len());
         }
-        ours.push((thread_seconds().ok_or("no thread CPU clock")? - t0) / n);
+        ours.push((clock()? - t0) / n);
         let o = Command::new(&exe).args(&files).output()?;
         if !o.status.success() {
             return Err(format!("vl_mser driver: {}", String::from_utf8_lossy(&o.stderr)).into());
@@ -356,16 +355,16 @@ fn opencv_row(paths: &[PathBuf], views: &[GrayView], params: &MserParams) -> Res
     let n = same.len() as f64;
     let (mut ours, mut theirs) = (Vec::new(), Vec::new());
     for _ in 0..ROUNDS {
-        let t0 = thread_seconds().ok_or("no thread CPU clock")?;
+        let t0 = clock()?;
         for v in &same {
             std::hint::black_box(det.detect(v)?.len());
         }
-        let t1 = thread_seconds().ok_or("no thread CPU clock")?;
+        let t1 = clock()?;
         for m in &mats {
             std::hint::black_box(cv.detect_mat(m)?);
         }
         ours.push((t1 - t0) / n);
-        theirs.push((thread_seconds().ok_or("no thread CPU clock")? - t1) / n);
+        theirs.push((clock()? - t1) / n);
     }
     Ok(vec![BenchRow::lower_is_better(
         format!(
@@ -413,7 +412,6 @@ fn library_file(path: &Path, gray: &GrayImage, params: &MserParams) -> Result<Ve
 /// stages and renames). Returns the thread CPU seconds of the four parts over all images:
 /// decode, detect, text, file.
 fn library_job(paths: &[PathBuf], params: &MserParams, out: &Path) -> Result<[f64; 4]> {
-    let clock = || thread_seconds().ok_or("no thread CPU clock");
     let mut parts = [0.0; 4];
     let mut t = clock()?;
     let mut reader = visguide::GrayReader::new();
@@ -444,6 +442,11 @@ fn library_job(paths: &[PathBuf], params: &MserParams, out: &Path) -> Result<[f6
     }
     parts[3] += clock()? - t;
     Ok(parts)
+}
+
+/// This thread's CPU time in seconds.
+fn clock() -> Result<f64> {
+    Ok(thread_seconds().ok_or("no thread CPU clock")?)
 }
 
 /// Appends the Oxford region file of detected regions to `bytes`.
