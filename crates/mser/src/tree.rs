@@ -98,6 +98,12 @@
 //! instructions, not worth the unsafe. What remains: the loop waits mainly on the latency of the
 //! four neighbour loads, and the flood's data-dependent branches carry most mispredicts. Untried:
 //! a tiled cell layout so that vertical neighbours share a cache line.
+//!
+//! Where a detection's time goes (callgrind, both polarities, one detection, cache modelled as
+//! 48 KiB L1 and 1 MiB L2; graf img1 106 M instructions, leuven img3 104 M, boat img4 96 M before
+//! the level-255 append above): about 73 % in this flood's inner loop (pushing boundary pixels and
+//! loading neighbours), 10 % in the raise/merge events and lower-end walks, 4 % in the moments
+//! (module `stats`), 1 % in the selection (module `select`); the two polarities are balanced.
 
 use crate::image::GrayView;
 use crate::layout::{RowDiv, padded_stride};
