@@ -14,6 +14,7 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::config::ServoConfig;
+use crate::error::{ArmSimError, Result};
 
 /// The nominal joint angle (degrees) of pulse width `pulse_us`: what the data sheet promises,
 /// without any of the errors.
@@ -71,7 +72,39 @@ impl ServoState {
 
     /// Executes one set-point; returns whether the servo moved. Noise is drawn from `rng` only
     /// when the servo moves and `end_noise_deg > 0`.
-    pub fn step<R: Rng + ?Sized>(&mut self, cfg: &ServoConfig, pulse_us: f64, rng: &mut R) -> bool {
+    ///
+    /// # Errors
+    /// [`ArmSimError::NonFinite`] for a pulse width that is not finite, and
+    /// [`ArmSimError::InvalidConfig`] for a move noise that is negative or not finite; the state
+    /// is then unchanged. (The pulse's range is the simulator's to check:
+    /// [`crate::ArmSim::command`].)
+    pub fn step<R: Rng + ?Sized>(
+        &mut self,
+        cfg: &ServoConfig,
+        pulse_us: f64,
+        rng: &mut R,
+    ) -> Result<bool> {
+        if !pulse_us.is_finite() {
+            return Err(ArmSimError::NonFinite {
+                what: "pulse width",
+            });
+        }
+        if !(cfg.end_noise_deg.is_finite() && cfg.end_noise_deg >= 0.0) {
+            return Err(ArmSimError::InvalidConfig {
+                key: "end_noise_deg".into(),
+                reason: format!("must be finite and >= 0, got {}", cfg.end_noise_deg),
+            });
+        }
+        Ok(self.step_checked(cfg, pulse_us, rng))
+    }
+
+    /// [`step`](Self::step) on inputs already checked.
+    fn step_checked<R: Rng + ?Sized>(
+        &mut self,
+        cfg: &ServoConfig,
+        pulse_us: f64,
+        rng: &mut R,
+    ) -> bool {
         let target = calibrated_target(cfg, pulse_us);
         let half_band = 0.5 * Self::deadband_deg(cfg);
         let error = target - self.motor_deg;

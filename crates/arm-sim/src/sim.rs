@@ -115,25 +115,7 @@ impl ArmSim {
     ///
     /// Errors (nothing moves): wrong length, non-finite or out-of-range set-points.
     pub fn command(&mut self, set_points: &[f64]) -> Result<()> {
-        if set_points.len() != NUM_SERVOS {
-            return Err(ArmSimError::WrongCommandLength {
-                expected: NUM_SERVOS,
-                got: set_points.len(),
-            });
-        }
-        for (i, (&p, s)) in set_points.iter().zip(&self.config.servos).enumerate() {
-            if !p.is_finite() {
-                return Err(ArmSimError::NonFiniteCommand { servo: i, value: p });
-            }
-            if p < s.min_us || p > s.max_us {
-                return Err(ArmSimError::CommandOutOfRange {
-                    servo: i,
-                    value: p,
-                    min: s.min_us,
-                    max: s.max_us,
-                });
-            }
-        }
+        check_set_points(&self.config, set_points)?;
         let before = self.servos.clone();
         let previous: [f64; NUM_SERVOS] = std::array::from_fn(|i| before[i].output_deg);
         let mut report = MoveReport {
@@ -141,7 +123,9 @@ impl ArmSim {
             ..MoveReport::default()
         };
         for (i, &p) in set_points.iter().enumerate() {
-            report.moved[i] = self.servos[i].step(&self.config.servos[i], p, &mut self.arm_rng);
+            // Cannot fail: the set-points were checked above and the configuration when the
+            // simulator was built, so no servo changes before a refusal.
+            report.moved[i] = self.servos[i].step(&self.config.servos[i], p, &mut self.arm_rng)?;
         }
         let target = self.limited_outputs(&mut report.limited);
         let g = &self.config.arm;
@@ -323,12 +307,42 @@ impl<'a> Inspection<'a> {
 
     /// The joint angles (degrees) a perfect arm would take for `set_points`: the nominal servo
     /// mapping, no calibration error, backlash or sag (for the upper-bound baseline).
-    pub fn nominal_angles(&self, set_points: &[f64; NUM_SERVOS]) -> JointAngles {
-        std::array::from_fn(|i| nominal_angle(&self.sim.config.servos[i], set_points[i]))
+    ///
+    /// # Errors
+    /// As [`ArmSim::command`]: a set-point that is not finite or outside its servo's range.
+    pub fn nominal_angles(&self, set_points: &[f64; NUM_SERVOS]) -> Result<JointAngles> {
+        check_set_points(&self.sim.config, set_points)?;
+        Ok(std::array::from_fn(|i| {
+            nominal_angle(&self.sim.config.servos[i], set_points[i])
+        }))
     }
 
     /// Number of frames captured so far.
     pub fn frames(&self) -> u64 {
         self.sim.frames
     }
+}
+
+/// One set-point per servo, each finite and inside its servo's range.
+fn check_set_points(config: &SimConfig, set_points: &[f64]) -> Result<()> {
+    if set_points.len() != NUM_SERVOS {
+        return Err(ArmSimError::WrongCommandLength {
+            expected: NUM_SERVOS,
+            got: set_points.len(),
+        });
+    }
+    for (i, (&p, s)) in set_points.iter().zip(&config.servos).enumerate() {
+        if !p.is_finite() {
+            return Err(ArmSimError::NonFiniteCommand { servo: i, value: p });
+        }
+        if p < s.min_us || p > s.max_us {
+            return Err(ArmSimError::CommandOutOfRange {
+                servo: i,
+                value: p,
+                min: s.min_us,
+                max: s.max_us,
+            });
+        }
+    }
+    Ok(())
 }

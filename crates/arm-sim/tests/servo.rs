@@ -46,7 +46,10 @@ fn backlash_from_opposite_sides() {
         sim.command(&with_servo(servo, 1900.0)).unwrap();
         sim.command(&with_servo(servo, set)).unwrap();
         let from_above = sim.inspect().unloaded_angles()[servo];
-        let nominal = sim.inspect().nominal_angles(&with_servo(servo, set))[servo];
+        let nominal = sim
+            .inspect()
+            .nominal_angles(&with_servo(servo, set))
+            .unwrap()[servo];
         assert!(
             (from_above - from_below - 0.6).abs() < 1e-9,
             "servo {servo}"
@@ -83,7 +86,7 @@ fn move_noise_has_the_configured_spread_and_only_on_moves() {
     let (mut sum, mut sum2) = (0.0, 0.0);
     for k in 0..n {
         let set = if k % 2 == 0 { 1600.0 } else { 1400.0 };
-        assert!(s.step(&cfg, set, &mut rng));
+        assert!(s.step(&cfg, set, &mut rng).unwrap());
         let e = s.output_deg - nominal_angle(&cfg, set);
         sum += e;
         sum2 += e * e;
@@ -96,7 +99,7 @@ fn move_noise_has_the_configured_spread_and_only_on_moves() {
     );
     // Same set-point again: no move, no new noise.
     let before = s.output_deg;
-    assert!(!s.step(&cfg, 1400.0, &mut rng));
+    assert!(!s.step(&cfg, 1400.0, &mut rng).unwrap());
     assert_eq!(s.output_deg, before);
 }
 
@@ -143,7 +146,7 @@ fn ideal_arm_has_none_of_them() {
         if r.table_contact || r.limited.iter().any(|&l| l) {
             continue;
         }
-        let nominal = sim.inspect().nominal_angles(&set);
+        let nominal = sim.inspect().nominal_angles(&set).unwrap();
         assert_eq!(sim.inspect().joint_angles(), nominal);
         let pose = forward_kinematics(&sim.inspect().config().arm, &nominal);
         assert_eq!(sim.inspect().tip(), pose.tip);
@@ -160,7 +163,7 @@ fn default_arm_is_not_ideal_but_repeatable_per_seed() {
         sim.command(&set).unwrap();
         (
             sim.inspect().joint_angles(),
-            sim.inspect().nominal_angles(&set),
+            sim.inspect().nominal_angles(&set).unwrap(),
         )
     };
     let (a, nominal) = run(5);
@@ -168,4 +171,45 @@ fn default_arm_is_not_ideal_but_repeatable_per_seed() {
     assert_ne!(a, run(6).0);
     // Calibration error alone moves the shoulder by degrees.
     assert!((a[1] - nominal[1]).abs() > 1.0);
+}
+
+#[test]
+fn servo_step_refuses_bad_input_and_keeps_its_state() {
+    let mut cfg = SimConfig::default().servos[1].clone();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let mut s = ServoState::at_rest(&cfg, 1500.0);
+    let before = s.clone();
+    for p in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        assert!(matches!(
+            s.step(&cfg, p, &mut rng),
+            Err(arm_sim::ArmSimError::NonFinite { .. })
+        ));
+        assert_eq!(s, before);
+    }
+    for noise in [-0.1, f64::NAN] {
+        cfg.end_noise_deg = noise;
+        assert!(matches!(
+            s.step(&cfg, 1600.0, &mut rng),
+            Err(arm_sim::ArmSimError::InvalidConfig { .. })
+        ));
+        assert_eq!(s, before);
+    }
+}
+
+#[test]
+fn nominal_angles_refuse_what_command_refuses() {
+    let mut sim = sim_with(|_| {});
+    let home = sim.inspect().nominal_angles(&HOME).unwrap();
+    for (servo, bad) in [(0, f64::NAN), (3, 1e6), (5, -1e6)] {
+        let set = with_servo(servo, bad);
+        let nominal = sim.inspect().nominal_angles(&set).unwrap_err();
+        let command = sim.command(&set).unwrap_err();
+        // Compared as text: a NaN set-point's error carries the NaN, which equals nothing.
+        assert_eq!(
+            nominal.to_string(),
+            command.to_string(),
+            "servo {servo}, set-point {bad}"
+        );
+    }
+    assert_eq!(sim.inspect().nominal_angles(&HOME).unwrap(), home);
 }

@@ -71,7 +71,7 @@
 //!     }
 //! }
 //! ```
-//! With preselection: `let keep = preselect(&min_errors_within(&a, method)?, t_err);` then
+//! With preselection: `let keep = preselect(&min_errors_within(&a, method)?, t_err)?;` then
 //! `a.select(&keep)?` (the paper's thresholds: [`Method::paper_preselection_threshold`]).
 //!
 //! Bad contours (fewer than 3 points, NaN, repeated consecutive points, zero area) give a typed

@@ -15,13 +15,32 @@ pub const DEFAULT_RATIO_THRESHOLD: f64 = 0.5;
 /// the other descriptors of their own image is *not* below `t_err` (`e_min ≥ T_err`), in
 /// ascending order. `min_errors` comes from [`crate::min_errors_within`]; build the reduced set
 /// with [`DescriptorSet::select`].
-pub fn preselect(min_errors: &[f64], t_err: f64) -> Vec<usize> {
-    min_errors
+///
+/// # Errors
+/// [`FdError::InvalidParameter`] when `t_err` is NaN or negative (a NaN threshold would keep
+/// nothing, silently), and when a minimum error is NaN or negative (errors are squared distances,
+/// `+∞` for a descriptor alone in its image).
+pub fn preselect(min_errors: &[f64], t_err: f64) -> Result<Vec<usize>, FdError> {
+    if t_err.is_nan() || t_err < 0.0 {
+        return Err(FdError::InvalidParameter {
+            name: "t_err",
+            value: t_err,
+            reason: "must be a number >= 0",
+        });
+    }
+    if let Some(&e) = min_errors.iter().find(|e| e.is_nan() || **e < 0.0) {
+        return Err(FdError::InvalidParameter {
+            name: "min_errors",
+            value: e,
+            reason: "every minimum error must be a number >= 0 (from min_errors_within)",
+        });
+    }
+    Ok(min_errors
         .iter()
         .enumerate()
         .filter(|(_, e)| **e >= t_err)
         .map(|(i, _)| i)
-        .collect()
+        .collect())
 }
 
 /// A mutual best match between descriptor `query` of set A and `target` of set B.
@@ -121,9 +140,34 @@ mod tests {
     #[test]
     fn preselection_drops_descriptors_below_t_err() {
         assert_eq!(
-            preselect(&[1e-5, 2e-3, 1e-3, f64::INFINITY], 1e-3),
+            preselect(&[1e-5, 2e-3, 1e-3, f64::INFINITY], 1e-3).unwrap(),
             vec![1, 2, 3]
         );
+        // T_err = +inf keeps only descriptors alone in their image; 0 keeps everything.
+        assert_eq!(
+            preselect(&[0.0, f64::INFINITY], f64::INFINITY).unwrap(),
+            [1]
+        );
+        assert_eq!(preselect(&[0.0, 1.0], 0.0).unwrap(), [0, 1]);
+    }
+
+    #[test]
+    fn preselection_refuses_nan_and_negative_inputs() {
+        for t in [f64::NAN, -1e-3] {
+            assert!(matches!(
+                preselect(&[1.0], t),
+                Err(FdError::InvalidParameter { name: "t_err", .. })
+            ));
+        }
+        for e in [f64::NAN, -1.0] {
+            assert!(matches!(
+                preselect(&[1.0, e], 1e-3),
+                Err(FdError::InvalidParameter {
+                    name: "min_errors",
+                    ..
+                })
+            ));
+        }
     }
 
     #[test]

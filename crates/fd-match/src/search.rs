@@ -325,7 +325,7 @@ pub fn best_two_brute_force(
 /// let set = describe_all(cfg, &[square, big_square, triangle]).unwrap().set;
 /// let method = Method::FdCorr;
 /// let t_err = method.paper_preselection_threshold(Sampling::Canonical).unwrap(); // 1e-3
-/// let keep = preselect(&min_errors_within(&set, method).unwrap(), t_err);
+/// let keep = preselect(&min_errors_within(&set, method).unwrap(), t_err).unwrap();
 /// assert_eq!(keep, vec![2]); // both squares are removed as non-discriminative
 /// let reduced = set.select(&keep).unwrap();
 /// assert_eq!(reduced.source(0), 2);

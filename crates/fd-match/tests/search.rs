@@ -196,7 +196,7 @@ fn symmetric_matching_finds_the_true_pairs_with_correlation() {
 fn preselection_removes_near_duplicates_within_an_image() {
     let (_, b, _) = sets(Sampling::ArcLength, 8);
     let e = min_errors_within(&b, Method::FdCorr).unwrap();
-    let keep = preselect(&e, 1e-3);
+    let keep = preselect(&e, 1e-3).unwrap();
     // b[3] and b[40] are identical: both removed, everything else kept.
     assert!(!keep.contains(&3) && !keep.contains(&40));
     assert_eq!(keep.len(), b.len() - 2);

@@ -51,7 +51,7 @@ pub fn describe(features: &Features, sampling: Sampling) -> Result<DescriptorSet
 
 /// The descriptors that survive preselection with threshold `t_err` (eq. 18).
 pub fn preselected(set: &DescriptorSet, method: Method, t_err: f64) -> Result<DescriptorSet> {
-    let keep = preselect(&min_errors_within(set, method)?, t_err);
+    let keep = preselect(&min_errors_within(set, method)?, t_err)?;
     Ok(set.select(&keep)?)
 }
 

@@ -74,7 +74,7 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
                       and the tip over 3000 quasi-random (Halton) set-points",
         seed: config.seed,
         set_points_us: SHOWN_POSE,
-        nominal_angles_deg: inspect.nominal_angles(&SHOWN_POSE),
+        nominal_angles_deg: inspect.nominal_angles(&SHOWN_POSE)?,
         true_angles_deg: inspect.joint_angles(),
         tip_mm: [tip.x, tip.y, tip.z],
         workspace_samples: WORKSPACE_SAMPLES,

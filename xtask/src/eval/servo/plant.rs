@@ -235,7 +235,7 @@ impl Plant for SimPlant {
 /// The ideal arm's image position of the tip for a full command (nominal servo mapping, no
 /// calibration error, backlash or sag), per camera.
 fn ideal_pixels(sim: &ArmSim, c: &[f64; NUM_SERVOS], cameras: usize) -> Option<Vec<f64>> {
-    let angles = sim.inspect().nominal_angles(c);
+    let angles = sim.inspect().nominal_angles(c).ok()?;
     let pose = forward_kinematics(&sim.inspect().config().arm, &angles);
     let tip: Vector3<f64> = pose.tip;
     let mut x = Vec::with_capacity(2 * cameras);
