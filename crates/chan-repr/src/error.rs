@@ -84,6 +84,33 @@ pub enum ChanError {
         /// The offending number.
         value: f64,
     },
+    /// An n-D grid whose decoding window, or the channels one encoded value touches, would be
+    /// larger than the documented limit (the cost of one window or one added value grows as the
+    /// product over dimensions, so very many dimensions would take practically forever).
+    #[error("{what}: {got} channels exceed the limit of {max}")]
+    GridTooLarge {
+        /// Which product was too large.
+        what: &'static str,
+        /// The product (saturated at `usize::MAX`).
+        got: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// Histogram coefficients whose sum is not what `total_weight` of encoded values can give.
+    #[error(
+        "the channel coefficients sum to {counts_sum}, but a total weight of {total_weight} \
+         encoded values gives between {lo} and {hi}"
+    )]
+    InconsistentTotal {
+        /// The total weight given.
+        total_weight: f64,
+        /// The sum of the coefficients given.
+        counts_sum: f64,
+        /// The smallest sum that total weight can give.
+        lo: f64,
+        /// The largest sum that total weight can give.
+        hi: f64,
+    },
     /// A slice of the wrong length (channel vector or n-D value).
     #[error("expected {expected} {what}, got {got}")]
     LengthMismatch {

@@ -8,6 +8,12 @@ use crate::basis::{MAX_CHANNELS, check_weight};
 use crate::decode::{VALID_SLACK, check_channels, sort_modes};
 use crate::{ChanError, ChannelBasis};
 
+/// The most channels one n-D decoding window may hold (the product of the bases' windows:
+/// e.g. 7 dimensions of cos² with `m = 3`, or 5 with `m = 5`). Decoding costs this many reads
+/// per window, and a sparse histogram's decoding up to its square per stored channel, so grids
+/// of more dimensions are refused by [`ChannelGrid::new`] rather than left to run for hours.
+pub const MAX_WINDOW_CHANNELS: usize = 1 << 12;
+
 /// A product of 1-D channel bases: the channel vector of `x = (x_0, …, x_{D−1})` is the outer
 /// product of the per-dimension channel vectors.
 ///
@@ -53,7 +59,20 @@ impl From<ChannelGrid> for Vec<ChannelBasis> {
 }
 
 impl ChannelGrid {
-    /// A grid with one basis per dimension (at least one).
+    /// A grid with one basis per dimension (at least one). Refused
+    /// ([`ChanError::GridTooLarge`]) when a decoding window would hold more than
+    /// [`MAX_WINDOW_CHANNELS`] channels or one encoded value would touch more than
+    /// [`crate::MAX_CHANNELS`]: the product over dimensions that decoding and adding cost.
+    ///
+    /// ```
+    /// use chan_repr::{ChanError, ChannelBasis, ChannelGrid, Kernel};
+    /// let b = ChannelBasis::integer(4, Kernel::BSpline2).unwrap();
+    /// assert!(ChannelGrid::new(vec![b.clone(); 7]).is_ok()); // 3⁷ = 2,187 channels a window
+    /// assert!(matches!(
+    ///     ChannelGrid::new(vec![b; 8]), // 3⁸ = 6,561
+    ///     Err(ChanError::GridTooLarge { got: 6561, .. })
+    /// ));
+    /// ```
     pub fn new(bases: Vec<ChannelBasis>) -> Result<Self, ChanError> {
         if bases.is_empty() {
             return Err(ChanError::LengthMismatch {
@@ -74,10 +93,36 @@ impl ChannelGrid {
                     reason: "the grid has more channels than memory can address",
                 })?;
         }
+        let window = saturating_product(bases.iter().map(|b| b.kernel().window()));
+        if window > MAX_WINDOW_CHANNELS {
+            return Err(ChanError::GridTooLarge {
+                what: "channels in one decoding window",
+                got: window,
+                max: MAX_WINDOW_CHANNELS,
+            });
+        }
+        let active = saturating_product(bases.iter().map(|b| b.kernel().max_active().min(b.len())));
+        if active > MAX_CHANNELS {
+            return Err(ChanError::GridTooLarge {
+                what: "channels one encoded value touches",
+                got: active,
+                max: MAX_CHANNELS,
+            });
+        }
         Ok(ChannelGrid {
             bases,
             strides,
             len,
+        })
+    }
+
+    /// Bounds on the sum of all channel values of one value of weight 1 encoded anywhere in
+    /// the grid's representable range: the product of the bases'
+    /// [`Kernel::unit_mass_bounds`] (the encoding is their outer product).
+    pub fn unit_mass_bounds(&self) -> (f64, f64) {
+        self.bases.iter().fold((1.0, 1.0), |(lo, hi), b| {
+            let (l, h) = b.kernel().unit_mass_bounds();
+            (lo * l, hi * h)
         })
     }
 
@@ -313,6 +358,11 @@ impl ChannelGrid {
             weight: total / unit,
         })
     }
+}
+
+/// The product of `counts`, saturated at `usize::MAX`.
+fn saturating_product(counts: impl Iterator<Item = usize>) -> usize {
+    counts.fold(1usize, |p, c| p.saturating_mul(c))
 }
 
 /// Reusable buffers for n-D window decoding.

@@ -109,8 +109,22 @@ impl SoftHistogram {
         SoftHistogram::new(grid).expect("a basis fits in a dense vector")
     }
 
-    /// A histogram with given channel coefficients (checked: length, finite, non-negative, at
-    /// most [`MAX_MASS`]).
+    /// A histogram with given channel coefficients and the total weight of the values they
+    /// encode (checked: length, finite, non-negative, at most [`MAX_MASS`], and consistent:
+    /// the coefficients must sum to what `total_weight` of encoded values can give, between
+    /// the bounds of [`ChannelGrid::unit_mass_bounds`] times `total_weight`, to a relative
+    /// 1e-6 for rounding; [`ChanError::InconsistentTotal`] otherwise).
+    ///
+    /// ```
+    /// use chan_repr::{ChanError, ChannelBasis, ChannelGrid, Kernel, SoftHistogram};
+    /// let grid = ChannelGrid::new(vec![ChannelBasis::integer(6, Kernel::BSpline2).unwrap()]).unwrap();
+    /// let counts = vec![0.0, 0.125, 0.75, 0.125, 0.0, 0.0]; // one value at 2
+    /// assert!(SoftHistogram::from_counts(grid.clone(), counts.clone(), 1.0).is_ok());
+    /// assert!(matches!(
+    ///     SoftHistogram::from_counts(grid, counts, 7.0),
+    ///     Err(ChanError::InconsistentTotal { .. })
+    /// ));
+    /// ```
     pub fn from_counts(
         grid: ChannelGrid,
         counts: Vec<f64>,
@@ -118,6 +132,7 @@ impl SoftHistogram {
     ) -> Result<Self, ChanError> {
         crate::decode::check_channels(&counts, grid.len())?;
         check_weight(total_weight)?;
+        check_total(&grid, &counts, total_weight)?;
         Ok(SoftHistogram::with(grid, counts, total_weight))
     }
 
@@ -368,6 +383,25 @@ impl SparseHistogram {
             .collect();
         Ok(finish_modes(g, modes))
     }
+}
+
+/// Relative slack for rounding in [`check_total`]: sums of many encodings drift by far less.
+const TOTAL_SLACK: f64 = 1e-6;
+
+/// Checks the coefficients sum to what `total_weight` of encoded values can give.
+fn check_total(grid: &ChannelGrid, counts: &[f64], total_weight: f64) -> Result<(), ChanError> {
+    let counts_sum: f64 = counts.iter().sum();
+    let (unit_lo, unit_hi) = grid.unit_mass_bounds();
+    let (lo, hi) = (unit_lo * total_weight, unit_hi * total_weight);
+    if counts_sum < lo * (1.0 - TOTAL_SLACK) || counts_sum > hi * (1.0 + TOTAL_SLACK) {
+        return Err(ChanError::InconsistentTotal {
+            total_weight,
+            counts_sum,
+            lo,
+            hi,
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -211,6 +211,34 @@ impl Kernel {
         }
     }
 
+    /// Bounds `(lo, hi)` on the sum of **all** channel values of one value of weight 1 encoded
+    /// anywhere in a basis's representable range (its channel mass). cos²: exactly `m/2` (the
+    /// kernel's shifted copies sum to a constant); B-spline: exactly 1 (partition of unity).
+    /// Gaussian: at most `1 + σ√(2π)` (a unimodal function's samples at unit spacing sum to at
+    /// most its maximum plus its integral) and at least `exp(−1/(8σ²))` (a representable value
+    /// lies within half a spacing of a channel, whose response alone is that much).
+    pub fn unit_mass_bounds(&self) -> (f64, f64) {
+        match *self {
+            Kernel::Cos2 { m } => (0.5 * f64::from(m), 0.5 * f64::from(m)),
+            Kernel::BSpline2 => (1.0, 1.0),
+            Kernel::Gaussian { sigma } => (
+                (-1.0 / (8.0 * sigma * sigma)).exp(),
+                1.0 + sigma * (2.0 * PI).sqrt(),
+            ),
+        }
+    }
+
+    /// The most channels one encoded value can touch in a basis of unbounded length: those
+    /// strictly inside the support, `⌊2r⌋ + 1` for support radius `r` (saturating).
+    pub fn max_active(&self) -> usize {
+        let span = (2.0 * self.support_radius()).floor() + 1.0;
+        if span >= usize::MAX as f64 {
+            usize::MAX
+        } else {
+            span as usize
+        }
+    }
+
     /// The half-open valid range of a decoded offset, relative to the window's first channel:
     /// `[(W−1)/2 − 1/2, (W−1)/2 + 1/2]`, the interval where every channel of the window is
     /// inside the kernel's support of the encoded value (for the thesis's `m = 3`:

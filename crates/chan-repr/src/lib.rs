@@ -60,7 +60,8 @@
 //!
 //! **Limits** (checked before anything is allocated or added): at most [`MAX_CHANNELS`]
 //! (2²⁴) channels per basis and per dense vector or histogram (sparse histograms may span
-//! larger grids); weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
+//! larger grids), and per encoded value of an n-D grid; at most [`MAX_WINDOW_CHANNELS`]
+//! (2¹²) channels per n-D decoding window, which bounds the number of dimensions; weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
 //! that no window sum can overflow. A rejected value leaves a histogram unchanged.
 #![deny(missing_docs)]
 
@@ -76,7 +77,7 @@ mod periodic;
 pub use basis::{ChannelBasis, MAX_CHANNELS, MAX_MASS};
 pub use decode::{Mode, WindowEstimate};
 pub use error::ChanError;
-pub use grid::{ChannelGrid, ModeNd};
+pub use grid::{ChannelGrid, MAX_WINDOW_CHANNELS, ModeNd};
 pub use histogram::{SoftHistogram, SparseHistogram};
 pub use kernel::{GAUSSIAN_MIN_SIGMA, GAUSSIAN_SUPPORT_SIGMAS, Kernel};
 pub use periodic::{PERIODIC_MAX_TURNS, PeriodicBasis};

@@ -88,3 +88,64 @@ fn subnormal_spacings_are_refused() {
     let c = p.encode(3e-291).unwrap();
     assert!((c.iter().sum::<f64>() - 1.5).abs() < 1e-12);
 }
+
+#[test]
+fn grids_of_very_many_dimensions_are_refused_not_left_to_hang() {
+    // 40 dimensions of 3 B-spline channels fit a usize (3⁴⁰ ≈ 1.2e19 channels), so a sparse
+    // histogram accepted the grid and one `add` then visited 3⁴⁰ channels: practically forever.
+    let b = ChannelBasis::integer(3, Kernel::BSpline2).unwrap();
+    for dims in [8, 12, 40] {
+        assert!(
+            matches!(
+                ChannelGrid::new(vec![b.clone(); dims]),
+                Err(ChanError::GridTooLarge { what, .. }) if what.contains("window")
+            ),
+            "{dims} dimensions"
+        );
+    }
+    // Wide Gaussian channels: a small window, but one value would touch 33² = 1,089 channels
+    // per pair of dimensions, 33⁵ ≈ 3.9e7 > 2²⁴ in five.
+    let g = ChannelBasis::integer(40, Kernel::Gaussian { sigma: 4.0 }).unwrap();
+    assert!(ChannelGrid::new(vec![g.clone(); 4]).is_ok());
+    assert!(matches!(
+        ChannelGrid::new(vec![g; 5]),
+        Err(ChanError::GridTooLarge { what, got, .. }) if what.contains("touches") && got == 33usize.pow(5)
+    ));
+    // The largest grid allowed still works end to end, quickly.
+    let grid = ChannelGrid::new(vec![b.clone(); 7]).unwrap();
+    let mut h = chan_repr::SparseHistogram::new(grid);
+    h.add(&[2.0; 7], 1.0).unwrap();
+    let modes = h.decode().unwrap();
+    assert_eq!(modes.len(), 1);
+    assert!(modes[0].value.iter().all(|v| (v - 2.0).abs() < 1e-12));
+}
+
+#[test]
+fn histogram_totals_must_match_their_coefficients() {
+    // `from_counts` (and so deserialising) accepted any total weight beside any coefficients.
+    let grid = ChannelGrid::new(vec![
+        ChannelBasis::integer(8, Kernel::Cos2 { m: 3 }).unwrap(),
+    ])
+    .unwrap();
+    let mut h = chan_repr::SoftHistogram::new(grid.clone()).unwrap();
+    h.add(&[3.3], 2.0).unwrap();
+    h.add(&[5.0], 0.5).unwrap();
+    let counts = h.counts().to_vec();
+    assert!(chan_repr::SoftHistogram::from_counts(grid.clone(), counts.clone(), 2.5).is_ok());
+    for bad in [0.0, 1.0, 2.4, 2.6, 100.0] {
+        assert!(
+            matches!(
+                chan_repr::SoftHistogram::from_counts(grid.clone(), counts.clone(), bad),
+                Err(ChanError::InconsistentTotal { .. })
+            ),
+            "total {bad}"
+        );
+    }
+    // Empty coefficients need a zero total.
+    let zeros = vec![0.0; grid.len()];
+    assert!(chan_repr::SoftHistogram::from_counts(grid.clone(), zeros.clone(), 0.0).is_ok());
+    assert!(chan_repr::SoftHistogram::from_counts(grid, zeros, 1.0).is_err());
+    // The same check guards deserialising.
+    let json = serde_json::to_string(&h).unwrap().replace("2.5", "9.5");
+    assert!(serde_json::from_str::<chan_repr::SoftHistogram>(&json).is_err());
+}

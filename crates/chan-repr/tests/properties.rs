@@ -98,6 +98,54 @@ proptest! {
     }
 }
 
+/// A basis whose Gaussian kernels reach wider than [`basis`]'s, for the mass bounds.
+fn wide_basis() -> impl Strategy<Value = ChannelBasis> {
+    let k = prop_oneof![
+        (3u32..8).prop_map(|m| Kernel::Cos2 { m }),
+        Just(Kernel::BSpline2),
+        (0.5f64..4.0).prop_map(|sigma| Kernel::Gaussian { sigma }),
+    ];
+    (k, 10usize..40, -100.0f64..100.0, 0.1f64..50.0)
+        .prop_map(|(k, n, lo, width)| ChannelBasis::covering(lo, lo + width, n, k).unwrap())
+}
+
+/// A position in `[0, 1]` with the ends of the range often, where Gaussian channels lose mass.
+fn unit_or_end() -> impl Strategy<Value = f64> {
+    prop_oneof![3 => 0.0f64..=1.0, 1 => Just(0.0), 1 => Just(1.0)]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Every histogram built by adding values passes `from_counts` with its own total (and so
+    /// the serde round trip), and each single value's channel mass lies in the grid's bounds.
+    #[test]
+    fn a_histograms_own_total_is_consistent(
+        bases in prop::collection::vec(wide_basis(), 1..=2),
+        pts in prop::collection::vec((unit_or_end(), unit_or_end(), 0.0f64..5.0), 1..20),
+    ) {
+        let grid = ChannelGrid::new(bases.clone()).unwrap();
+        let (lo, hi) = grid.unit_mass_bounds();
+        let mut h = SoftHistogram::new(grid.clone()).unwrap();
+        for (u, v, w) in pts {
+            let x: Vec<f64> = bases.iter().zip([u, v]).map(|(b, s)| {
+                let (lo, hi) = b.representable_range();
+                lo + s * (hi - lo)
+            }).collect();
+            let mass: f64 = grid.encode(&x).unwrap().iter().sum();
+            prop_assert!(mass >= lo * (1.0 - 1e-12) && mass <= hi * (1.0 + 1e-12),
+                "mass {} outside [{}, {}] at {:?}", mass, lo, hi, x);
+            h.add(&x, w).unwrap();
+        }
+        let again = SoftHistogram::from_counts(grid, h.counts().to_vec(), h.total_weight()).unwrap();
+        prop_assert_eq!(&again, &h);
+        // JSON may move the last bit of a float; the check must still accept it.
+        let json = serde_json::to_string(&h).unwrap();
+        let back = serde_json::from_str::<SoftHistogram>(&json).unwrap();
+        prop_assert!(close(back.total_weight(), h.total_weight(), h.total_weight()));
+    }
+}
+
 /// A value in or around a basis's representable range, or a non-finite one.
 fn probe(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
     let w = hi - lo;
