@@ -214,15 +214,40 @@ impl Region {
     /// VLFeat/VLBenchmarks frames (`M = Σ⁻¹`, half the size).
     pub fn ellipse(&self) -> Ellipse {
         self.ellipse_scaled(2.0)
+            .expect("k = 2 scales a positive definite covariance of at most 2^28 pixels")
     }
 
     /// The ellipse `M = (k² Σ)⁻¹` with Σ the region's [`Moments::area_covariance`]. `k = 2` is
-    /// [`ellipse`](Self::ellipse); `k = 1` the moment ellipse of VLFeat. Panics if `k ≤ 0`.
-    pub fn ellipse_scaled(&self, k: f64) -> Ellipse {
-        assert!(k > 0.0, "ellipse scale must be positive");
+    /// [`ellipse`](Self::ellipse); `k = 1` the moment ellipse of VLFeat.
+    ///
+    /// Errors ([`MserError::InvalidParameter`]): `k` not finite and positive, or so small or
+    /// large that `k² Σ` underflows to a singular matrix or overflows.
+    ///
+    /// ```
+    /// # use mser::{GrayView, Mser, MserParams};
+    /// let mut px = vec![0u8; 20 * 20];
+    /// for y in 5..12 { for x in 4..15 { px[y * 20 + x] = 200; } }
+    /// let img = GrayView::new(&px, 20, 20, 20).unwrap();
+    /// let r = &Mser::new(MserParams::default()).unwrap().detect(&img).unwrap()[0];
+    /// assert_eq!(r.ellipse_scaled(2.0).unwrap(), r.ellipse());
+    /// assert!(r.ellipse_scaled(0.0).is_err() && r.ellipse_scaled(1e-200).is_err());
+    /// ```
+    pub fn ellipse_scaled(&self, k: f64) -> Result<Ellipse> {
+        if !(k.is_finite() && k > 0.0) {
+            return Err(MserError::InvalidParameter {
+                name: "k",
+                reason: format!("the ellipse scale {k} must be a finite positive number"),
+            });
+        }
         let (u, v) = self.centroid();
-        Ellipse::from_covariance(u, v, self.moments.area_covariance(), k)
-            .expect("the area covariance is positive definite")
+        Ellipse::from_covariance(u, v, self.moments.area_covariance(), k).ok_or_else(|| {
+            MserError::InvalidParameter {
+                name: "k",
+                reason: format!(
+                    "the ellipse scale {k} makes k²Σ singular or infinite in floating point"
+                ),
+            }
+        })
     }
 
     fn check_seed(&self, img: &GrayView) -> Result<()> {

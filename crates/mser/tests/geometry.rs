@@ -38,8 +38,18 @@ fn rectangle_ellipse_has_the_uniform_ellipse_moments() {
     assert!(e.b.abs() < 1e-12);
     assert!((e.c - 3.0 / 9.0).abs() < 1e-12);
     // VLFeat frame (k = 1): M = Σ⁻¹, four times larger coefficients.
-    let f = r.ellipse_scaled(1.0);
+    let f = r.ellipse_scaled(1.0).unwrap();
     assert!((f.a - 12.0 / 36.0).abs() < 1e-12 && (f.c - 12.0 / 9.0).abs() < 1e-12);
+    // Bad scales are typed errors (they were an assertion or an `expect` panic).
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-200, 1e200] {
+        assert!(
+            matches!(
+                r.ellipse_scaled(bad),
+                Err(mser::MserError::InvalidParameter { name: "k", .. })
+            ),
+            "k = {bad}"
+        );
+    }
     let [sxx, sxy, syy] = r.moments.covariance();
     assert!(
         (sxx - 35.0 / 12.0).abs() < 1e-12 && sxy.abs() < 1e-12 && (syy - 8.0 / 12.0).abs() < 1e-12

@@ -88,10 +88,10 @@ impl PyRegion {
     /// The ellipse with semi-axes ``k`` standard deviations (``k = 1``: VLFeat's frames; the
     /// ``ellipse`` attribute is ``k = 2``).
     fn ellipse_scaled(&self, k: f64) -> PyResult<(f64, f64, f64, f64, f64)> {
-        if !(k.is_finite() && k > 0.0) {
-            return Err(value_error(format!("k = {k} must be a positive number")));
-        }
-        let e = self.r.ellipse_scaled(k);
+        let e = self
+            .r
+            .ellipse_scaled(k)
+            .map_err(|e| value_error(e.to_string()))?;
         Ok((e.u, e.v, e.a, e.b, e.c))
     }
 

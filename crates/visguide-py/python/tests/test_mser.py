@@ -201,5 +201,7 @@ def test_ellipse_scaled(image):
     assert r.ellipse_scaled(2.0) == r.ellipse
     u, v, a, b, c = r.ellipse_scaled(1.0)
     assert a == pytest.approx(4 * r.ellipse[2])
-    with pytest.raises(ValueError):
-        r.ellipse_scaled(0.0)
+    # 0, NaN, and scales whose square under- or overflows (these used to panic in Rust).
+    for bad in (0.0, -1.0, float("nan"), float("inf"), 1e-200, 1e200):
+        with pytest.raises(ValueError):
+            r.ellipse_scaled(bad)
