@@ -247,32 +247,41 @@ impl DescriptorSet {
         self.config.coefficients - 2
     }
 
-    /// FD of descriptor `i` (panics if `i >= len()`, like slice indexing).
+    /// The row of descriptor `i` in a table of rows of `width` values. Panics if
+    /// `i >= len()`, with the index and the length, like slice indexing; never a wrapped
+    /// product that would hand back another descriptor's row.
+    fn row(&self, i: usize, width: usize) -> std::ops::Range<usize> {
+        assert!(
+            i < self.len(),
+            "descriptor index {i} out of range for a set of {}",
+            self.len()
+        );
+        i * width..(i + 1) * width
+    }
+
+    /// FD of descriptor `i`. Panics if `i >= len()`, like slice indexing ([`get`](Self::get)
+    /// returns `None` instead).
     pub fn fd(&self, i: usize) -> &[Complex64] {
-        let d = self.fd_len();
-        &self.fd[i * d..(i + 1) * d]
+        &self.fd[self.row(i, self.fd_len())]
     }
 
-    /// `|C(n)|` of descriptor `i`.
+    /// `|C(n)|` of descriptor `i`. Panics if `i >= len()`.
     pub fn magnitudes(&self, i: usize) -> &[f64] {
-        let d = self.fd_len();
-        &self.mag[i * d..(i + 1) * d]
+        &self.mag[self.row(i, self.fd_len())]
     }
 
-    /// AFD0 of descriptor `i`.
+    /// AFD0 of descriptor `i`. Panics if `i >= len()`.
     pub fn afd0(&self, i: usize) -> &[f64] {
-        let d = self.afd_len();
-        &self.afd0[i * d..(i + 1) * d]
+        &self.afd0[self.row(i, self.afd_len())]
     }
 
-    /// AFD1 of descriptor `i`.
+    /// AFD1 of descriptor `i`. Panics if `i >= len()`.
     pub fn afd1(&self, i: usize) -> &[Complex64] {
-        let d = self.afd_len();
-        &self.afd1[i * d..(i + 1) * d]
+        &self.afd1[self.row(i, self.afd_len())]
     }
 
     /// Caller-given index of the contour descriptor `i` was made from (its position in the
-    /// input of [`crate::describe_all`]).
+    /// input of [`crate::describe_all`]). Panics if `i >= len()`.
     pub fn source(&self, i: usize) -> usize {
         self.source[i]
     }

@@ -401,3 +401,29 @@ fn max_frequency_of_an_invalid_configuration_does_not_overflow() {
     assert!(bad.validate().is_err());
     assert_eq!(DescriptorConfig::default().max_frequency(), 25);
 }
+
+#[test]
+fn descriptor_rows_out_of_range_panic_instead_of_wrapping_to_another_row() {
+    // `fd(i)` sliced `i·d .. (i+1)·d` unchecked: in a release build an index whose product
+    // wraps around (here to 0) handed back descriptor 0's row instead of panicking.
+    let contours: Vec<Vec<(i32, i32)>> = vec![vec![(0, 0), (10, 0), (10, 7), (0, 7)]];
+    let set = describe_all(DescriptorConfig::default(), &contours)
+        .unwrap()
+        .set;
+    assert_eq!(set.len(), 1);
+    let d = set.fd_len();
+    let wrapping = (usize::MAX / d).wrapping_add(1);
+    for i in [1, wrapping, usize::MAX] {
+        for call in [
+            &(|s: &fd_match::DescriptorSet, i| s.fd(i).len())
+                as &dyn Fn(&fd_match::DescriptorSet, usize) -> usize,
+            &|s, i| s.magnitudes(i).len(),
+            &|s, i| s.afd0(i).len(),
+            &|s, i| s.afd1(i).len(),
+        ] {
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| call(&set, i)));
+            assert!(r.is_err(), "index {i} did not panic");
+        }
+        assert!(set.get(i).is_none());
+    }
+}
