@@ -93,6 +93,34 @@ impl Sequence {
         self.frames.iter().position(|f| f.truth.is_some())
     }
 
+    /// The smallest box `(lo, hi)` holding every truth and detection position of `sequences`
+    /// (what a tracker's state space must cover); `None` when they hold no position.
+    ///
+    /// ```
+    /// use cbt_tracker::{Detection, Frame, Sequence};
+    /// let s = Sequence {
+    ///     frames: vec![Frame { truth: Some([1.0, 5.0]), detections: vec![Detection::new(3.0, -2.0)] }],
+    ///     ..Default::default()
+    /// };
+    /// assert_eq!(Sequence::bounds([&s]), Some(([1.0, -2.0], [3.0, 5.0])));
+    /// assert_eq!(Sequence::bounds([&Sequence::default()]), None);
+    /// ```
+    pub fn bounds<'a>(sequences: impl IntoIterator<Item = &'a Sequence>) -> Option<(Point, Point)> {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for s in sequences {
+            for f in &s.frames {
+                for p in f.truth.iter().chain(f.detections.iter().map(|d| &d.pos)) {
+                    for d in 0..2 {
+                        lo[d] = lo[d].min(p[d]);
+                        hi[d] = hi[d].max(p[d]);
+                    }
+                }
+            }
+        }
+        lo[0].is_finite().then_some((lo, hi))
+    }
+
     /// The sequence as training frames (the truth, when present, is the frame's one state).
     pub fn training_frames(&self) -> Vec<TrainingFrame> {
         self.frames

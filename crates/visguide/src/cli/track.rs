@@ -259,21 +259,9 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// Also returns how many training sequences got simulated detections.
 fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)> {
     let mut train = input.read_dir(dir)?;
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for s in &train {
-        for f in &s.frames {
-            for p in f.truth.iter().chain(f.detections.iter().map(|d| &d.pos)) {
-                for d in 0..2 {
-                    lo[d] = lo[d].min(p[d]);
-                    hi[d] = hi[d].max(p[d]);
-                }
-            }
-        }
-    }
-    if !lo[0].is_finite() {
+    let Some((lo, hi)) = Sequence::bounds(&train) else {
         return Err(format!("{}: the sequences hold no positions", dir.display()).into());
-    }
+    };
     // A margin of a tenth of the extent so a test track may leave the training area a little.
     let margin = [(hi[0] - lo[0]) * 0.1 + 1.0, (hi[1] - lo[1]) * 0.1 + 1.0];
     let extent = [

@@ -444,21 +444,9 @@ fn user_set(train: &Path, test: &Path, args: &TrackingArgs) -> Result<SetSpec> {
             .into());
         }
     }
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for s in train.iter().chain(&test) {
-        for f in &s.frames {
-            for p in f.truth.iter().chain(f.detections.iter().map(|d| &d.pos)) {
-                for d in 0..2 {
-                    lo[d] = lo[d].min(p[d]);
-                    hi[d] = hi[d].max(p[d]);
-                }
-            }
-        }
-    }
-    if !lo[0].is_finite() {
+    let Some((lo, hi)) = Sequence::bounds(train.iter().chain(&test)) else {
         return Err("the CSV sequences hold no positions".into());
-    }
+    };
     let (x_lo, x_hi) = match args.width {
         Some(w) => (0.0, w),
         None => (lo[0].min(0.0), hi[0] + 1.0),
