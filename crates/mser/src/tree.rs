@@ -327,9 +327,60 @@ impl Components<'_> {
 
     /// The flood rises to level `next` with the flood order's next slot at `at`: raise the top
     /// component to it or merge it into the ones below, closing one node for each.
+    ///
+    /// Most closed nodes are smaller than `min_area`; for them this loop makes no call and
+    /// checks no bound, so it needs few registers and the compiler saves none on entry. The
+    /// first node of at least `min_area` pixels hands the rest to [`rise_listing`]
+    /// (Self::rise_listing).
     #[inline(never)]
     fn rise(&mut self, next: u32, at: *mut u32) {
         let pos = self.order.pos(at);
+        loop {
+            let area = pos - self.top.start;
+            if area >= self.min_area {
+                return self.rise_listing(next, pos);
+            }
+            let id = self.nodes.len();
+            debug_assert!(id < self.nodes.capacity() && self.depth < STACK_SLOTS);
+            // SAFETY: `nodes` holds room for one node per pixel (reserved by `build`), and
+            // every node has a pixel at its own level, so there is room for this one. Open
+            // components have strictly decreasing levels, so `depth < STACK_SLOTS`.
+            let below = unsafe {
+                self.nodes.as_mut_ptr().add(id).write(Node {
+                    level: self.top.level,
+                    area,
+                    start: self.top.start,
+                    main: self.top.main,
+                });
+                self.nodes.set_len(id + 1);
+                *self.stack.get_unchecked(self.depth)
+            };
+            let id = id as u32;
+            if next < below.level {
+                // Raised: the closed node is the first child of the raised component.
+                self.top = Comp {
+                    level: next,
+                    start: self.top.start,
+                    main: id,
+                    main_area: area,
+                };
+                return;
+            }
+            let mut below = below;
+            below.adopt(id, area, self.tie_next);
+            self.top = below;
+            self.depth -= 1;
+            if next <= self.top.level {
+                return;
+            }
+        }
+    }
+
+    /// [`rise`](Self::rise) at flood position `pos`, closing nodes of any size (listing those
+    /// of at least `min_area` pixels).
+    #[cold]
+    #[inline(never)]
+    fn rise_listing(&mut self, next: u32, pos: u32) {
         loop {
             if next < self.stack[self.depth].level {
                 // Raised: the closed node is the first child of the raised component.
