@@ -243,23 +243,6 @@ impl Comp {
         }
     }
 
-    /// A copy read field by field. The flood's events write the top component's fields with
-    /// separate narrow stores, often just before the next event reads it; the compiler would
-    /// read all four with one 16-byte load, which the processor cannot forward from those
-    /// stores, so it would wait until they reach the cache.
-    #[inline(always)]
-    fn fieldwise(&self) -> Comp {
-        // SAFETY: plain reads of initialised fields through references.
-        unsafe {
-            Comp {
-                level: std::ptr::read_volatile(&self.level),
-                start: std::ptr::read_volatile(&self.start),
-                main_area: std::ptr::read_volatile(&self.main_area),
-                main: std::ptr::read_volatile(&self.main),
-            }
-        }
-    }
-
     /// Child `id` of `area` pixels competes for the main child: a larger one takes it (without a
     /// branch), an equal one joins the list of tied children (a rare branch; writing `tie_next`
     /// for every child instead measured 3 % more L2 misses in callgrind).
@@ -338,63 +321,62 @@ impl Components<'_> {
         debug_assert!(level < self.top.level);
         self.depth += 1;
         // Levels strictly decrease up the stack, so depth <= 256 (the assert holds always).
-        self.stack[self.depth.min(STACK_SLOTS - 1)] = self.top.fieldwise();
+        self.stack[self.depth.min(STACK_SLOTS - 1)] = self.top;
         self.top = Comp::new(level, pos);
     }
 
     /// The flood rises to level `next` with the flood order's next slot at `at`: raise the top
     /// component to it or merge it into the ones below, closing one node for each.
     ///
-    /// Most closed nodes are smaller than `min_area`; for them this loop makes no call and
-    /// checks no bound, so it needs few registers and the compiler saves none on entry. The
-    /// first node of at least `min_area` pixels hands the rest to [`rise_listing`]
-    /// (Self::rise_listing).
+    /// The common event closes one node smaller than `min_area` and raises the component or
+    /// merges it once; that case is done here without a loop, a call or a bound check, so it
+    /// needs few registers (three saved on entry instead of six). Anything else, a node of at
+    /// least `min_area` pixels to list or a further merge, continues in
+    /// [`rise_listing`](Self::rise_listing).
     #[inline(never)]
     fn rise(&mut self, next: u32, at: *mut u32) {
         let pos = self.order.pos(at);
-        loop {
-            let area = pos - self.top.start;
-            if area >= self.min_area {
-                return self.rise_listing(next, pos);
-            }
-            let id = self.nodes.len();
-            debug_assert!(id < self.nodes.capacity() && self.depth < STACK_SLOTS);
-            // SAFETY: `nodes` holds room for one node per pixel (reserved by `build`), and
-            // every node has a pixel at its own level, so there is room for this one. Open
-            // components have strictly decreasing levels, so `depth < STACK_SLOTS`.
-            let below = unsafe {
-                self.nodes.as_mut_ptr().add(id).write(Node {
-                    level: self.top.level,
-                    area,
-                    start: self.top.start,
-                    main: self.top.main,
-                });
-                self.nodes.set_len(id + 1);
-                *self.stack.get_unchecked(self.depth)
+        let area = pos - self.top.start;
+        if area >= self.min_area {
+            return self.rise_listing(next, pos);
+        }
+        let id = self.nodes.len();
+        debug_assert!(id < self.nodes.capacity() && self.depth < STACK_SLOTS);
+        // SAFETY: `nodes` holds room for one node per pixel (reserved by `build`), and
+        // every node has a pixel at its own level, so there is room for this one. Open
+        // components have strictly decreasing levels, so `depth < STACK_SLOTS`.
+        let below = unsafe {
+            self.nodes.as_mut_ptr().add(id).write(Node {
+                level: self.top.level,
+                area,
+                start: self.top.start,
+                main: self.top.main,
+            });
+            self.nodes.set_len(id + 1);
+            *self.stack.get_unchecked(self.depth)
+        };
+        let id = id as u32;
+        if next < below.level {
+            // Raised: the closed node is the first child of the raised component.
+            self.top = Comp {
+                level: next,
+                start: self.top.start,
+                main: id,
+                main_area: area,
             };
-            let id = id as u32;
-            if next < below.level {
-                // Raised: the closed node is the first child of the raised component.
-                self.top = Comp {
-                    level: next,
-                    start: self.top.start,
-                    main: id,
-                    main_area: area,
-                };
-                return;
-            }
-            let mut below = below;
-            below.adopt(id, area, self.tie_next);
-            self.top = below;
-            self.depth -= 1;
-            if next <= self.top.level {
-                return;
-            }
+            return;
+        }
+        let mut below = below;
+        below.adopt(id, area, self.tie_next);
+        self.top = below;
+        self.depth -= 1;
+        if next > self.top.level {
+            self.rise_listing(next, pos);
         }
     }
 
-    /// [`rise`](Self::rise) at flood position `pos`, closing nodes of any size (listing those
-    /// of at least `min_area` pixels).
+    /// [`rise`](Self::rise) from flood position `pos` on, for any number of closed nodes of any
+    /// size (listing those of at least `min_area` pixels).
     #[cold]
     #[inline(never)]
     fn rise_listing(&mut self, next: u32, pos: u32) {
@@ -451,8 +433,7 @@ impl Components<'_> {
 
     /// Lists node `id` (at `level`, of `area >= min_area` pixels, closed at flood position `pos`
     /// and at `slot`) in [`Tree::big`] with the lower end of its variation. Out of line and cold
-    /// (few nodes are that large), so that `rise`, which closes nodes, keeps few values live
-    /// (callgrind, one detection of both polarities: leuven img6 ... M instructions).
+    /// (few nodes are that large), so that the loops that close nodes keep few values live.
     #[cold]
     #[inline(never)]
     fn list_big(&mut self, id: u32, level: u32, area: u32, slot: u32, pos: u32) {
