@@ -1,5 +1,5 @@
-//! The padded pixel layout of the flood: row length, and padded index → row and column by a
-//! multiply and a shift.
+//! The padded pixel layout of the flood: row length, and padded index → row and column by the
+//! high half of one multiplication.
 //!
 //! The flood works on a copy of the image with a frame: image pixel `(x, y)` has the padded index
 //! `(y + 1) · stride + x`, and every row ends in at least one padding column, so the left
@@ -24,9 +24,10 @@ pub fn padded_stride(width: usize) -> usize {
 /// `row(i) = ⌊i · m / 2^64⌋` (the high half of one 64 × 64-bit product) with `m = ⌈2^64 / s⌉`
 /// equals `⌊i / s⌋`: the product overestimates `i / s` by `ε = i (m − 2^64/s) / 2^64 < i / 2^64
 /// < 2^-36 < 1 / s`, and the fractional part of `i / s` is at most `1 − 1/s`, so the floor is
-/// unchanged. `m ≤ 2^63` fits in 64 bits for `s ≥ 2`. (A constant shift: with a shift that
-/// depends on `s`, the moment summation of module `stats` kept the shift and multiplier on the
-/// stack and reloaded them per pixel.)
+/// unchanged. `m ≤ 2^63` fits in 64 bits for `s ≥ 2`. (The former `⌊i · m' / 2^k⌋` with `k`
+/// depending on `s` cost a shift by a register per pixel in the moment summation of module
+/// `stats`, whose loop then reloaded shift and multiplier from the stack; this form: callgrind,
+/// one detection of both polarities, boat img1 −0.7 %, leuven img6 −0.2 % instructions.)
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RowDiv {
     stride: u32,

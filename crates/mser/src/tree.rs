@@ -50,7 +50,14 @@
 //! A fixed stack of open components (at most 255, as their levels strictly decrease upwards, over
 //! a sentinel) holds, for each, its grey level, the position in the flood order at which it
 //! was opened and its main child so far. Per pixel the flood only appends the pixel to the flood
-//! order; opening, raising and merging components are rare events handled out of line. Raising a
+//! order; opening, raising and merging components are rare events handled out of line. The
+//! commonest, a rise that closes one node below `min_area` and then raises its component or
+//! merges it once, takes a short path with no loop, call or bound check (three registers saved
+//! on entry instead of six); listing a node of at least `min_area` pixels is a cold call, and
+//! anything else continues in a general loop (callgrind, one detection of both polarities, with
+//! the row division of module `layout`: leuven img6 91.1 → 87.4 M instructions, img3 96.8 →
+//! 91.8 M; boat img1 101.1 → 97.1 M, img3 117.1 → 110.1 M, img5 99.5 → 94.6 M; graf img1 101.3
+//! → 95.9 M; same-process A/B on 8 Oxford images, load 3.5–5: 4–5 % less time). Raising a
 //! component to a higher level or merging it into the one below closes the node: one record of
 //! four integers (level, area, start, main child). Because components on the stack only ever
 //! merge into the one directly below, **the pixels of every node are one contiguous run of the
@@ -95,15 +102,29 @@
 //! pixel chosen as an offset (to free the four index registers): the compiler spilled more, not
 //! less (callgrind leuven img6 96.9 → 111.2 M instructions, graf img1 103.4 → 116.1 M); nodes
 //! written without the `Vec` capacity check (an unsafe write into the reserved room): −0.05 %
-//! instructions, not worth the unsafe. What remains: the loop waits mainly on the latency of the
-//! four neighbour loads, and the flood's data-dependent branches carry most mispredicts. Untried:
-//! a tiled cell layout so that vertical neighbours share a cache line.
+//! instructions, not worth the unsafe (it is used now only to keep a call off `rise`'s short
+//! path); the part-start scan (`position` of the next unreached cell, 5 instructions per cell,
+//! about 3 % of a detection on the leuven images, which have pixels at 0 and 255) by 32 or 8
+//! cells at a time, inline or out of line: each way the compiler then kept the flood order's
+//! pointer on the stack (a store and reload per visit), callgrind leuven img6 +1 %, boat img1
+//! +2 % instructions, about 5 % slower; the cell values and the current level as `usize` (to drop
+//! three zero-extending copies per visit): the current level and the order pointer spilled, +6 %
+//! instructions; the top component copied field by field in `open` (a 16-byte load of fields
+//! just written by narrower stores cannot be forwarded): no measurable effect. What remains: the
+//! loop waits mainly on the latency of the four neighbour loads, and the flood's data-dependent
+//! branches carry most mispredicts. Untried: a tiled cell layout so that vertical neighbours
+//! share a cache line. Against it (callgrind with a 32 KiB L1, leuven img6): the neighbour loads
+//! miss L1 about 0.4 times per visit, nearly all hitting L2, while the loop runs at about 2.3
+//! instructions per cycle on the Xeon of the bench (measured time × clock against callgrind's
+//! count), so time follows instructions, and tiles make every vertical neighbour index
+//! conditional (several more instructions per visit).
 //!
-//! Where a detection's time goes (callgrind, both polarities, one detection, cache modelled as
-//! 48 KiB L1 and 1 MiB L2; graf img1 106 M instructions, leuven img3 104 M, boat img4 96 M before
-//! the level-255 append above): about 73 % in this flood's inner loop (pushing boundary pixels and
-//! loading neighbours), 10 % in the raise/merge events and lower-end walks, 4 % in the moments
-//! (module `stats`), 1 % in the selection (module `select`); the two polarities are balanced.
+//! Where a detection's time goes (callgrind instructions, both polarities, one detection; leuven
+//! img6 87.4 M, graf img1 95.9 M): the open/raise/merge events with the listing of big nodes and
+//! their lower-end walks 10 % and 15 %, the moments (module `stats`) 3 % and 9 %, the histogram
+//! 1 %; the rest, 85 % and 75 %, is the flood itself (mostly its inner loop: pushing boundary
+//! pixels and loading neighbours) and the selection inlined beside it (about 1 % when last
+//! measured apart); the two polarities are balanced.
 
 use crate::image::GrayView;
 use crate::layout::{RowDiv, padded_stride};
