@@ -378,14 +378,7 @@ impl Components<'_> {
         };
         let id = id as u32;
         if next < below.level {
-            // Raised: the closed node is the first child of the raised component.
-            self.top = Comp {
-                level: next,
-                start: self.top.start,
-                main: id,
-                main_area: area,
-            };
-            return;
+            return self.raise(next, id, area);
         }
         let mut below = below;
         below.adopt(id, area, self.tie_next);
@@ -403,21 +396,26 @@ impl Components<'_> {
     fn rise_listing(&mut self, next: u32, pos: u32) {
         loop {
             if next < self.stack[self.depth].level {
-                // Raised: the closed node is the first child of the raised component.
                 let (id, area) = self.close(pos, self.place() << 1);
-                self.top = Comp {
-                    level: next,
-                    start: self.top.start,
-                    main: id,
-                    main_area: area,
-                };
-                return;
+                return self.raise(next, id, area);
             }
             self.merge(pos);
             if next <= self.top.level {
                 return;
             }
         }
+    }
+
+    /// Raises the top component to `level` after closing it as node `id` of `area` pixels,
+    /// which becomes the raised component's first child.
+    #[inline(always)]
+    fn raise(&mut self, level: u32, id: u32, area: u32) {
+        self.top = Comp {
+            level,
+            start: self.top.start,
+            main: id,
+            main_area: area,
+        };
     }
 
     /// Closes the top component and merges it into the one below, which becomes the top.
