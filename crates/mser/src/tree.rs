@@ -50,7 +50,14 @@
 //! A fixed stack of open components (at most 255, as their levels strictly decrease upwards, over
 //! a sentinel) holds, for each, its grey level, the position in the flood order at which it
 //! was opened and its main child so far. Per pixel the flood only appends the pixel to the flood
-//! order; opening, raising and merging components are rare events handled out of line. Raising a
+//! order; opening, raising and merging components are rare events handled out of line. The
+//! commonest, a rise that closes one node below `min_area` and then raises its component or
+//! merges it once, takes a short path with no loop, call or bound check (three registers saved
+//! on entry instead of six); listing a node of at least `min_area` pixels is a cold call, and
+//! anything else continues in a general loop (callgrind, one detection of both polarities, with
+//! the row division of module `layout`: leuven img6 91.1 → 87.4 M instructions, img3 96.8 →
+//! 91.8 M; boat img1 101.1 → 97.1 M, img3 117.1 → 110.1 M, img5 99.5 → 94.6 M; graf img1 101.3
+//! → 95.9 M; same-process A/B on 8 Oxford images, load 3.5–5: 4–5 % less time). Raising a
 //! component to a higher level or merging it into the one below closes the node: one record of
 //! four integers (level, area, start, main child). Because components on the stack only ever
 //! merge into the one directly below, **the pixels of every node are one contiguous run of the
@@ -95,15 +102,29 @@
 //! pixel chosen as an offset (to free the four index registers): the compiler spilled more, not
 //! less (callgrind leuven img6 96.9 → 111.2 M instructions, graf img1 103.4 → 116.1 M); nodes
 //! written without the `Vec` capacity check (an unsafe write into the reserved room): −0.05 %
-//! instructions, not worth the unsafe. What remains: the loop waits mainly on the latency of the
-//! four neighbour loads, and the flood's data-dependent branches carry most mispredicts. Untried:
-//! a tiled cell layout so that vertical neighbours share a cache line.
+//! instructions, not worth the unsafe (it is used now only to keep a call off `rise`'s short
+//! path); the part-start scan (`position` of the next unreached cell, 5 instructions per cell,
+//! about 3 % of a detection on the leuven images, which have pixels at 0 and 255) by 32 or 8
+//! cells at a time, inline or out of line: each way the compiler then kept the flood order's
+//! pointer on the stack (a store and reload per visit), callgrind leuven img6 +1 %, boat img1
+//! +2 % instructions, about 5 % slower; the cell values and the current level as `usize` (to drop
+//! three zero-extending copies per visit): the current level and the order pointer spilled, +6 %
+//! instructions; the top component copied field by field in `open` (a 16-byte load of fields
+//! just written by narrower stores cannot be forwarded): no measurable effect. What remains: the
+//! loop waits mainly on the latency of the four neighbour loads, and the flood's data-dependent
+//! branches carry most mispredicts. Untried: a tiled cell layout so that vertical neighbours
+//! share a cache line. Against it (callgrind with a 32 KiB L1, leuven img6): the neighbour loads
+//! miss L1 about 0.4 times per visit, nearly all hitting L2, while the loop runs at about 2.3
+//! instructions per cycle on the Xeon of the bench (measured time × clock against callgrind's
+//! count), so time follows instructions, and tiles make every vertical neighbour index
+//! conditional (several more instructions per visit).
 //!
-//! Where a detection's time goes (callgrind, both polarities, one detection, cache modelled as
-//! 48 KiB L1 and 1 MiB L2; graf img1 106 M instructions, leuven img3 104 M, boat img4 96 M before
-//! the level-255 append above): about 73 % in this flood's inner loop (pushing boundary pixels and
-//! loading neighbours), 10 % in the raise/merge events and lower-end walks, 4 % in the moments
-//! (module `stats`), 1 % in the selection (module `select`); the two polarities are balanced.
+//! Where a detection's time goes (callgrind instructions, both polarities, one detection; leuven
+//! img6 87.4 M, graf img1 95.9 M): the open/raise/merge events with the listing of big nodes and
+//! their lower-end walks 10 % and 15 %, the moments (module `stats`) 3 % and 9 %, the histogram
+//! 1 %; the rest, 85 % and 75 %, is the flood itself (mostly its inner loop: pushing boundary
+//! pixels and loading neighbours) and the selection inlined beside it (about 1 % when last
+//! measured apart); the two polarities are balanced.
 
 use crate::image::GrayView;
 use crate::layout::{RowDiv, padded_stride};
@@ -327,26 +348,74 @@ impl Components<'_> {
 
     /// The flood rises to level `next` with the flood order's next slot at `at`: raise the top
     /// component to it or merge it into the ones below, closing one node for each.
+    ///
+    /// The common event closes one node smaller than `min_area` and raises the component or
+    /// merges it once; that case is done here without a loop, a call or a bound check, so it
+    /// needs few registers (three saved on entry instead of six). Anything else, a node of at
+    /// least `min_area` pixels to list or a further merge, continues in
+    /// [`rise_listing`](Self::rise_listing).
     #[inline(never)]
     fn rise(&mut self, next: u32, at: *mut u32) {
         let pos = self.order.pos(at);
+        let area = pos - self.top.start;
+        if area >= self.min_area {
+            return self.rise_listing(next, pos);
+        }
+        let id = self.nodes.len();
+        debug_assert!(id < self.nodes.capacity() && self.depth < STACK_SLOTS);
+        // SAFETY: `nodes` holds room for one node per pixel (reserved by `build`), and
+        // every node has a pixel at its own level, so there is room for this one. Open
+        // components have strictly decreasing levels, so `depth < STACK_SLOTS`.
+        let below = unsafe {
+            self.nodes.as_mut_ptr().add(id).write(Node {
+                level: self.top.level,
+                area,
+                start: self.top.start,
+                main: self.top.main,
+            });
+            self.nodes.set_len(id + 1);
+            *self.stack.get_unchecked(self.depth)
+        };
+        let id = id as u32;
+        if next < below.level {
+            return self.raise(next, id, area);
+        }
+        let mut below = below;
+        below.adopt(id, area, self.tie_next);
+        self.top = below;
+        self.depth -= 1;
+        if next > self.top.level {
+            self.rise_listing(next, pos);
+        }
+    }
+
+    /// [`rise`](Self::rise) from flood position `pos` on, for any number of closed nodes of any
+    /// size (listing those of at least `min_area` pixels).
+    #[cold]
+    #[inline(never)]
+    fn rise_listing(&mut self, next: u32, pos: u32) {
         loop {
             if next < self.stack[self.depth].level {
-                // Raised: the closed node is the first child of the raised component.
                 let (id, area) = self.close(pos, self.place() << 1);
-                self.top = Comp {
-                    level: next,
-                    start: self.top.start,
-                    main: id,
-                    main_area: area,
-                };
-                return;
+                return self.raise(next, id, area);
             }
             self.merge(pos);
             if next <= self.top.level {
                 return;
             }
         }
+    }
+
+    /// Raises the top component to `level` after closing it as node `id` of `area` pixels,
+    /// which becomes the raised component's first child.
+    #[inline(always)]
+    fn raise(&mut self, level: u32, id: u32, area: u32) {
+        self.top = Comp {
+            level,
+            start: self.top.start,
+            main: id,
+            main_area: area,
+        };
     }
 
     /// Closes the top component and merges it into the one below, which becomes the top.
@@ -367,7 +436,6 @@ impl Components<'_> {
     /// The area of the lower end of the symmetric variation of node `id` at `level`, closed at
     /// flood position `pos` ([`Big::lower`]). Done when the node closes, while the runs and
     /// nodes on its main chain were written recently.
-    #[cold]
     fn lower_end(&mut self, id: u32, level: u32, delta: u32, pos: u32) -> u32 {
         // SAFETY: `order.ptr[..pos]` is written (the runs of every closed node), and nothing
         // writes the order while this slice lives.
@@ -382,11 +450,30 @@ impl Components<'_> {
         }
     }
 
+    /// Lists node `id` (at `level`, of `area >= min_area` pixels, closed at flood position `pos`
+    /// and at `slot`) in [`Tree::big`] with the lower end of its variation. Out of line and cold
+    /// (few nodes are that large), so that the loops that close nodes keep few values live.
+    #[cold]
+    #[inline(never)]
+    fn list_big(&mut self, id: u32, level: u32, area: u32, slot: u32, pos: u32) {
+        let lower = match self.delta {
+            Some(delta) => self.lower_end(id, level, delta, pos),
+            None => area,
+        };
+        self.big.push(Big {
+            id,
+            level,
+            area,
+            lower,
+            parent: slot,
+        });
+    }
+
     /// Closes the top component at flood position `pos` as a node that closed at `slot` (as
     /// [`Big::parent`] during the flood); returns its id and area.
     #[inline(always)]
     fn close(&mut self, pos: u32, slot: u32) -> (u32, u32) {
-        let c = &self.top;
+        let c = self.top;
         let id = self.nodes.len() as u32;
         let area = pos - c.start;
         self.nodes.push(Node {
@@ -396,18 +483,7 @@ impl Components<'_> {
             main: c.main,
         });
         if area >= self.min_area {
-            let level = c.level;
-            let lower = match self.delta {
-                Some(delta) => self.lower_end(id, level, delta, pos),
-                None => area,
-            };
-            self.big.push(Big {
-                id,
-                level,
-                area,
-                lower,
-                parent: slot,
-            });
+            self.list_big(id, c.level, area, slot, pos);
         }
         (id, area)
     }
