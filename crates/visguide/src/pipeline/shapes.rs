@@ -30,9 +30,9 @@
 //! and the stored views already cover the poses). Voting with the near-best views rather than
 //! the best one alone is a generalised Hough transform: the contour of a boxy part says little
 //! about where on the gripper it is, so the single best view's offset is often another part's
-//! or another pose's (on the development seed the best view's vote was > 5 px off in 40 of 48
-//! frames per camera although a stored view's offset fitted within 1.5 px in the median); the
-//! near-best views of the frame's several regions agree only at the tip.
+//! or another pose's (development seed 101: the gripper regions' votes were 11–17 px off in the
+//! median, although some stored view's offset fitted within 1.5–1.7 px; docs/methods.md); the
+//! near-best views of the frame's several regions agree mostly at the tip.
 
 use fd_match::{DescriptorConfig, DescriptorSet, Method, Sampling, best_two};
 use image::GrayImage;
@@ -406,6 +406,7 @@ impl ShapeModel {
                         / (1.0 + ox.hypot(oy) / self.config.offset_scale_px),
                     error,
                     rotation,
+                    region: k,
                 });
             }
         }
