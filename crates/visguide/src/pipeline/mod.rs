@@ -7,8 +7,9 @@
 //!    camera ([`ShapeModel`]).
 //! 2. **Recognise** ([`ShapeModel::votes`]): MSER → contours → FDs → correlation matching
 //!    against the gripper views with a ratio test against the background's regions; each
-//!    accepted match votes for the tip with the recovered rotation and scale
-//!    ([`Vote`]). The frame's mode is the FD-only percept ([`FdRecogniser`]).
+//!    accepted region votes for the tip once per stored view near its best match, with that
+//!    view's recovered rotation and scale ([`Vote`]; a generalised Hough transform). The
+//!    frame's mode is the FD-only percept ([`FdRecogniser`]).
 //! 3. **Track** ([`FdCbtRecogniser`]): CBT learns its observation and system models from the
 //!    votes and percepts of small random walks (unordered sets) and tracks each camera's tip
 //!    through the frames; its estimate and certainty are the percept, through servo-loop's

@@ -3,8 +3,13 @@
 //! Every accepted descriptor match votes for a tip position with a weight. The FD-only percept
 //! is the vote with the largest kernel support `s_i = Σ_j w_j exp(−d_ij² / 2σ²)`, refined to
 //! the weighted mean of the votes within 3σ of it; its certainty is the share of the frame's
-//! vote weight that agrees (within 3σ), in `[0, 1]`. Ties go to the lower index, so the result
-//! does not depend on anything but the votes' order.
+//! evidence that agrees, in `[0, 1]`: per voting region its heaviest vote within 3σ, summed,
+//! over the sum of every region's heaviest vote (a region votes once per near-best gripper
+//! view, and its views that point elsewhere do not make the frame less certain; with one vote
+//! per region this is the share of the vote weight within 3σ). Ties go to the lower index, so
+//! the result does not depend on anything but the votes' order.
+
+use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
@@ -19,6 +24,9 @@ pub struct Vote {
     pub error: f64,
     /// The recovered rotation from the model view to this region (radians, eq. 12).
     pub rotation: f64,
+    /// The voting region's index in its frame (the votes of one region share it).
+    #[serde(default)]
+    pub region: usize,
 }
 
 /// The mode of a frame's votes.
@@ -26,7 +34,7 @@ pub struct Vote {
 pub struct Mode {
     /// The refined position.
     pub position: [f64; 2],
-    /// Share of the vote weight within 3σ of the mode, in `[0, 1]`.
+    /// Share of the frame's evidence within 3σ of the mode (module docs), in `[0, 1]`.
     pub certainty: f64,
     /// Number of votes within 3σ.
     pub support: usize,
@@ -54,17 +62,25 @@ pub fn mode(votes: &[Vote], sigma: f64) -> Option<Mode> {
     let centre = votes[best.0].position;
     let reach = 9.0 * sigma * sigma;
     let (mut w, mut x, mut y, mut n) = (0.0, 0.0, 0.0, 0);
+    // Per region (in index order, so the sums are deterministic): its heaviest vote, and its
+    // heaviest vote within reach.
+    let mut regions: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
     for v in votes {
+        let r = regions.entry(v.region).or_insert((0.0, 0.0));
+        r.0 = r.0.max(v.weight);
         if d2(v.position, centre) <= reach {
             w += v.weight;
             x += v.weight * v.position[0];
             y += v.weight * v.position[1];
             n += 1;
+            r.1 = r.1.max(v.weight);
         }
     }
+    let evidence: f64 = regions.values().map(|r| r.0).sum();
+    let agrees: f64 = regions.values().map(|r| r.1).sum();
     Some(Mode {
         position: [x / w, y / w],
-        certainty: (w / total).clamp(0.0, 1.0),
+        certainty: (agrees / evidence).clamp(0.0, 1.0),
         support: n,
     })
 }
@@ -79,18 +95,27 @@ mod tests {
             weight,
             error: 0.1,
             rotation: 0.0,
+            region: 0,
         }
+    }
+
+    /// One vote per region, region `k` for the `k`-th.
+    fn own_regions(mut votes: Vec<Vote>) -> Vec<Vote> {
+        for (k, v) in votes.iter_mut().enumerate() {
+            v.region = k;
+        }
+        votes
     }
 
     #[test]
     fn the_largest_agreeing_group_wins_over_scattered_clutter() {
-        let votes = [
+        let votes = own_regions(vec![
             vote(100.0, 50.0, 0.5),
             vote(101.0, 50.0, 0.5),
             vote(100.5, 51.0, 1.0),
             vote(300.0, 200.0, 0.9),
             vote(10.0, 400.0, 0.9),
-        ];
+        ]);
         let m = mode(&votes, 2.0).unwrap();
         // The weighted mean of the three agreeing votes.
         assert!((m.position[0] - 100.5).abs() < 1e-12);
@@ -110,6 +135,28 @@ mod tests {
         };
         let s = support([100.5, 51.0]);
         assert!(votes.iter().all(|v| support(v.position) <= s + 1e-12));
+    }
+
+    #[test]
+    fn a_region_counts_once_towards_the_certainty() {
+        // Region 0 votes at the tip and, through two other views, elsewhere; region 1 agrees
+        // at the tip; region 2 votes alone far away.
+        let mut votes = vec![
+            vote(50.0, 50.0, 0.8),
+            vote(90.0, 10.0, 0.4),
+            vote(10.0, 90.0, 0.4),
+            vote(50.5, 50.0, 0.6),
+            vote(200.0, 200.0, 0.2),
+        ];
+        for (v, r) in votes.iter_mut().zip([0, 0, 0, 1, 2]) {
+            v.region = r;
+        }
+        let m = mode(&votes, 2.0).unwrap();
+        assert_eq!(m.support, 2);
+        // (0.8 + 0.6) of the regions' heaviest votes (0.8 + 0.6 + 0.2).
+        assert!((m.certainty - 1.4 / 1.6).abs() < 1e-12, "{}", m.certainty);
+        // The weighted mean of the two agreeing votes.
+        assert!((m.position[0] - (0.8 * 50.0 + 0.6 * 50.5) / 1.4).abs() < 1e-12);
     }
 
     #[test]
