@@ -282,7 +282,7 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
             // A fresh FD + CBT percept; the robot tells it of large commanded moves.
             let pipeline = FdCbtRecogniser::new(l.pipeline.fd.clone(), l.pipeline.model().clone());
             let robot = Notifying {
-                robot: SimRobot::new(ArmSim::new(c)?),
+                robot: SimRobot::new(ArmSim::new(c.clone())?),
                 notifier: pipeline.notifier(RESET_US),
             };
             let mut plant = VisualPlant::new(robot, space(), pipeline)?;
@@ -306,8 +306,16 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
             }
             let (fd_err, fd_stopped) = servo(&mut plant, &l.lwpr, &targets, |q| q.reset())?;
             // The heuristic percept servos to what it sees itself at the same target poses (a
-            // target it does not see there counts as a stopped run).
-            let mut plant = VisualPlant::new(plant.into_robot(), space(), l.heuristic.clone())?;
+            // target it does not see there counts as a stopped run), on a simulator of its own
+            // made afresh from the same seed: its runs do not depend on the FD + CBT runs before
+            // them (they used to continue that simulator, whose servo state and noise stream
+            // the other percept's moves had advanced).
+            let notifier = plant.into_robot().notifier;
+            let robot = Notifying {
+                robot: SimRobot::new(ArmSim::new(c)?),
+                notifier,
+            };
+            let mut plant = VisualPlant::new(robot, space(), l.heuristic.clone())?;
             plant.set_policy(PerceptPolicy {
                 captures: 2,
                 ..PerceptPolicy::default()
