@@ -127,8 +127,9 @@ pub use learn::{
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectedTip, CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry,
-    EpipolarReport, GripperModel, Localisation, PairChoice, Recogniser, RecognitionConfig,
-    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule, choose_consistent,
+    EpipolarReport, GripperModel, Localisation, PairChoice, PerceptUse, Recogniser,
+    RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
+    choose_consistent,
 };
 pub use robot::Robot;
 pub use servo::{

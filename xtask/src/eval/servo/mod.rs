@@ -40,9 +40,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
-    LearnConfig, PerceptPolicy, RandomCommands, RecognitionConfig, ServoConfig, ServoRun,
-    SilhouetteConfig, TipRule, capture_training_views, learn_control_chained, learn_recognition,
-    observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
+    LearnConfig, PerceptPolicy, PerceptUse, RandomCommands, RecognitionConfig, ServoConfig,
+    ServoRun, SilhouetteConfig, TipRule, capture_training_views, learn_control_chained,
+    learn_recognition, observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian,
+    servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -88,6 +89,10 @@ pub struct ServoArgs {
     /// default: the library's).
     #[arg(long)]
     pub spread_scale: Option<f64>,
+    /// Whether the spread cap also doubts training moves' percepts
+    /// (`servo_loop::SilhouetteConfig::cap_training`; default: the library's).
+    #[arg(long)]
+    pub cap_training: Option<bool>,
 }
 
 impl ServoArgs {
@@ -100,6 +105,9 @@ impl ServoArgs {
         }
         if let Some(s) = self.spread_scale {
             p.spread_scale = s;
+        }
+        if let Some(c) = self.cap_training {
+            p.cap_training = c;
         }
     }
 }
@@ -126,6 +134,7 @@ impl Default for ServoArgs {
             diagnose_recognition: false,
             face_gate: None,
             spread_scale: None,
+            cap_training: None,
         }
     }
 }
@@ -156,6 +165,10 @@ pub struct Protocol {
     pub face_gate: f64,
     #[serde(skip)]
     pub spread_scale: f64,
+    /// Whether that cap also doubts training moves (`servo_loop::SilhouetteConfig::cap_training`;
+    /// not written).
+    #[serde(skip)]
+    pub cap_training: bool,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -191,6 +204,7 @@ impl Protocol {
             cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
             face_gate: SilhouetteConfig::default().face_gate,
             spread_scale: SilhouetteConfig::default().spread_scale,
+            cap_training: SilhouetteConfig::default().cap_training,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -218,6 +232,7 @@ impl Protocol {
             captures: self.captures_per_percept.max(1),
             min_certainty: self.min_certainty,
             recaptures: 1,
+            used: PerceptUse::Servo,
         }
     }
 }
@@ -463,9 +478,11 @@ pub fn train(
     progress: bool,
 ) -> Result<(Vec<(usize, InverseModel)>, Training)> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
-    // Training moves use one capture per percept (LWPR averages the noise itself).
+    // Training moves use one capture per percept (LWPR averages the noise itself), and say
+    // they are training percepts (the recogniser may doubt them differently).
     plant.set_policy(|policy| PerceptPolicy {
         captures: 1,
+        used: PerceptUse::Training,
         ..*policy
     })?;
     let n_in = 2 * plant.cameras;
@@ -541,6 +558,7 @@ pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecog
             cross_camera_choice: p.cross_camera_choice,
             face_gate: p.face_gate,
             spread_scale: p.spread_scale,
+            cap_training: p.cap_training,
             ..SilhouetteConfig::default()
         },
     )?;
