@@ -114,6 +114,22 @@ fn toy_space() -> ControlSpace {
     }
 }
 
+/// An untrained inverse model of the toy's scales and `moves` random training moves.
+fn toy_learning(moves: usize) -> (InverseModel, LearnConfig) {
+    let config = InverseModelConfig {
+        percept_scale: 100.0,
+        command_scale: 100.0,
+        ..InverseModelConfig::default()
+    };
+    let learn = LearnConfig {
+        moves,
+        explore: vec![[20.0, 200.0]; 2],
+        seed: 5,
+        approach: None,
+    };
+    (InverseModel::new(4, 2, &config).unwrap(), learn)
+}
+
 fn plant(doubt: usize) -> VisualPlant<Toy, Reader> {
     let toy = Toy {
         y: [100.0, 100.0],
@@ -141,18 +157,7 @@ fn the_policy_says_what_a_percept_is_for() {
         ..PerceptPolicy::default()
     })
     .unwrap();
-    let config = InverseModelConfig {
-        percept_scale: 100.0,
-        command_scale: 100.0,
-        ..InverseModelConfig::default()
-    };
-    let mut model = InverseModel::new(4, 2, &config).unwrap();
-    let learn = LearnConfig {
-        moves: 50,
-        explore: vec![[20.0, 200.0]; 2],
-        seed: 5,
-        approach: None,
-    };
+    let (mut model, learn) = toy_learning(50);
     let report = learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
     assert_eq!((report.refused, p.refused(), p.recaptured()), (0, 0, 0));
     // The same images as servo percepts: re-captured, then refused.
@@ -222,18 +227,7 @@ fn a_doubted_percept_is_recaptured_then_refused() {
 #[test]
 fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
     let mut p = plant(0);
-    let config = InverseModelConfig {
-        percept_scale: 100.0,
-        command_scale: 100.0,
-        ..InverseModelConfig::default()
-    };
-    let mut model = InverseModel::new(4, 2, &config).unwrap();
-    let learn = LearnConfig {
-        moves: 200,
-        explore: vec![[20.0, 200.0]; 2],
-        seed: 5,
-        approach: None,
-    };
+    let (mut model, learn) = toy_learning(200);
     learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
     // Ten doubted moves (two captures each with the re-capture) are skipped and counted.
     p.robot_mut().doubt = 20;

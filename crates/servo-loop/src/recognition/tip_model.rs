@@ -52,9 +52,11 @@ pub struct SilhouetteConfig {
     /// most `max(0.5 px, k σ_c)`, `σ_c` the correction's local spread there
     /// ([`TipCorrection::tips_gated`]; the `tip_correction` module, *the correction's own
     /// certainty*). 0 (the default, and files without the field): at most 0.5 px everywhere.
-    /// An opt-in: 1 (with `spread_scale` 1.25 px) improved recognition and kept the servo on
-    /// the development seeds, but made the headline seed 2009 worse (docs/methods.md, *Gated
-    /// learned tip*).
+    /// An opt-in: 1 (with `spread_scale` 1.25 px) improved recognition on the development
+    /// seeds; with the cap on training moves too it made the headline seed 2009 worse, with
+    /// the cap on servo percepts only (`cap_training` false) it did not hurt the servo on the
+    /// development seeds, and `eval servo` uses that (docs/methods.md, *Gated learned tip*).
+    /// The library's default stays 0: the FD + CBT pipeline study learns with it.
     #[serde(default)]
     pub face_gate: f64,
     /// The `Learned` rule's spread scale `s` (pixels): a camera that shows no end face has a

@@ -49,6 +49,7 @@ use servo_loop::{
 use super::{EvalContext, write_json};
 use crate::Result;
 use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
+use servo_loop::recognition::tip_model::{MEASURED_FACE_GATE, MEASURED_SPREAD_SCALE};
 
 /// Options of `cargo xtask eval servo`.
 #[derive(Args, Clone, Debug)]
@@ -82,15 +83,15 @@ pub struct ServoArgs {
     #[arg(long)]
     pub diagnose_recognition: bool,
     /// The learned tip's gate `k` (`servo_loop::SilhouetteConfig::face_gate`; default: the
-    /// library's).
+    /// study's, 1).
     #[arg(long)]
     pub face_gate: Option<f64>,
     /// The learned tip's spread scale in pixels (`servo_loop::SilhouetteConfig::spread_scale`;
-    /// default: the library's).
+    /// default: the study's, 1.25; 0 = no cap).
     #[arg(long)]
     pub spread_scale: Option<f64>,
     /// Whether the spread cap also doubts training moves' percepts
-    /// (`servo_loop::SilhouetteConfig::cap_training`; default: the library's).
+    /// (`servo_loop::SilhouetteConfig::cap_training`; default: the study's, false).
     #[arg(long)]
     pub cap_training: Option<bool>,
 }
@@ -202,9 +203,11 @@ impl Protocol {
             min_certainty: PerceptPolicy::default().min_certainty,
             correction_poses: 500,
             cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
-            face_gate: SilhouetteConfig::default().face_gate,
-            spread_scale: SilhouetteConfig::default().spread_scale,
-            cap_training: SilhouetteConfig::default().cap_training,
+            // The gated learned tip, its spread cap on the servo's percepts only
+            // (docs/methods.md, *Gated learned tip*; chosen on development seeds).
+            face_gate: MEASURED_FACE_GATE,
+            spread_scale: MEASURED_SPREAD_SCALE,
+            cap_training: false,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
