@@ -28,7 +28,11 @@
 //! corrected far end moves towards the end-face tip by at most 0.5 px (opt-in: by at most
 //! `max(0.5 px, k σ)`, where `σ` is the regression's local spread of the offsets, its own
 //! certainty, [`SilhouetteConfig::face_gate`]; a camera without an end face is then doubted
-//! where `σ` is large, [`SilhouetteConfig::spread_scale`]). How accurate each rule is
+//! where `σ` is large, [`SilhouetteConfig::spread_scale`], by default in every percept, with
+//! [`SilhouetteConfig::cap_training`] off only in those the servo acts on: training moves
+//! ([`PerceptUse::Training`], [`PerceptPolicy::used`]) keep theirs, so the learned inverse
+//! model has no holes where the correction is unsure; `eval servo` uses the gate that way).
+//! How accurate each rule is
 //! on `arm-sim` (median and 90th percentile per camera against the projected middle of the
 //! finger ends, frame-to-frame repeatability, distance to `arm-sim`'s tool point, which lies
 //! 8 mm behind the finger ends where nothing marks it): `fixtures/paper-c/summary.md`.
@@ -127,8 +131,9 @@ pub use learn::{
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectedTip, CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry,
-    EpipolarReport, GripperModel, Localisation, PairChoice, Recogniser, RecognitionConfig,
-    SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule, choose_consistent,
+    EpipolarReport, GripperModel, Localisation, PairChoice, PerceptUse, Recogniser,
+    RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
+    choose_consistent,
 };
 pub use robot::Robot;
 pub use servo::{

@@ -9,7 +9,7 @@ use crate::learn::RandomCommands;
 use crate::plant::{Observation, Plant};
 use crate::recognition::TrainingView;
 use crate::recognition::{
-    Localisation, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
+    Localisation, PerceptUse, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
 };
 use crate::robot::Robot;
 
@@ -215,6 +215,12 @@ pub struct PerceptPolicy {
     pub min_certainty: f64,
     /// Further attempts (each `captures` captures) before a doubted percept is refused.
     pub recaptures: usize,
+    /// What the percepts are for ([`Recogniser::locate_all_for`]): set
+    /// [`PerceptUse::Training`] while learning to control, so a recogniser that doubts
+    /// training percepts differently (the learned tip's [`SilhouetteConfig::cap_training`])
+    /// can. Default (and files without the field): [`PerceptUse::Servo`].
+    #[serde(default)]
+    pub used: PerceptUse,
 }
 
 impl Default for PerceptPolicy {
@@ -223,6 +229,7 @@ impl Default for PerceptPolicy {
             captures: 1,
             min_certainty: 0.05,
             recaptures: 1,
+            used: PerceptUse::Servo,
         }
     }
 }
@@ -481,7 +488,7 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
             model,
             &self.policy,
             || grab(robot),
-            |images| model.locate_all(images),
+            |images| model.locate_all_for(images, self.policy.used),
             || *recaptured += 1,
         );
         let (locs, images) = match result {

@@ -5,7 +5,8 @@
 use image::{GrayImage, Luma};
 use servo_loop::{
     ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Localisation, PerceptPolicy,
-    Plant, Recogniser, Robot, ServoConfig, ServoError, VisualPlant, learn_control, servo_lwpr,
+    PerceptUse, Plant, Recogniser, Robot, ServoConfig, ServoError, VisualPlant, learn_control,
+    servo_lwpr,
 };
 
 /// Two servos; each capture shows the set-points as grey levels and a "doubt" flag for the
@@ -76,6 +77,59 @@ impl Recogniser for Reader {
     }
 }
 
+/// A recogniser that doubts flagged images only when the servo acts on them (as the learned
+/// tip's spread cap with `cap_training` off).
+struct ServoDoubter;
+
+impl Recogniser for ServoDoubter {
+    fn num_cameras(&self) -> usize {
+        Reader.num_cameras()
+    }
+    fn image_size(&self, cam: usize) -> [u32; 2] {
+        Reader.image_size(cam)
+    }
+    fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
+        Reader.locate_all(images)
+    }
+    fn locate_all_for(
+        &self,
+        images: &[GrayImage],
+        used: PerceptUse,
+    ) -> servo_loop::Result<Vec<Localisation>> {
+        let mut locs = Reader.locate_all(images)?;
+        if used == PerceptUse::Training {
+            for l in &mut locs {
+                l.certainty = l.certainty.max(0.9);
+            }
+        }
+        Ok(locs)
+    }
+}
+
+fn toy_space() -> ControlSpace {
+    ControlSpace {
+        controlled: vec![0, 1],
+        rest: vec![100.0, 100.0],
+        gripper: None,
+    }
+}
+
+/// An untrained inverse model of the toy's scales and `moves` random training moves.
+fn toy_learning(moves: usize) -> (InverseModel, LearnConfig) {
+    let config = InverseModelConfig {
+        percept_scale: 100.0,
+        command_scale: 100.0,
+        ..InverseModelConfig::default()
+    };
+    let learn = LearnConfig {
+        moves,
+        explore: vec![[20.0, 200.0]; 2],
+        seed: 5,
+        approach: None,
+    };
+    (InverseModel::new(4, 2, &config).unwrap(), learn)
+}
+
 fn plant(doubt: usize) -> VisualPlant<Toy, Reader> {
     let toy = Toy {
         y: [100.0, 100.0],
@@ -83,12 +137,36 @@ fn plant(doubt: usize) -> VisualPlant<Toy, Reader> {
         captures: 0,
         commands: 0,
     };
-    let space = ControlSpace {
-        controlled: vec![0, 1],
-        rest: vec![100.0, 100.0],
-        gripper: None,
+    VisualPlant::new(toy, toy_space(), Reader).unwrap()
+}
+
+/// The plant passes its policy's use to the recogniser: training moves under
+/// `PerceptUse::Training` keep percepts the servo's policy refuses.
+#[test]
+fn the_policy_says_what_a_percept_is_for() {
+    let toy = Toy {
+        y: [100.0, 100.0],
+        doubt: usize::MAX,
+        captures: 0,
+        commands: 0,
     };
-    VisualPlant::new(toy, space, Reader).unwrap()
+    let mut p = VisualPlant::new(toy, toy_space(), ServoDoubter).unwrap();
+    assert_eq!(p.policy().used, PerceptUse::Servo, "the default use");
+    p.set_policy(PerceptPolicy {
+        used: PerceptUse::Training,
+        ..PerceptPolicy::default()
+    })
+    .unwrap();
+    let (mut model, learn) = toy_learning(50);
+    let report = learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
+    assert_eq!((report.refused, p.refused(), p.recaptured()), (0, 0, 0));
+    // The same images as servo percepts: re-captured, then refused.
+    p.set_policy(PerceptPolicy::default()).unwrap();
+    assert!(matches!(
+        p.observe(),
+        Err(ServoError::PerceptRefused { .. })
+    ));
+    assert_eq!((p.refused(), p.recaptured()), (1, 1));
 }
 
 #[test]
@@ -115,6 +193,7 @@ fn a_doubted_percept_is_recaptured_then_refused() {
         captures: 2,
         min_certainty: 0.05,
         recaptures: 1,
+        used: PerceptUse::Servo,
     })
     .unwrap();
     let e = p.observe().unwrap_err();
@@ -148,18 +227,7 @@ fn a_doubted_percept_is_recaptured_then_refused() {
 #[test]
 fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
     let mut p = plant(0);
-    let config = InverseModelConfig {
-        percept_scale: 100.0,
-        command_scale: 100.0,
-        ..InverseModelConfig::default()
-    };
-    let mut model = InverseModel::new(4, 2, &config).unwrap();
-    let learn = LearnConfig {
-        moves: 200,
-        explore: vec![[20.0, 200.0]; 2],
-        seed: 5,
-        approach: None,
-    };
+    let (mut model, learn) = toy_learning(200);
     learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
     // Ten doubted moves (two captures each with the re-capture) are skipped and counted.
     p.robot_mut().doubt = 20;

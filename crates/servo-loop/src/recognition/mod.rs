@@ -115,6 +115,21 @@ pub(crate) fn training_image_sizes(views: &[TrainingView]) -> crate::Result<Vec<
     Ok(sizes)
 }
 
+/// What a percept is for: the learner's training moves or the servo loop's corrections (and
+/// everything the servo acts on: targets, recognition checks). A recogniser may doubt the two
+/// differently: the learned tip's spread cap ([`SilhouetteConfig::spread_scale`]) can be left
+/// off training moves ([`SilhouetteConfig::cap_training`]), where a refused percept only
+/// leaves a hole in the learned model, while the servo never moves on an uncertain one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PerceptUse {
+    /// A percept the servo loop acts on (the default).
+    #[default]
+    Servo,
+    /// A training move's percept (the learner pairs it with its command).
+    Training,
+}
+
 /// The percept seam: anything that finds the gripper point in one image per camera, each with
 /// a certainty in `[0, 1]`. [`crate::VisualPlant`] and the learning and servo loops see a
 /// recogniser only through this trait, so a user's own detector plugs in without touching
@@ -134,6 +149,16 @@ pub trait Recogniser {
     /// [`crate::ServoError::RecognitionFailed`]; a found point it doubts is returned with a
     /// low certainty (the plant refuses it below its threshold).
     fn locate_all(&self, images: &[::image::GrayImage]) -> crate::Result<Vec<Localisation>>;
+    /// As [`Recogniser::locate_all`], for a percept of the given use ([`PerceptUse`]; a
+    /// [`crate::VisualPlant`] passes its policy's). The default ignores the use.
+    fn locate_all_for(
+        &self,
+        images: &[::image::GrayImage],
+        used: PerceptUse,
+    ) -> crate::Result<Vec<Localisation>> {
+        let _ = used;
+        self.locate_all(images)
+    }
 }
 
 impl Recogniser for TipModel {
@@ -149,6 +174,13 @@ impl Recogniser for TipModel {
     }
     fn locate_all(&self, images: &[::image::GrayImage]) -> crate::Result<Vec<Localisation>> {
         TipModel::locate_all(self, images)
+    }
+    fn locate_all_for(
+        &self,
+        images: &[::image::GrayImage],
+        used: PerceptUse,
+    ) -> crate::Result<Vec<Localisation>> {
+        TipModel::locate_all_for(self, images, used)
     }
 }
 

@@ -38,8 +38,10 @@
 //! smooth in the pose (no switch between candidates; `k` =
 //! [`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate)). Where a camera shows no
 //! end face, the spread caps that camera's certainty
-//! ([`SilhouetteConfig::spread_scale`](crate::SilhouetteConfig::spread_scale)). An opt-in (both
-//! 0 by default): measured in docs/methods.md, *Gated learned tip*.
+//! ([`SilhouetteConfig::spread_scale`](crate::SilhouetteConfig::spread_scale)), for the percepts
+//! the servo acts on and, unless [`SilhouetteConfig::cap_training`](crate::SilhouetteConfig::cap_training)
+//! is off, training moves too. An opt-in in the library (both 0 by default); `eval servo` uses
+//! it with the cap on servo percepts only: measured in docs/methods.md, *Gated learned tip*.
 
 use serde::{Deserialize, Serialize};
 

@@ -19,7 +19,7 @@ use crate::recognition::silhouette::{
 };
 use crate::recognition::tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
 use crate::recognition::tip_rule::{EndEstimate, TipRule, far_end};
-use crate::recognition::{Localisation, TrainingView, training_image_sizes};
+use crate::recognition::{Localisation, PerceptUse, TrainingView, training_image_sizes};
 
 /// Settings of the silhouette recogniser.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -52,9 +52,11 @@ pub struct SilhouetteConfig {
     /// most `max(0.5 px, k σ_c)`, `σ_c` the correction's local spread there
     /// ([`TipCorrection::tips_gated`]; the `tip_correction` module, *the correction's own
     /// certainty*). 0 (the default, and files without the field): at most 0.5 px everywhere.
-    /// An opt-in: 1 (with `spread_scale` 1.25 px) improved recognition and kept the servo on
-    /// the development seeds, but made the headline seed 2009 worse (docs/methods.md, *Gated
-    /// learned tip*).
+    /// An opt-in: 1 (with `spread_scale` 1.25 px) improved recognition on the development
+    /// seeds; with the cap on training moves too it made the headline seed 2009 worse, with
+    /// the cap on servo percepts only (`cap_training` false) it did not hurt the servo on the
+    /// development seeds, and `eval servo` uses that (docs/methods.md, *Gated learned tip*).
+    /// The library's default stays 0: the FD + CBT pipeline study learns with it.
     #[serde(default)]
     pub face_gate: f64,
     /// The `Learned` rule's spread scale `s` (pixels): a camera that shows no end face has a
@@ -62,6 +64,17 @@ pub struct SilhouetteConfig {
     /// `σ_c > 2.45 s`). 0 (the default, and files without the field): no cap.
     #[serde(default)]
     pub spread_scale: f64,
+    /// Whether the spread cap ([`SilhouetteConfig::spread_scale`]) also doubts training
+    /// percepts ([`PerceptUse::Training`]). `true` (the default, and files without the field):
+    /// every percept is capped. `false`: training moves keep their percepts (a refused one
+    /// leaves a hole in the learned inverse model where the correction is unsure) and only
+    /// the percepts the servo acts on are capped (docs/methods.md, *Gated learned tip*).
+    #[serde(default = "cap_everywhere")]
+    pub cap_training: bool,
+}
+
+fn cap_everywhere() -> bool {
+    true
 }
 
 fn default_correction_poses() -> usize {
@@ -87,6 +100,7 @@ impl Default for SilhouetteConfig {
             cross_camera_choice: false,
             face_gate: 0.0,
             spread_scale: 0.0,
+            cap_training: cap_everywhere(),
         }
     }
 }
@@ -342,6 +356,15 @@ impl TipModel {
     /// by the configured rule. Errors as [`TipModel::locate`] for any camera; for the
     /// `Learned` rule, a model without a learned correction ([`TipModel::learn_correction`]).
     pub fn locate_all(&self, images: &[GrayImage]) -> Result<Vec<Localisation>> {
+        self.locate_all_for(images, PerceptUse::Servo)
+    }
+
+    /// As [`TipModel::locate_all`], for a percept of the given use ([`TipModel::tips_for`]).
+    pub fn locate_all_for(
+        &self,
+        images: &[GrayImage],
+        used: PerceptUse,
+    ) -> Result<Vec<Localisation>> {
         self.check_ready()?;
         self.check_image_count(images)?;
         let ends = images
@@ -349,7 +372,7 @@ impl TipModel {
             .enumerate()
             .map(|(cam, img)| self.estimate_end(cam, img))
             .collect::<Result<Vec<_>>>()?;
-        self.tips(&ends)
+        self.tips_for(&ends, used)
     }
 
     /// The tips of every camera by the configured rule from their end estimates (in camera
@@ -360,6 +383,13 @@ impl TipModel {
     /// most its camera pair's consistency. Errors: a camera count other than the model's; the
     /// `Learned` rule without a correction.
     pub fn tips(&self, ends: &[EndEstimate]) -> Result<Vec<Localisation>> {
+        self.tips_for(ends, PerceptUse::Servo)
+    }
+
+    /// As [`TipModel::tips`], for a percept of the given use: a training percept's certainty is
+    /// not capped by the correction's spread unless [`SilhouetteConfig::cap_training`] (the
+    /// cross-camera consistency caps every percept).
+    pub fn tips_for(&self, ends: &[EndEstimate], used: PerceptUse) -> Result<Vec<Localisation>> {
         if ends.len() != self.cameras.len() {
             return Err(ServoError::DimensionMismatch {
                 what: "camera end estimates",
@@ -378,7 +408,7 @@ impl TipModel {
                     .zip(ends)
                     .map(|(t, e)| Localisation {
                         position: t.position,
-                        certainty: self.spread_certainty(e, t.spread),
+                        certainty: self.spread_certainty(e, t.spread, used),
                     })
                     .collect()
             }
@@ -420,10 +450,11 @@ impl TipModel {
 
     /// A learned tip's certainty: the end's, capped by `exp(−½ (σ / s)²)` for the correction's
     /// spread `σ` where the camera shows no end face ([`SilhouetteConfig::spread_scale`] `s`;
-    /// 0 = no cap).
-    fn spread_certainty(&self, end: &EndEstimate, spread: f64) -> f64 {
+    /// 0 = no cap; a training percept only with [`SilhouetteConfig::cap_training`]).
+    fn spread_certainty(&self, end: &EndEstimate, spread: f64, used: PerceptUse) -> f64 {
         let s = self.config.spread_scale;
-        if s > 0.0 && end.end_face.is_none() {
+        let capped = used == PerceptUse::Servo || self.config.cap_training;
+        if s > 0.0 && capped && end.end_face.is_none() {
             let r = spread / s;
             end.certainty.min((-0.5 * r * r).exp())
         } else {
@@ -968,8 +999,10 @@ mod tests {
         let c: SilhouetteConfig = serde_json::from_str(old).expect("an old file");
         assert_eq!((c.tip, c.correction_poses), (TipRule::FarEnd, 1000));
         assert!(!c.cross_camera_choice);
-        // Files written before the gate keep the 0.5 px clip and no spread cap.
+        // Files written before the gate keep the 0.5 px clip and no spread cap (and a cap,
+        // where one is set, doubts training percepts too, as it did when it was written).
         assert_eq!((c.face_gate, c.spread_scale), (0.0, 0.0));
+        assert!(c.cap_training);
         let learned = r#"{"noise_multiple": 5.0, "min_threshold": 8.0, "min_pixels": 50,
                           "min_certainty": 0.3, "tip": "learned", "correction_poses": 500,
                           "cross_camera_choice": false}"#;
@@ -1086,6 +1119,43 @@ mod tests {
         // Without the cap (scale 0, as in files written before it) nothing is doubted.
         let off = gated_model(0.0).tips(&[end([275.0, 120.0], None)]).unwrap()[0];
         assert_eq!(off.certainty, 0.9);
+    }
+
+    /// With `cap_training` off, a training move's percept keeps its certainty where the servo's
+    /// is capped (same ends, same tip); with it on (the default), both are capped.
+    #[test]
+    fn the_spread_cap_can_spare_training_percepts() {
+        let end = |far_end| EndEstimate {
+            far_end,
+            end_face: None,
+            certainty: 0.9,
+        };
+        let unsure = [end([275.0, 120.0])];
+        let capped_everywhere = gated_model(MEASURED_SPREAD_SCALE);
+        assert!(capped_everywhere.config().cap_training);
+        for used in [PerceptUse::Servo, PerceptUse::Training] {
+            let l = capped_everywhere.tips_for(&unsure, used).unwrap()[0];
+            assert!(l.certainty < 0.05, "{used:?} {l:?}");
+        }
+        let servo_only = TipModel {
+            config: SilhouetteConfig {
+                cap_training: false,
+                ..capped_everywhere.config().clone()
+            },
+            ..capped_everywhere.clone()
+        };
+        let servo = servo_only.tips_for(&unsure, PerceptUse::Servo).unwrap()[0];
+        let training = servo_only.tips_for(&unsure, PerceptUse::Training).unwrap()[0];
+        assert!(servo.certainty < 0.05, "{servo:?}");
+        assert_eq!(training.certainty, 0.9);
+        assert_eq!(training.position, servo.position);
+        // `tips` and `locate_all` are the servo's percept.
+        assert_eq!(servo_only.tips(&unsure).unwrap()[0], servo);
+        // A sure correction is not capped for either use.
+        let sure = [end([105.0, 120.0])];
+        for used in [PerceptUse::Servo, PerceptUse::Training] {
+            assert!(servo_only.tips_for(&sure, used).unwrap()[0].certainty > 0.85);
+        }
     }
 
     #[test]

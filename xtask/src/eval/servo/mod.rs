@@ -40,14 +40,16 @@ use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
-    LearnConfig, PerceptPolicy, RandomCommands, RecognitionConfig, ServoConfig, ServoRun,
-    SilhouetteConfig, TipRule, capture_training_views, learn_control_chained, learn_recognition,
-    observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
+    LearnConfig, PerceptPolicy, PerceptUse, RandomCommands, RecognitionConfig, ServoConfig,
+    ServoRun, SilhouetteConfig, TipRule, capture_training_views, learn_control_chained,
+    learn_recognition, observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian,
+    servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
 use crate::Result;
 use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
+use servo_loop::recognition::tip_model::{MEASURED_FACE_GATE, MEASURED_SPREAD_SCALE};
 
 /// Options of `cargo xtask eval servo`.
 #[derive(Args, Clone, Debug)]
@@ -81,13 +83,17 @@ pub struct ServoArgs {
     #[arg(long)]
     pub diagnose_recognition: bool,
     /// The learned tip's gate `k` (`servo_loop::SilhouetteConfig::face_gate`; default: the
-    /// library's).
+    /// study's, 1).
     #[arg(long)]
     pub face_gate: Option<f64>,
     /// The learned tip's spread scale in pixels (`servo_loop::SilhouetteConfig::spread_scale`;
-    /// default: the library's).
+    /// default: the study's, 1.25; 0 = no cap).
     #[arg(long)]
     pub spread_scale: Option<f64>,
+    /// Whether the spread cap also doubts training moves' percepts
+    /// (`servo_loop::SilhouetteConfig::cap_training`; default: the study's, false).
+    #[arg(long)]
+    pub cap_training: Option<bool>,
 }
 
 impl ServoArgs {
@@ -100,6 +106,9 @@ impl ServoArgs {
         }
         if let Some(s) = self.spread_scale {
             p.spread_scale = s;
+        }
+        if let Some(c) = self.cap_training {
+            p.cap_training = c;
         }
     }
 }
@@ -126,6 +135,7 @@ impl Default for ServoArgs {
             diagnose_recognition: false,
             face_gate: None,
             spread_scale: None,
+            cap_training: None,
         }
     }
 }
@@ -156,6 +166,10 @@ pub struct Protocol {
     pub face_gate: f64,
     #[serde(skip)]
     pub spread_scale: f64,
+    /// Whether that cap also doubts training moves (`servo_loop::SilhouetteConfig::cap_training`;
+    /// not written).
+    #[serde(skip)]
+    pub cap_training: bool,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -189,8 +203,11 @@ impl Protocol {
             min_certainty: PerceptPolicy::default().min_certainty,
             correction_poses: 500,
             cross_camera_choice: SilhouetteConfig::default().cross_camera_choice,
-            face_gate: SilhouetteConfig::default().face_gate,
-            spread_scale: SilhouetteConfig::default().spread_scale,
+            // The gated learned tip, its spread cap on the servo's percepts only
+            // (docs/methods.md, *Gated learned tip*; chosen on development seeds).
+            face_gate: MEASURED_FACE_GATE,
+            spread_scale: MEASURED_SPREAD_SCALE,
+            cap_training: false,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -218,6 +235,7 @@ impl Protocol {
             captures: self.captures_per_percept.max(1),
             min_certainty: self.min_certainty,
             recaptures: 1,
+            used: PerceptUse::Servo,
         }
     }
 }
@@ -463,9 +481,11 @@ pub fn train(
     progress: bool,
 ) -> Result<(Vec<(usize, InverseModel)>, Training)> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
-    // Training moves use one capture per percept (LWPR averages the noise itself).
+    // Training moves use one capture per percept (LWPR averages the noise itself), and say
+    // they are training percepts (the recogniser may doubt them differently).
     plant.set_policy(|policy| PerceptPolicy {
         captures: 1,
+        used: PerceptUse::Training,
         ..*policy
     })?;
     let n_in = 2 * plant.cameras;
@@ -541,6 +561,7 @@ pub fn learn_recogniser(config: &SimConfig, p: &Protocol) -> Result<LearnedRecog
             cross_camera_choice: p.cross_camera_choice,
             face_gate: p.face_gate,
             spread_scale: p.spread_scale,
+            cap_training: p.cap_training,
             ..SilhouetteConfig::default()
         },
     )?;
