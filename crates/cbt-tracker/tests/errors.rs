@@ -3,7 +3,8 @@
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker,
-    ParticleFilter, PfModel, Space, TrackError, Tracker, TrainingFrame,
+    LearnedParticleFilter, MAX_PARTICLES, Order, ParticleFilter, PfModel, Space, TrackError,
+    Tracker, TrainingFrame,
 };
 use chan_repr::{ChanError, ChannelBasis, Kernel};
 
@@ -192,4 +193,39 @@ fn trackers_keep_their_state_on_a_bad_frame() {
         Err(TrackError::NonFinite { .. })
     ));
     assert!(cbt.reset_to(&[1.0, 2.0]).is_err());
+}
+
+#[test]
+fn impossible_particle_counts_are_errors_before_allocating() {
+    let ungm = PfModel::Ungm {
+        process_var: 10.0,
+        meas_var: 1.0,
+        init_sigma: 1.0,
+    };
+    let (_, train) = setup();
+    let space = Space::image(320.0, 240.0, 20.0).unwrap();
+    let first = CbtConfig {
+        order: Order::First,
+        ..CbtConfig::default()
+    };
+    let model = CbtModel::learn_sequences(space, first, &train).unwrap();
+    // usize::MAX used to be a capacity-overflow panic, 2^40 an allocation abort.
+    for n in [usize::MAX, 1 << 40, MAX_PARTICLES + 1] {
+        assert!(matches!(
+            ParticleFilter::new(ungm, n, 1),
+            Err(TrackError::InvalidParameter {
+                name: "particles",
+                ..
+            })
+        ));
+        assert!(matches!(
+            LearnedParticleFilter::new(model.clone(), n, 1),
+            Err(TrackError::InvalidParameter {
+                name: "particles",
+                ..
+            })
+        ));
+    }
+    assert!(ParticleFilter::new(ungm, 1, 1).is_ok());
+    assert!(LearnedParticleFilter::new(model, 1, 1).is_ok());
 }
