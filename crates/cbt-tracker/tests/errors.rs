@@ -3,8 +3,8 @@
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker,
-    LearnedParticleFilter, MAX_PARTICLES, Order, ParticleFilter, PfModel, Space, TrackError,
-    Tracker, TrainingFrame,
+    LearnedParticleFilter, MAX_PARTICLES, Order, ParticleFilter, PfModel, Scales, Space,
+    TrackError, Tracker, TrainingFrame,
 };
 use chan_repr::{ChanError, ChannelBasis, Kernel};
 
@@ -228,4 +228,25 @@ fn impossible_particle_counts_are_errors_before_allocating() {
     }
     assert!(ParticleFilter::new(ungm, 1, 1).is_ok());
     assert!(LearnedParticleFilter::new(model, 1, 1).is_ok());
+}
+
+#[test]
+fn training_statistics_refuse_bad_bounds() {
+    let (_, train) = setup();
+    // Calibration used to return meas_sigma NaN (or 0) for these, and Scales a noise of 0.
+    for bad in [f64::NAN, f64::INFINITY, 0.0, -5.0] {
+        assert!(matches!(
+            Calibration::estimate(&train, bad),
+            Err(TrackError::InvalidParameter {
+                name: "max_residual",
+                ..
+            })
+        ));
+        assert!(matches!(
+            Scales::estimate(&train, bad),
+            Err(TrackError::InvalidParameter { name: "extent", .. })
+        ));
+    }
+    assert!(Calibration::estimate(&train, 32.0).is_ok());
+    assert!(Scales::estimate(&train, 320.0).is_ok());
 }

@@ -27,7 +27,15 @@ pub struct Calibration {
 impl Calibration {
     /// Estimates the statistics from sequences with truth; `max_residual` bounds the
     /// residuals taken as the target's (e.g. a tenth of the image size).
+    /// `max_residual` must be finite and positive.
     pub fn estimate(train: &[Sequence], max_residual: f64) -> Result<Calibration, TrackError> {
+        if !(max_residual.is_finite() && max_residual > 0.0) {
+            return Err(TrackError::InvalidParameter {
+                name: "max_residual",
+                value: max_residual,
+                reason: "must be finite and positive",
+            });
+        }
         let mut acc2 = Vec::new();
         let mut res = Vec::new();
         for s in train {
