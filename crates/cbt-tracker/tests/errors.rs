@@ -250,3 +250,35 @@ fn training_statistics_refuse_bad_bounds() {
     assert!(Calibration::estimate(&train, 32.0).is_ok());
     assert!(Scales::estimate(&train, 320.0).is_ok());
 }
+
+#[test]
+fn scoring_refuses_mismatched_or_bad_input() {
+    use cbt_tracker::metrics::score;
+    let truth = [Some([0.0, 0.0]), Some([1.0, 0.0]), Some([2.0, 0.0])];
+    let est = [[0.0, 0.0], [1.0, 3.0], [2.0, 4.0]];
+    // Used to be scored silently over the shorter slice.
+    assert!(matches!(
+        score(&est[..2], &truth, 2, 3.5),
+        Err(TrackError::Mismatch(_))
+    ));
+    // Used to panic indexing a point's third coordinate.
+    assert!(matches!(
+        score(&est, &truth, 3, 3.5),
+        Err(TrackError::InvalidParameter { name: "dims", .. })
+    ));
+    assert!(score(&est, &truth, 0, 3.5).is_err());
+    assert!(score(&est, &truth, 2, f64::NAN).is_err());
+    assert!(score(&est, &truth, 2, -1.0).is_err());
+    // A NaN estimate used to give rmse NaN with no frame lost.
+    let nan = [[0.0, 0.0], [f64::NAN, 3.0], [2.0, 4.0]];
+    assert!(matches!(
+        score(&nan, &truth, 2, 3.5),
+        Err(TrackError::NonFinite { .. })
+    ));
+    // A NaN where there is no truth, or beyond the scored dims, is not scored.
+    let unscored = [Some([0.0, 0.0]), None, Some([2.0, f64::NAN])];
+    assert_eq!(score(&nan, &unscored, 1, 3.5).unwrap().frames, 1);
+    let s = score(&est, &truth, 2, 3.5).unwrap();
+    assert_eq!((s.frames, s.loss_share), (2, 0.5));
+    assert!(score(&est, &truth, 2, f64::INFINITY).is_ok());
+}
