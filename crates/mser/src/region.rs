@@ -1,6 +1,6 @@
 //! A detected region: polarity, grey level, size, moments, bounding box and the equivalent ellipse.
 
-use crate::contour::trace_outer_contour;
+use crate::contour::{check_seed, trace_outer_contour};
 use crate::error::{MserError, Result};
 use crate::image::GrayView;
 use crate::pixels::flood_pixels;
@@ -250,32 +250,10 @@ impl Region {
         })
     }
 
-    fn check_seed(&self, img: &GrayView) -> Result<()> {
-        let (x, y) = (self.seed.0 as usize, self.seed.1 as usize);
-        if x >= img.width() || y >= img.height() {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed outside the image",
-            });
-        }
-        if !self.polarity.contains(img.at(x, y), self.level) {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed pixel does not pass the region's threshold",
-            });
-        }
-        if y > 0 && self.polarity.contains(img.at(x, y - 1), self.level)
-            || x > 0 && self.polarity.contains(img.at(x - 1, y), self.level)
-        {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed is not the region's first pixel in raster order",
-            });
-        }
-        Ok(())
-    }
-
     /// The region's pixels `(x, y)` in raster order, recomputed by a flood fill from the seed.
     /// `img` must be the image the region was detected in.
     pub fn pixels(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
-        self.check_seed(img)?;
+        check_seed(img, self.seed, self.level, self.polarity)?;
         let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox)?;
         if px.len() != self.area as usize {
             return Err(MserError::RegionImageMismatch {
@@ -293,13 +271,7 @@ impl Region {
     /// passes it twice (one-pixel-wide parts); the first point is not repeated at the end.
     /// `img` must be the image the region was detected in.
     pub fn contour(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
-        self.check_seed(img)?;
-        Ok(trace_outer_contour(
-            img,
-            self.seed,
-            self.level,
-            self.polarity,
-        ))
+        trace_outer_contour(img, self.seed, self.level, self.polarity)
     }
 
     /// [`contour`](Self::contour) as `f64` points, the form `fd-match` consumes.

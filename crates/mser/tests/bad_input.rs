@@ -243,3 +243,36 @@ fn flood_pixels_refuses_seeds_outside_the_image() {
         24
     );
 }
+
+/// `trace_outer_contour` checks its seed as `Region::contour` does (it used to return a
+/// one-point "contour" outside the image, or part of a boundary from a seed that is not the
+/// first pixel).
+#[test]
+fn trace_outer_contour_refuses_bad_seeds() {
+    use mser::{Polarity, trace_outer_contour};
+    let (w, h) = (12, 10);
+    let mut px = vec![200u8; w * h];
+    for y in 3..7 {
+        for x in 2..9 {
+            px[y * w + x] = 10;
+        }
+    }
+    let img = GrayView::packed(&px, w, h).unwrap();
+    for (seed, level) in [
+        ((12, 0), 10),       // outside
+        ((u32::MAX, 3), 10), // far outside
+        ((0, 0), 10),        // does not pass the threshold
+        ((4, 4), 10),        // inside, but not the first pixel
+        ((3, 3), 10),        // first row, but its left neighbour is in the region
+    ] {
+        assert!(
+            matches!(
+                trace_outer_contour(&img, seed, level, Polarity::Dark),
+                Err(MserError::RegionImageMismatch { .. })
+            ),
+            "{seed:?}"
+        );
+    }
+    let c = trace_outer_contour(&img, (2, 3), 10, Polarity::Dark).unwrap();
+    assert_eq!((c.len(), c[0]), (2 * 7 + 2 * 4 - 4, (2, 3)));
+}
