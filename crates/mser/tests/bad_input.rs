@@ -276,3 +276,35 @@ fn trace_outer_contour_refuses_bad_seeds() {
     let c = trace_outer_contour(&img, (2, 3), 10, Polarity::Dark).unwrap();
     assert_eq!((c.len(), c[0]), (2 * 7 + 2 * 4 - 4, (2, 3)));
 }
+
+/// `variations_by_thresholds` validates its parameters like every detection entry point (it
+/// used to compute with Δ = 0).
+#[test]
+fn variations_by_thresholds_refuses_invalid_parameters() {
+    let (w, h) = (20, 20);
+    let mut px = vec![200u8; w * h];
+    for y in 5..12 {
+        for x in 5..12 {
+            px[y * w + x] = 10;
+        }
+    }
+    let img = GrayView::packed(&px, w, h).unwrap();
+    let p = MserParams {
+        min_area: 10,
+        ..Default::default()
+    };
+    let r = detect(&img, &p).unwrap().remove(0);
+    assert!(mser::variations_by_thresholds(&img, &r, &p).is_ok());
+    for bad in [
+        MserParams { delta: 0, ..p },
+        MserParams {
+            max_variation: f64::NAN,
+            ..p
+        },
+    ] {
+        assert!(matches!(
+            mser::variations_by_thresholds(&img, &r, &bad),
+            Err(MserError::InvalidParameter { .. })
+        ));
+    }
+}
