@@ -881,6 +881,24 @@ fn bad_input_fails_cleanly_without_partial_output() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `--threads` outside 1..=1024 is a usage error (exit 2, one line) before any work: a huge
+/// count used to try to start that many threads (100,000 hung for over a minute).
+#[test]
+fn threads_out_of_range_is_a_usage_error() {
+    for (n, needle) in [
+        ("0", "at least 1"),
+        ("1025", "limit of 1024"),
+        ("100000", "limit of 1024"),
+        ("18446744073709551615", "limit of 1024"),
+    ] {
+        let o = run(&["--threads", n, "regions", "--out", "/nonexistent", "x.png"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "--threads {n}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+}
+
 /// Every subcommand's --help has a description and examples.
 #[test]
 fn help_has_examples() {
