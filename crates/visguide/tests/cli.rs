@@ -470,6 +470,25 @@ fn lwpr_fit_and_predict() {
         worst = worst.max((v[2] - ((2.0 * v[0]).sin() + 0.5 * v[1])).abs());
     }
     assert!(worst < 0.3, "worst training error {worst}");
+    // A pass count whose updates overflow is an error naming it, and writes no model (it
+    // used to panic on the multiplication).
+    let huge = dir.join("huge.json");
+    fails(
+        &[
+            "lwpr",
+            "fit",
+            "-q",
+            s(&data),
+            "--inputs",
+            "2",
+            "--model",
+            s(&huge),
+            "--passes",
+            "18446744073709551615",
+        ],
+        "--passes 18446744073709551615",
+    );
+    assert!(!huge.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
