@@ -282,3 +282,28 @@ fn scoring_refuses_mismatched_or_bad_input() {
     assert_eq!((s.frames, s.loss_share), (2, 0.5));
     assert!(score(&est, &truth, 2, f64::INFINITY).is_ok());
 }
+
+#[test]
+fn an_edited_calibration_is_refused_on_reading() {
+    let (_, train) = setup();
+    let cal = Calibration::estimate(&train, 32.0).unwrap();
+    assert!(cal.validate().is_ok());
+    let text = serde_json::to_string(&cal).unwrap();
+    assert_eq!(serde_json::from_str::<Calibration>(&text).unwrap(), cal);
+    // Each used to load; a negative or NaN clutter rate then became 0.01 silently in the
+    // particle filter's model.
+    for (field, value) in [
+        ("accel_sigma", "0"),
+        ("meas_sigma", "-1"),
+        ("p_detect", "5"),
+        ("clutter_rate", "-3"),
+    ] {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v[field] = serde_json::from_str(value).unwrap();
+        let edited = v.to_string();
+        let e = serde_json::from_str::<Calibration>(&edited)
+            .expect_err(field)
+            .to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
+}
