@@ -554,6 +554,33 @@ fn track_one_step_equals_learn_then_run() {
         err += (r[2].parse::<f64>().unwrap() - t[0]).hypot(r[3].parse::<f64>().unwrap() - t[1]);
     }
     assert!(err / 120.0 < 6.0, "CBT mean error {}", err / 120.0);
+    // A model file edited to be inconsistent is refused on loading, naming the file and the
+    // field (an extent off or across the model's grid, a negative clutter rate: these used
+    // to load, and ran or failed later with an error naming neither).
+    let text = std::fs::read_to_string(&model).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let edited = dir.join("edited.json");
+    let edits: [(&str, fn(&mut serde_json::Value)); 3] = [
+        ("extent", |v| {
+            v["extent"][0] = 1e6.into();
+            v["extent"][1] = 2e6.into();
+        }),
+        ("extent", |v| {
+            let (a, b) = (v["extent"][0].clone(), v["extent"][1].clone());
+            v["extent"][0] = b;
+            v["extent"][1] = a;
+        }),
+        ("clutter_rate", |v| {
+            v["calibration"]["clutter_rate"] = (-3.0).into()
+        }),
+    ];
+    for (needle, edit) in edits {
+        let mut e = v.clone();
+        edit(&mut e);
+        std::fs::write(&edited, e.to_string()).unwrap();
+        let err = fails(&["track", "run", "-q", s(&edited), s(&seq)], needle);
+        assert!(err.contains("edited.json"), "{err}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
