@@ -68,8 +68,10 @@ pub struct Moments {
 }
 
 impl Moments {
-    /// The moments of a list of pixels.
-    pub fn of_pixels(pixels: &[(u32, u32)]) -> Self {
+    /// The moments of a list of pixels. A list whose sums do not fit the `u64` fields (far
+    /// beyond any image's regions: e.g. two pixels at `u32::MAX`) is an
+    /// [`MserError::InvalidParameter`].
+    pub fn of_pixels(pixels: &[(u32, u32)]) -> Result<Self> {
         let mut m = Moments {
             n: 0,
             sx: 0,
@@ -80,14 +82,23 @@ impl Moments {
         };
         for &(x, y) in pixels {
             let (x, y) = (x as u64, y as u64);
-            m.n += 1;
-            m.sx += x;
-            m.sy += y;
-            m.sxx += x * x;
-            m.sxy += x * y;
-            m.syy += y * y;
+            let add = |s: u64, v: u64| s.checked_add(v);
+            let next = (|| {
+                Some(Moments {
+                    n: add(m.n, 1)?,
+                    sx: add(m.sx, x)?,
+                    sy: add(m.sy, y)?,
+                    sxx: add(m.sxx, x * x)?,
+                    sxy: add(m.sxy, x * y)?,
+                    syy: add(m.syy, y * y)?,
+                })
+            })();
+            m = next.ok_or_else(|| MserError::InvalidParameter {
+                name: "pixels",
+                reason: format!("the moments of {} pixels overflow u64", pixels.len()),
+            })?;
         }
-        m
+        Ok(m)
     }
 
     /// Centroid `(x̄, ȳ)` (first moments over the area).

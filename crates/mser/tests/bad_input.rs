@@ -308,3 +308,28 @@ fn variations_by_thresholds_refuses_invalid_parameters() {
         ));
     }
 }
+
+/// `Moments::of_pixels` refuses sums beyond `u64` (it used to panic with an overflow in a
+/// debug build and wrap silently in a release build).
+#[test]
+fn moments_of_pixels_refuse_overflowing_sums() {
+    use mser::Moments;
+    for px in [
+        vec![(u32::MAX, u32::MAX); 2],
+        vec![(u32::MAX, 0), (u32::MAX, 0)],
+        vec![(0, u32::MAX), (1, u32::MAX)],
+    ] {
+        assert!(matches!(
+            Moments::of_pixels(&px),
+            Err(MserError::InvalidParameter { name: "pixels", .. })
+        ));
+    }
+    // One such pixel still fits: (2^32 − 1)² < 2^64.
+    let one = Moments::of_pixels(&[(u32::MAX, u32::MAX)]).unwrap();
+    assert_eq!((one.n, one.sxx), (1, u64::from(u32::MAX).pow(2)));
+    let m = Moments::of_pixels(&[(1, 2), (3, 4)]).unwrap();
+    assert_eq!(
+        (m.n, m.sx, m.sy, m.sxx, m.sxy, m.syy),
+        (2, 4, 6, 10, 14, 20)
+    );
+}
