@@ -560,7 +560,8 @@ fn track_one_step_equals_learn_then_run() {
     let text = std::fs::read_to_string(&model).unwrap();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     let edited = dir.join("edited.json");
-    let edits: [(&str, fn(&mut serde_json::Value)); 3] = [
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit); 3] = [
         ("extent", |v| {
             v["extent"][0] = 1e6.into();
             v["extent"][1] = 2e6.into();
