@@ -118,15 +118,21 @@ fn contradictory_parameters_are_rejected() {
     }
 }
 
-#[test]
-fn regions_refuse_a_foreign_image() {
-    let (w, h) = (20, 20);
+/// A `w × h` image, bright but for a dark square over `5..12` on both axes.
+fn dark_square(w: usize, h: usize) -> Vec<u8> {
     let mut px = vec![200u8; w * h];
     for y in 5..12 {
         for x in 5..12 {
             px[y * w + x] = 10;
         }
     }
+    px
+}
+
+#[test]
+fn regions_refuse_a_foreign_image() {
+    let (w, h) = (20, 20);
+    let px = dark_square(w, h);
     let img = GrayView::packed(&px, w, h).unwrap();
     let p = MserParams {
         min_area: 10,
@@ -282,12 +288,7 @@ fn trace_outer_contour_refuses_bad_seeds() {
 #[test]
 fn variations_by_thresholds_refuses_invalid_parameters() {
     let (w, h) = (20, 20);
-    let mut px = vec![200u8; w * h];
-    for y in 5..12 {
-        for x in 5..12 {
-            px[y * w + x] = 10;
-        }
-    }
+    let px = dark_square(w, h);
     let img = GrayView::packed(&px, w, h).unwrap();
     let p = MserParams {
         min_area: 10,

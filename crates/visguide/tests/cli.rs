@@ -420,6 +420,22 @@ fn write_table(path: &Path, rows: usize) {
     std::fs::write(path, t).unwrap();
 }
 
+/// The arguments of `lwpr fit` on a table of two inputs.
+fn fit_args<'a>(data: &'a Path, model: &'a Path, passes: &'a str) -> [&'a str; 10] {
+    [
+        "lwpr",
+        "fit",
+        "-q",
+        s(data),
+        "--inputs",
+        "2",
+        "--model",
+        s(model),
+        "--passes",
+        passes,
+    ]
+}
+
 /// `lwpr fit` then `lwpr predict`: the model file loads in the library, the predictions,
 /// confidence bounds and Jacobians are in the CSV and equal the library's.
 #[test]
@@ -427,18 +443,7 @@ fn lwpr_fit_and_predict() {
     let dir = temp("lwpr");
     let (data, model, pred) = (dir.join("d.csv"), dir.join("m.json"), dir.join("p.csv"));
     write_table(&data, 400);
-    ok(&[
-        "lwpr",
-        "fit",
-        "-q",
-        s(&data),
-        "--inputs",
-        "2",
-        "--model",
-        s(&model),
-        "--passes",
-        "10",
-    ]);
+    ok(&fit_args(&data, &model, "10"));
     ok(&[
         "lwpr",
         "predict",
@@ -474,18 +479,7 @@ fn lwpr_fit_and_predict() {
     // used to panic on the multiplication).
     let huge = dir.join("huge.json");
     fails(
-        &[
-            "lwpr",
-            "fit",
-            "-q",
-            s(&data),
-            "--inputs",
-            "2",
-            "--model",
-            s(&huge),
-            "--passes",
-            "18446744073709551615",
-        ],
+        &fit_args(&data, &huge, "18446744073709551615"),
         "--passes 18446744073709551615",
     );
     assert!(!huge.exists());
