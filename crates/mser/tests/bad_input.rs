@@ -129,16 +129,21 @@ fn dark_square(w: usize, h: usize) -> Vec<u8> {
     px
 }
 
-#[test]
-fn regions_refuse_a_foreign_image() {
-    let (w, h) = (20, 20);
-    let px = dark_square(w, h);
-    let img = GrayView::packed(&px, w, h).unwrap();
+/// The parameters that find the square of [`dark_square`], and its region.
+fn square_region(img: &GrayView) -> (MserParams, mser::Region) {
     let p = MserParams {
         min_area: 10,
         ..Default::default()
     };
-    let r = detect(&img, &p).unwrap().remove(0);
+    let r = detect(img, &p).unwrap().remove(0);
+    (p, r)
+}
+
+#[test]
+fn regions_refuse_a_foreign_image() {
+    let px = dark_square(20, 20);
+    let img = GrayView::packed(&px, 20, 20).unwrap();
+    let (_, r) = square_region(&img);
     let other = vec![100u8; 4];
     let small = GrayView::packed(&other, 2, 2).unwrap();
     assert!(matches!(
@@ -149,8 +154,8 @@ fn regions_refuse_a_foreign_image() {
         r.pixels(&small),
         Err(MserError::RegionImageMismatch { .. })
     ));
-    let flat = vec![0u8; w * h];
-    let flat = GrayView::packed(&flat, w, h).unwrap();
+    let flat = vec![0u8; 20 * 20];
+    let flat = GrayView::packed(&flat, 20, 20).unwrap();
     assert!(r.pixels(&flat).is_err());
     assert!(r.contour(&flat).is_err());
 }
@@ -287,14 +292,9 @@ fn trace_outer_contour_refuses_bad_seeds() {
 /// used to compute with Δ = 0).
 #[test]
 fn variations_by_thresholds_refuses_invalid_parameters() {
-    let (w, h) = (20, 20);
-    let px = dark_square(w, h);
-    let img = GrayView::packed(&px, w, h).unwrap();
-    let p = MserParams {
-        min_area: 10,
-        ..Default::default()
-    };
-    let r = detect(&img, &p).unwrap().remove(0);
+    let px = dark_square(20, 20);
+    let img = GrayView::packed(&px, 20, 20).unwrap();
+    let (p, r) = square_region(&img);
     assert!(mser::variations_by_thresholds(&img, &r, &p).is_ok());
     for bad in [
         MserParams { delta: 0, ..p },
