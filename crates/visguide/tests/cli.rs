@@ -836,6 +836,23 @@ fn bad_input_fails_cleanly_without_partial_output() {
         &["match", s(&good), s(&dir), "--out", s(&m)],
         "is a directory",
     );
+    // A RANSAC threshold that cannot be used is an error (it used to give exit 0 and no
+    // homography).
+    for t in ["NaN", "0", "inf"] {
+        fails(
+            &[
+                "match",
+                s(&good),
+                s(&good),
+                "--ransac-threshold",
+                t,
+                "--out",
+                s(&m),
+            ],
+            "invalid RANSAC setting",
+        );
+    }
+    assert!(!m.exists());
     fails(
         &[
             "match",
