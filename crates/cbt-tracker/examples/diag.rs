@@ -38,7 +38,7 @@ fn run(t: &mut dyn Tracker, s: &Sequence) -> (f64, f64) {
         println!("   digest {} {h:016x}", t.name());
     }
     let truths: Vec<Option<Point>> = s.frames.iter().map(|f| f.truth).collect();
-    (score(&est, &truths, 2, 20.0).rmse, dt)
+    (score(&est, &truths, 2, 20.0).unwrap().rmse, dt)
 }
 
 fn main() {

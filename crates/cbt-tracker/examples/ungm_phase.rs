@@ -20,7 +20,7 @@ fn rmse(t: &mut dyn Tracker, s: &Sequence) -> f64 {
         est.push(e.position);
     }
     let truths: Vec<_> = s.frames.iter().map(|f| f.truth).collect();
-    metrics::score(&est, &truths, 1, 5.0).rmse
+    metrics::score(&est, &truths, 1, 5.0).unwrap().rmse
 }
 
 /// CBT's RMSE with the posterior mean (`Σ_n q_n x̃_n / Σ_n q_n`) as its estimate instead of
@@ -43,7 +43,7 @@ fn rmse_mean(t: &mut CbtTracker, s: &Sequence) -> f64 {
         est.push([m, 0.0]);
     }
     let truths: Vec<_> = s.frames.iter().map(|f| f.truth).collect();
-    metrics::score(&est, &truths, 1, 5.0).rmse
+    metrics::score(&est, &truths, 1, 5.0).unwrap().rmse
 }
 
 fn main() {

@@ -207,8 +207,8 @@ mod stationary;
 mod tracker;
 
 pub use baselines::{
-    Calibration, GATE_99, KalmanParams, KalmanTracker, LearnedParticleFilter, ParticleFilter,
-    PfModel,
+    Calibration, GATE_99, KalmanParams, KalmanTracker, LearnedParticleFilter, MAX_PARTICLES,
+    ParticleFilter, PfModel,
 };
 pub use cbt::CbtTracker;
 pub use config::{

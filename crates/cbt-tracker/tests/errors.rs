@@ -3,7 +3,8 @@
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker,
-    ParticleFilter, PfModel, Space, TrackError, Tracker, TrainingFrame,
+    LearnedParticleFilter, MAX_PARTICLES, Order, ParticleFilter, PfModel, Scales, Space,
+    TrackError, Tracker, TrainingFrame,
 };
 use chan_repr::{ChanError, ChannelBasis, Kernel};
 
@@ -192,4 +193,117 @@ fn trackers_keep_their_state_on_a_bad_frame() {
         Err(TrackError::NonFinite { .. })
     ));
     assert!(cbt.reset_to(&[1.0, 2.0]).is_err());
+}
+
+#[test]
+fn impossible_particle_counts_are_errors_before_allocating() {
+    let ungm = PfModel::Ungm {
+        process_var: 10.0,
+        meas_var: 1.0,
+        init_sigma: 1.0,
+    };
+    let (_, train) = setup();
+    let space = Space::image(320.0, 240.0, 20.0).unwrap();
+    let first = CbtConfig {
+        order: Order::First,
+        ..CbtConfig::default()
+    };
+    let model = CbtModel::learn_sequences(space, first, &train).unwrap();
+    // usize::MAX used to be a capacity-overflow panic, 2^40 an allocation abort.
+    for n in [usize::MAX, 1 << 40, MAX_PARTICLES + 1] {
+        assert!(matches!(
+            ParticleFilter::new(ungm, n, 1),
+            Err(TrackError::InvalidParameter {
+                name: "particles",
+                ..
+            })
+        ));
+        assert!(matches!(
+            LearnedParticleFilter::new(model.clone(), n, 1),
+            Err(TrackError::InvalidParameter {
+                name: "particles",
+                ..
+            })
+        ));
+    }
+    assert!(ParticleFilter::new(ungm, 1, 1).is_ok());
+    assert!(LearnedParticleFilter::new(model, 1, 1).is_ok());
+}
+
+#[test]
+fn training_statistics_refuse_bad_bounds() {
+    let (_, train) = setup();
+    // Calibration used to return meas_sigma NaN (or 0) for these, and Scales a noise of 0.
+    for bad in [f64::NAN, f64::INFINITY, 0.0, -5.0] {
+        assert!(matches!(
+            Calibration::estimate(&train, bad),
+            Err(TrackError::InvalidParameter {
+                name: "max_residual",
+                ..
+            })
+        ));
+        assert!(matches!(
+            Scales::estimate(&train, bad),
+            Err(TrackError::InvalidParameter { name: "extent", .. })
+        ));
+    }
+    assert!(Calibration::estimate(&train, 32.0).is_ok());
+    assert!(Scales::estimate(&train, 320.0).is_ok());
+}
+
+#[test]
+fn scoring_refuses_mismatched_or_bad_input() {
+    use cbt_tracker::metrics::score;
+    let truth = [Some([0.0, 0.0]), Some([1.0, 0.0]), Some([2.0, 0.0])];
+    let est = [[0.0, 0.0], [1.0, 3.0], [2.0, 4.0]];
+    // Used to be scored silently over the shorter slice.
+    assert!(matches!(
+        score(&est[..2], &truth, 2, 3.5),
+        Err(TrackError::Mismatch(_))
+    ));
+    // Used to panic indexing a point's third coordinate.
+    assert!(matches!(
+        score(&est, &truth, 3, 3.5),
+        Err(TrackError::InvalidParameter { name: "dims", .. })
+    ));
+    assert!(score(&est, &truth, 0, 3.5).is_err());
+    assert!(score(&est, &truth, 2, f64::NAN).is_err());
+    assert!(score(&est, &truth, 2, -1.0).is_err());
+    // A NaN estimate used to give rmse NaN with no frame lost.
+    let nan = [[0.0, 0.0], [f64::NAN, 3.0], [2.0, 4.0]];
+    assert!(matches!(
+        score(&nan, &truth, 2, 3.5),
+        Err(TrackError::NonFinite { .. })
+    ));
+    // A NaN where there is no truth, or beyond the scored dims, is not scored.
+    let unscored = [Some([0.0, 0.0]), None, Some([2.0, f64::NAN])];
+    assert_eq!(score(&nan, &unscored, 1, 3.5).unwrap().frames, 1);
+    let s = score(&est, &truth, 2, 3.5).unwrap();
+    assert_eq!((s.frames, s.loss_share), (2, 0.5));
+    assert!(score(&est, &truth, 2, f64::INFINITY).is_ok());
+}
+
+#[test]
+fn an_edited_calibration_is_refused_on_reading() {
+    let (_, train) = setup();
+    let cal = Calibration::estimate(&train, 32.0).unwrap();
+    assert!(cal.validate().is_ok());
+    let text = serde_json::to_string(&cal).unwrap();
+    assert_eq!(serde_json::from_str::<Calibration>(&text).unwrap(), cal);
+    // Each used to load; a negative or NaN clutter rate then became 0.01 silently in the
+    // particle filter's model.
+    for (field, value) in [
+        ("accel_sigma", "0"),
+        ("meas_sigma", "-1"),
+        ("p_detect", "5"),
+        ("clutter_rate", "-3"),
+    ] {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v[field] = serde_json::from_str(value).unwrap();
+        let edited = v.to_string();
+        let e = serde_json::from_str::<Calibration>(&edited)
+            .expect_err(field)
+            .to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
 }

@@ -59,7 +59,7 @@ fn run(t: &mut dyn Tracker, s: &Sequence) -> f64 {
         est.push(t.step(&f.detections).unwrap().position);
     }
     let truths: Vec<_> = s.frames.iter().map(|f| f.truth).collect();
-    metrics::score(&est, &truths, 2, 20.0).rmse
+    metrics::score(&est, &truths, 2, 20.0).unwrap().rmse
 }
 
 #[test]

@@ -60,7 +60,7 @@ fn rmse(t: &mut dyn Tracker, s: &Sequence) -> f64 {
         est.push(t.step(&f.detections).unwrap().position);
     }
     let truths: Vec<_> = s.frames.iter().map(|f| f.truth).collect();
-    metrics::score(&est, &truths, 1, 5.0).rmse
+    metrics::score(&est, &truths, 1, 5.0).unwrap().rmse
 }
 
 /// The prediction into step `k` is `Σ_p β_p(φ_k) S_p q` summed by hand from the learned

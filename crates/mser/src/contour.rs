@@ -17,20 +17,54 @@
 //! pixel in raster order, whose upper neighbour belongs to the outside, and stops when it returns
 //! to its first crack: O(perimeter) time, no mask.
 
+use crate::error::{MserError, Result};
 use crate::image::GrayView;
 use crate::region::Polarity;
 
 /// Unit steps east, north, west, south; a left turn is `+1`.
 const DIRS: [(i64, i64); 4] = [(1, 0), (0, -1), (-1, 0), (0, 1)];
 
+/// Checks that `seed` can start a region's walk: inside the image, passing the threshold, and
+/// the first pixel of its component in raster order (its upper and left neighbours fail);
+/// otherwise a [`MserError::RegionImageMismatch`].
+pub(crate) fn check_seed(
+    img: &GrayView,
+    seed: (u32, u32),
+    level: u8,
+    polarity: Polarity,
+) -> Result<()> {
+    let (x, y) = (seed.0 as usize, seed.1 as usize);
+    if x >= img.width() || y >= img.height() {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed outside the image",
+        });
+    }
+    if !polarity.contains(img.at(x, y), level) {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed pixel does not pass the region's threshold",
+        });
+    }
+    if y > 0 && polarity.contains(img.at(x, y - 1), level)
+        || x > 0 && polarity.contains(img.at(x - 1, y), level)
+    {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed is not the region's first pixel in raster order",
+        });
+    }
+    Ok(())
+}
+
 /// Traces the outer contour of the region through `seed` (its first pixel in raster order); see
-/// [`Region::contour`](crate::Region::contour) for the guarantees.
+/// [`Region::contour`](crate::Region::contour) for the guarantees. A seed outside the image,
+/// failing the threshold, or not the first pixel of its component in raster order is a
+/// [`MserError::RegionImageMismatch`].
 pub fn trace_outer_contour(
     img: &GrayView,
     seed: (u32, u32),
     level: u8,
     polarity: Polarity,
-) -> Vec<(u32, u32)> {
+) -> Result<Vec<(u32, u32)>> {
+    check_seed(img, seed, level, polarity)?;
     let (w, h) = (img.width() as i64, img.height() as i64);
     let inside = |x: i64, y: i64| {
         x >= 0
@@ -66,5 +100,5 @@ pub fn trace_outer_contour(
     if out.len() > 1 && out.last() == out.first() {
         out.pop();
     }
-    out
+    Ok(out)
 }

@@ -37,9 +37,31 @@ pub struct OxfordRegion {
     pub descriptor: Vec<f64>,
 }
 
+/// Why a region file may not hold this ellipse: every number finite, `a > 0` and
+/// `ac − b² > 0`; `None` when it may. The one check of the reader and the writers.
+fn ellipse_fault(e: &Ellipse) -> Option<&'static str> {
+    if ![e.u, e.v, e.a, e.b, e.c].iter().all(|v| v.is_finite()) {
+        Some("non-finite number")
+    } else if !(e.a > 0.0 && e.a * e.c - e.b * e.b > 0.0) {
+        Some("ellipse is not positive definite")
+    } else {
+        None
+    }
+}
+
 /// Writes ellipses without descriptors. The numbers are written with Rust's shortest
-/// round-trip formatting, so [`read_regions`] gets the same `f64` values back.
+/// round-trip formatting, so [`read_regions`] gets the same `f64` values back. An ellipse
+/// [`read_regions`] would refuse (a non-finite number, not positive definite) is an
+/// [`MserError::InvalidParameter`] before anything is written.
 pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+    for (i, e) in ellipses.iter().enumerate() {
+        if let Some(fault) = ellipse_fault(e) {
+            return Err(MserError::InvalidParameter {
+                name: "ellipses",
+                reason: format!("ellipse {i} {e:?}: {fault}"),
+            });
+        }
+    }
     writeln!(w, "1.0")?;
     writeln!(w, "{}", ellipses.len())?;
     for e in ellipses {
@@ -49,7 +71,8 @@ pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
     Ok(())
 }
 
-/// Writes ellipses to a file; see [`write_regions`]. The file is written under a temporary
+/// Writes ellipses to a file; see [`write_regions`] (an ellipse it refuses leaves `path`
+/// untouched). The file is written under a temporary
 /// name beside `path` and renamed over it only when everything was written, so a failed write
 /// leaves no partial file (and an existing file at `path` unchanged).
 pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> {
@@ -139,8 +162,8 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
             b: nums[3],
             c: nums[4],
         };
-        if !(e.a > 0.0 && e.a * e.c - e.b * e.b > 0.0) {
-            return Err(parse_err(no, "ellipse is not positive definite".into()));
+        if let Some(fault) = ellipse_fault(&e) {
+            return Err(parse_err(no, fault.into()));
         }
         out.push(OxfordRegion {
             ellipse: e,

@@ -1,6 +1,6 @@
 //! A detected region: polarity, grey level, size, moments, bounding box and the equivalent ellipse.
 
-use crate::contour::trace_outer_contour;
+use crate::contour::{check_seed, trace_outer_contour};
 use crate::error::{MserError, Result};
 use crate::image::GrayView;
 use crate::pixels::flood_pixels;
@@ -68,8 +68,10 @@ pub struct Moments {
 }
 
 impl Moments {
-    /// The moments of a list of pixels.
-    pub fn of_pixels(pixels: &[(u32, u32)]) -> Self {
+    /// The moments of a list of pixels. A list whose sums do not fit the `u64` fields (far
+    /// beyond any image's regions: e.g. two pixels at `u32::MAX`) is an
+    /// [`MserError::InvalidParameter`].
+    pub fn of_pixels(pixels: &[(u32, u32)]) -> Result<Self> {
         let mut m = Moments {
             n: 0,
             sx: 0,
@@ -80,14 +82,23 @@ impl Moments {
         };
         for &(x, y) in pixels {
             let (x, y) = (x as u64, y as u64);
-            m.n += 1;
-            m.sx += x;
-            m.sy += y;
-            m.sxx += x * x;
-            m.sxy += x * y;
-            m.syy += y * y;
+            let add = |s: u64, v: u64| s.checked_add(v);
+            let next = (|| {
+                Some(Moments {
+                    n: add(m.n, 1)?,
+                    sx: add(m.sx, x)?,
+                    sy: add(m.sy, y)?,
+                    sxx: add(m.sxx, x * x)?,
+                    sxy: add(m.sxy, x * y)?,
+                    syy: add(m.syy, y * y)?,
+                })
+            })();
+            m = next.ok_or_else(|| MserError::InvalidParameter {
+                name: "pixels",
+                reason: format!("the moments of {} pixels overflow u64", pixels.len()),
+            })?;
         }
-        m
+        Ok(m)
     }
 
     /// Centroid `(x̄, ȳ)` (first moments over the area).
@@ -250,32 +261,10 @@ impl Region {
         })
     }
 
-    fn check_seed(&self, img: &GrayView) -> Result<()> {
-        let (x, y) = (self.seed.0 as usize, self.seed.1 as usize);
-        if x >= img.width() || y >= img.height() {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed outside the image",
-            });
-        }
-        if !self.polarity.contains(img.at(x, y), self.level) {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed pixel does not pass the region's threshold",
-            });
-        }
-        if y > 0 && self.polarity.contains(img.at(x, y - 1), self.level)
-            || x > 0 && self.polarity.contains(img.at(x - 1, y), self.level)
-        {
-            return Err(MserError::RegionImageMismatch {
-                reason: "seed is not the region's first pixel in raster order",
-            });
-        }
-        Ok(())
-    }
-
     /// The region's pixels `(x, y)` in raster order, recomputed by a flood fill from the seed.
     /// `img` must be the image the region was detected in.
     pub fn pixels(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
-        self.check_seed(img)?;
+        check_seed(img, self.seed, self.level, self.polarity)?;
         let px = flood_pixels(img, self.seed, self.level, self.polarity, self.bbox)?;
         if px.len() != self.area as usize {
             return Err(MserError::RegionImageMismatch {
@@ -293,13 +282,7 @@ impl Region {
     /// passes it twice (one-pixel-wide parts); the first point is not repeated at the end.
     /// `img` must be the image the region was detected in.
     pub fn contour(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
-        self.check_seed(img)?;
-        Ok(trace_outer_contour(
-            img,
-            self.seed,
-            self.level,
-            self.polarity,
-        ))
+        trace_outer_contour(img, self.seed, self.level, self.polarity)
     }
 
     /// [`contour`](Self::contour) as `f64` points, the form `fd-match` consumes.

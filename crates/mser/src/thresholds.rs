@@ -62,13 +62,15 @@ impl Variations {
 /// `L` of the symmetric variation the walk down the largest children (ties: first pixel in
 /// raster order) while their level is at least `g − Δ`.
 ///
-/// Errors: a seed outside the image, or a region that is not the component at its level through
-/// its seed (area mismatch), or the whole image (which has no parent).
+/// Errors: parameters [`MserParams::validate`] refuses, a seed outside the image, or a region
+/// that is not the component at its level through its seed (area mismatch), or the whole image
+/// (which has no parent).
 pub fn variations_by_thresholds(
     img: &GrayView,
     r: &Region,
     params: &MserParams,
 ) -> Result<Variations> {
+    params.validate()?;
     let (w, h) = (img.width(), img.height());
     let bad = |reason: String| MserError::InvalidParameter {
         name: "region",

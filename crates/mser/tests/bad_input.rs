@@ -118,21 +118,32 @@ fn contradictory_parameters_are_rejected() {
     }
 }
 
-#[test]
-fn regions_refuse_a_foreign_image() {
-    let (w, h) = (20, 20);
+/// A `w × h` image, bright but for a dark square over `5..12` on both axes.
+fn dark_square(w: usize, h: usize) -> Vec<u8> {
     let mut px = vec![200u8; w * h];
     for y in 5..12 {
         for x in 5..12 {
             px[y * w + x] = 10;
         }
     }
-    let img = GrayView::packed(&px, w, h).unwrap();
+    px
+}
+
+/// The parameters that find the square of [`dark_square`], and its region.
+fn square_region(img: &GrayView) -> (MserParams, mser::Region) {
     let p = MserParams {
         min_area: 10,
         ..Default::default()
     };
-    let r = detect(&img, &p).unwrap().remove(0);
+    let r = detect(img, &p).unwrap().remove(0);
+    (p, r)
+}
+
+#[test]
+fn regions_refuse_a_foreign_image() {
+    let px = dark_square(20, 20);
+    let img = GrayView::packed(&px, 20, 20).unwrap();
+    let (_, r) = square_region(&img);
     let other = vec![100u8; 4];
     let small = GrayView::packed(&other, 2, 2).unwrap();
     assert!(matches!(
@@ -143,8 +154,8 @@ fn regions_refuse_a_foreign_image() {
         r.pixels(&small),
         Err(MserError::RegionImageMismatch { .. })
     ));
-    let flat = vec![0u8; w * h];
-    let flat = GrayView::packed(&flat, w, h).unwrap();
+    let flat = vec![0u8; 20 * 20];
+    let flat = GrayView::packed(&flat, 20, 20).unwrap();
     assert!(r.pixels(&flat).is_err());
     assert!(r.contour(&flat).is_err());
 }
@@ -241,5 +252,85 @@ fn flood_pixels_refuses_seeds_outside_the_image() {
             .unwrap()
             .len(),
         24
+    );
+}
+
+/// `trace_outer_contour` checks its seed as `Region::contour` does (it used to return a
+/// one-point "contour" outside the image, or part of a boundary from a seed that is not the
+/// first pixel).
+#[test]
+fn trace_outer_contour_refuses_bad_seeds() {
+    use mser::{Polarity, trace_outer_contour};
+    let (w, h) = (12, 10);
+    let mut px = vec![200u8; w * h];
+    for y in 3..7 {
+        for x in 2..9 {
+            px[y * w + x] = 10;
+        }
+    }
+    let img = GrayView::packed(&px, w, h).unwrap();
+    for (seed, level) in [
+        ((12, 0), 10),       // outside
+        ((u32::MAX, 3), 10), // far outside
+        ((0, 0), 10),        // does not pass the threshold
+        ((4, 4), 10),        // inside, but not the first pixel
+        ((3, 3), 10),        // first row, but its left neighbour is in the region
+    ] {
+        assert!(
+            matches!(
+                trace_outer_contour(&img, seed, level, Polarity::Dark),
+                Err(MserError::RegionImageMismatch { .. })
+            ),
+            "{seed:?}"
+        );
+    }
+    let c = trace_outer_contour(&img, (2, 3), 10, Polarity::Dark).unwrap();
+    assert_eq!((c.len(), c[0]), (2 * 7 + 2 * 4 - 4, (2, 3)));
+}
+
+/// `variations_by_thresholds` validates its parameters like every detection entry point (it
+/// used to compute with Δ = 0).
+#[test]
+fn variations_by_thresholds_refuses_invalid_parameters() {
+    let px = dark_square(20, 20);
+    let img = GrayView::packed(&px, 20, 20).unwrap();
+    let (p, r) = square_region(&img);
+    assert!(mser::variations_by_thresholds(&img, &r, &p).is_ok());
+    for bad in [
+        MserParams { delta: 0, ..p },
+        MserParams {
+            max_variation: f64::NAN,
+            ..p
+        },
+    ] {
+        assert!(matches!(
+            mser::variations_by_thresholds(&img, &r, &bad),
+            Err(MserError::InvalidParameter { .. })
+        ));
+    }
+}
+
+/// `Moments::of_pixels` refuses sums beyond `u64` (it used to panic with an overflow in a
+/// debug build and wrap silently in a release build).
+#[test]
+fn moments_of_pixels_refuse_overflowing_sums() {
+    use mser::Moments;
+    for px in [
+        vec![(u32::MAX, u32::MAX); 2],
+        vec![(u32::MAX, 0), (u32::MAX, 0)],
+        vec![(0, u32::MAX), (1, u32::MAX)],
+    ] {
+        assert!(matches!(
+            Moments::of_pixels(&px),
+            Err(MserError::InvalidParameter { name: "pixels", .. })
+        ));
+    }
+    // One such pixel still fits: (2^32 − 1)² < 2^64.
+    let one = Moments::of_pixels(&[(u32::MAX, u32::MAX)]).unwrap();
+    assert_eq!((one.n, one.sxx), (1, u64::from(u32::MAX).pow(2)));
+    let m = Moments::of_pixels(&[(1, 2), (3, 4)]).unwrap();
+    assert_eq!(
+        (m.n, m.sx, m.sy, m.sxx, m.sxy, m.syy),
+        (2, 4, 6, 10, 14, 20)
     );
 }

@@ -140,5 +140,64 @@ fn a_failed_save_leaves_no_partial_file() {
     names.sort();
     assert_eq!(names, ["blocked.mser", "good.mser"]);
     assert_eq!(std::fs::read(&good).unwrap(), before);
+    // An ellipse the reader would refuse: nothing written (it used to replace the good file
+    // with one `load_regions` refuses).
+    let bad = Ellipse {
+        u: f64::NAN,
+        ..es[0]
+    };
+    assert!(matches!(
+        mser::save_regions(&good, &[es[0], bad]),
+        Err(MserError::InvalidParameter {
+            name: "ellipses",
+            ..
+        })
+    ));
+    assert_eq!(std::fs::read(&good).unwrap(), before);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The writer refuses exactly what the reader refuses, before writing a byte.
+#[test]
+fn unreadable_ellipses_are_not_written() {
+    let good = Ellipse {
+        u: 1.5,
+        v: 2.25,
+        a: 0.1,
+        b: -0.01,
+        c: 0.2,
+    };
+    for bad in [
+        Ellipse {
+            u: f64::NAN,
+            ..good
+        },
+        Ellipse {
+            v: f64::INFINITY,
+            ..good
+        },
+        Ellipse { a: -0.1, ..good },
+        Ellipse { a: 0.0, ..good },
+        Ellipse { b: 1.0, ..good },
+        Ellipse {
+            c: f64::NEG_INFINITY,
+            ..good
+        },
+    ] {
+        let mut buf = Vec::new();
+        assert!(matches!(
+            write_regions(&mut buf, &[good, bad]),
+            Err(MserError::InvalidParameter {
+                name: "ellipses",
+                ..
+            })
+        ));
+        assert!(buf.is_empty());
+        // And the reader refuses what it would have written.
+        let text = format!("0\n1\n{} {} {} {} {}\n", bad.u, bad.v, bad.a, bad.b, bad.c);
+        assert!(matches!(
+            read_regions(text.as_bytes()),
+            Err(MserError::Parse { line: 3, .. })
+        ));
+    }
 }

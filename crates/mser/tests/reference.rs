@@ -69,7 +69,7 @@ proptest! {
         }
         for (r, (_, _, pixels)) in got.iter().zip(&want) {
             prop_assert_eq!(r.area as usize, pixels.len());
-            prop_assert_eq!(r.moments, mser::Moments::of_pixels(pixels));
+            prop_assert_eq!(r.moments, mser::Moments::of_pixels(pixels).unwrap());
             prop_assert_eq!(r.seed, pixels[0]);
             let xs = pixels.iter().map(|p| p.0);
             let ys = pixels.iter().map(|p| p.1);

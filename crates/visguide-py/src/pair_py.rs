@@ -141,7 +141,8 @@ pub fn match_images<'py>(
         }),
     };
     if let Some(r) = &settings.ransac {
-        // The crate checks these only when a fit runs; refuse them up front.
+        // The crate refuses these too (MatchSettings::validate); here they are refused with the
+        // Python argument names.
         if !(r.threshold.is_finite() && r.threshold > 0.0) {
             return Err(value_error(format!(
                 "ransac_threshold = {} must be a positive number",

@@ -20,7 +20,7 @@ use mser::MserParams;
 use serde::{Deserialize, Serialize};
 
 use crate::combination::Combination;
-use crate::error::Result;
+use crate::error::{Result, VisguideError};
 use crate::features::{Features, detect};
 use crate::geometry::{HomographyFit, LocalAffine, RansacConfig, fit_homography, local_affine};
 
@@ -100,6 +100,30 @@ impl MatchSettings {
             ransac: Some(RansacConfig::default()),
         }
     }
+
+    /// Checks the setting ([`match_images`] does before any work): `T_r` positive (not NaN),
+    /// the preselection threshold finite and non-negative, the RANSAC setting valid
+    /// ([`RansacConfig::validate`]). The MSER parameters are checked by the detector.
+    pub fn validate(&self) -> Result<()> {
+        if self.ratio_threshold.is_nan() || self.ratio_threshold <= 0.0 {
+            return Err(VisguideError::Invalid {
+                name: "ratio threshold",
+                reason: format!("T_r {} is not a positive number", self.ratio_threshold),
+            });
+        }
+        if let Some(t) = self.preselection
+            && !(t.is_finite() && t >= 0.0)
+        {
+            return Err(VisguideError::Invalid {
+                name: "preselection threshold",
+                reason: format!("T_err {t} is not a finite number >= 0"),
+            });
+        }
+        if let Some(r) = &self.ransac {
+            r.validate()?;
+        }
+        Ok(())
+    }
 }
 
 /// One accepted match with its geometry.
@@ -141,7 +165,10 @@ fn pair_rotation(a: &[(u32, u32)], b: &[(u32, u32)]) -> Option<f64> {
 }
 
 /// Regions, descriptors, matches and geometry of two images.
+///
+/// Settings [`MatchSettings::validate`] refuses are an error before any work.
 pub fn match_images(img1: &GrayImage, img2: &GrayImage, s: &MatchSettings) -> Result<PairMatches> {
+    s.validate()?;
     let (f1, f2) = rayon::join(|| detect(img1, &s.mser.0), || detect(img2, &s.mser.1));
     let (f1, f2) = (f1?, f2?);
     let c = s.combination;
@@ -191,4 +218,64 @@ pub fn match_images(img1: &GrayImage, img2: &GrayImage, s: &MatchSettings) -> Re
         accepted,
         homography,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bad settings are an error before any work; a bad RANSAC setting used to be swallowed
+    /// (no homography, no error) and a NaN `T_r` to accept nothing silently.
+    #[test]
+    fn bad_settings_are_refused() {
+        let scene = |dx: u32| {
+            GrayImage::from_fn(160, 120, |x, y| {
+                let (x, y) = (x as f64 - dx as f64, y as f64);
+                let square = (20.0..50.0).contains(&x) && (30.0..60.0).contains(&y);
+                let blob = ((x - 100.0) / 25.0).powi(2) + ((y - 70.0) / 12.0).powi(2) < 1.0;
+                image::Luma([if square || blob { 40 } else { 200 }])
+            })
+        };
+        let (a, b) = (scene(0), scene(7));
+        let good = MatchSettings::paper();
+        assert!(match_images(&a, &b, &good).is_ok());
+        let ransac = |f: fn(&mut RansacConfig)| {
+            let mut r = RansacConfig::default();
+            f(&mut r);
+            MatchSettings {
+                ransac: Some(r),
+                ..MatchSettings::paper()
+            }
+        };
+        for bad in [
+            MatchSettings {
+                ratio_threshold: f64::NAN,
+                ..MatchSettings::paper()
+            },
+            MatchSettings {
+                ratio_threshold: 0.0,
+                ..MatchSettings::paper()
+            },
+            MatchSettings {
+                preselection: Some(f64::NAN),
+                ..MatchSettings::paper()
+            },
+            MatchSettings {
+                preselection: Some(-1.0),
+                ..MatchSettings::paper()
+            },
+            ransac(|r| r.threshold = f64::NAN),
+            ransac(|r| r.threshold = 0.0),
+            ransac(|r| r.confidence = 1.0),
+            ransac(|r| r.max_iterations = 0),
+        ] {
+            assert!(
+                matches!(
+                    match_images(&a, &b, &bad),
+                    Err(VisguideError::Invalid { .. })
+                ),
+                "{bad:?}"
+            );
+        }
+    }
 }

@@ -143,13 +143,40 @@ impl TrackModelFile {
         write_bytes(path, text.as_bytes())
     }
 
-    /// Loads and checks a file (the CBT model is validated by its own deserialiser).
+    /// Loads and checks a file (the CBT model and the calibration are validated by their own
+    /// deserialisers): the extent must be finite with `lo < hi` on both axes and lie within
+    /// the CBT model's 2-D state grid (it is the grid's range when `visguide track learn`
+    /// writes it).
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_checked(path, CBT_FORMAT)?;
-        serde_json::from_str(&text).map_err(|e| VisguideError::Model {
+        let bad = |reason: String| VisguideError::Model {
             path: path.to_path_buf(),
-            reason: e.to_string(),
-        })
+            reason,
+        };
+        let file: TrackModelFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let space = file.cbt.space();
+        if space.dims() != 2 {
+            return Err(bad(format!(
+                "a tracking model needs a 2-D state grid, this one has {} dimension(s)",
+                space.dims()
+            )));
+        }
+        for d in 0..2 {
+            let (lo, hi) = (file.extent[2 * d], file.extent[2 * d + 1]);
+            let (glo, ghi) = space.state_basis(d).representable_range();
+            let slack = 1e-9 * (ghi - glo);
+            if !(lo.is_finite()
+                && hi.is_finite()
+                && lo < hi
+                && lo >= glo - slack
+                && hi <= ghi + slack)
+            {
+                return Err(bad(format!(
+                    "extent [{lo}, {hi}] on axis {d} is not a finite range within the model's grid [{glo}, {ghi}]"
+                )));
+            }
+        }
+        Ok(file)
     }
 }
 

@@ -420,6 +420,22 @@ fn write_table(path: &Path, rows: usize) {
     std::fs::write(path, t).unwrap();
 }
 
+/// The arguments of `lwpr fit` on a table of two inputs.
+fn fit_args<'a>(data: &'a Path, model: &'a Path, passes: &'a str) -> [&'a str; 10] {
+    [
+        "lwpr",
+        "fit",
+        "-q",
+        s(data),
+        "--inputs",
+        "2",
+        "--model",
+        s(model),
+        "--passes",
+        passes,
+    ]
+}
+
 /// `lwpr fit` then `lwpr predict`: the model file loads in the library, the predictions,
 /// confidence bounds and Jacobians are in the CSV and equal the library's.
 #[test]
@@ -427,18 +443,7 @@ fn lwpr_fit_and_predict() {
     let dir = temp("lwpr");
     let (data, model, pred) = (dir.join("d.csv"), dir.join("m.json"), dir.join("p.csv"));
     write_table(&data, 400);
-    ok(&[
-        "lwpr",
-        "fit",
-        "-q",
-        s(&data),
-        "--inputs",
-        "2",
-        "--model",
-        s(&model),
-        "--passes",
-        "10",
-    ]);
+    ok(&fit_args(&data, &model, "10"));
     ok(&[
         "lwpr",
         "predict",
@@ -470,6 +475,14 @@ fn lwpr_fit_and_predict() {
         worst = worst.max((v[2] - ((2.0 * v[0]).sin() + 0.5 * v[1])).abs());
     }
     assert!(worst < 0.3, "worst training error {worst}");
+    // A pass count whose updates overflow is an error naming it, and writes no model (it
+    // used to panic on the multiplication).
+    let huge = dir.join("huge.json");
+    fails(
+        &fit_args(&data, &huge, "18446744073709551615"),
+        "--passes 18446744073709551615",
+    );
+    assert!(!huge.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -535,6 +548,34 @@ fn track_one_step_equals_learn_then_run() {
         err += (r[2].parse::<f64>().unwrap() - t[0]).hypot(r[3].parse::<f64>().unwrap() - t[1]);
     }
     assert!(err / 120.0 < 6.0, "CBT mean error {}", err / 120.0);
+    // A model file edited to be inconsistent is refused on loading, naming the file and the
+    // field (an extent off or across the model's grid, a negative clutter rate: these used
+    // to load, and ran or failed later with an error naming neither).
+    let text = std::fs::read_to_string(&model).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let edited = dir.join("edited.json");
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit); 3] = [
+        ("extent", |v| {
+            v["extent"][0] = 1e6.into();
+            v["extent"][1] = 2e6.into();
+        }),
+        ("extent", |v| {
+            let (a, b) = (v["extent"][0].clone(), v["extent"][1].clone());
+            v["extent"][0] = b;
+            v["extent"][1] = a;
+        }),
+        ("clutter_rate", |v| {
+            v["calibration"]["clutter_rate"] = (-3.0).into()
+        }),
+    ];
+    for (needle, edit) in edits {
+        let mut e = v.clone();
+        edit(&mut e);
+        std::fs::write(&edited, e.to_string()).unwrap();
+        let err = fails(&["track", "run", "-q", s(&edited), s(&seq)], needle);
+        assert!(err.contains("edited.json"), "{err}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -795,6 +836,23 @@ fn bad_input_fails_cleanly_without_partial_output() {
         &["match", s(&good), s(&dir), "--out", s(&m)],
         "is a directory",
     );
+    // A RANSAC threshold that cannot be used is an error (it used to give exit 0 and no
+    // homography).
+    for t in ["NaN", "0", "inf"] {
+        fails(
+            &[
+                "match",
+                s(&good),
+                s(&good),
+                "--ransac-threshold",
+                t,
+                "--out",
+                s(&m),
+            ],
+            "invalid RANSAC setting",
+        );
+    }
+    assert!(!m.exists());
     fails(
         &[
             "match",
@@ -879,6 +937,24 @@ fn bad_input_fails_cleanly_without_partial_output() {
         Some(2)
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--threads` outside 1..=1024 is a usage error (exit 2, one line) before any work: a huge
+/// count used to try to start that many threads (100,000 hung for over a minute).
+#[test]
+fn threads_out_of_range_is_a_usage_error() {
+    for (n, needle) in [
+        ("0", "at least 1"),
+        ("1025", "limit of 1024"),
+        ("100000", "limit of 1024"),
+        ("18446744073709551615", "limit of 1024"),
+    ] {
+        let o = run(&["--threads", n, "regions", "--out", "/nonexistent", "x.png"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "--threads {n}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
 }
 
 /// Every subcommand's --help has a description and examples.

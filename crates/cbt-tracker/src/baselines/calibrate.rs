@@ -4,11 +4,17 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::{positive, unit};
 use crate::{Sequence, TrackError};
 
 /// Statistics of a training set: process and detection noise, detection probability and
 /// clutter rate.
+///
+/// Read back with serde it is validated as [`Calibration::validate`] checks
+/// ([`TrackError::InvalidParameter`] otherwise), like every value [`Calibration::estimate`]
+/// returns.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CalibrationRaw")]
 pub struct Calibration {
     /// Acceleration noise `σ_a` per axis of a discrete white-noise-acceleration model:
     /// `sqrt(2 · mean((x_{k+1} − 2x_k + x_{k−1})²))` of the truth (the second difference of
@@ -24,10 +30,58 @@ pub struct Calibration {
     pub clutter_rate: f64,
 }
 
+/// A [`Calibration`] as read, before its check.
+#[derive(Deserialize)]
+struct CalibrationRaw {
+    accel_sigma: f64,
+    meas_sigma: f64,
+    p_detect: f64,
+    clutter_rate: f64,
+}
+
+impl TryFrom<CalibrationRaw> for Calibration {
+    type Error = TrackError;
+
+    fn try_from(r: CalibrationRaw) -> Result<Self, TrackError> {
+        let c = Calibration {
+            accel_sigma: r.accel_sigma,
+            meas_sigma: r.meas_sigma,
+            p_detect: r.p_detect,
+            clutter_rate: r.clutter_rate,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+}
+
 impl Calibration {
+    /// Checks what [`Calibration::estimate`] guarantees: both noise scales finite and
+    /// positive, `p_detect` in `[0, 1]`, `clutter_rate` finite and non-negative.
+    pub fn validate(&self) -> Result<(), TrackError> {
+        positive("accel_sigma", self.accel_sigma)?;
+        positive("meas_sigma", self.meas_sigma)?;
+        unit("p_detect", self.p_detect, false)?;
+        if !(self.clutter_rate.is_finite() && self.clutter_rate >= 0.0) {
+            return Err(TrackError::InvalidParameter {
+                name: "clutter_rate",
+                value: self.clutter_rate,
+                reason: "must be finite and non-negative",
+            });
+        }
+        Ok(())
+    }
+
     /// Estimates the statistics from sequences with truth; `max_residual` bounds the
     /// residuals taken as the target's (e.g. a tenth of the image size).
+    /// `max_residual` must be finite and positive.
     pub fn estimate(train: &[Sequence], max_residual: f64) -> Result<Calibration, TrackError> {
+        if !(max_residual.is_finite() && max_residual > 0.0) {
+            return Err(TrackError::InvalidParameter {
+                name: "max_residual",
+                value: max_residual,
+                reason: "must be finite and positive",
+            });
+        }
         let mut acc2 = Vec::new();
         let mut res = Vec::new();
         for s in train {

@@ -40,7 +40,7 @@ pub struct LearnedParticleFilter {
 }
 
 impl LearnedParticleFilter {
-    /// `n ≥ 1` particles on `model` (separable layout, first order), random draws from `seed`.
+    /// `1 ≤ n ≤` [`MAX_PARTICLES`](crate::MAX_PARTICLES) particles on `model` (separable layout, first order), random draws from `seed`.
     pub fn new(model: CbtModel, n: usize, seed: u64) -> Result<Self, TrackError> {
         let cfg = model.config();
         if cfg.layout != Layout::Separable || cfg.order != Order::First {
@@ -49,13 +49,7 @@ impl LearnedParticleFilter {
                     .into(),
             ));
         }
-        if n == 0 {
-            return Err(TrackError::InvalidParameter {
-                name: "particles",
-                value: 0.0,
-                reason: "at least one particle is needed",
-            });
-        }
+        super::particle::check_particle_count(n)?;
         let start = {
             let b = model.space().state_basis(0);
             let (lo, hi) = b.representable_range();

@@ -10,4 +10,4 @@ mod particle;
 pub use calibrate::Calibration;
 pub use kalman::{GATE_99, KalmanParams, KalmanTracker};
 pub use learned_pf::LearnedParticleFilter;
-pub use particle::{ParticleFilter, PfModel};
+pub use particle::{MAX_PARTICLES, ParticleFilter, PfModel};

@@ -159,17 +159,27 @@ impl TryFrom<ParticleFilterRaw> for ParticleFilter {
     }
 }
 
+/// The most particles a filter may have (2²⁴, about 0.8 GB of particle state): more is
+/// refused with a typed error before anything is allocated.
+pub const MAX_PARTICLES: usize = 1 << 24;
+
+/// Checks a particle count: `1 ≤ n ≤` [`MAX_PARTICLES`].
+pub(crate) fn check_particle_count(n: usize) -> Result<(), TrackError> {
+    if n == 0 || n > MAX_PARTICLES {
+        return Err(TrackError::InvalidParameter {
+            name: "particles",
+            value: n as f64,
+            reason: "must lie in 1..=MAX_PARTICLES (2^24)",
+        });
+    }
+    Ok(())
+}
+
 impl ParticleFilter {
-    /// `n ≥ 1` particles, all random draws from `seed`.
+    /// `1 ≤ n ≤` [`MAX_PARTICLES`] particles, all random draws from `seed`.
     pub fn new(model: PfModel, n: usize, seed: u64) -> Result<Self, TrackError> {
         model.validate()?;
-        if n == 0 {
-            return Err(TrackError::InvalidParameter {
-                name: "particles",
-                value: 0.0,
-                reason: "at least one particle is needed",
-            });
-        }
+        check_particle_count(n)?;
         let mut pf = ParticleFilter {
             model,
             particles: vec![[0.0; 4]; n],

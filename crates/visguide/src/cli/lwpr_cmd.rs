@@ -109,6 +109,17 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
     if a.passes == 0 {
         return Err("--passes must be at least 1".into());
     }
+    let updates = a
+        .passes
+        .checked_mul(t.rows.len())
+        .and_then(|u| u64::try_from(u).ok())
+        .ok_or_else(|| {
+            format!(
+                "--passes {} × {} rows is more than 2^64 updates",
+                a.passes,
+                t.rows.len()
+            )
+        })?;
     let (n, m) = (a.inputs, width - a.inputs);
     let norm_in: Vec<f64> = (0..n).map(|c| std_dev(&t.rows, c)).collect();
     let norm_out: Vec<f64> = (n..width).map(|c| std_dev(&t.rows, c)).collect();
@@ -120,7 +131,7 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
         .meta(a.meta)
         .build()
         .map_err(|e| format!("LWPR setting: {e}"))?;
-    let bar = ui.bar((a.passes * t.rows.len()) as u64, "lwpr fit");
+    let bar = ui.bar(updates, "lwpr fit");
     for _ in 0..a.passes {
         for (row, line) in t.rows.iter().zip(&t.lines) {
             model

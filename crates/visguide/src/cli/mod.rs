@@ -11,6 +11,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+/// The most worker threads `--threads` may ask for: a pool of, say, 100,000 threads is only
+/// ever a typo, and starting it exhausts the system's threads or memory before any work.
+const MAX_THREADS: usize = 1024;
+
 /// Result of a subcommand: any error, printed as one line.
 pub type CliResult<T = ()> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
 
@@ -38,7 +42,8 @@ struct Cli {
     /// No progress bars and no summaries on stderr (errors are still printed).
     #[arg(long, short, global = true)]
     quiet: bool,
-    /// Worker threads for the parallel parts (default: every core). Results never depend on it.
+    /// Worker threads for the parallel parts, 1 to 1024 (default: every core). Results never
+    /// depend on it.
     #[arg(long, global = true, value_name = "N")]
     threads: Option<usize>,
     #[command(subcommand)]
@@ -61,6 +66,10 @@ pub fn main() -> ExitCode {
     if let Some(n) = cli.threads {
         if n == 0 {
             eprintln!("visguide: error: --threads must be at least 1");
+            return ExitCode::from(2);
+        }
+        if n > MAX_THREADS {
+            eprintln!("visguide: error: --threads {n} is more than the limit of {MAX_THREADS}");
             return ExitCode::from(2);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new()

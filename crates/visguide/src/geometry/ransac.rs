@@ -44,7 +44,9 @@ impl Default for RansacConfig {
 }
 
 impl RansacConfig {
-    fn validate(&self) -> Result<()> {
+    /// Checks the setting: a finite positive threshold, a confidence in (0, 1), at least one
+    /// sample.
+    pub fn validate(&self) -> Result<()> {
         let bad = |reason: String| {
             Err(VisguideError::Invalid {
                 name: "RANSAC setting",

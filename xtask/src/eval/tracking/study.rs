@@ -400,7 +400,7 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
     let truths: Vec<Option<Point>> = frames.iter().map(|f| f.truth).collect();
     Ok(Run {
         tracker: t.name(),
-        score: score(&est, &truths, dims, radius),
+        score: score(&est, &truths, dims, radius)?,
         seed_rmse: Vec::new(),
         rejected_frames: rejected,
         estimates: est,
