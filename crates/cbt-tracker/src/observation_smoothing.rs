@@ -60,6 +60,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::CbtConfig;
 use crate::encode::{encode_detections, encode_states};
+use crate::error::non_negative;
 use crate::smoothing::check_selection_setup;
 use crate::stationary::StatObservation;
 use crate::{Space, TrackError, TrainingFrame};
@@ -109,14 +110,7 @@ impl ObservationChoice {
                 reason: "must lie in (0, 1]",
             });
         }
-        if !(self.clutter_scale >= 0.0 && self.clutter_scale.is_finite()) {
-            return Err(TrackError::InvalidParameter {
-                name: "clutter_scale",
-                value: self.clutter_scale,
-                reason: "must be finite and non-negative",
-            });
-        }
-        Ok(())
+        non_negative("clutter_scale", self.clutter_scale)
     }
 }
 

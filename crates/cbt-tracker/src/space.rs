@@ -219,7 +219,7 @@ impl Scales {
     /// Estimates the scales from training sequences with ground truth.
     /// `extent` must be finite and positive.
     pub fn estimate(train: &[Sequence], extent: f64) -> Result<Scales, TrackError> {
-        check_extent(extent)?;
+        positive("extent", extent)?;
         let mut acc = Vec::new();
         let mut res = Vec::new();
         for s in train {
@@ -280,17 +280,6 @@ impl Scales {
     pub fn fine_spacing(&self, extent: f64) -> f64 {
         (0.75 * self.noise).clamp(extent / 1000.0, extent / 12.0)
     }
-}
-
-fn check_extent(extent: f64) -> Result<(), TrackError> {
-    if !(extent.is_finite() && extent > 0.0) {
-        return Err(TrackError::InvalidParameter {
-            name: "extent",
-            value: extent,
-            reason: "must be finite and positive",
-        });
-    }
-    Ok(())
 }
 
 fn dist2(a: &Point, b: &Point) -> f64 {

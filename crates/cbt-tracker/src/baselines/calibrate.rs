@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{positive, unit};
+use crate::error::{non_negative, positive, unit};
 use crate::{Sequence, TrackError};
 
 /// Statistics of a training set: process and detection noise, detection probability and
@@ -61,27 +61,14 @@ impl Calibration {
         positive("accel_sigma", self.accel_sigma)?;
         positive("meas_sigma", self.meas_sigma)?;
         unit("p_detect", self.p_detect, false)?;
-        if !(self.clutter_rate.is_finite() && self.clutter_rate >= 0.0) {
-            return Err(TrackError::InvalidParameter {
-                name: "clutter_rate",
-                value: self.clutter_rate,
-                reason: "must be finite and non-negative",
-            });
-        }
-        Ok(())
+        non_negative("clutter_rate", self.clutter_rate)
     }
 
     /// Estimates the statistics from sequences with truth; `max_residual` bounds the
     /// residuals taken as the target's (e.g. a tenth of the image size).
     /// `max_residual` must be finite and positive.
     pub fn estimate(train: &[Sequence], max_residual: f64) -> Result<Calibration, TrackError> {
-        if !(max_residual.is_finite() && max_residual > 0.0) {
-            return Err(TrackError::InvalidParameter {
-                name: "max_residual",
-                value: max_residual,
-                reason: "must be finite and positive",
-            });
-        }
+        positive("max_residual", max_residual)?;
         let mut acc2 = Vec::new();
         let mut res = Vec::new();
         for s in train {

@@ -7,7 +7,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::calibrate::Calibration;
-use crate::error::{positive, unit};
+use crate::error::{non_negative, positive, unit};
 use crate::integrity::{corrupt, finite, len, nonneg};
 use crate::tracker::{Estimate, Tracker};
 use crate::{Detection, Point, TrackError};
@@ -73,14 +73,7 @@ impl PfModel {
                 unit("p_detect", p_detect, false)?;
                 positive("p_detect", p_detect)?;
                 positive("clutter_density", clutter_density)?;
-                if init_vel_sigma < 0.0 || !init_vel_sigma.is_finite() {
-                    return Err(TrackError::InvalidParameter {
-                        name: "init_vel_sigma",
-                        value: init_vel_sigma,
-                        reason: "must be finite and non-negative",
-                    });
-                }
-                Ok(())
+                non_negative("init_vel_sigma", init_vel_sigma)
             }
             PfModel::Ungm {
                 process_var,
