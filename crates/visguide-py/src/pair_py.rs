@@ -120,14 +120,6 @@ pub fn match_images<'py>(
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let p = params_from("match_images", preset, params)?;
-    if ratio.is_nan() || ratio <= 0.0 {
-        return Err(value_error(format!("ratio = {ratio} must be > 0")));
-    }
-    if let Some(t) = preselection
-        && !t.is_finite()
-    {
-        return Err(value_error("preselection must be a finite number"));
-    }
     let settings = MatchSettings {
         mser: (p.clone(), p),
         combination: Combination::new(parse_method(method)?, parse_sampling(sampling)?),
@@ -140,25 +132,9 @@ pub fn match_images<'py>(
             seed: ransac_seed,
         }),
     };
-    if let Some(r) = &settings.ransac {
-        // The crate refuses these too (MatchSettings::validate); here they are refused with the
-        // Python argument names.
-        if !(r.threshold.is_finite() && r.threshold > 0.0) {
-            return Err(value_error(format!(
-                "ransac_threshold = {} must be a positive number",
-                r.threshold
-            )));
-        }
-        if !(r.confidence > 0.0 && r.confidence < 1.0) {
-            return Err(value_error(format!(
-                "ransac_confidence = {} must be in (0, 1)",
-                r.confidence
-            )));
-        }
-        if r.max_iterations == 0 {
-            return Err(value_error("ransac_iterations must be at least 1"));
-        }
-    }
+    // The crate's one check of `ratio`, `preselection` and the RANSAC keywords, before any
+    // work (a ValueError naming the setting).
+    settings.validate().map_err(from_visguide)?;
     let (img1, img2) = (gray_of(image1)?, gray_of(image2)?);
     let pair = py
         .detach(|| visguide::match_images(&img1, &img2, &settings))
