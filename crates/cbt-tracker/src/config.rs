@@ -148,6 +148,31 @@ impl Displacements {
     }
 }
 
+/// How the stationary layout's second order carries the velocity in its state.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Velocity {
+    /// One velocity distribution per axis for the whole posterior (the state factored as
+    /// `q(x, y)·c_x(v_x)·c_y(v_y)`): every position hypothesis is predicted with the same
+    /// velocity. The default, and what files without this field mean.
+    #[default]
+    Factored,
+    /// A velocity distribution per position along each axis, coupled to it: one per row of
+    /// the posterior's window for the x velocity, one per column for the y velocity (the
+    /// state `q(x, y)·c_x(v_x | x)·c_y(v_y | y)`, module `stationary::coupled`). A
+    /// hypothesis that followed the true detections keeps its own velocity instead of
+    /// sharing one with the hypotheses that took clutter, as a particle filter's particles
+    /// keep theirs. Costs about three predictions a step. Stationary layout, second order
+    /// (the first order carries no velocity and ignores it).
+    PerPosition,
+}
+
+impl Velocity {
+    /// Whether this is [`Velocity::Factored`] (the default, not written to saved files).
+    pub fn is_factored(&self) -> bool {
+        *self == Velocity::Factored
+    }
+}
+
 /// Parameters of Channel Based Tracking. The defaults ([`CbtConfig::default`]) are those of
 /// the second-order, separable tracker of Paper B as reconstructed in docs/methods.md § Tracking.
 ///
@@ -235,6 +260,10 @@ pub struct CbtConfig {
     /// `observation_smoothing`; stationary layout only). Written only when not `Counted`.
     #[serde(default, skip_serializing_if = "ObservationSmoothing::is_counted")]
     pub observation_smoothing: ObservationSmoothing,
+    /// How the stationary layout's second order carries the velocity ([`Velocity`]).
+    /// Written only when not [`Velocity::Factored`] (what files without this field mean).
+    #[serde(default, skip_serializing_if = "Velocity::is_factored")]
+    pub velocity: Velocity,
 }
 
 fn default_obs_radius() -> usize {
@@ -272,6 +301,7 @@ impl Default for CbtConfig {
             start: StartMotion::Marginal,
             displacements: Displacements::Channels,
             observation_smoothing: ObservationSmoothing::Counted,
+            velocity: Velocity::Factored,
         }
     }
 }
@@ -386,6 +416,13 @@ impl CbtConfig {
                 name: "displacements",
                 value: 1.0,
                 reason: "interpolated displacement counts need the stationary layout",
+            });
+        }
+        if self.velocity == Velocity::PerPosition && self.layout != Layout::Stationary {
+            return Err(TrackError::InvalidParameter {
+                name: "velocity",
+                value: 1.0,
+                reason: "a velocity per position needs the stationary layout",
             });
         }
         if self.obs_radius == 0 || self.obs_radius > 64 {

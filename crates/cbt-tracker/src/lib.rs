@@ -213,7 +213,7 @@ pub use baselines::{
 pub use cbt::CbtTracker;
 pub use config::{
     CbtConfig, Clutter, Displacements, Layout, ObservationFallback, Order, PeriodicInput,
-    StartMotion, SystemFallback,
+    StartMotion, SystemFallback, Velocity,
 };
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use error::TrackError;
