@@ -358,6 +358,13 @@ impl CbtConfig {
     /// figures there) is better trained on the other scenes and on the RC-car development
     /// seeds at L2–L4, but loses a walker on five tracks at the medium level (5.16 → 5.14 and
     /// 19.64 → 19.40 px, five-track medium 6.74 → 11.14).
+    ///
+    /// The velocity stays factored ([`Velocity::Factored`]): coupled to position
+    /// ([`Velocity::PerPosition`]) it is better on the validation scenes at the medium level
+    /// (5.06 against 5.16 px) and on five tracks at the medium and hard levels (6.16 / 15.95
+    /// against 6.74 / 20.05), but worse at the hard level trained on the other scenes (21.19
+    /// against 19.64; best against the baselines in 6 of 16 sequences against 7) and on the
+    /// RC-car development seeds at L2–L4 (4.61 / 8.50 / 15.90 against 4.47 / 7.93 / 14.81).
     pub fn stationary() -> Self {
         CbtConfig {
             layout: Layout::Stationary,

@@ -39,7 +39,10 @@
 //!    along axis `d` (its channels convolved with the kernel's marginal). A miss carries the
 //!    predicted velocity on through the learned `T` (as a particle filter carries it in its
 //!    particles), a detection sharpens it; one no displacement of `D_d` reaches (lost-track
-//!    recovery) contributes `S_d`.
+//!    recovery) contributes `S_d`. With [`Velocity::PerPosition`](crate::Velocity) the
+//!    velocity is carried per row and per column instead (module `coupled`: each row's and
+//!    column's own kernel in steps 1–2, and the exact joint posterior of the new position
+//!    and the displacement as step 5).
 //!
 //! **Speed.** Every pass is a contiguous `y += k·x` over whole row blocks where the strides
 //! allow it (the prediction's x pass: one per kernel tap; the bump: the reflected kernel is
