@@ -207,6 +207,25 @@ fn y_pass(post: &Patch, ky: &PosKernels, rect: Rect, rows: &mut Vec<f64>) {
     }
 }
 
+/// The x taps reaching `rect`'s rows from the window's rows: `(a, δ, i − a0, D_x(δ | a))` for
+/// every window row `a` (relative to its first) and offset `δ` with `i = i0 + a + δ` in
+/// `rect` and a non-zero tap.
+fn x_taps<'a>(
+    post: &'a Patch,
+    kx: &'a PosKernels,
+    rect: Rect,
+) -> impl Iterator<Item = (usize, i64, usize, f64)> + 'a {
+    (0..post.h).flat_map(move |a| {
+        let ra = post.i0 + a;
+        kx.of(ra).iter().enumerate().filter_map(move |(t, &k)| {
+            let delta = kx.lo + t as i64;
+            let i = ra as i64 + delta;
+            (k != 0.0 && i >= rect.a0 as i64 && i < rect.a1 as i64)
+                .then(|| (a, delta, i as usize - rect.a0, k))
+        })
+    })
+}
+
 /// The prediction on `rect` from the y pass `rows` (module doc): `γ/G + keep·Σ_a
 /// D_x(i − a | a)·rows[a]`, row-major over the rect, into `out`.
 fn x_pass(
@@ -221,19 +240,11 @@ fn x_pass(
     let nc = rect.cols();
     out.clear();
     out.resize(rect.rows() * nc, u);
-    for a in 0..post.h {
-        let ra = post.i0 + a;
-        let src = &rows[a * nc..(a + 1) * nc];
-        for (t, &k) in kx.of(ra).iter().enumerate() {
-            let i = ra as i64 + kx.lo + t as i64;
-            if k == 0.0 || i < rect.a0 as i64 || i >= rect.a1 as i64 {
-                continue;
-            }
-            let c = keep * k;
-            let dst = &mut out[(i as usize - rect.a0) * nc..][..nc];
-            for (d, &s) in dst.iter_mut().zip(src) {
-                *d += c * s;
-            }
+    for (a, _, ir, k) in x_taps(post, kx, rect) {
+        let c = keep * k;
+        let dst = &mut out[ir * nc..][..nc];
+        for (d, &s) in dst.iter_mut().zip(&rows[a * nc..(a + 1) * nc]) {
+            *d += c * s;
         }
     }
 }
@@ -286,39 +297,21 @@ pub(super) fn update(
     let (rx, ry) = (sys[0].radius() as i64, sys[1].radius() as i64);
     // x: p(i, δ) = Σ_j L[i, j]·keep·D_x(δ | i − δ)·rows[i − δ, j].
     let mut cx = vec![0.0; rect.rows() * wd(0)];
-    for a in 0..post.h {
-        let ra = post.i0 + a;
-        let src = &rows[a * nc..(a + 1) * nc];
-        for (t, &k) in kx.of(ra).iter().enumerate() {
-            let delta = kx.lo + t as i64;
-            let i = ra as i64 + delta;
-            if k == 0.0 || i < rect.a0 as i64 || i >= rect.a1 as i64 {
-                continue;
-            }
-            let ir = i as usize - rect.a0;
-            let dot: f64 = lik[ir * nc..(ir + 1) * nc]
-                .iter()
-                .zip(src)
-                .map(|(l, s)| l * s)
-                .sum();
-            cx[ir * wd(0) + (delta + rx) as usize] += keep * k * dot;
-        }
+    for (a, delta, ir, k) in x_taps(post, kx, rect) {
+        let dot: f64 = lik[ir * nc..(ir + 1) * nc]
+            .iter()
+            .zip(&rows[a * nc..(a + 1) * nc])
+            .map(|(l, s)| l * s)
+            .sum();
+        cx[ir * wd(0) + (delta + rx) as usize] += keep * k * dot;
     }
     // y: the x pass first, cols[i, b] = Σ_a D_x(i − a | a)·q[a, b], then
     // p(j, δ) = Σ_i L[i, j]·keep·D_y(δ | j − δ)·cols[i, j − δ].
     let mut cols = vec![0.0; rect.rows() * post.w];
-    for a in 0..post.h {
-        let ra = post.i0 + a;
-        let src = &post.v[a * post.w..(a + 1) * post.w];
-        for (t, &k) in kx.of(ra).iter().enumerate() {
-            let i = ra as i64 + kx.lo + t as i64;
-            if k == 0.0 || i < rect.a0 as i64 || i >= rect.a1 as i64 {
-                continue;
-            }
-            let dst = &mut cols[(i as usize - rect.a0) * post.w..][..post.w];
-            for (d, &s) in dst.iter_mut().zip(src) {
-                *d += k * s;
-            }
+    for (a, _, ir, k) in x_taps(post, kx, rect) {
+        let dst = &mut cols[ir * post.w..][..post.w];
+        for (d, &s) in dst.iter_mut().zip(&post.v[a * post.w..(a + 1) * post.w]) {
+            *d += k * s;
         }
     }
     let mut cy = vec![0.0; nc * wd(1)];
@@ -398,7 +391,7 @@ mod tests {
     fn patch(i0: usize, j0: usize, h: usize, w: usize, s: usize) -> Patch {
         let mut v: Vec<f64> = (0..h * w).map(|k| val(k, s)).collect();
         // Some exact zeros, as a cropped posterior has.
-        v.iter_mut().step_by(5).for_each(|x| *x = 0.0);
+        v.iter_mut().skip(2).step_by(5).for_each(|x| *x = 0.0);
         let t: f64 = v.iter().sum();
         v.iter_mut().for_each(|x| *x /= t);
         Patch { i0, j0, h, w, v }
@@ -433,35 +426,56 @@ mod tests {
         sys
     }
 
+    fn rect(a0: usize, a1: usize, b0: usize, b1: usize) -> Rect {
+        Rect { a0, a1, b0, b1 }
+    }
+
+    fn predicted(
+        post: &Patch,
+        k: &(PosKernels, PosKernels),
+        keep: f64,
+        u: f64,
+        r: Rect,
+    ) -> Vec<f64> {
+        let mut out = Vec::new();
+        predict(post, k, keep, u, r, &mut Vec::new(), &mut out);
+        out
+    }
+
+    /// The brute-force terms of the prediction at cell `(i, j)`: per source cell `(a, b)`
+    /// within the kernels' reach, `(δx, δy, q[a, b]·D_x(δx | a)·D_y(δy | b))`.
+    fn terms(
+        post: &Patch,
+        k: &(PosKernels, PosKernels),
+        i: usize,
+        j: usize,
+    ) -> Vec<(i64, i64, f64)> {
+        let mut out = Vec::new();
+        for a in 0..post.h {
+            for b in 0..post.w {
+                let (ra, rb) = (post.i0 + a, post.j0 + b);
+                let (dx, dy) = (i as i64 - ra as i64, j as i64 - rb as i64);
+                let (tx, ty) = (dx - k.0.lo, dy - k.1.lo);
+                if (0..k.0.len as i64).contains(&tx) && (0..k.1.len as i64).contains(&ty) {
+                    let m =
+                        post.v[a * post.w + b] * k.0.of(ra)[tx as usize] * k.1.of(rb)[ty as usize];
+                    out.push((dx, dy, m));
+                }
+            }
+        }
+        out
+    }
+
     #[test]
     fn prediction_matches_the_brute_force_sum() {
         let post = patch(6, 9, 5, 7, 1);
         let k = (kernels(6, 5, -2, 5, 2), kernels(9, 7, -3, 6, 3));
         let (keep, u) = (0.9, 1e-3);
-        let rect = Rect {
-            a0: 3,
-            a1: 12,
-            b0: 8,
-            b1: 17,
-        };
-        let mut out = Vec::new();
-        predict(&post, &k, keep, u, rect, &mut Vec::new(), &mut out);
+        let rect = rect(3, 12, 8, 17);
+        let out = predicted(&post, &k, keep, u, rect);
         for i in rect.a0..rect.a1 {
             for j in rect.b0..rect.b1 {
-                let mut want = u;
-                for a in 0..post.h {
-                    for b in 0..post.w {
-                        let (ra, rb) = (post.i0 + a, post.j0 + b);
-                        let (tx, ty) =
-                            (i as i64 - ra as i64 - k.0.lo, j as i64 - rb as i64 - k.1.lo);
-                        if (0..k.0.len as i64).contains(&tx) && (0..k.1.len as i64).contains(&ty) {
-                            want += keep
-                                * post.v[a * post.w + b]
-                                * k.0.of(ra)[tx as usize]
-                                * k.1.of(rb)[ty as usize];
-                        }
-                    }
-                }
+                let want = u + keep * terms(&post, &k, i, j).iter().map(|t| t.2).sum::<f64>();
                 let got = out[(i - rect.a0) * rect.cols() + j - rect.b0];
                 assert!(
                     (got - want).abs() < 1e-14,
@@ -478,15 +492,9 @@ mod tests {
         let post = patch(6, 9, 4, 5, 4);
         let k = (kernels(6, 4, -2, 5, 5), kernels(9, 5, -3, 7, 6));
         let (keep, u) = (0.95, 2e-3);
-        let rect = Rect {
-            a0: 5,
-            a1: 11,
-            b0: 7,
-            b1: 15,
-        };
+        let rect = rect(5, 11, 7, 15);
         // An update: the prediction times a likelihood.
-        let mut pr = Vec::new();
-        predict(&post, &k, keep, u, rect, &mut Vec::new(), &mut pr);
+        let pr = predicted(&post, &k, keep, u, rect);
         let lik: Vec<f64> = (0..pr.len()).map(|c| val(c, 7)).collect();
         let upd = Patch {
             i0: rect.a0,
@@ -503,23 +511,9 @@ mod tests {
         for i in rect.a0..rect.a1 {
             for j in rect.b0..rect.b1 {
                 let l = lik[(i - rect.a0) * rect.cols() + j - rect.b0];
-                for a in 0..post.h {
-                    for b in 0..post.w {
-                        let (ra, rb) = (post.i0 + a, post.j0 + b);
-                        let (dx, dy) = (i as i64 - ra as i64, j as i64 - rb as i64);
-                        let (tx, ty) = (dx - k.0.lo, dy - k.1.lo);
-                        if !((0..k.0.len as i64).contains(&tx) && (0..k.1.len as i64).contains(&ty))
-                        {
-                            continue;
-                        }
-                        let m = l
-                            * keep
-                            * post.v[a * post.w + b]
-                            * k.0.of(ra)[tx as usize]
-                            * k.1.of(rb)[ty as usize];
-                        px[(i - rect.a0) * w + (dx + r as i64) as usize] += m;
-                        py[(j - rect.b0) * w + (dy + r as i64) as usize] += m;
-                    }
+                for (dx, dy, m) in terms(&post, &k, i, j) {
+                    px[(i - rect.a0) * w + (dx + r as i64) as usize] += l * keep * m;
+                    py[(j - rect.b0) * w + (dy + r as i64) as usize] += l * keep * m;
                 }
                 for e in 0..w {
                     px[(i - rect.a0) * w + e] += u * l * sys[0].first()[e];
@@ -586,12 +580,7 @@ mod tests {
                 },
             ],
         };
-        let rect = Rect {
-            a0: 0,
-            a1: 32,
-            b0: 0,
-            b1: 21,
-        };
+        let rect = rect(0, 32, 0, 21);
         let mut post = post;
         let mut work = DispWork::default();
         let marg = |p: &Patch| -> [Vec<f64>; 2] {
@@ -649,8 +638,7 @@ mod tests {
             let k = (kernels(8, h, lx, nx, s + 1), kernels(8, w, ly, ny, s + 2));
             let rect = Rect { a0: 4, a1: 8 + h + 6, b0: 4, b1: 8 + w + 6 };
             let (keep, u) = (0.99, 1e-4);
-            let mut pr = Vec::new();
-            predict(&post, &k, keep, u, rect, &mut Vec::new(), &mut pr);
+            let pr = predicted(&post, &k, keep, u, rect);
             let mass: f64 = pr.iter().sum();
             let want = keep + u * (rect.rows() * rect.cols()) as f64;
             prop_assert!((mass - want).abs() < 1e-12);

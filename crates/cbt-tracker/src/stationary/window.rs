@@ -63,7 +63,7 @@ use serde::{Deserialize, Serialize};
 
 use super::coupled::{self, PosKernels, PositionVelocity};
 use super::cover::{self, Block};
-use super::model::{StatObservation, StatSystem};
+use super::model::{StatObservation, StatSystem, tail_band};
 use super::pool::{self, refill};
 use super::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
@@ -1369,17 +1369,7 @@ pub(super) fn displacement_from(
         }
     }
     // Drop each tail holding at most KERNEL_TAIL of the mass.
-    let cut = KERNEL_TAIL * out.iter().sum::<f64>();
-    let (mut lo, mut hi, mut acc) = (0, w, 0.0);
-    while lo + 1 < hi && acc + out[lo] <= cut {
-        acc += out[lo];
-        lo += 1;
-    }
-    acc = 0.0;
-    while hi > lo + 1 && acc + out[hi - 1] <= cut {
-        acc += out[hi - 1];
-        hi -= 1;
-    }
+    let (lo, hi) = tail_band(out, KERNEL_TAIL);
     k.lo = lo as i64 - r;
     k.v.clear();
     k.v.extend_from_slice(&out[lo..hi]);
