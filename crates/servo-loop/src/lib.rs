@@ -114,6 +114,7 @@ pub mod approach;
 mod error;
 mod inverse;
 mod learn;
+mod motion;
 mod plant;
 pub mod recognition;
 mod robot;
@@ -128,6 +129,7 @@ pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{
     LearnConfig, LearnReport, RandomCommands, chain_order, learn_control, learn_control_chained,
 };
+pub use motion::{MotionCheck, MotionConfig};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectedTip, CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry,
