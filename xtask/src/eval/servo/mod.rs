@@ -373,6 +373,7 @@ pub fn run_method(
     let mut out = Vec::with_capacity(targets.len());
     for t in targets {
         let start = truth(plant.sim());
+        let counts_before = plant.percept_counts();
         plant.log.clear();
         let result = match method {
             "lwpr" => servo_lwpr(&mut plant, &mut model, &t.x_w, &cfg),
@@ -421,7 +422,9 @@ pub fn run_method(
             mm.push(mm_error(&last, &t.truth));
         }
         if std::env::var_os("VISGUIDE_SERVO_DIAGNOSE").is_some() {
-            let [recaptured, refused_c, inconsistent] = plant.percept_counts();
+            let after = plant.percept_counts();
+            let [recaptured, refused_c, inconsistent] =
+                [0, 1, 2].map(|i| after[i] - counts_before[i]);
             eprintln!(
                 "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {}",
                 p.seed,

@@ -24,7 +24,7 @@ use crate::Result;
 /// Seeds every setting was chosen on.
 pub const DEVELOPMENT_SEEDS: [u64; 5] = [1001, 1002, 1003, 1004, 1005];
 /// Seeds scored once for the fixtures.
-pub const EVALUATION_SEEDS: [u64; 5] = [6001, 6002, 6003, 6004, 6005];
+pub const EVALUATION_SEEDS: [u64; 5] = [7001, 7002, 7003, 7004, 7005];
 /// Targets per (arm, seed).
 pub const TARGETS: usize = 30;
 /// Image targets per (arm, seed).
@@ -109,6 +109,10 @@ pub struct SeedStudy {
     pub seeds_role: String,
     pub seeds: Vec<u64>,
     pub targets_per_seed: usize,
+    /// The motion check's factor on the servo percepts (`servo_loop::MotionConfig::factor`;
+    /// `None`: off).
+    #[serde(default)]
+    pub motion_factor: Option<f64>,
     pub results: Vec<SeedResult>,
 }
 
@@ -143,6 +147,11 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         seeds_role: role.into(),
         seeds,
         targets_per_seed: TARGETS,
+        motion_factor: {
+            let mut p = Protocol::default_for(0);
+            args.apply_percept(&mut p);
+            p.motion.map(|m| m.factor)
+        },
         results,
     })
 }
