@@ -27,7 +27,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError, check_finite};
-use crate::temporal::Verdict;
+use crate::temporal::{Verdict, distance, quantile};
 
 /// Settings of [`MotionCheck::learn`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -91,30 +91,12 @@ pub struct MotionCheck {
     scale: f64,
 }
 
-fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| (p - q) * (p - q))
-        .sum::<f64>()
-        .sqrt()
-}
-
 /// Largest 2-D distance over the cameras (pairs of coordinates).
 fn camera_residual(x: &[f64], p: &[f64]) -> f64 {
     x.chunks(2)
         .zip(p.chunks(2))
         .map(|(a, b)| distance(a, b))
         .fold(0.0, f64::max)
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 impl MotionCheck {
@@ -181,10 +163,7 @@ impl MotionCheck {
                 config.neighbours, config.reach
             )));
         }
-        residuals.sort_by(f64::total_cmp);
-        let pos = config.quantile * (residuals.len() - 1) as f64;
-        let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-        check.scale = residuals[lo] + (residuals[hi] - residuals[lo]) * (pos - lo as f64);
+        check.scale = quantile(&mut residuals, config.quantile);
         Ok(check)
     }
 
@@ -262,7 +241,7 @@ impl MotionCheck {
             .iter()
             .map(|&i| camera_residual(&self.memory[i].0, &self.fitted(&first, y, i)))
             .collect();
-        let cut = 3.0 * median(&mut res.clone());
+        let cut = 3.0 * quantile(&mut res.clone(), 0.5);
         let kept: Vec<usize> = idx
             .iter()
             .zip(res.drain(..))
@@ -309,6 +288,15 @@ impl MotionCheck {
     /// Judges percept `x` after command `y` (module doc). Errors: dimensions, non-finite
     /// values.
     pub fn judge(&self, x: &[f64], y: &[f64]) -> Result<Verdict> {
+        self.check_pair(x, y)?;
+        Ok(match self.predict_excluding(y, None) {
+            Some(p) => Verdict::of(camera_residual(x, &p), self.threshold()),
+            None => Verdict::NotJudged,
+        })
+    }
+
+    /// Checks a percept and command's dimensions and values.
+    fn check_pair(&self, x: &[f64], y: &[f64]) -> Result<()> {
         self.check_command(y)?;
         if x.len() != self.percept_dim {
             return Err(ServoError::DimensionMismatch {
@@ -317,37 +305,13 @@ impl MotionCheck {
                 got: x.len(),
             });
         }
-        check_finite("percept", x)?;
-        let Some(p) = self.predict_excluding(y, None) else {
-            return Ok(Verdict::NotJudged);
-        };
-        let residual = camera_residual(x, &p);
-        let threshold = self.threshold();
-        Ok(if residual > threshold {
-            Verdict::Inconsistent {
-                residual,
-                threshold,
-            }
-        } else {
-            Verdict::Consistent {
-                residual,
-                threshold,
-            }
-        })
+        check_finite("percept", x)
     }
 
     /// Remembers an accepted percept `x` at command `y` (the next percepts near `y` are
     /// predicted from it too). Errors: dimensions, non-finite values.
     pub fn remember(&mut self, x: &[f64], y: &[f64]) -> Result<()> {
-        self.check_command(y)?;
-        if x.len() != self.percept_dim {
-            return Err(ServoError::DimensionMismatch {
-                what: "percept",
-                expected: self.percept_dim,
-                got: x.len(),
-            });
-        }
-        check_finite("percept", x)?;
+        self.check_pair(x, y)?;
         self.memory.push((x.to_vec(), y.to_vec()));
         Ok(())
     }
@@ -408,7 +372,10 @@ mod tests {
             Verdict::Inconsistent { residual, .. } if residual > 7.0
         ));
         // Far outside what was seen: not judged.
-        assert_eq!(check.judge(&x, &[900.0, 900.0]).unwrap(), Verdict::NotJudged);
+        assert_eq!(
+            check.judge(&x, &[900.0, 900.0]).unwrap(),
+            Verdict::NotJudged
+        );
     }
 
     #[test]

@@ -542,7 +542,11 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
     fn observe(&mut self) -> Result<Observation> {
         let judged = self.policy.used == PerceptUse::Servo && self.motion.is_some();
         let command = self.last_command.clone();
-        let attempts = if judged { self.policy.recaptures + 1 } else { 1 };
+        let attempts = if judged {
+            self.policy.recaptures + 1
+        } else {
+            1
+        };
         for attempt in 1..=attempts {
             let (locs, images) = self.observe_certain()?;
             let x: Vec<f64> = locs.iter().flat_map(|l| l.position).collect();

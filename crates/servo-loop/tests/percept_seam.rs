@@ -6,8 +6,8 @@
 use image::{GrayImage, Luma};
 use servo_loop::{
     ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Localisation, MotionCheck,
-    MotionConfig, PerceptPolicy, PerceptUse, Plant, RandomCommands, Recogniser, Robot,
-    ServoConfig, ServoError, VisualPlant, learn_control, servo_lwpr,
+    MotionConfig, PerceptPolicy, PerceptUse, Plant, RandomCommands, Recogniser, Robot, ServoConfig,
+    ServoError, VisualPlant, learn_control, servo_lwpr,
 };
 
 /// Two servos; each capture shows the set-points as grey levels, a "doubt" flag for the
@@ -262,21 +262,7 @@ fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
     p.robot_mut().doubt = 0;
     let mut servo_model = model.clone();
     // The first guess is seen clearly; the next percept is doubted twice (refused).
-    let cfg = ServoConfig {
-        tolerance: 0.0,
-        ..ServoConfig::default()
-    };
-    let run = servo_lwpr(
-        &mut DoubtAfterFirst {
-            plant: &mut p,
-            moves: 0,
-            gross: false,
-        },
-        &mut servo_model,
-        &x_w,
-        &cfg,
-    )
-    .unwrap_err();
+    let run = servo_after_first(&mut p, &mut servo_model, &x_w, false);
     assert!(
         matches!(run.error, ServoError::PerceptRefused { .. }),
         "{}",
@@ -288,6 +274,31 @@ fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
         commands + 2,
         "no move after the refusal"
     );
+}
+
+/// An LWPR servo run to `x_w` on `p` whose percepts after the first move are doubted (or
+/// gross, [`DoubtAfterFirst`]); it must stop with an error.
+fn servo_after_first(
+    p: &mut VisualPlant<Toy, Reader>,
+    model: &mut InverseModel,
+    x_w: &[f64],
+    gross: bool,
+) -> servo_loop::ServoAbort {
+    let cfg = ServoConfig {
+        tolerance: 0.0,
+        ..ServoConfig::default()
+    };
+    servo_lwpr(
+        &mut DoubtAfterFirst {
+            plant: p,
+            moves: 0,
+            gross,
+        },
+        model,
+        x_w,
+        &cfg,
+    )
+    .unwrap_err()
 }
 
 /// The toy plant, with every percept after the first move doubted (or, with `gross`, found
@@ -368,8 +379,16 @@ fn a_gross_percept_the_cameras_agree_on_is_refused_by_the_motion_check() {
         other => panic!("expected a refusal, got {other:?}"),
     }
     assert_eq!((p.inconsistent(), p.recaptured(), p.refused()), (1, 1, 0));
-    assert_eq!(p.robot().captures, captures + 2, "one capture and its re-capture");
-    assert_eq!(p.motion_check().unwrap().remembered(), remembered + 1, "not remembered");
+    assert_eq!(
+        p.robot().captures,
+        captures + 2,
+        "one capture and its re-capture"
+    );
+    assert_eq!(
+        p.motion_check().unwrap().remembered(),
+        remembered + 1,
+        "not remembered"
+    );
     // A one-off gross percept: the re-capture is accepted.
     p.robot_mut().gross = 1;
     let o = p.observe().unwrap();
@@ -415,27 +434,17 @@ fn the_servo_loop_never_moves_on_a_motion_refused_percept() {
     .unwrap();
     let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
     let commands = p.robot().commands;
-    let cfg = ServoConfig {
-        tolerance: 0.0,
-        ..ServoConfig::default()
-    };
-    let run = servo_lwpr(
-        &mut DoubtAfterFirst {
-            plant: &mut p,
-            moves: 0,
-            gross: true,
-        },
-        &mut model,
-        &x_w,
-        &cfg,
-    )
-    .unwrap_err();
+    let run = servo_after_first(&mut p, &mut model, &x_w, true);
     assert!(
         matches!(run.error, ServoError::PerceptInconsistent { .. }),
         "{}",
         run.error
     );
     assert_eq!(run.run.steps.len(), 1, "only the first guess was recorded");
-    assert_eq!(p.robot().commands, commands + 2, "no move after the refusal");
+    assert_eq!(
+        p.robot().commands,
+        commands + 2,
+        "no move after the refusal"
+    );
     assert_eq!(p.inconsistent(), 1);
 }

@@ -540,12 +540,12 @@ pub struct Training {
     pub commands: usize,
 }
 
+/// What [`train`] gives: the model snapshots `(moves, model)`, what learning cost, and the
+/// accepted training samples (for the motion check).
+pub type Trained = (Vec<(usize, InverseModel)>, Training, Vec<plant::Sample>);
+
 /// Trains the inverse model with `max(curve_moves)` random moves, keeping snapshots.
-pub fn train(
-    config: &SimConfig,
-    p: &Protocol,
-    progress: bool,
-) -> Result<(Vec<(usize, InverseModel)>, Training, Vec<plant::Sample>)> {
+pub fn train(config: &SimConfig, p: &Protocol, progress: bool) -> Result<Trained> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
     // Training moves use one capture per percept (LWPR averages the noise itself), and say
     // they are training percepts (the recogniser may doubt them differently).

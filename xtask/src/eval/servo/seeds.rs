@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
 
 use super::{
-    Actions, Protocol, ServoArgs, Target, TargetResult, learn_recogniser, make_image_targets,
-    learn_motion, make_plant, make_targets, run_method, train,
+    Actions, Protocol, ServoArgs, Target, TargetResult, learn_motion, learn_recogniser,
+    make_image_targets, make_plant, make_targets, run_method, train,
 };
 use crate::Result;
 
@@ -278,10 +278,17 @@ fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
                     line.push(format!("{:.2}", e[e.len() - 1]));
                 }
                 if diagnose {
-                    eprintln!("recognition-test seed {} accepted errors {}", p.seed, line.join(" "));
+                    eprintln!(
+                        "recognition-test seed {} accepted errors {}",
+                        p.seed,
+                        line.join(" ")
+                    );
                 }
             }
-            Err(ServoError::PerceptInconsistent { residual, threshold }) => {
+            Err(ServoError::PerceptInconsistent {
+                residual,
+                threshold,
+            }) => {
                 if diagnose {
                     eprintln!(
                         "recognition-test seed {} inconsistent residual {residual:.2} threshold {threshold:.2}",
