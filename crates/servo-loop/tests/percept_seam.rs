@@ -258,39 +258,30 @@ fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
     assert_eq!(p.refused(), 10);
     // A servo run whose second percept is refused stops there: one move, no second.
     let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
-    let commands = p.robot().commands;
     p.robot_mut().doubt = 0;
     let mut servo_model = model.clone();
     // The first guess is seen clearly; the next percept is doubted twice (refused).
     let run = servo_after_first(&mut p, &mut servo_model, &x_w, false);
-    assert!(
-        matches!(run.error, ServoError::PerceptRefused { .. }),
-        "{}",
-        run.error
-    );
-    assert_eq!(run.run.steps.len(), 1, "only the first guess was recorded");
-    assert_eq!(
-        p.robot().commands,
-        commands + 2,
-        "no move after the refusal"
-    );
+    assert!(matches!(run, ServoError::PerceptRefused { .. }), "{run}");
 }
 
 /// An LWPR servo run to `x_w` on `p` whose percepts after the first move are doubted (or
-/// gross, [`DoubtAfterFirst`]); it must stop with an error.
+/// gross, [`DoubtAfterFirst`]): it must stop after the first guess (no move after the
+/// refusal); gives the error it stopped with.
 fn servo_after_first(
     p: &mut VisualPlant<Toy, Reader>,
     model: &mut InverseModel,
     x_w: &[f64],
     gross: bool,
-) -> servo_loop::ServoAbort {
+) -> ServoError {
     let cfg = ServoConfig {
         tolerance: 0.0,
         ..ServoConfig::default()
     };
-    servo_lwpr(
+    let commands = p.robot().commands;
+    let run = servo_lwpr(
         &mut DoubtAfterFirst {
-            plant: p,
+            plant: &mut *p,
             moves: 0,
             gross,
         },
@@ -298,7 +289,14 @@ fn servo_after_first(
         x_w,
         &cfg,
     )
-    .unwrap_err()
+    .unwrap_err();
+    assert_eq!(run.run.steps.len(), 1, "only the first guess was recorded");
+    assert_eq!(
+        p.robot().commands,
+        commands + 2,
+        "no move after the refusal"
+    );
+    run.error
 }
 
 /// The toy plant, with every percept after the first move doubted (or, with `gross`, found
@@ -433,18 +431,10 @@ fn the_servo_loop_never_moves_on_a_motion_refused_percept() {
     ))
     .unwrap();
     let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
-    let commands = p.robot().commands;
     let run = servo_after_first(&mut p, &mut model, &x_w, true);
     assert!(
-        matches!(run.error, ServoError::PerceptInconsistent { .. }),
-        "{}",
-        run.error
-    );
-    assert_eq!(run.run.steps.len(), 1, "only the first guess was recorded");
-    assert_eq!(
-        p.robot().commands,
-        commands + 2,
-        "no move after the refusal"
+        matches!(run, ServoError::PerceptInconsistent { .. }),
+        "{run}"
     );
     assert_eq!(p.inconsistent(), 1);
 }
