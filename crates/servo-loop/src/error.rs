@@ -42,13 +42,15 @@ pub enum ServoError {
         /// Captures tried.
         captures: usize,
     },
-    /// A percept disagrees with the last accepted one and the move commanded in between
-    /// ([`crate::TemporalCheck`]): refused, the loop does not move on it.
+    /// A percept disagrees with the accepted ones and the move commanded since
+    /// ([`crate::MotionCheck`], pixels; [`crate::TemporalCheck`], command units): refused, the
+    /// loop does not move on it.
     #[error(
-        "percept refused: temporal residual {residual:.2} exceeds {threshold:.2} (the move commanded since the last accepted percept does not explain it)"
+        "percept refused: motion residual {residual:.2} exceeds {threshold:.2} (the move commanded since the accepted percepts does not explain it)"
     )]
     PerceptInconsistent {
-        /// The residual `‖Δy − (f̂(x) − f̂(x₀))‖`.
+        /// The check's residual (the motion check's pixel distance to its prediction, or the
+        /// temporal check's `‖Δy − (f̂(x) − f̂(x₀))‖`).
         residual: f64,
         /// The learned threshold at this move's distance.
         threshold: f64,

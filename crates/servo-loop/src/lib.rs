@@ -76,7 +76,18 @@
 //! re-captures a doubted percept and then refuses it ([`ServoError::PerceptRefused`],
 //! counted): learning skips it and the servo loop stops rather than move on it.
 //! A tip found at the wrong place *along* the epipolar line passes that check; the arm's own
-//! move does not ([`TemporalCheck`], [`TemporalPlant`]): with `(x₀, y₀)` the last accepted
+//! move does not. The **motion check** ([`MotionCheck`], behind the percept seam:
+//! [`VisualPlant::set_motion_check`], so any [`Recogniser`] gets it) remembers the percepts the
+//! learner accepted with their commands (the training moves', then the servo's own, so the
+//! previous accepted percept is the nearest reference while servoing) and predicts the percept
+//! at a new command from the nearest ones moved by the commanded difference (a local linear
+//! fit: the image Jacobian the learner's own moves show there); a servo percept
+//! ([`PerceptUse::Servo`]) farther from that prediction than `κ` times the training moves'
+//! median leave-one-out residual is re-captured, then refused
+//! ([`ServoError::PerceptInconsistent`], counted by [`VisualPlant::inconsistent`]); the loop
+//! never moves on it. Whether `eval servo` uses it, and what it measured:
+//! `docs/methods.md`, *Motion check*. An earlier variant judges only short moves through the
+//! learned inverse model ([`TemporalCheck`], [`TemporalPlant`]): with `(x₀, y₀)` the last accepted
 //! percept and its command, a new percept `x` after command `y` is refused
 //! ([`ServoError::PerceptInconsistent`]) when `‖(y − y₀) − (f̂(x) − f̂(x₀))‖` (to first order
 //! `Δy − J Δx`) exceeds a threshold learned from the training moves' own residuals. It is an
@@ -114,6 +125,7 @@ pub mod approach;
 mod error;
 mod inverse;
 mod learn;
+mod motion;
 mod plant;
 pub mod recognition;
 mod robot;
@@ -128,6 +140,7 @@ pub use inverse::{InverseModel, InverseModelConfig, InversePrediction};
 pub use learn::{
     LearnConfig, LearnReport, RandomCommands, chain_order, learn_control, learn_control_chained,
 };
+pub use motion::{MotionCheck, MotionConfig};
 pub use plant::{Observation, Plant, check_command, check_target};
 pub use recognition::{
     CorrectedTip, CorrectionReport, CorrectionSample, EndEstimate, EpipolarGeometry,

@@ -114,11 +114,30 @@ pub enum Verdict {
         /// The threshold at this move's distance.
         threshold: f64,
     },
-    /// Not judged: the move is longer than `max_move`, or a percept lies outside the model.
+    /// Not judged: the move is longer than `max_move`, or a percept lies outside the model
+    /// (for the [`crate::MotionCheck`]: too few remembered percepts near the command).
     NotJudged,
 }
 
-fn distance(a: &[f64], b: &[f64]) -> f64 {
+impl Verdict {
+    /// Inconsistent when `residual > threshold`, else consistent.
+    pub fn of(residual: f64, threshold: f64) -> Verdict {
+        if residual > threshold {
+            Verdict::Inconsistent {
+                residual,
+                threshold,
+            }
+        } else {
+            Verdict::Consistent {
+                residual,
+                threshold,
+            }
+        }
+    }
+}
+
+/// Euclidean distance of two equally long vectors.
+pub(crate) fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(p, q)| (p - q) * (p - q))
@@ -127,7 +146,7 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Linear-interpolated quantile of a non-empty slice (sorted in place).
-fn quantile(v: &mut [f64], q: f64) -> f64 {
+pub(crate) fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
     let pos = q * (v.len() - 1) as f64;
     let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
@@ -257,18 +276,7 @@ impl TemporalCheck {
             .map(|((a, b), (c, e))| ((a - b) - (c - e)).powi(2))
             .sum::<f64>()
             .sqrt();
-        let threshold = self.threshold(d);
-        Ok(if residual > threshold {
-            Verdict::Inconsistent {
-                residual,
-                threshold,
-            }
-        } else {
-            Verdict::Consistent {
-                residual,
-                threshold,
-            }
-        })
+        Ok(Verdict::of(residual, self.threshold(d)))
     }
 }
 

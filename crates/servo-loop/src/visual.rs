@@ -6,12 +6,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
+use crate::motion::MotionCheck;
 use crate::plant::{Observation, Plant};
 use crate::recognition::TrainingView;
 use crate::recognition::{
     Localisation, PerceptUse, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
 };
 use crate::robot::Robot;
+use crate::temporal::Verdict;
 
 /// Which servos are controlled, and how the others are held.
 ///
@@ -259,6 +261,9 @@ pub struct VisualPlant<R: Robot, Q: Recogniser = TipModel> {
     policy: PerceptPolicy,
     refused: usize,
     recaptured: usize,
+    motion: Option<MotionCheck>,
+    inconsistent: usize,
+    last_command: Option<Vec<f64>>,
     last_images: Vec<GrayImage>,
     last_localisations: Vec<Localisation>,
 }
@@ -278,6 +283,9 @@ impl<R: Robot, Q: Recogniser> VisualPlant<R, Q> {
             policy: PerceptPolicy::default(),
             refused: 0,
             recaptured: 0,
+            motion: None,
+            inconsistent: 0,
+            last_command: None,
             last_images: Vec::new(),
             last_localisations: Vec::new(),
         })
@@ -309,9 +317,39 @@ impl<R: Robot, Q: Recogniser> VisualPlant<R, Q> {
         self.refused
     }
 
-    /// Doubted percepts re-captured so far (accepted or not in the end).
+    /// Doubted percepts re-captured so far (accepted or not in the end), by either check.
     pub fn recaptured(&self) -> usize {
         self.recaptured
+    }
+
+    /// Checks the servo's percepts ([`PerceptUse::Servo`]) against the commanded move
+    /// ([`MotionCheck`]): an inconsistent percept is re-captured up to the policy's
+    /// `recaptures` times, then refused with [`ServoError::PerceptInconsistent`]; an accepted
+    /// one is remembered by the check. Training percepts are neither judged nor remembered.
+    /// `None` removes the check. Errors: a check of another percept or command dimension.
+    pub fn set_motion_check(&mut self, check: Option<MotionCheck>) -> Result<()> {
+        if let Some(c) = &check {
+            let (p, m) = (self.percept_dim(), self.command_dim());
+            if c.percept_dim() != p || c.command_dim() != m {
+                return Err(ServoError::DimensionMismatch {
+                    what: "motion check (percept + command)",
+                    expected: p + m,
+                    got: c.percept_dim() + c.command_dim(),
+                });
+            }
+        }
+        self.motion = check;
+        Ok(())
+    }
+
+    /// The motion check, with every percept it remembered.
+    pub fn motion_check(&self) -> Option<&MotionCheck> {
+        self.motion.as_ref()
+    }
+
+    /// Percepts refused by the motion check ([`ServoError::PerceptInconsistent`]).
+    pub fn inconsistent(&self) -> usize {
+        self.inconsistent
     }
 
     /// The robot.
@@ -347,6 +385,24 @@ impl<R: Robot, Q: Recogniser> VisualPlant<R, Q> {
     /// Gives the robot back.
     pub fn into_robot(self) -> R {
         self.robot
+    }
+
+    /// One percept that passes the policy's certainty ([`observe_checked`]), refusals counted.
+    fn observe_certain(&mut self) -> Result<(Vec<Localisation>, Vec<GrayImage>)> {
+        let robot = &mut self.robot;
+        let model = &self.model;
+        let recaptured = &mut self.recaptured;
+        let result = observe_checked(
+            model,
+            &self.policy,
+            || grab(robot),
+            |images| model.locate_all_for(images, self.policy.used),
+            || *recaptured += 1,
+        );
+        if matches!(result, Err(ServoError::PerceptRefused { .. })) {
+            self.refused += 1;
+        }
+        result
     }
 }
 
@@ -477,34 +533,47 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
     }
 
     fn act(&mut self, y: &[f64]) -> Result<()> {
-        send(&mut self.robot, &self.space.full_command(y))
+        self.last_command = None;
+        send(&mut self.robot, &self.space.full_command(y))?;
+        self.last_command = Some(y.to_vec());
+        Ok(())
     }
 
     fn observe(&mut self) -> Result<Observation> {
-        let robot = &mut self.robot;
-        let model = &self.model;
-        let recaptured = &mut self.recaptured;
-        let result = observe_checked(
-            model,
-            &self.policy,
-            || grab(robot),
-            |images| model.locate_all_for(images, self.policy.used),
-            || *recaptured += 1,
-        );
-        let (locs, images) = match result {
-            Ok(r) => r,
-            Err(e) => {
-                if matches!(e, ServoError::PerceptRefused { .. }) {
-                    self.refused += 1;
-                }
-                return Err(e);
-            }
+        let judged = self.policy.used == PerceptUse::Servo && self.motion.is_some();
+        let command = self.last_command.clone();
+        let attempts = if judged {
+            self.policy.recaptures + 1
+        } else {
+            1
         };
-        let x = locs.iter().flat_map(|l| l.position).collect();
-        let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
-        self.last_images = images;
-        self.last_localisations = locs;
-        Ok(Observation { x, certainty })
+        for attempt in 1..=attempts {
+            let (locs, images) = self.observe_certain()?;
+            let x: Vec<f64> = locs.iter().flat_map(|l| l.position).collect();
+            if let (true, Some(y), Some(check)) = (judged, &command, &mut self.motion) {
+                if let Verdict::Inconsistent {
+                    residual,
+                    threshold,
+                } = check.judge(&x, y)?
+                {
+                    if attempt == attempts {
+                        self.inconsistent += 1;
+                        return Err(ServoError::PerceptInconsistent {
+                            residual,
+                            threshold,
+                        });
+                    }
+                    self.recaptured += 1;
+                    continue;
+                }
+                check.remember(&x, y)?;
+            }
+            let certainty = locs.iter().map(|l| l.certainty).fold(1.0, f64::min);
+            self.last_images = images;
+            self.last_localisations = locs;
+            return Ok(Observation { x, certainty });
+        }
+        unreachable!("the last attempt returns")
     }
 
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {

@@ -1,19 +1,21 @@
 //! The percept seam: a user's own recogniser plugs into [`VisualPlant`] through
 //! [`Recogniser`]; a doubted percept is re-captured, then refused with a typed error; learning
-//! skips and counts it; the servo loop never moves on it.
+//! skips and counts it; the servo loop never moves on it. The same for a percept the cameras
+//! agree on but the commanded move does not explain ([`MotionCheck`]).
 
 use image::{GrayImage, Luma};
 use servo_loop::{
-    ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Localisation, PerceptPolicy,
-    PerceptUse, Plant, Recogniser, Robot, ServoConfig, ServoError, VisualPlant, learn_control,
-    servo_lwpr,
+    ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Localisation, MotionCheck,
+    MotionConfig, PerceptPolicy, PerceptUse, Plant, RandomCommands, Recogniser, Robot, ServoConfig,
+    ServoError, VisualPlant, learn_control, servo_lwpr,
 };
 
-/// Two servos; each capture shows the set-points as grey levels and a "doubt" flag for the
-/// next `doubt` captures.
+/// Two servos; each capture shows the set-points as grey levels, a "doubt" flag for the
+/// next `doubt` captures and a "gross" flag for the next `gross` captures.
 struct Toy {
     y: [f64; 2],
     doubt: usize,
+    gross: usize,
     captures: usize,
     commands: usize,
 }
@@ -39,6 +41,12 @@ impl Robot for Toy {
         } else {
             0
         };
+        let gross = if self.gross > 0 {
+            self.gross -= 1;
+            255
+        } else {
+            0
+        };
         Ok((0..2)
             .map(|cam| {
                 let mut img = GrayImage::new(8, 8);
@@ -46,13 +54,16 @@ impl Robot for Toy {
                 img.put_pixel(1, 0, Luma([self.y[1].round() as u8]));
                 img.put_pixel(2, 0, Luma([flag]));
                 img.put_pixel(3, 0, Luma([cam]));
+                img.put_pixel(4, 0, Luma([gross]));
                 img
             })
             .collect())
     }
 }
 
-/// A user's recogniser: reads the grey levels back as a point; doubts flagged images.
+/// A user's recogniser: reads the grey levels back as a point; doubts flagged images; on
+/// "gross" images it finds a point 30 px off in both cameras alike, with full confidence (the
+/// views of another point: no cross-camera check can see it).
 struct Reader;
 
 impl Recogniser for Reader {
@@ -68,8 +79,9 @@ impl Recogniser for Reader {
             .map(|img| {
                 let p = |x| f64::from(img.get_pixel(x, 0).0[0]);
                 let cam = p(3);
+                let off = if p(4) > 0.0 { 30.0 } else { 0.0 };
                 Localisation {
-                    position: [10.0 + p(0) + 5.0 * cam, 20.0 + p(1) - 3.0 * cam],
+                    position: [10.0 + p(0) + 5.0 * cam + off, 20.0 + p(1) - 3.0 * cam],
                     certainty: if p(2) > 0.0 { 0.01 } else { 0.9 },
                 }
             })
@@ -134,6 +146,7 @@ fn plant(doubt: usize) -> VisualPlant<Toy, Reader> {
     let toy = Toy {
         y: [100.0, 100.0],
         doubt,
+        gross: 0,
         captures: 0,
         commands: 0,
     };
@@ -147,6 +160,7 @@ fn the_policy_says_what_a_percept_is_for() {
     let toy = Toy {
         y: [100.0, 100.0],
         doubt: usize::MAX,
+        gross: 0,
         captures: 0,
         commands: 0,
     };
@@ -244,41 +258,53 @@ fn learning_skips_refused_percepts_and_the_servo_loop_never_moves_on_one() {
     assert_eq!(p.refused(), 10);
     // A servo run whose second percept is refused stops there: one move, no second.
     let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
-    let commands = p.robot().commands;
     p.robot_mut().doubt = 0;
     let mut servo_model = model.clone();
     // The first guess is seen clearly; the next percept is doubted twice (refused).
+    let run = servo_after_first(&mut p, &mut servo_model, &x_w, false);
+    assert!(matches!(run, ServoError::PerceptRefused { .. }), "{run}");
+}
+
+/// An LWPR servo run to `x_w` on `p` whose percepts after the first move are doubted (or
+/// gross, [`DoubtAfterFirst`]): it must stop after the first guess (no move after the
+/// refusal); gives the error it stopped with.
+fn servo_after_first(
+    p: &mut VisualPlant<Toy, Reader>,
+    model: &mut InverseModel,
+    x_w: &[f64],
+    gross: bool,
+) -> ServoError {
     let cfg = ServoConfig {
         tolerance: 0.0,
         ..ServoConfig::default()
     };
+    let commands = p.robot().commands;
     let run = servo_lwpr(
         &mut DoubtAfterFirst {
-            plant: &mut p,
+            plant: &mut *p,
             moves: 0,
+            gross,
         },
-        &mut servo_model,
-        &x_w,
+        model,
+        x_w,
         &cfg,
     )
     .unwrap_err();
-    assert!(
-        matches!(run.error, ServoError::PerceptRefused { .. }),
-        "{}",
-        run.error
-    );
     assert_eq!(run.run.steps.len(), 1, "only the first guess was recorded");
     assert_eq!(
         p.robot().commands,
         commands + 2,
         "no move after the refusal"
     );
+    run.error
 }
 
-/// The toy plant, with every percept after the first move doubted.
+/// The toy plant, with every percept after the first move doubted (or, with `gross`, found
+/// 30 px off with full confidence).
 struct DoubtAfterFirst<'a> {
     plant: &'a mut VisualPlant<Toy, Reader>,
     moves: usize,
+    gross: bool,
 }
 
 impl Plant for DoubtAfterFirst<'_> {
@@ -294,7 +320,11 @@ impl Plant for DoubtAfterFirst<'_> {
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
         self.moves += 1;
         if self.moves >= 2 {
-            self.plant.robot_mut().doubt = 100;
+            if self.gross {
+                self.plant.robot_mut().gross = 100;
+            } else {
+                self.plant.robot_mut().doubt = 100;
+            }
         }
         self.plant.act(y)
     }
@@ -304,4 +334,107 @@ impl Plant for DoubtAfterFirst<'_> {
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
         self.plant.percept_bounds()
     }
+}
+
+/// `n` training samples `(percept, command)` of the toy plant at random commands.
+fn toy_samples(p: &mut VisualPlant<Toy, Reader>, n: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+    let mut commands = RandomCommands::new(&[[20.0, 200.0]; 2], 11).unwrap();
+    (0..n)
+        .map(|_| {
+            let y = commands.next_command();
+            p.act(&y).unwrap();
+            (p.observe().unwrap().x, y)
+        })
+        .collect()
+}
+
+/// A gross percept both cameras agree on (so it lies on the epipolar line) is refused by the
+/// motion check, typed, after a re-capture; a one-off one is recovered by the re-capture;
+/// training percepts are not judged; accepted servo percepts are remembered.
+#[test]
+fn a_gross_percept_the_cameras_agree_on_is_refused_by_the_motion_check() {
+    let mut p = plant(0);
+    let samples = toy_samples(&mut p, 300);
+    let check = MotionCheck::learn(&samples, &MotionConfig::default()).unwrap();
+    // The toy's only error is the grey levels' rounding (≤ 0.5 per coordinate).
+    assert!(check.threshold() < 4.0, "{}", check.threshold());
+    p.set_motion_check(Some(check)).unwrap();
+    let remembered = p.motion_check().unwrap().remembered();
+    // A clean percept passes and is remembered.
+    p.act(&[100.0, 120.0]).unwrap();
+    let clean = p.observe().unwrap();
+    assert_eq!(clean.x, vec![110.0, 140.0, 115.0, 137.0]);
+    assert_eq!(p.motion_check().unwrap().remembered(), remembered + 1);
+    // The planted gross percept on every capture: re-captured once, then refused, typed.
+    p.act(&[101.0, 121.0]).unwrap();
+    p.robot_mut().gross = 10;
+    let captures = p.robot().captures;
+    match p.observe() {
+        Err(ServoError::PerceptInconsistent {
+            residual,
+            threshold,
+        }) => assert!(residual > 25.0 && threshold < 4.0, "{residual} {threshold}"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    assert_eq!((p.inconsistent(), p.recaptured(), p.refused()), (1, 1, 0));
+    assert_eq!(
+        p.robot().captures,
+        captures + 2,
+        "one capture and its re-capture"
+    );
+    assert_eq!(
+        p.motion_check().unwrap().remembered(),
+        remembered + 1,
+        "not remembered"
+    );
+    // A one-off gross percept: the re-capture is accepted.
+    p.robot_mut().gross = 1;
+    let o = p.observe().unwrap();
+    assert_eq!(o.x, vec![111.0, 141.0, 116.0, 138.0]);
+    assert_eq!((p.inconsistent(), p.recaptured()), (1, 2));
+    // Training percepts are neither judged nor remembered.
+    p.set_policy(PerceptPolicy {
+        used: PerceptUse::Training,
+        ..PerceptPolicy::default()
+    })
+    .unwrap();
+    p.robot_mut().gross = 1;
+    assert_eq!(p.observe().unwrap().x[0], 141.0);
+    assert_eq!(p.motion_check().unwrap().remembered(), remembered + 2);
+    // Without the check the gross percept is taken (the comparison).
+    p.set_policy(PerceptPolicy::default()).unwrap();
+    p.set_motion_check(None).unwrap();
+    p.robot_mut().gross = 1;
+    assert_eq!(p.observe().unwrap().x[0], 141.0);
+    // A check of another dimension is refused.
+    let other: Vec<(Vec<f64>, Vec<f64>)> = samples
+        .iter()
+        .map(|(x, y)| (x[..2].to_vec(), y.clone()))
+        .collect();
+    let other = MotionCheck::learn(&other, &MotionConfig::default()).unwrap();
+    assert!(matches!(
+        p.set_motion_check(Some(other)),
+        Err(ServoError::DimensionMismatch { .. })
+    ));
+}
+
+/// The servo loop never moves on a percept the motion check refused: the run stops with the
+/// typed error after the first guess.
+#[test]
+fn the_servo_loop_never_moves_on_a_motion_refused_percept() {
+    let mut p = plant(0);
+    let (mut model, learn) = toy_learning(200);
+    learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
+    let samples = toy_samples(&mut p, 300);
+    p.set_motion_check(Some(
+        MotionCheck::learn(&samples, &MotionConfig::default()).unwrap(),
+    ))
+    .unwrap();
+    let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
+    let run = servo_after_first(&mut p, &mut model, &x_w, true);
+    assert!(
+        matches!(run, ServoError::PerceptInconsistent { .. }),
+        "{run}"
+    );
+    assert_eq!(p.inconsistent(), 1);
 }

@@ -94,6 +94,10 @@ pub struct ServoArgs {
     /// (`servo_loop::SilhouetteConfig::cap_training`; default: the study's, false).
     #[arg(long)]
     pub cap_training: Option<bool>,
+    /// The motion check's factor `κ` on the training moves' median residual
+    /// (`servo_loop::MotionConfig::factor`; 0 = no motion check; default: the study's).
+    #[arg(long)]
+    pub motion_factor: Option<f64>,
 }
 
 impl ServoArgs {
@@ -109,6 +113,12 @@ impl ServoArgs {
         }
         if let Some(c) = self.cap_training {
             p.cap_training = c;
+        }
+        if let Some(k) = self.motion_factor {
+            p.motion = (k > 0.0).then(|| servo_loop::MotionConfig {
+                factor: k,
+                ..servo_loop::MotionConfig::default()
+            });
         }
     }
 }
@@ -136,6 +146,7 @@ impl Default for ServoArgs {
             face_gate: None,
             spread_scale: None,
             cap_training: None,
+            motion_factor: None,
         }
     }
 }
@@ -170,6 +181,13 @@ pub struct Protocol {
     /// not written).
     #[serde(skip)]
     pub cap_training: bool,
+    /// The motion check of servo percepts (`servo_loop::MotionCheck`; `None`: off; not
+    /// written, the summary names it), and the check learned from the training moves (set by
+    /// the study after training; every plant made afterwards gets a copy).
+    #[serde(skip)]
+    pub motion: Option<servo_loop::MotionConfig>,
+    #[serde(skip)]
+    pub motion_check: Option<servo_loop::MotionCheck>,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -208,6 +226,8 @@ impl Protocol {
             face_gate: MEASURED_FACE_GATE,
             spread_scale: MEASURED_SPREAD_SCALE,
             cap_training: false,
+            motion: None,
+            motion_check: None,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -239,6 +259,9 @@ impl Protocol {
         }
     }
 }
+
+/// The iteration the diagnostics print the error after.
+const AT_DIAG: usize = 5;
 
 pub const METHODS: [&str; 4] = ["lwpr", "lwpr-open-loop", "broyden", "true-jacobian"];
 
@@ -292,9 +315,35 @@ fn make_plant(config: &SimConfig, p: &Protocol, seed: u64) -> Result<SimPlant> {
     let sim = ArmSim::new(config.clone())?;
     let plant = SimPlant::new(sim, &p.controlled, p.rest_us, p.noise_px, seed);
     Ok(match &p.recogniser {
-        Some(m) => plant.with_recogniser(m.clone(), p.policy())?,
+        Some(m) => {
+            let mut plant = plant.with_recogniser(m.clone(), p.policy())?;
+            plant.set_motion_check(p.motion_check.clone())?;
+            plant
+        }
         None => plant,
     })
+}
+
+/// With `p.motion` set, the motion check learned from the recognised samples of the first
+/// `moves` training moves ([`SimPlant::samples`]; `None` when off or when too few samples).
+pub fn learn_motion(
+    p: &Protocol,
+    samples: &[plant::Sample],
+    moves: usize,
+) -> Result<Option<servo_loop::MotionCheck>> {
+    let Some(config) = &p.motion else {
+        return Ok(None);
+    };
+    let kept: Vec<(Vec<f64>, Vec<f64>)> = samples
+        .iter()
+        .filter(|s| s.observation <= moves)
+        .map(|s| (s.x.clone(), s.y.clone()))
+        .collect();
+    match servo_loop::MotionCheck::learn(&kept, config) {
+        Ok(c) => Ok(Some(c)),
+        Err(servo_loop::ServoError::NotEnoughData(_)) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Runs one method on every target, sequentially on its own simulator (`seed`: its noise).
@@ -324,6 +373,7 @@ pub fn run_method(
     let mut out = Vec::with_capacity(targets.len());
     for t in targets {
         let start = truth(plant.sim());
+        let counts_before = plant.percept_counts();
         plant.log.clear();
         let result = match method {
             "lwpr" => servo_lwpr(&mut plant, &mut model, &t.x_w, &cfg),
@@ -353,7 +403,11 @@ pub fn run_method(
         let (run, error, refused) = match result {
             Ok(run) => (run, None, false),
             Err(a) => {
-                let refused = matches!(a.error, servo_loop::ServoError::PerceptRefused { .. });
+                let refused = matches!(
+                    a.error,
+                    servo_loop::ServoError::PerceptRefused { .. }
+                        | servo_loop::ServoError::PerceptInconsistent { .. }
+                );
                 (a.run, Some(a.error.to_string()), refused)
             }
         };
@@ -366,6 +420,18 @@ pub fn run_method(
             }
             px.push(image_error_true(&last, &t.truth, cams));
             mm.push(mm_error(&last, &t.truth));
+        }
+        if std::env::var_os("VISGUIDE_SERVO_DIAGNOSE").is_some() {
+            let after = plant.percept_counts();
+            let [recaptured, refused_c, inconsistent] =
+                [0, 1, 2].map(|i| after[i] - counts_before[i]);
+            eprintln!(
+                "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {}",
+                p.seed,
+                px[AT_DIAG.min(px.len() - 1)],
+                error.as_deref().map(|e| e.split(':').next().unwrap_or("")),
+                run.iterations()
+            );
         }
         let converged_at = run.converged.then(|| run.iterations());
         out.push(TargetResult {
@@ -474,12 +540,12 @@ pub struct Training {
     pub commands: usize,
 }
 
+/// What [`train`] gives: the model snapshots `(moves, model)`, what learning cost, and the
+/// accepted training samples (for the motion check).
+pub type Trained = (Vec<(usize, InverseModel)>, Training, Vec<plant::Sample>);
+
 /// Trains the inverse model with `max(curve_moves)` random moves, keeping snapshots.
-pub fn train(
-    config: &SimConfig,
-    p: &Protocol,
-    progress: bool,
-) -> Result<(Vec<(usize, InverseModel)>, Training)> {
+pub fn train(config: &SimConfig, p: &Protocol, progress: bool) -> Result<Trained> {
     let mut plant = make_plant(config, p, p.seed ^ 0x7EA1)?;
     // Training moves use one capture per percept (LWPR averages the noise itself), and say
     // they are training percepts (the recogniser may doubt them differently).
@@ -530,6 +596,7 @@ pub fn train(
             learn,
             commands: plant.commands(),
         },
+        std::mem::take(&mut plant.samples),
     ))
 }
 
@@ -843,7 +910,25 @@ pub fn run_study(
     with_images: bool,
     recognition_model: Option<LearnedRecogniser>,
 ) -> Result<Study> {
-    let (snaps, training) = train(config, p, progress)?;
+    let (snaps, training, samples) = train(config, p, progress)?;
+    // The motion check (when on) learned from the training moves each model saw.
+    let curve_protocols = snaps
+        .iter()
+        .map(|(k, _)| {
+            Ok((
+                *k,
+                Protocol {
+                    motion_check: learn_motion(p, &samples, *k)?,
+                    ..p.clone()
+                },
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let main_protocol = Protocol {
+        motion_check: learn_motion(p, &samples, p.training_moves)?,
+        ..p.clone()
+    };
+    let p = &main_protocol;
     let learn = training.learn;
     let actions = Actions {
         recognition: recognition_model.as_ref().map_or(0, |r| r.2),
@@ -873,12 +958,18 @@ pub fn run_study(
         .par_iter()
         .enumerate()
         .map(|(i, (job, model, chunk, iterations))| {
-            let method = match job {
-                Job::Method(m) => METHODS[*m],
-                Job::Curve(_) => "lwpr",
+            let (method, jp) = match job {
+                Job::Method(m) => (METHODS[*m], p),
+                Job::Curve(k) => (
+                    "lwpr",
+                    curve_protocols
+                        .iter()
+                        .find(|(c, _)| c == k)
+                        .map_or(p, |(_, q)| q),
+                ),
             };
             let seed = p.seed ^ 0x5E4F ^ ((i as u64) << 20);
-            run_method(method, config, p, model, chunk, *iterations, seed).map(|r| (*job, r))
+            run_method(method, config, jp, model, chunk, *iterations, seed).map(|r| (*job, r))
         })
         .collect::<Result<Vec<_>>>()?;
     let mut per_method: Vec<(String, Vec<TargetResult>)> = METHODS

@@ -39,6 +39,15 @@ pub fn truth(sim: &ArmSim) -> Truth {
     }
 }
 
+/// One accepted percept with the command it was taken at, and the plant's observation count
+/// then (1-based; a training move observes once, so it is the move's index).
+#[derive(Debug, Clone)]
+pub struct Sample {
+    pub observation: usize,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+}
+
 /// How a [`SimPlant`] perceives.
 enum Percept {
     /// The true tip projection plus Gaussian detection noise (a control-only check).
@@ -62,6 +71,10 @@ pub struct SimPlant {
     pub cameras: usize,
     pub size: [u32; 2],
     pub log: Vec<Truth>,
+    /// Every accepted percept with its command (the training samples, [`Sample`]).
+    pub samples: Vec<Sample>,
+    observations: usize,
+    last_command: Option<Vec<f64>>,
 }
 
 impl SimPlant {
@@ -90,6 +103,9 @@ impl SimPlant {
             cameras,
             size,
             log: Vec::new(),
+            samples: Vec::new(),
+            observations: 0,
+            last_command: None,
         }
     }
 
@@ -146,6 +162,27 @@ impl SimPlant {
         c
     }
 
+    /// Checks the recognised percept's servo percepts against the commanded move
+    /// (`servo_loop::VisualPlant::set_motion_check`; nothing for the simulated percept).
+    pub fn set_motion_check(
+        &mut self,
+        check: Option<servo_loop::MotionCheck>,
+    ) -> servo_loop::Result<()> {
+        match &mut self.percept {
+            Percept::Recognised(v) => v.set_motion_check(check),
+            Percept::Simulated { .. } => Ok(()),
+        }
+    }
+
+    /// Percepts the recognised percept re-captured, refused for their certainty and refused by
+    /// the motion check so far (zeros for the simulated percept).
+    pub fn percept_counts(&self) -> [usize; 3] {
+        match &self.percept {
+            Percept::Recognised(v) => [v.recaptured(), v.refused(), v.inconsistent()],
+            Percept::Simulated { .. } => [0; 3],
+        }
+    }
+
     /// Changes the recognised percept's policy (nothing for the simulated percept). Errors: an
     /// invalid policy.
     pub fn set_policy(
@@ -175,6 +212,7 @@ impl Plant for SimPlant {
             .unwrap_or([0.0, 0.0])
     }
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.last_command = Some(y.to_vec());
         match &mut self.percept {
             Percept::Recognised(v) => v.act(y),
             Percept::Simulated { robot, .. } => {
@@ -188,6 +226,29 @@ impl Plant for SimPlant {
         }
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
+        self.observations += 1;
+        let obs = self.observe_now()?;
+        if let Some(y) = &self.last_command {
+            self.samples.push(Sample {
+                observation: self.observations,
+                x: obs.x.clone(),
+                y: y.clone(),
+            });
+        }
+        Ok(obs)
+    }
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        let (w, h) = (f64::from(self.size[0]) - 1.0, f64::from(self.size[1]) - 1.0);
+        Some(
+            (0..self.cameras)
+                .flat_map(|_| [[0.0, w], [0.0, h]])
+                .collect(),
+        )
+    }
+}
+
+impl SimPlant {
+    fn observe_now(&mut self) -> servo_loop::Result<Observation> {
         let t = truth(self.sim());
         self.log.push(t);
         let cams = self.cameras;
@@ -221,14 +282,6 @@ impl Plant for SimPlant {
                 Ok(Observation { x, certainty: 1.0 })
             }
         }
-    }
-    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
-        let (w, h) = (f64::from(self.size[0]) - 1.0, f64::from(self.size[1]) - 1.0);
-        Some(
-            (0..self.cameras)
-                .flat_map(|_| [[0.0, w], [0.0, h]])
-                .collect(),
-        )
     }
 }
 

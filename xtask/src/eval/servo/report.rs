@@ -434,19 +434,30 @@ pub fn seeds_section(st: &SeedStudy) -> String {
           cameras' epipolar geometry from the same poses), control learned from the training moves, then every method servos to \
           the seed's reachable targets. Errors are after 5 moves after the first guess (equal moves: Broyden's 3 probes count); \
           Broyden is also shown after 5 corrections after its probes (8 moves). A value is the median over seeds of the per-seed \
-          medians, [min – max] of the per-seed medians, and the worst seed. **Seeds:** the setting changed this round (the learned tip's gate, `k` = 1, with \
-          its spread cap of 1.25 px on the percepts the servo acts on but not on training moves, \
-          `servo_loop::SilhouetteConfig::cap_training` off) was chosen on development data only: the study on the development \
-          seeds 1001–1005 (`cargo xtask eval servo --development`, all three arms) and the single-seed protocol on the \
-          development seeds 1001–1003, each against no gate (and the gate with the cap everywhere, measured before; \
-          docs/methods.md, *Gated learned tip*). The 1,600 training moves (in blocks of 100 in monotone-chain order, \
-          `servo_loop::chain_order`) were fixed earlier from an action count, not from a servo run; the other thresholds \
-          (certainty 0.05, consistency scale, captures) were set before any evaluation run, not tuned. The evaluation seeds \
-          6001–6005 are new this round (4001–4005 were read twice, so they no longer count as unseen) and were scored once, \
-          by this run. Image targets are pixel positions per camera (the projected \
+          medians, [min – max] of the per-seed medians, and the worst seed. Recognition tests are single captures at random poses, \
+          each move executed as every move of the study (the approach above). **Seeds:** every setting was chosen on development \
+          data only: the study on the development seeds 1001–1005 (`cargo xtask eval servo --development`, all three arms) and, \
+          for the learned tip's gate (`k` = 1, its spread cap of 1.25 px on the servo's percepts only), the single-seed protocol \
+          on the development seeds 1001–1003 (docs/methods.md, *Gated learned tip*, *Motion check*). The 1,600 training moves \
+          (in blocks of 100 in monotone-chain order, `servo_loop::chain_order`) were fixed earlier from an action count, not \
+          from a servo run; the other thresholds (certainty 0.05, consistency scale, captures) were set before any evaluation \
+          run, not tuned. The evaluation seeds 7001–7005 are new this round (6001–6005 had been scored once, by the previous \
+          round) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
           middle of the finger ends at random reachable poses the learner never visited), checked by `servo_loop::check_image_target` \
           (consistent between the cameras, inside the learned model) before any move; their error is the tool point's against the \
           target pose's.\n\n";
+    s += &match st.motion_factor {
+        Some(k) => format!(
+            "**Motion check:** the servo's percepts (recognition tests, servo runs) must agree with the percepts the learner \
+             saw near the commanded pose, moved by the commanded difference (`servo_loop::MotionCheck`: a local linear fit \
+             to the 16 remembered percepts nearest the command, the training moves and the accepted servo percepts; refused \
+             beyond {k} times the training moves' median leave-one-out residual, after one re-capture, \
+             `ServoError::PerceptInconsistent`, counted with the refusals below).\n\n"
+        ),
+        None => "**Motion check:** off (`servo_loop::MotionCheck` is an opt-in, `--motion-factor`; measured on the \
+                 development seeds, docs/methods.md, *Motion check*).\n\n"
+            .into(),
+    };
     let fmt = |o: &super::seeds::OverSeeds| {
         format!(
             "{:.2} [{:.2} – {:.2}] (worst: seed {})",

@@ -16,15 +16,15 @@ use serde::{Deserialize, Serialize};
 use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
 
 use super::{
-    Actions, Protocol, ServoArgs, Target, TargetResult, learn_recogniser, make_image_targets,
-    make_plant, make_targets, run_method, train,
+    Actions, Protocol, ServoArgs, Target, TargetResult, learn_motion, learn_recogniser,
+    make_image_targets, make_plant, make_targets, run_method, train,
 };
 use crate::Result;
 
 /// Seeds every setting was chosen on.
 pub const DEVELOPMENT_SEEDS: [u64; 5] = [1001, 1002, 1003, 1004, 1005];
 /// Seeds scored once for the fixtures.
-pub const EVALUATION_SEEDS: [u64; 5] = [6001, 6002, 6003, 6004, 6005];
+pub const EVALUATION_SEEDS: [u64; 5] = [7001, 7002, 7003, 7004, 7005];
 /// Targets per (arm, seed).
 pub const TARGETS: usize = 30;
 /// Image targets per (arm, seed).
@@ -109,6 +109,10 @@ pub struct SeedStudy {
     pub seeds_role: String,
     pub seeds: Vec<u64>,
     pub targets_per_seed: usize,
+    /// The motion check's factor on the servo percepts (`servo_loop::MotionConfig::factor`;
+    /// `None`: off).
+    #[serde(default)]
+    pub motion_factor: Option<f64>,
     pub results: Vec<SeedResult>,
 }
 
@@ -143,6 +147,11 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         seeds_role: role.into(),
         seeds,
         targets_per_seed: TARGETS,
+        motion_factor: {
+            let mut p = Protocol::default_for(0);
+            args.apply_percept(&mut p);
+            p.motion.map(|m| m.factor)
+        },
         results,
     })
 }
@@ -156,9 +165,12 @@ pub fn run_seed(arm: &str, config: &SimConfig, seed: u64, args: &ServoArgs) -> R
     p.targets = TARGETS;
     let (model, report, recognition_commands) = learn_recogniser(config, &p)?;
     p.recogniser = Some(model);
-    let recognition = recognition(config, &p)?;
-    let (snaps, training) = train(config, &p, false)?;
+    let (snaps, training, samples) = train(config, &p, false)?;
     let main = &snaps.last().ok_or("no trained model")?.1;
+    // The servo percepts (recognition tests, targets, servo runs) pass the motion check when
+    // it is on, learned from the training moves.
+    p.motion_check = learn_motion(&p, &samples, p.training_moves)?;
+    let recognition = recognition(config, &p)?;
     let targets = make_targets(config, &p, p.targets, p.seed ^ 0x7A26)?;
     let mut methods = Vec::new();
     for (i, m) in METHODS.iter().enumerate() {
@@ -243,17 +255,47 @@ fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
     let mut commands = RandomCommands::new(&p.explore_us, p.seed ^ 0xFACE)?;
     let (mut refused, mut not_found) = (0, 0);
     let mut errors = vec![Vec::new(); cams];
+    let diagnose = std::env::var_os("VISGUIDE_SERVO_DIAGNOSE").is_some();
+    // Every move executed as the study executes moves (the approach), so a percept is judged
+    // against the pose the learner's own moves show at that command.
+    let mut state = servo_loop::ApproachState::new();
     for _ in 0..RECOGNITION_TESTS {
         let y = commands.next_command();
-        plant.act(&y)?;
+        match &p.approach {
+            Some(a) => {
+                state.execute(&mut plant, a, &a.round(&y), false)?;
+            }
+            None => plant.act(&y)?,
+        }
         match plant.observe() {
             Ok(o) => {
                 let pose = plant.sim().inspect().pose().clone();
                 let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+                let mut line = Vec::new();
                 for (cam, e) in errors.iter_mut().enumerate() {
                     let t = plant.sim().inspect().project(cam, &mid)?;
                     e.push((o.x[2 * cam] - t[0]).hypot(o.x[2 * cam + 1] - t[1]));
+                    line.push(format!("{:.2}", e[e.len() - 1]));
                 }
+                if diagnose {
+                    eprintln!(
+                        "recognition-test seed {} accepted errors {}",
+                        p.seed,
+                        line.join(" ")
+                    );
+                }
+            }
+            Err(ServoError::PerceptInconsistent {
+                residual,
+                threshold,
+            }) => {
+                if diagnose {
+                    eprintln!(
+                        "recognition-test seed {} inconsistent residual {residual:.2} threshold {threshold:.2}",
+                        p.seed
+                    );
+                }
+                refused += 1
             }
             Err(ServoError::PerceptRefused { .. }) => refused += 1,
             Err(ServoError::RecognitionFailed { .. }) => not_found += 1,

@@ -120,6 +120,7 @@ fn recognition_goal_is_judged_on_the_seed_median() {
         seeds_role: "development".into(),
         seeds: (1..=p90s.len() as u64).collect(),
         targets_per_seed: 30,
+        motion_factor: None,
         results: p90s
             .iter()
             .enumerate()
