@@ -62,7 +62,7 @@ fn main() {
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(1.0);
-        let sp = scales.fine_spacing(extent) * f;
+        let sp = scales.fine_spacing(extent).unwrap() * f;
         let k = cbt_tracker::DEFAULT_KERNEL;
         let (bx, by) = (
             axis(0.0, sc.width, sp, k).unwrap(),

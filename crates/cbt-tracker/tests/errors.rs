@@ -252,6 +252,42 @@ fn training_statistics_refuse_bad_bounds() {
 }
 
 #[test]
+fn spacing_refuses_bad_extent_or_scales() {
+    let (_, train) = setup();
+    let scales = Scales::estimate(&train, 320.0).unwrap();
+    // A NaN or negative extent used to panic in `f64::clamp`.
+    for bad in [f64::NAN, f64::INFINITY, 0.0, -5.0] {
+        for r in [scales.spacing(bad), scales.fine_spacing(bad)] {
+            assert!(matches!(
+                r,
+                Err(TrackError::InvalidParameter { name: "extent", .. })
+            ));
+        }
+    }
+    // Hand-built scales: a NaN noise used to give a NaN spacing or the clamp's bound silently.
+    let nan = Scales {
+        noise: f64::NAN,
+        accel: 1.0,
+    };
+    assert!(matches!(
+        nan.spacing(240.0),
+        Err(TrackError::InvalidParameter { name: "noise", .. })
+    ));
+    let negative = Scales {
+        noise: 1.0,
+        accel: -1.0,
+    };
+    assert!(matches!(
+        negative.fine_spacing(240.0),
+        Err(TrackError::InvalidParameter { name: "accel", .. })
+    ));
+    let s = scales.spacing(240.0).unwrap();
+    assert!((240.0 / 48.0..=240.0 / 12.0).contains(&s));
+    let f = scales.fine_spacing(240.0).unwrap();
+    assert!((240.0 / 1000.0..=240.0 / 12.0).contains(&f));
+}
+
+#[test]
 fn scoring_refuses_mismatched_or_bad_input() {
     use cbt_tracker::metrics::score;
     let truth = [Some([0.0, 0.0]), Some([1.0, 0.0]), Some([2.0, 0.0])];

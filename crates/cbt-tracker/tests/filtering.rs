@@ -72,7 +72,7 @@ fn kalman_optimal_sanity_bounds() {
         init_vel_sigma: 0.5,
         gate: 1e9,
     };
-    let spacing = Scales::estimate(&train, W).unwrap().spacing(H);
+    let spacing = Scales::estimate(&train, W).unwrap().spacing(H).unwrap();
     let space = Space::image(W, H, spacing).unwrap();
     let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
     let pf_model = PfModel::ConstantVelocity {
@@ -108,7 +108,7 @@ fn trained(level: usize, cfg: CbtConfig) -> (CbtModel, Vec<Sequence>) {
     let train = generate(&sc, &lv, 3, 300, 21);
     let spacing = Scales::estimate(&train, sc.width)
         .unwrap()
-        .spacing(sc.height);
+        .spacing(sc.height).unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let test = generate(&sc, &lv, 2, 120, 22);
     (CbtModel::learn_sequences(space, cfg, &train).unwrap(), test)

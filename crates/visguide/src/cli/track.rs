@@ -272,7 +272,7 @@ fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)>
     ];
     let simulated = input.simulate(&mut train, extent, input.sim_seed);
     let size = (extent[1] - extent[0]).min(extent[3] - extent[2]);
-    let spacing = Scales::estimate(&train, size)?.fine_spacing(size);
+    let spacing = Scales::estimate(&train, size)?.fine_spacing(size)?;
     let kernel = cbt_tracker::DEFAULT_KERNEL;
     let (bx, by) = (
         axis(extent[0], extent[1], spacing, kernel)?,

@@ -88,7 +88,7 @@ pub fn learn_tracker(size: [u32; 2], walks: &[Walk]) -> Result<CbtModel> {
         )));
     }
     let extent = f64::from(size[0].max(size[1]));
-    let spacing = Scales::estimate(&sequences, extent)?.fine_spacing(extent);
+    let spacing = Scales::estimate(&sequences, extent)?.fine_spacing(extent)?;
     let space = Space::image(f64::from(size[0]), f64::from(size[1]), spacing)?;
     let config = CbtConfig {
         layout: Layout::Stationary,
