@@ -55,8 +55,8 @@ fn main() {
     let extent = sc.width.min(sc.height);
     for &i in &levels {
         let lv = Level::preset(i);
-        let train = generate(&sc, &lv, 4, 300, 1000 + i as u64);
-        let val = generate(&sc, &lv, 8, 150, 7000 + i as u64);
+        let train = generate(&sc, &lv, 4, 300, 1000 + i as u64).unwrap();
+        let val = generate(&sc, &lv, 8, 150, 7000 + i as u64).unwrap();
         let scales = Scales::estimate(&train, extent).unwrap();
         let f: f64 = std::env::var("SPF")
             .ok()

@@ -175,10 +175,10 @@
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
 //! let level = sim::Level::preset(1);
-//! let train = sim::generate(&sim::Scenario::default(), &level, 2, 200, 7);
+//! let train = sim::generate(&sim::Scenario::default(), &level, 2, 200, 7).unwrap();
 //! let space = Space::image(320.0, 240.0, 10.0).unwrap();
 //! let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
-//! let test = &sim::generate(&sim::Scenario::default(), &level, 1, 50, 8)[0];
+//! let test = &sim::generate(&sim::Scenario::default(), &level, 1, 50, 8).unwrap()[0];
 //! let mut cbt = CbtTracker::new(model);
 //! cbt.reset(test.frames[0].truth.unwrap()).unwrap();
 //! for f in &test.frames[1..] {

@@ -28,7 +28,7 @@ fn get(m: &Mat, r: usize, c: usize) -> f64 {
 
 #[test]
 fn kalman_matches_opencv() {
-    let s = generate(&Scenario::default(), &Level::preset(1), 1, 150, 3).remove(0);
+    let s = generate(&Scenario::default(), &Level::preset(1), 1, 150, 3).unwrap().remove(0);
     let params = KalmanParams {
         accel_sigma: 0.7,
         meas_sigma: 2.0,

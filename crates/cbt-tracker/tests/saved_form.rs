@@ -79,7 +79,7 @@ fn scripted() -> Vec<(String, CbtTracker)> {
         }),
         ..CbtConfig::default()
     };
-    let mut runs = Ungm::default().generate(4, 40, 5);
+    let mut runs = Ungm::default().generate(4, 40, 5).unwrap();
     for q in &mut runs {
         for f in &mut q.frames {
             if let Some(t) = f.truth.as_mut() {

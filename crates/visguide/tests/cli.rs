@@ -495,10 +495,10 @@ fn track_one_step_equals_learn_then_run() {
     let train = dir.join("train");
     std::fs::create_dir_all(&train).unwrap();
     let sc = Scenario::default();
-    for s in generate(&sc, &Level::preset(1), 4, 150, 11) {
+    for s in generate(&sc, &Level::preset(1), 4, 150, 11).unwrap() {
         cbt_tracker::csv::write(&train, &s).unwrap();
     }
-    let test = &generate(&sc, &Level::preset(1), 1, 120, 99)[0];
+    let test = &generate(&sc, &Level::preset(1), 1, 120, 99).unwrap()[0];
     let seq = cbt_tracker::csv::write(&dir, test).unwrap();
     let (one, two, model) = (
         dir.join("one.csv"),
@@ -616,7 +616,7 @@ fn track_mot_equals_the_same_data_as_csv() {
     let (mot_train, csv_train) = (dir.join("mot-train"), dir.join("csv-train"));
     std::fs::create_dir_all(&mot_train).unwrap();
     let sc = Scenario::default();
-    let tracks = generate(&sc, &Level::preset(0), 6, 120, 21);
+    let tracks = generate(&sc, &Level::preset(0), 6, 120, 21).unwrap();
     // Two training files of two targets each, plus a static object flagged 0 (left out).
     for (f, pair) in tracks[..4].chunks(2).enumerate() {
         let mut text = mot_rows(1, 1, &pair[0]) + &mot_rows(2, 5, &pair[1]);
@@ -731,7 +731,7 @@ fn track_mot_bad_input_names_file_and_line() {
     let dir = temp("track-mot-bad");
     let train = dir.join("train");
     std::fs::create_dir_all(&train).unwrap();
-    let tracks = generate(&Scenario::default(), &Level::preset(0), 3, 40, 5);
+    let tracks = generate(&Scenario::default(), &Level::preset(0), 3, 40, 5).unwrap();
     std::fs::write(
         train.join("a.txt"),
         mot_rows(1, 1, &tracks[0]) + &mot_rows(2, 1, &tracks[1]),
