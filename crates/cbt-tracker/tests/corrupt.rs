@@ -27,7 +27,8 @@ fn stationary() -> CbtModel {
     let (train, _) = data();
     let spacing = Scales::estimate(&train, W)
         .unwrap()
-        .fine_spacing(W).unwrap()
+        .fine_spacing(W)
+        .unwrap()
         .max(2.0);
     model(Layout::Stationary, Order::Second, spacing)
 }

@@ -357,7 +357,10 @@ fn simulation_refuses_bad_levels_scenarios_and_areas() {
     // sequences without clutter or with NaN detections.
     for (level, name) in [
         (bad_level(|l| l.clutter_rate = 1e30), "clutter_rate"),
-        (bad_level(|l| l.clutter_rate = 2.0 * MAX_CLUTTER_RATE), "clutter_rate"),
+        (
+            bad_level(|l| l.clutter_rate = 2.0 * MAX_CLUTTER_RATE),
+            "clutter_rate",
+        ),
         (bad_level(|l| l.clutter_rate = f64::NAN), "clutter_rate"),
         (bad_level(|l| l.clutter_rate = -1.0), "clutter_rate"),
         (bad_level(|l| l.p_detect = f64::NAN), "p_detect"),
@@ -375,12 +378,36 @@ fn simulation_refuses_bad_levels_scenarios_and_areas() {
     }
     // A scenario whose margin leaves no room used to panic in `f64::clamp`.
     for (scenario, name) in [
-        (Scenario { margin: 200.0, ..sc }, "margin"),
+        (
+            Scenario {
+                margin: 200.0,
+                ..sc
+            },
+            "margin",
+        ),
         (Scenario { width: 1.0, ..sc }, "width"),
-        (Scenario { height: f64::NAN, ..sc }, "height"),
-        (Scenario { accel_sigma: f64::NAN, ..sc }, "accel_sigma"),
+        (
+            Scenario {
+                height: f64::NAN,
+                ..sc
+            },
+            "height",
+        ),
+        (
+            Scenario {
+                accel_sigma: f64::NAN,
+                ..sc
+            },
+            "accel_sigma",
+        ),
         (Scenario { damping: 2.0, ..sc }, "damping"),
-        (Scenario { shake_memory: 1.0, ..sc }, "shake_memory"),
+        (
+            Scenario {
+                shake_memory: 1.0,
+                ..sc
+            },
+            "shake_memory",
+        ),
     ] {
         let e = generate(&scenario, &Level::preset(1), 1, 5, 1).unwrap_err();
         assert!(
@@ -415,4 +442,51 @@ fn simulation_refuses_bad_levels_scenarios_and_areas() {
     // The largest accepted rate still generates.
     let busy = bad_level(|l| l.clutter_rate = MAX_CLUTTER_RATE);
     assert_eq!(generate(&sc, &busy, 1, 1, 1).unwrap()[0].frames.len(), 1);
+}
+
+#[test]
+fn kalman_refuses_non_finite_state_and_measurements() {
+    use nalgebra::{Matrix4, Vector2, Vector4};
+    let (_, train) = setup();
+    let cal = Calibration::estimate(&train, 32.0).unwrap();
+    let mut kf = KalmanTracker::new(KalmanParams::from_calibration(&cal)).unwrap();
+    kf.reset([100.0, 80.0]).unwrap();
+    let before = kf.clone();
+    // Both used to be stored, and the next step estimated NaN.
+    let x_nan = Vector4::new(1.0, f64::NAN, 0.0, 0.0);
+    assert!(matches!(
+        kf.set_state(x_nan, Matrix4::identity()),
+        Err(TrackError::NonFinite {
+            what: "Kalman state",
+            ..
+        })
+    ));
+    let mut p_inf = Matrix4::identity();
+    p_inf[(2, 3)] = f64::INFINITY;
+    assert!(matches!(
+        kf.set_state(Vector4::zeros(), p_inf),
+        Err(TrackError::NonFinite {
+            what: "Kalman covariance",
+            ..
+        })
+    ));
+    assert!(matches!(
+        kf.set_state(Vector4::zeros(), -Matrix4::identity()),
+        Err(TrackError::InvalidParameter {
+            name: "covariance diagonal",
+            ..
+        })
+    ));
+    assert!(matches!(
+        kf.correct(Vector2::new(f64::NAN, 3.0)),
+        Err(TrackError::NonFinite {
+            what: "measurement",
+            ..
+        })
+    ));
+    assert_eq!(kf, before);
+    kf.set_state(Vector4::new(1.0, 2.0, 0.5, 0.0), Matrix4::identity())
+        .unwrap();
+    kf.correct(Vector2::new(1.5, 2.0)).unwrap();
+    assert!(kf.state().iter().all(|v| v.is_finite()));
 }

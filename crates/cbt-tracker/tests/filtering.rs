@@ -108,7 +108,8 @@ fn trained(level: usize, cfg: CbtConfig) -> (CbtModel, Vec<Sequence>) {
     let train = generate(&sc, &lv, 3, 300, 21).unwrap();
     let spacing = Scales::estimate(&train, sc.width)
         .unwrap()
-        .spacing(sc.height).unwrap();
+        .spacing(sc.height)
+        .unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let test = generate(&sc, &lv, 2, 120, 22).unwrap();
     (CbtModel::learn_sequences(space, cfg, &train).unwrap(), test)
@@ -244,7 +245,8 @@ fn trackers_survive_a_serde_round_trip() {
     let (model, test) = trained(2, CbtConfig::default());
     let s = &test[0];
     let sc = Scenario::default();
-    let cal = Calibration::estimate(&generate(&sc, &Level::preset(2), 2, 200, 3).unwrap(), 32.0).unwrap();
+    let cal =
+        Calibration::estimate(&generate(&sc, &Level::preset(2), 2, 200, 3).unwrap(), 32.0).unwrap();
     let mut trackers: Vec<(Box<dyn Tracker>, String)> = Vec::new();
     let mut cbt = CbtTracker::new(model.clone());
     let mut joint = CbtTracker::new(

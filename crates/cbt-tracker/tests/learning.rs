@@ -188,7 +188,8 @@ fn diagonal_stats(level: usize) -> (f64, f64) {
     let train = generate(&sc, &lv, 3, 300, 11).unwrap();
     let spacing = Scales::estimate(&train, sc.width)
         .unwrap()
-        .spacing(sc.height).unwrap();
+        .spacing(sc.height)
+        .unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let m = CbtModel::learn_sequences(space.clone(), CbtConfig::default(), &train).unwrap();
     let (o, c) = (

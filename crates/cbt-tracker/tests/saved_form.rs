@@ -26,7 +26,8 @@ fn scripted() -> Vec<(String, CbtTracker)> {
             let (cfg, spacing) = if layout == Layout::Stationary {
                 let s = Scales::estimate(&train, W)
                     .unwrap()
-                    .fine_spacing(W).unwrap()
+                    .fine_spacing(W)
+                    .unwrap()
                     .max(2.0);
                 // The files predate the learned start and the interpolated displacements.
                 let cfg = CbtConfig {

@@ -100,7 +100,8 @@ fn level_space(train: &[Sequence], sc: &Scenario) -> Space {
     let extent = sc.width.min(sc.height);
     let sp = Scales::estimate(train, extent)
         .unwrap()
-        .fine_spacing(extent).unwrap();
+        .fine_spacing(extent)
+        .unwrap();
     let k = cbt_tracker::DEFAULT_KERNEL;
     let (bx, by) = (
         axis(0.0, sc.width, sp, k).unwrap(),
