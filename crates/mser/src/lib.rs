@@ -22,7 +22,7 @@
 //! let regions = mser::detect(&img, &params).unwrap();
 //! assert_eq!(regions.len(), 1);
 //! let r = &regions[0];
-//! let e = r.ellipse(); // Oxford (u, v, a, b, c); area close to the region's
+//! let e = r.ellipse().unwrap(); // Oxford (u, v, a, b, c); area close to the region's
 //! assert!((e.u - 20.0).abs() < 1e-9 && (e.area() / r.area as f64 - 1.0).abs() < 0.02);
 //! let contour = r.contour(&img).unwrap(); // closed, counter-clockwise on screen
 //! assert_eq!(contour[0], r.seed);

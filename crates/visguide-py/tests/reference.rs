@@ -60,7 +60,7 @@ fn points_digest(p: &[(u32, u32)]) -> Value {
 }
 
 fn region_json(r: &mser::Region, img: &mser::GrayView) -> Value {
-    let e = r.ellipse();
+    let e = r.ellipse().unwrap();
     let m = r.moments;
     let b = r.bbox;
     json!({

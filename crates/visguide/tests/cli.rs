@@ -193,7 +193,7 @@ fn regions_every_format_matches_the_library() {
         .iter()
         .zip(lib.regions.iter().zip(&lib.contours))
     {
-        let e = lr.ellipse();
+        let e = lr.ellipse().unwrap();
         assert_eq!(r.ellipse, (e.u, e.v, e.a, e.b, e.c));
         assert_eq!((r.seed, r.area, r.level), (lr.seed, lr.area, lr.level));
         assert_eq!(r.contour.as_ref().unwrap(), lc);
@@ -218,7 +218,7 @@ fn regions_every_format_matches_the_library() {
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), regions.len());
     for (row, r) in rows.iter().zip(&regions) {
-        let e = r.ellipse();
+        let e = r.ellipse().unwrap();
         let nums: Vec<f64> = row[13..18].iter().map(|v| v.parse().unwrap()).collect();
         assert_eq!(nums, vec![e.u, e.v, e.a, e.b, e.c]);
         assert_eq!(row[5].parse::<u32>().unwrap(), r.area);
