@@ -147,7 +147,8 @@ fn regions_every_format_matches_the_library() {
         for (k, img) in images.iter().enumerate() {
             let view = mser::GrayView::from_image(img).unwrap();
             let regions = mser::detect(&view, &params).unwrap();
-            let ellipses: Vec<mser::Ellipse> = regions.iter().map(mser::Region::ellipse).collect();
+            let ellipses: Vec<mser::Ellipse> =
+                regions.iter().map(|r| r.ellipse().unwrap()).collect();
             let mut want = Vec::new();
             mser::write_regions(&mut want, &ellipses).unwrap();
             let got = std::fs::read(out.join(format!("s{k}.mser"))).unwrap();
