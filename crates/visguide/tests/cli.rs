@@ -880,6 +880,22 @@ fn bad_input_fails_cleanly_without_partial_output() {
         ],
         "bad.csv:3:",
     );
+    // Values beyond LWPR's bound: the error names the file, line and column (it used to be
+    // the builder's "norm_in is not finite", the standard deviation having overflowed).
+    let huge_csv = dir.join("huge.csv");
+    std::fs::write(&huge_csv, "x,y\n1,2\n1e300,3\n-1e300,4\n").unwrap();
+    fails(
+        &[
+            "lwpr",
+            "fit",
+            s(&huge_csv),
+            "--inputs",
+            "1",
+            "--model",
+            s(&m),
+        ],
+        "huge.csv:3: column `x` = 1e300",
+    );
     let table = dir.join("t.csv");
     write_table(&table, 50);
     let model = dir.join("m.lwpr.json");
