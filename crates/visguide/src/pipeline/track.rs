@@ -37,6 +37,32 @@ pub struct PerceptConfig {
     pub lost_certainty: f64,
 }
 
+impl PerceptConfig {
+    /// Checks the settings: `mode_sigma_px` finite and positive, both certainties in `[0, 1]`.
+    /// (A NaN or zero kernel width made every frame's mode empty, so nothing was ever
+    /// recognised.)
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &'static str, value: f64, range: &str| {
+            Err(PipelineError::InvalidParameter {
+                name,
+                reason: format!("{value} must lie in {range}"),
+            })
+        };
+        if !(self.mode_sigma_px.is_finite() && self.mode_sigma_px > 0.0) {
+            return bad("mode_sigma_px", self.mode_sigma_px, "(0, ∞)");
+        }
+        for (name, v) in [
+            ("start_certainty", self.start_certainty),
+            ("lost_certainty", self.lost_certainty),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(name, v, "[0, 1]");
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for PerceptConfig {
     fn default() -> Self {
         PerceptConfig {
