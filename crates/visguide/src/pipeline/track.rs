@@ -217,6 +217,15 @@ fn check_images(
     Ok(())
 }
 
+/// A pipeline error in a percept, as the servo library's (the percept's settings or votes were
+/// refused).
+fn percept_error(e: PipelineError) -> ServoError {
+    ServoError::InvalidParameter {
+        name: "percept",
+        reason: e.to_string(),
+    }
+}
+
 fn votes_of(shapes: &ShapeModel, cam: usize, img: &GrayImage) -> servo_loop::Result<Vec<Vote>> {
     shapes
         .votes(cam, img)
@@ -251,7 +260,9 @@ impl Recogniser for FdRecogniser {
             .enumerate()
             .map(|(cam, img)| {
                 let votes = votes_of(&self.shapes, cam, img)?;
-                let m = mode(&votes, self.config.mode_sigma_px).ok_or(failed(cam, 0.0, 0.0))?;
+                let m = mode(&votes, self.config.mode_sigma_px)
+                    .map_err(percept_error)?
+                    .ok_or(failed(cam, 0.0, 0.0))?;
                 Ok(Localisation {
                     position: m.position,
                     certainty: m.certainty,
@@ -312,7 +323,9 @@ impl FdCbtRecogniser {
         let cfg = &self.fd.config;
         let start = |track: &mut Option<CbtTracker>| -> servo_loop::Result<Localisation> {
             *track = None;
-            let m = mode(votes, cfg.mode_sigma_px).ok_or(failed(cam, 0.0, cfg.start_certainty))?;
+            let m = mode(votes, cfg.mode_sigma_px)
+                .map_err(percept_error)?
+                .ok_or(failed(cam, 0.0, cfg.start_certainty))?;
             if m.certainty < cfg.start_certainty {
                 return Err(failed(cam, m.certainty, cfg.start_certainty));
             }
