@@ -191,3 +191,26 @@ fn training_views_refuse_explore_ranges_that_do_not_fit() {
     let views = capture_training_views(&mut robot, &space, &[[0.0, 100.0]; 2], 3, 1).unwrap();
     assert_eq!((views.len(), robot.commands), (3, 9));
 }
+
+/// The image error of a percept and a target of different lengths used to be taken over the
+/// shorter one; a NaN gave a NaN error.
+#[test]
+fn image_error_refuses_mismatched_or_non_finite_points() {
+    use servo_loop::image_error;
+    assert!(matches!(
+        image_error(&[1.0, 2.0, 3.0, 4.0], &[1.0, 2.0]),
+        Err(ServoError::DimensionMismatch { what: "target", .. })
+    ));
+    assert!(matches!(
+        image_error(&[1.0, f64::NAN], &[1.0, 2.0]),
+        Err(ServoError::NonFinite {
+            what: "percept",
+            ..
+        })
+    ));
+    assert!(matches!(
+        image_error(&[1.0, 2.0], &[f64::INFINITY, 2.0]),
+        Err(ServoError::NonFinite { what: "target", .. })
+    ));
+    assert_eq!(image_error(&[3.0, 4.0], &[0.0, 0.0]).unwrap(), 5.0);
+}
