@@ -214,3 +214,22 @@ fn image_error_refuses_mismatched_or_non_finite_points() {
     ));
     assert_eq!(image_error(&[3.0, 4.0], &[0.0, 0.0]).unwrap(), 5.0);
 }
+
+/// A dimension beyond LWPR's limits is the builder's TooBig error, however large (usize::MAX
+/// used to panic with a capacity overflow while the norm vectors were allocated).
+#[test]
+fn inverse_models_beyond_lwpr_limits_are_errors() {
+    let config = InverseModelConfig::default();
+    for (n, m, what) in [
+        (usize::MAX, 2, "n_in"),
+        (lwpr::MAX_INPUTS + 1, 2, "n_in"),
+        (2, usize::MAX, "n_out"),
+    ] {
+        let e = InverseModel::new(n, m, &config).unwrap_err();
+        assert!(
+            matches!(e, ServoError::Lwpr(lwpr::LwprError::TooBig { what: w, .. }) if w == what),
+            "{e}"
+        );
+    }
+    assert!(InverseModel::new(4, 3, &config).is_ok());
+}
