@@ -236,4 +236,15 @@ fn the_pipeline_refuses_what_it_cannot_use() {
         }
     }
     assert_eq!(robot.commands(), sent);
+    // A NaN reset threshold used to mean "never reset the tracks", a negative one "always".
+    for bad in [f64::NAN, -1.0] {
+        assert!(matches!(
+            pipeline.notifier(bad),
+            Err(PipelineError::InvalidParameter {
+                name: "reset_us",
+                ..
+            })
+        ));
+    }
+    assert!(pipeline.notifier(f64::INFINITY).is_ok());
 }

@@ -305,12 +305,21 @@ impl FdCbtRecogniser {
 
     /// A handle that forgets the tracks when a commanded move exceeds `reset_us` on any servo
     /// (see [`Notifying`]): the tracker's learned motion covers small moves only.
-    pub fn notifier(&self, reset_us: f64) -> MoveNotifier {
-        MoveNotifier {
+    ///
+    /// Errors: `reset_us` NaN or negative ([`PipelineError::InvalidParameter`]; a NaN used to
+    /// mean "never reset", a negative value "always"). An infinite `reset_us` never resets.
+    pub fn notifier(&self, reset_us: f64) -> Result<MoveNotifier> {
+        if reset_us.is_nan() || reset_us < 0.0 {
+            return Err(PipelineError::InvalidParameter {
+                name: "reset_us",
+                reason: format!("{reset_us} must be non-negative"),
+            });
+        }
+        Ok(MoveNotifier {
             tracks: Arc::clone(&self.tracks),
             reset_us,
             last: None,
-        }
+        })
     }
 
     /// One camera's step: start (or restart) from the vote mode, or track.
