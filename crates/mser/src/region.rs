@@ -153,9 +153,8 @@ impl Ellipse {
     pub fn from_covariance(u: f64, v: f64, cov: [f64; 3], k: f64) -> Option<Self> {
         let [xx, xy, yy] = cov.map(|s| s * k * k);
         let det = xx * yy - xy * xy;
-        if !(det > 0.0 && xx > 0.0 && k > 0.0 && det.is_finite())
-            || ![u, v, xx, xy, yy].iter().all(|c| c.is_finite())
-        {
+        let finite = [u, v, xx, xy, yy, det].iter().all(|c| c.is_finite());
+        if !(finite && det > 0.0 && xx > 0.0 && k > 0.0) {
             return None;
         }
         Some(Ellipse {

@@ -68,7 +68,7 @@ pub fn mode(votes: &[Vote], sigma: f64) -> Result<Option<Mode>> {
         });
     }
     let total: f64 = votes.iter().map(|v| v.weight).sum();
-    if votes.is_empty() || !(total > 0.0) {
+    if votes.is_empty() || total <= 0.0 {
         return Ok(None);
     }
     let inv = 1.0 / (2.0 * sigma * sigma);
