@@ -354,14 +354,8 @@ fn regions_without_an_ellipse_are_errors() {
         },
         moments,
     };
-    let empty = region(Moments {
-        n: 0,
-        sx: 0,
-        sy: 0,
-        sxx: 0,
-        sxy: 0,
-        syy: 0,
-    });
+    let empty = region(Moments::of_pixels(&[]).unwrap());
+    assert_eq!(empty.moments.n, 0);
     // Σx² far below (Σx)²/n: a negative variance.
     let impossible = region(Moments {
         n: 2,
