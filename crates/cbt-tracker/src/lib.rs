@@ -170,7 +170,12 @@
 //! `frame,kind,x,y` sequence format (any first frame, gaps, a byte-order mark; a bounded frame
 //! span); [`mot`]: MOTChallenge ground truth, one single-target sequence per id;
 //! [`sim::observe`]: simulated detections (misses, noise, clutter) on a given trajectory;
-//! [`metrics`]: RMSE and track loss.
+//! [`metrics`]: RMSE and track loss. The generators return a `Result`: the scenario, level
+//! (clutter rate at most [`sim::MAX_CLUTTER_RATE`]) and area are checked before anything is
+//! drawn ([`sim::Scenario::validate`], [`sim::Level::validate`]); so do [`Scales::spacing`] and
+//! [`Scales::fine_spacing`] (their extent) and the Kalman baseline's
+//! [`KalmanTracker::set_state`] and [`KalmanTracker::correct`] (finite values), which leave the
+//! filter unchanged on an error.
 //!
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
