@@ -117,7 +117,14 @@
 //!   Broader start or system densities, a learned acceleration density, axis-pooled motion
 //!   counts, the held-out observation model and the filter's constants were tried there;
 //!   none gives CBT more than 8 of the 16 validation sequences against the baselines
-//!   (default 7), so the defaults stay.
+//!   (default 7), so the defaults stay. A velocity coupled to position
+//!   ([`Velocity::PerPosition`], module `stationary::coupled`: one velocity distribution per
+//!   row and per column of the window) is an option, not the default: on the validation
+//!   scenes it is better at the medium level and on five tracks at the hard level (15.95
+//!   against 20.05 px), but worse at the hard level trained on the other scenes (6 of 16
+//!   against the baselines, 21.19 px, against 7 and 19.64) and on the RC-car development
+//!   seeds at L2–L4 (L4 15.90 against 14.81): hypotheses seeded by clutter keep velocities
+//!   of their own too (docs/methods.md § Tracking, "The hard level").
 //!
 //! - **Observation model from held-out likelihood** ([`ObservationSmoothing::HeldOut`],
 //!   module [`observation_smoothing`]): the kernel's width, the clutter level and `P_D`
@@ -218,7 +225,7 @@ pub use baselines::{
 pub use cbt::CbtTracker;
 pub use config::{
     CbtConfig, Clutter, Displacements, Layout, ObservationFallback, Order, PeriodicInput,
-    StartMotion, SystemFallback,
+    StartMotion, SystemFallback, Velocity,
 };
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use error::TrackError;

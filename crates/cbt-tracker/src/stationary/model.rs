@@ -512,6 +512,23 @@ pub(crate) struct StatSystem {
     banded: Vec<f64>,
 }
 
+/// The band `[lo, hi)` of `v` outside which each tail holds at most `share` of its mass
+/// (at least one entry kept).
+pub(crate) fn tail_band(v: &[f64], share: f64) -> (usize, usize) {
+    let cut = share * v.iter().sum::<f64>();
+    let (mut lo, mut hi, mut acc) = (0, v.len(), 0.0);
+    while lo + 1 < hi && acc + v[lo] <= cut {
+        acc += v[lo];
+        lo += 1;
+    }
+    acc = 0.0;
+    while hi > lo + 1 && acc + v[hi - 1] <= cut {
+        acc += v[hi - 1];
+        hi -= 1;
+    }
+    (lo, hi)
+}
+
 /// Mass share of `T[· | v]` the prediction may skip in each tail of a column.
 const BAND_TAIL: f64 = 1e-9;
 
@@ -736,17 +753,7 @@ impl StatSystem {
         let w = 2 * self.r + 1;
         self.band.clear();
         for col in self.t.chunks_exact(w) {
-            let cut = BAND_TAIL * col.iter().sum::<f64>();
-            let (mut lo, mut hi, mut acc) = (0, w, 0.0);
-            while lo + 1 < hi && acc + col[lo] <= cut {
-                acc += col[lo];
-                lo += 1;
-            }
-            acc = 0.0;
-            while hi > lo + 1 && acc + col[hi - 1] <= cut {
-                acc += col[hi - 1];
-                hi -= 1;
-            }
+            let (lo, hi) = tail_band(col, BAND_TAIL);
             self.band.push((lo as u32, hi as u32));
         }
         let stride = self.banded_stride();

@@ -39,7 +39,10 @@
 //!    along axis `d` (its channels convolved with the kernel's marginal). A miss carries the
 //!    predicted velocity on through the learned `T` (as a particle filter carries it in its
 //!    particles), a detection sharpens it; one no displacement of `D_d` reaches (lost-track
-//!    recovery) contributes `S_d`.
+//!    recovery) contributes `S_d`. With [`Velocity::PerPosition`](crate::Velocity) the
+//!    velocity is carried per row and per column instead (module `coupled`: each row's and
+//!    column's own kernel in steps 1–2, and the exact joint posterior of the new position
+//!    and the displacement as step 5).
 //!
 //! **Speed.** Every pass is a contiguous `y += k·x` over whole row blocks where the strides
 //! allow it (the prediction's x pass: one per kernel tap; the bump: the reflected kernel is
@@ -58,15 +61,16 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::coupled::{self, PosKernels, PositionVelocity};
 use super::cover::{self, Block};
-use super::model::{StatObservation, StatSystem};
+use super::model::{StatObservation, StatSystem, tail_band};
 use super::pool::{self, refill};
 use super::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
     lane_max, lane_sum, lane_sum_inline, mul_sum_rows, pad_kernel, peak_candidates, row_extents,
     scale_into, with_avx,
 };
-use crate::config::{CbtConfig, Order};
+use crate::config::{CbtConfig, Order, Velocity};
 use crate::integrity::{corrupt, len, nonneg};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{Detection, Point, Space, TrackError};
@@ -146,24 +150,24 @@ impl Patch {
 
 /// A kernel over offsets `lo..lo + v.len()`.
 #[derive(Debug, Clone, Default, PartialEq)]
-struct Kernel1 {
-    lo: i64,
-    v: Vec<f64>,
+pub(super) struct Kernel1 {
+    pub lo: i64,
+    pub v: Vec<f64>,
 }
 
 impl Kernel1 {
-    fn hi(&self) -> i64 {
+    pub fn hi(&self) -> i64 {
         self.lo + self.v.len() as i64 - 1
     }
 }
 
 /// Half-open rectangle of cells `[a0, a1) × [b0, b1)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Rect {
-    a0: usize,
-    a1: usize,
-    b0: usize,
-    b1: usize,
+pub(super) struct Rect {
+    pub a0: usize,
+    pub a1: usize,
+    pub b0: usize,
+    pub b1: usize,
 }
 
 impl Rect {
@@ -175,10 +179,10 @@ impl Rect {
             b1: self.b1.max(o.b1),
         }
     }
-    fn rows(&self) -> usize {
+    pub fn rows(&self) -> usize {
         self.a1 - self.a0
     }
-    fn cols(&self) -> usize {
+    pub fn cols(&self) -> usize {
         self.b1 - self.b0
     }
 }
@@ -203,6 +207,10 @@ pub(crate) struct WindowState {
     /// from before it was carried; the step then predicts with `S_d`).
     #[serde(default)]
     vel: [Vec<f64>; 2],
+    /// With [`Velocity::PerPosition`]: the velocity per row and per column of the window
+    /// instead of `vel` (module `coupled`; empty after a start).
+    #[serde(default, skip_serializing_if = "PositionVelocity::is_empty")]
+    coupled: PositionVelocity,
     #[serde(skip)]
     scratch: Scratch,
 }
@@ -248,6 +256,9 @@ struct Scratch {
     part_det: Vec<usize>,
     /// The significant hypotheses of the update: (detection, mass) (velocity step).
     hyps: Vec<(usize, f64)>,
+    /// With [`Velocity::PerPosition`], during a step: the per-row and per-column
+    /// displacement kernels of the posterior (module `coupled`); the prediction uses them.
+    pos: Option<Box<(PosKernels, PosKernels)>>,
     /// Per posterior row, the columns `[first, last + 1)` of its cells that passed the crop
     /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
     /// candidates (`≥ MIN_SHARE × max`) lie within them.
@@ -289,7 +300,7 @@ impl PartialEq for Scratch {
 /// Work buffers of the displacement kernel: the kernel before its tails are cut and the
 /// velocity terms `(v + r, c[v])`.
 #[derive(Debug, Clone, Default)]
-struct DispWork {
+pub(super) struct DispWork {
     out: Vec<f64>,
     terms: Vec<(usize, f64)>,
 }
@@ -440,7 +451,7 @@ impl WindowState {
         for v in &self.vel {
             nonneg("velocity distribution", v)?;
         }
-        Ok(())
+        self.coupled.check(&self.post)
     }
 
     /// Starts from a joint density given on a patch (normalised, cropped here).
@@ -454,17 +465,11 @@ impl WindowState {
         self.prev = self.cur.clone();
         self.fresh = true;
         self.vel = Default::default();
+        self.coupled = Default::default();
     }
 
-    /// Displacement kernel of axis `d` (step 1 of the module doc).
-    #[inline(never)]
-    fn displacement(&self, sys: &StatSystem, d: usize, order: Order) -> Kernel1 {
-        let mut k = Kernel1::default();
-        self.displacement_into(sys, d, order, self.fresh, &mut DispWork::default(), &mut k);
-        k
-    }
-
-    /// [`Self::displacement`] into `k`, with `work` as the work buffers.
+    /// Displacement kernel of axis `d` (step 1 of the module doc) into `k`, with `work` as
+    /// the work buffers.
     fn displacement_into(
         &self,
         sys: &StatSystem,
@@ -474,51 +479,7 @@ impl WindowState {
         work: &mut DispWork,
         k: &mut Kernel1,
     ) {
-        let DispWork { out, terms } = work;
-        let r = sys.radius() as i64;
-        let w = (2 * r + 1) as usize;
-        out.clear();
-        out.resize(w, 0.0);
-        match order {
-            _ if fresh => out.copy_from_slice(sys.start()),
-            Order::First => out.copy_from_slice(sys.first()),
-            Order::Second => {
-                let c = &self.vel[d];
-                if c.len() == w {
-                    // Column v of T (zeroed outside its band: the zeros add +0) times c[v],
-                    // added to `out` by increasing v.
-                    terms.clear();
-                    terms.extend(
-                        c.iter()
-                            .enumerate()
-                            .filter(|&(_, &cv)| cv > 0.0)
-                            .map(|(i, &cv)| (i, cv)),
-                    );
-                    column_sum(out, sys.banded(), sys.banded_stride(), terms);
-                } else {
-                    out.copy_from_slice(sys.first());
-                }
-            }
-        }
-        // Drop each tail holding at most KERNEL_TAIL of the mass.
-        let cut = KERNEL_TAIL * out.iter().sum::<f64>();
-        let (mut lo, mut hi, mut acc) = (0, w, 0.0);
-        while lo + 1 < hi && acc + out[lo] <= cut {
-            acc += out[lo];
-            lo += 1;
-        }
-        acc = 0.0;
-        while hi > lo + 1 && acc + out[hi - 1] <= cut {
-            acc += out[hi - 1];
-            hi -= 1;
-        }
-        k.lo = lo as i64 - r;
-        k.v.clear();
-        k.v.extend_from_slice(&out[lo..hi]);
-        let s: f64 = k.v.iter().sum();
-        if s > 0.0 {
-            k.v.iter_mut().for_each(|x| *x /= s);
-        }
+        displacement_from(sys, &self.vel[d], order, fresh, work, k);
     }
 
     /// `(1 − γ)·(q ⊛ D)` on `rect`, plus `γ/G`, into `out` (row-major over the rect).
@@ -540,6 +501,10 @@ impl WindowState {
         out: &mut Vec<f64>,
     ) {
         self.scratch.prior_blocks = None;
+        if let Some(pk) = self.scratch.pos.as_deref() {
+            coupled::predict(&self.post, pk, keep, u, rect, &mut self.scratch.rows, out);
+            return;
+        }
         let p = &self.post;
         refill(out, rect.rows() * rect.cols(), u);
         // Rows a of the posterior reaching rect: i = a + δ, δ ∈ [kx.lo, kx.hi].
@@ -758,19 +723,31 @@ impl WindowState {
         dets: &[Detection],
     ) -> Result<(), TrackError> {
         let enc = self.encode(space, dets)?;
-        let (kx, ky) = self.kernels(sys, cfg.order);
+        let (kx, ky) = self.kernels(sys, cfg);
         let bumps = self.bumps(space, cfg, obs, &enc, &kx, &ky);
         let rect = self.hypotheses(cfg, obs, sys, &enc, (&kx, &ky), &bumps);
         let Some(rect) = rect else {
             // Nothing significant (cannot happen with a positive floor): keep the prior.
             self.scratch.enc = enc;
             self.scratch.kernels = (kx, ky);
+            self.scratch.pos = None;
             return Ok(());
         };
         let (out, blocks, sparse) = self.assemble(&kx, &ky, &bumps, enc.is_empty(), rect);
         self.scratch.enc = enc;
         self.scratch.kernels = (kx, ky);
-        self.normalise(out, blocks, sparse);
+        // The per-position velocities from the update and the prediction (module `coupled`).
+        let next = self
+            .scratch
+            .pos
+            .take()
+            .map(|pk| coupled::update(&self.post, &pk, bumps.keep, bumps.u, &out, sys));
+        if self.normalise(out, blocks, sparse)
+            && let Some(mut next) = next
+        {
+            next.crop(&self.post);
+            self.coupled = next;
+        }
         Ok(())
     }
 
@@ -800,14 +777,27 @@ impl WindowState {
     }
 
     /// Step 1 of the module doc: the displacement kernels `(D_x, D_y)` (first order on the
-    /// first step after a start).
-    fn kernels(&mut self, sys: &[StatSystem], order: Order) -> (Kernel1, Kernel1) {
+    /// first step after a start). With [`Velocity::PerPosition`] (second order) also the
+    /// per-row and per-column kernels (module `coupled`, into the scratch space; cells
+    /// without a velocity take the factored kernel), and `(D_x, D_y)` become their averages
+    /// (whose extents bound them all).
+    fn kernels(&mut self, sys: &[StatSystem], cfg: &CbtConfig) -> (Kernel1, Kernel1) {
         let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
         let mut work = std::mem::take(&mut self.scratch.disp);
         let fresh = self.fresh;
-        self.displacement_into(&sys[0], 0, order, fresh, &mut work, &mut kx);
-        self.displacement_into(&sys[1], 1, order, fresh, &mut work, &mut ky);
+        self.displacement_into(&sys[0], 0, cfg.order, fresh, &mut work, &mut kx);
+        self.displacement_into(&sys[1], 1, cfg.order, fresh, &mut work, &mut ky);
         self.fresh = false;
+        self.scratch.pos = None;
+        if cfg.velocity == Velocity::PerPosition && cfg.order == Order::Second {
+            let [(ox, mx), (oy, my)] = &self.cur;
+            let (px, ax) =
+                PosKernels::build(&sys[0], &self.coupled.axes[0], *ox, mx, &kx, &mut work);
+            let (py, ay) =
+                PosKernels::build(&sys[1], &self.coupled.axes[1], *oy, my, &ky, &mut work);
+            (kx, ky) = (ax, ay);
+            self.scratch.pos = Some(Box::new((px, py)));
+        }
         self.scratch.disp = work;
         (kx, ky)
     }
@@ -992,7 +982,7 @@ impl WindowState {
         }
         self.scratch.part_det = part_det;
         self.scratch.parts = parts;
-        if cfg.order == Order::Second {
+        if cfg.order == Order::Second && self.scratch.pos.is_none() {
             self.carry_velocity(sys, obs, kernels, enc, &hyps, miss);
         }
         self.scratch.hyps = hyps;
@@ -1100,8 +1090,8 @@ impl WindowState {
 
     /// The update normalised and cropped into the new posterior (the crop is relative to the
     /// maximum), and its marginals (the previous ones kept for step 5); an update without
-    /// mass leaves the posterior as it was.
-    fn normalise(&mut self, out: Patch, blocks: Vec<Block>, sparse: bool) {
+    /// mass leaves the posterior as it was (returns whether it was replaced).
+    fn normalise(&mut self, out: Patch, blocks: Vec<Block>, sparse: bool) -> bool {
         let (s, max) = if sparse {
             (
                 cover::lane_sum(&out.v, out.w, out.h, &blocks),
@@ -1113,7 +1103,7 @@ impl WindowState {
         if !(s > 0.0 && s.is_finite()) {
             self.scratch.out = out.v;
             self.scratch.blocks = blocks;
-            return;
+            return false;
         }
         // The old posterior's buffer receives the cropped new one (the crop is relative to
         // the maximum, so it needs no normalised input); the uncropped one goes back to the
@@ -1145,6 +1135,7 @@ impl WindowState {
             marginals_into(&self.post, &mut self.cur);
         }
         self.scratch.post_blocks = post_blocks;
+        true
     }
 
     /// The velocity distribution of the next step (step 5 of the module doc): per axis, the
@@ -1322,8 +1313,10 @@ impl WindowState {
     /// The full-grid prior of the next step (for inspection; allocates `G` cells).
     pub fn dense_prior(&mut self, space: &Space, cfg: &CbtConfig, sys: &[StatSystem]) -> Vec<f64> {
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
-        let kx = self.displacement(&sys[0], 0, cfg.order);
-        let ky = self.displacement(&sys[1], 1, cfg.order);
+        // The step's kernels without consuming the start (`kernels` clears `fresh`).
+        let fresh = self.fresh;
+        let (kx, ky) = self.kernels(sys, cfg);
+        self.fresh = fresh;
         let u = cfg.mixing / space.cells() as f64;
         let rect = Rect {
             a0: 0,
@@ -1332,9 +1325,57 @@ impl WindowState {
             b1: ny,
         };
         let mut v = self.prior(&kx, &ky, 1.0 - cfg.mixing, u, rect);
+        self.scratch.pos = None;
         let s: f64 = v.iter().sum();
         v.iter_mut().for_each(|x| *x /= s);
         v
+    }
+}
+
+/// The displacement kernel of one axis (step 1 of the module doc) for the carried velocity
+/// distribution `c` (`c[v + r]`; any other length: unknown, the first order's `S_d`), into
+/// `k`, with `work` as the work buffers; `fresh`: the start density.
+pub(super) fn displacement_from(
+    sys: &StatSystem,
+    c: &[f64],
+    order: Order,
+    fresh: bool,
+    work: &mut DispWork,
+    k: &mut Kernel1,
+) {
+    let DispWork { out, terms } = work;
+    let r = sys.radius() as i64;
+    let w = (2 * r + 1) as usize;
+    out.clear();
+    out.resize(w, 0.0);
+    match order {
+        _ if fresh => out.copy_from_slice(sys.start()),
+        Order::First => out.copy_from_slice(sys.first()),
+        Order::Second => {
+            if c.len() == w {
+                // Column v of T (zeroed outside its band: the zeros add +0) times c[v],
+                // added to `out` by increasing v.
+                terms.clear();
+                terms.extend(
+                    c.iter()
+                        .enumerate()
+                        .filter(|&(_, &cv)| cv > 0.0)
+                        .map(|(i, &cv)| (i, cv)),
+                );
+                column_sum(out, sys.banded(), sys.banded_stride(), terms);
+            } else {
+                out.copy_from_slice(sys.first());
+            }
+        }
+    }
+    // Drop each tail holding at most KERNEL_TAIL of the mass.
+    let (lo, hi) = tail_band(out, KERNEL_TAIL);
+    k.lo = lo as i64 - r;
+    k.v.clear();
+    k.v.extend_from_slice(&out[lo..hi]);
+    let s: f64 = k.v.iter().sum();
+    if s > 0.0 {
+        k.v.iter_mut().for_each(|x| *x /= s);
     }
 }
 

@@ -91,6 +91,19 @@ pub struct TrackingArgs {
     /// this way (`cbt_tracker::ObservationSmoothing`) instead of `CbtConfig::stationary`'s.
     #[arg(long, value_enum)]
     pub observation_smoothing: Option<ObservationArg>,
+    /// With `--validation-only` or `--rc-car-development`: how CBT's second order carries
+    /// the velocity (`cbt_tracker::Velocity`) instead of `CbtConfig::stationary`'s.
+    #[arg(long, value_enum)]
+    pub velocity: Option<VelocityArg>,
+}
+
+/// `--velocity`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VelocityArg {
+    /// `Velocity::Factored`.
+    Factored,
+    /// `Velocity::PerPosition`.
+    PerPosition,
 }
 
 /// `--observation-smoothing`.
@@ -299,6 +312,15 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         study::set_observation(match m {
             ObservationArg::Counted => cbt_tracker::ObservationSmoothing::Counted,
             ObservationArg::HeldOut => cbt_tracker::ObservationSmoothing::HeldOut,
+        });
+    }
+    if let Some(v) = args.velocity {
+        if !(args.validation_only || args.rc_car_development) {
+            return Err("--velocity needs --validation-only or --rc-car-development".into());
+        }
+        study::set_velocity(match v {
+            VelocityArg::Factored => cbt_tracker::Velocity::Factored,
+            VelocityArg::PerPosition => cbt_tracker::Velocity::PerPosition,
         });
     }
     if args.rc_car_development {

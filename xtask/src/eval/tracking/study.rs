@@ -203,6 +203,14 @@ pub fn set_observation(o: cbt_tracker::ObservationSmoothing) {
     let _ = OBSERVATION.set(o);
 }
 
+static VELOCITY: std::sync::OnceLock<cbt_tracker::Velocity> = std::sync::OnceLock::new();
+
+/// Sets how CBT's second order on the image sets carries the velocity for this process
+/// (first call wins; development runs).
+pub fn set_velocity(v: cbt_tracker::Velocity) {
+    let _ = VELOCITY.set(v);
+}
+
 fn cbt_models(space: &Space, base: CbtConfig, train: &[Sequence]) -> Result<(CbtModel, CbtModel)> {
     let second = CbtModel::learn_sequences(space.clone(), base, train)?;
     let first = CbtModel::learn_sequences(
@@ -264,6 +272,10 @@ impl Trackers {
                         .get()
                         .copied()
                         .unwrap_or(CbtConfig::stationary().observation_smoothing),
+                    velocity: VELOCITY
+                        .get()
+                        .copied()
+                        .unwrap_or(CbtConfig::stationary().velocity),
                     ..CbtConfig::stationary()
                 };
                 let (second, first) = cbt_models(&space, cfg, &spec.train)?;

@@ -4,9 +4,9 @@
 //! parameters.
 //!
 //! ```text
-//! cargo build --release -p mser --features opencv --example instructions
+//! cargo build --release -p mser --features opencv --example mser_instructions
 //! valgrind --tool=callgrind --toggle-collect='*instructions*measured*' \
-//!     target/release/examples/instructions ours|opencv IMAGE.png [dark|bright|both]
+//!     target/release/examples/mser_instructions ours|opencv IMAGE.png [dark|bright|both]
 //! ```
 //!
 //! The optional third argument restricts ours to one polarity (default both), to see how the

@@ -5,9 +5,9 @@
 //! `[x, y]`), those contours instead.
 //!
 //! ```text
-//! cargo build --release -p fd-match --example instructions
+//! cargo build --release -p fd-match --example fd_instructions
 //! RAYON_NUM_THREADS=1 valgrind --tool=callgrind --toggle-collect='*instructions*measured*' \
-//!     target/release/examples/instructions [CONTOURS.json]
+//!     target/release/examples/fd_instructions [CONTOURS.json]
 //! ```
 //!
 //! The `Collected` total is the instruction count of one search (descriptors already made).
