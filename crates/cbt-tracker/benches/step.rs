@@ -13,13 +13,13 @@ use criterion::{Criterion, criterion_group, criterion_main};
 fn bench(c: &mut Criterion) {
     let sc = Scenario::default();
     let level = Level::preset(2);
-    let train = generate(&sc, &level, 4, 300, 1);
-    let test = generate(&sc, &level, 1, 200, 2).remove(0);
+    let train = generate(&sc, &level, 4, 300, 1).unwrap();
+    let test = generate(&sc, &level, 1, 200, 2).unwrap().remove(0);
     let scales = Scales::estimate(&train, sc.width).unwrap();
-    let spacing = scales.spacing(sc.height);
+    let spacing = scales.spacing(sc.height).unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
-    let fine = scales.fine_spacing(sc.height);
+    let fine = scales.fine_spacing(sc.height).unwrap();
     let k = cbt_tracker::DEFAULT_KERNEL;
     let (bx, by) = (
         axis(0.0, sc.width, fine, k).unwrap(),

@@ -55,14 +55,14 @@ fn main() {
     let extent = sc.width.min(sc.height);
     for &i in &levels {
         let lv = Level::preset(i);
-        let train = generate(&sc, &lv, 4, 300, 1000 + i as u64);
-        let val = generate(&sc, &lv, 8, 150, 7000 + i as u64);
+        let train = generate(&sc, &lv, 4, 300, 1000 + i as u64).unwrap();
+        let val = generate(&sc, &lv, 8, 150, 7000 + i as u64).unwrap();
         let scales = Scales::estimate(&train, extent).unwrap();
         let f: f64 = std::env::var("SPF")
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(1.0);
-        let sp = scales.fine_spacing(extent) * f;
+        let sp = scales.fine_spacing(extent).unwrap() * f;
         let k = cbt_tracker::DEFAULT_KERNEL;
         let (bx, by) = (
             axis(0.0, sc.width, sp, k).unwrap(),

@@ -48,8 +48,8 @@ fn rmse_mean(t: &mut CbtTracker, s: &Sequence) -> f64 {
 
 fn main() {
     let u = Ungm::default();
-    let train = u.generate(20, 100, 3000);
-    let dev = u.generate(10, 100, 3002);
+    let train = u.generate(20, 100, 3000).unwrap();
+    let dev = u.generate(10, 100, 3002).unwrap();
     // The evaluation's grid: the training extent +5 (state), +3 (measurement), spacing 1.
     let (mut xl, mut xh, mut zl, mut zh) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for s in &train {

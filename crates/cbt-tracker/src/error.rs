@@ -104,8 +104,7 @@ pub(crate) fn positive(name: &'static str, value: f64) -> Result<(), TrackError>
     }
 }
 
-/// Checks that a parameter is finite and in `[0, 1]` (or `[0, 1)` when `open` is set).
-/// Checks a parameter is finite and non-negative.
+/// Checks that a parameter is finite and non-negative.
 pub(crate) fn non_negative(name: &'static str, value: f64) -> Result<(), TrackError> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
@@ -118,6 +117,7 @@ pub(crate) fn non_negative(name: &'static str, value: f64) -> Result<(), TrackEr
     }
 }
 
+/// Checks that a parameter is finite and in `[0, 1]` (or `[0, 1)` when `open` is set).
 pub(crate) fn unit(name: &'static str, value: f64, open: bool) -> Result<(), TrackError> {
     if value.is_finite() && value >= 0.0 && (value < 1.0 || (!open && value == 1.0)) {
         Ok(())

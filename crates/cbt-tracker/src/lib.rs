@@ -177,15 +177,20 @@
 //! `frame,kind,x,y` sequence format (any first frame, gaps, a byte-order mark; a bounded frame
 //! span); [`mot`]: MOTChallenge ground truth, one single-target sequence per id;
 //! [`sim::observe`]: simulated detections (misses, noise, clutter) on a given trajectory;
-//! [`metrics`]: RMSE and track loss.
+//! [`metrics`]: RMSE and track loss. The generators return a `Result`: the scenario, level
+//! (clutter rate at most [`sim::MAX_CLUTTER_RATE`]) and area are checked before anything is
+//! drawn ([`sim::Scenario::validate`], [`sim::Level::validate`]); so do [`Scales::spacing`] and
+//! [`Scales::fine_spacing`] (their extent) and the Kalman baseline's
+//! [`KalmanTracker::set_state`] and [`KalmanTracker::correct`] (finite values), which leave the
+//! filter unchanged on an error.
 //!
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
 //! let level = sim::Level::preset(1);
-//! let train = sim::generate(&sim::Scenario::default(), &level, 2, 200, 7);
+//! let train = sim::generate(&sim::Scenario::default(), &level, 2, 200, 7).unwrap();
 //! let space = Space::image(320.0, 240.0, 10.0).unwrap();
 //! let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
-//! let test = &sim::generate(&sim::Scenario::default(), &level, 1, 50, 8)[0];
+//! let test = &sim::generate(&sim::Scenario::default(), &level, 1, 50, 8).unwrap()[0];
 //! let mut cbt = CbtTracker::new(model);
 //! cbt.reset(test.frames[0].truth.unwrap()).unwrap();
 //! for f in &test.frames[1..] {

@@ -5,7 +5,7 @@ use chan_repr::{ChannelBasis, ChannelGrid, Kernel};
 use serde::{Deserialize, Serialize};
 
 use crate::data::{Point, Sequence};
-use crate::error::positive;
+use crate::error::{non_negative, positive};
 use crate::{Detection, TrackError};
 
 /// The default kernel: the thesis's windowed cos² with `a = π/3` (eq. 2.2).
@@ -266,8 +266,11 @@ impl Scales {
     /// ±2.25 noise standard deviations of it, and one unpredictable step moves the state by
     /// less than one spacing; the clamp bounds the grid to 14–50 channels per axis, which keeps
     /// a second-order prediction (`O(N³)` dense, far less when pruned) cheap.
-    pub fn spacing(&self, extent: f64) -> f64 {
-        (1.5 * self.noise.max(self.accel)).clamp(extent / 48.0, extent / 12.0)
+    ///
+    /// Errors ([`TrackError::InvalidParameter`]): `extent` not finite and positive (`extent`),
+    /// or a hand-built `Scales` whose `noise` or `accel` is not finite and non-negative.
+    pub fn spacing(&self, extent: f64) -> Result<f64, TrackError> {
+        self.clamped(1.5 * self.noise.max(self.accel), extent, 48.0)
     }
 
     /// Spacing for the stationary layout ([`Layout::Stationary`](crate::Layout)), whose
@@ -277,8 +280,19 @@ impl Scales {
     /// in filtering): at 0.75 σ that adds half the noise variance, so the update stays about as
     /// sharp as the detector (its width is 1.22 σ), while the step's cost, which follows the
     /// number of cells the posterior and prediction cover, stays small.
-    pub fn fine_spacing(&self, extent: f64) -> f64 {
-        (0.75 * self.noise).clamp(extent / 1000.0, extent / 12.0)
+    ///
+    /// Errors as [`spacing`](Self::spacing).
+    pub fn fine_spacing(&self, extent: f64) -> Result<f64, TrackError> {
+        self.clamped(0.75 * self.noise, extent, 1000.0)
+    }
+
+    /// `spacing` clamped to `[extent/finest, extent/12]`, after checking the extent and the
+    /// scales (a NaN or negative extent used to panic in `f64::clamp`).
+    fn clamped(&self, spacing: f64, extent: f64, finest: f64) -> Result<f64, TrackError> {
+        positive("extent", extent)?;
+        non_negative("noise", self.noise)?;
+        non_negative("accel", self.accel)?;
+        Ok(spacing.clamp(extent / finest, extent / 12.0))
     }
 }
 

@@ -28,6 +28,7 @@ fn stationary() -> CbtModel {
     let spacing = Scales::estimate(&train, W)
         .unwrap()
         .fine_spacing(W)
+        .unwrap()
         .max(2.0);
     model(Layout::Stationary, Order::Second, spacing)
 }

@@ -10,7 +10,7 @@ use chan_repr::{ChanError, ChannelBasis, Kernel};
 
 fn setup() -> (CbtModel, Vec<cbt_tracker::Sequence>) {
     let sc = Scenario::default();
-    let train = generate(&sc, &Level::preset(1), 2, 200, 5);
+    let train = generate(&sc, &Level::preset(1), 2, 200, 5).unwrap();
     let space = Space::image(sc.width, sc.height, 10.0).unwrap();
     (
         CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap(),
@@ -252,6 +252,42 @@ fn training_statistics_refuse_bad_bounds() {
 }
 
 #[test]
+fn spacing_refuses_bad_extent_or_scales() {
+    let (_, train) = setup();
+    let scales = Scales::estimate(&train, 320.0).unwrap();
+    // A NaN or negative extent used to panic in `f64::clamp`.
+    for bad in [f64::NAN, f64::INFINITY, 0.0, -5.0] {
+        for r in [scales.spacing(bad), scales.fine_spacing(bad)] {
+            assert!(matches!(
+                r,
+                Err(TrackError::InvalidParameter { name: "extent", .. })
+            ));
+        }
+    }
+    // Hand-built scales: a NaN noise used to give a NaN spacing or the clamp's bound silently.
+    let nan = Scales {
+        noise: f64::NAN,
+        accel: 1.0,
+    };
+    assert!(matches!(
+        nan.spacing(240.0),
+        Err(TrackError::InvalidParameter { name: "noise", .. })
+    ));
+    let negative = Scales {
+        noise: 1.0,
+        accel: -1.0,
+    };
+    assert!(matches!(
+        negative.fine_spacing(240.0),
+        Err(TrackError::InvalidParameter { name: "accel", .. })
+    ));
+    let s = scales.spacing(240.0).unwrap();
+    assert!((240.0 / 48.0..=240.0 / 12.0).contains(&s));
+    let f = scales.fine_spacing(240.0).unwrap();
+    assert!((240.0 / 1000.0..=240.0 / 12.0).contains(&f));
+}
+
+#[test]
 fn scoring_refuses_mismatched_or_bad_input() {
     use cbt_tracker::metrics::score;
     let truth = [Some([0.0, 0.0]), Some([1.0, 0.0]), Some([2.0, 0.0])];
@@ -306,4 +342,151 @@ fn an_edited_calibration_is_refused_on_reading() {
             .to_string();
         assert!(e.contains(field), "{field}: {e}");
     }
+}
+
+#[test]
+fn simulation_refuses_bad_levels_scenarios_and_areas() {
+    use cbt_tracker::sim::{MAX_CLUTTER_RATE, Ungm, generate_one, observe};
+    let sc = Scenario::default();
+    let bad_level = |f: fn(&mut Level)| {
+        let mut l = Level::preset(2);
+        f(&mut l);
+        l
+    };
+    // A clutter rate of 1e30 used to panic in the Poisson sampler; a NaN one, P_D or σ gave
+    // sequences without clutter or with NaN detections.
+    for (level, name) in [
+        (bad_level(|l| l.clutter_rate = 1e30), "clutter_rate"),
+        (
+            bad_level(|l| l.clutter_rate = 2.0 * MAX_CLUTTER_RATE),
+            "clutter_rate",
+        ),
+        (bad_level(|l| l.clutter_rate = f64::NAN), "clutter_rate"),
+        (bad_level(|l| l.clutter_rate = -1.0), "clutter_rate"),
+        (bad_level(|l| l.p_detect = f64::NAN), "p_detect"),
+        (bad_level(|l| l.p_detect = 1.5), "p_detect"),
+        (bad_level(|l| l.noise_sigma = f64::NAN), "noise_sigma"),
+    ] {
+        let e = generate(&sc, &level, 1, 5, 1).unwrap_err();
+        assert!(
+            matches!(e, TrackError::InvalidParameter { name: n, .. } if n == name),
+            "{e}"
+        );
+        assert!(generate_one(&sc, &level, 5, 1, 0).is_err());
+        let track = generate(&sc, &Level::preset(0), 1, 5, 1).unwrap().remove(0);
+        assert!(observe(&track, &level, [0.0, 320.0, 0.0, 240.0], 1, 0).is_err());
+    }
+    // A scenario whose margin leaves no room used to panic in `f64::clamp`.
+    for (scenario, name) in [
+        (
+            Scenario {
+                margin: 200.0,
+                ..sc
+            },
+            "margin",
+        ),
+        (Scenario { width: 1.0, ..sc }, "width"),
+        (
+            Scenario {
+                height: f64::NAN,
+                ..sc
+            },
+            "height",
+        ),
+        (
+            Scenario {
+                accel_sigma: f64::NAN,
+                ..sc
+            },
+            "accel_sigma",
+        ),
+        (Scenario { damping: 2.0, ..sc }, "damping"),
+        (
+            Scenario {
+                shake_memory: 1.0,
+                ..sc
+            },
+            "shake_memory",
+        ),
+    ] {
+        let e = generate(&scenario, &Level::preset(1), 1, 5, 1).unwrap_err();
+        assert!(
+            matches!(e, TrackError::InvalidParameter { name: n, .. } if n == name),
+            "{e}"
+        );
+    }
+    let track = generate(&sc, &Level::preset(0), 1, 5, 1).unwrap().remove(0);
+    for area in [
+        [0.0, f64::NAN, 0.0, 240.0],
+        [320.0, 0.0, 0.0, 240.0],
+        [0.0, 320.0, 0.0, f64::INFINITY],
+    ] {
+        assert!(matches!(
+            observe(&track, &Level::preset(1), area, 1, 0),
+            Err(TrackError::InvalidParameter { name: "area", .. })
+        ));
+    }
+    let ungm = Ungm {
+        process_var: -1.0,
+        ..Ungm::default()
+    };
+    assert!(ungm.generate(1, 5, 1).is_err());
+    let ungm = Ungm {
+        x0: f64::NAN,
+        ..Ungm::default()
+    };
+    assert!(matches!(
+        ungm.generate(1, 5, 1),
+        Err(TrackError::NonFinite { .. })
+    ));
+    // The largest accepted rate still generates.
+    let busy = bad_level(|l| l.clutter_rate = MAX_CLUTTER_RATE);
+    assert_eq!(generate(&sc, &busy, 1, 1, 1).unwrap()[0].frames.len(), 1);
+}
+
+#[test]
+fn kalman_refuses_non_finite_state_and_measurements() {
+    use nalgebra::{Matrix4, Vector2, Vector4};
+    let (_, train) = setup();
+    let cal = Calibration::estimate(&train, 32.0).unwrap();
+    let mut kf = KalmanTracker::new(KalmanParams::from_calibration(&cal)).unwrap();
+    kf.reset([100.0, 80.0]).unwrap();
+    let before = kf.clone();
+    // Both used to be stored, and the next step estimated NaN.
+    let x_nan = Vector4::new(1.0, f64::NAN, 0.0, 0.0);
+    assert!(matches!(
+        kf.set_state(x_nan, Matrix4::identity()),
+        Err(TrackError::NonFinite {
+            what: "Kalman state",
+            ..
+        })
+    ));
+    let mut p_inf = Matrix4::identity();
+    p_inf[(2, 3)] = f64::INFINITY;
+    assert!(matches!(
+        kf.set_state(Vector4::zeros(), p_inf),
+        Err(TrackError::NonFinite {
+            what: "Kalman covariance",
+            ..
+        })
+    ));
+    assert!(matches!(
+        kf.set_state(Vector4::zeros(), -Matrix4::identity()),
+        Err(TrackError::InvalidParameter {
+            name: "covariance diagonal",
+            ..
+        })
+    ));
+    assert!(matches!(
+        kf.correct(Vector2::new(f64::NAN, 3.0)),
+        Err(TrackError::NonFinite {
+            what: "measurement",
+            ..
+        })
+    ));
+    assert_eq!(kf, before);
+    kf.set_state(Vector4::new(1.0, 2.0, 0.5, 0.0), Matrix4::identity())
+        .unwrap();
+    kf.correct(Vector2::new(1.5, 2.0)).unwrap();
+    assert!(kf.state().iter().all(|v| v.is_finite()));
 }

@@ -72,7 +72,7 @@ fn kalman_optimal_sanity_bounds() {
         init_vel_sigma: 0.5,
         gate: 1e9,
     };
-    let spacing = Scales::estimate(&train, W).unwrap().spacing(H);
+    let spacing = Scales::estimate(&train, W).unwrap().spacing(H).unwrap();
     let space = Space::image(W, H, spacing).unwrap();
     let model = CbtModel::learn_sequences(space, CbtConfig::default(), &train).unwrap();
     let pf_model = PfModel::ConstantVelocity {
@@ -105,12 +105,13 @@ fn kalman_optimal_sanity_bounds() {
 fn trained(level: usize, cfg: CbtConfig) -> (CbtModel, Vec<Sequence>) {
     let sc = Scenario::default();
     let lv = Level::preset(level);
-    let train = generate(&sc, &lv, 3, 300, 21);
+    let train = generate(&sc, &lv, 3, 300, 21).unwrap();
     let spacing = Scales::estimate(&train, sc.width)
         .unwrap()
-        .spacing(sc.height);
+        .spacing(sc.height)
+        .unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
-    let test = generate(&sc, &lv, 2, 120, 22);
+    let test = generate(&sc, &lv, 2, 120, 22).unwrap();
     (CbtModel::learn_sequences(space, cfg, &train).unwrap(), test)
 }
 
@@ -211,7 +212,7 @@ fn online_learning_updates_both_models_and_chains_frames() {
         .collect();
     let mut batch_frames = Vec::new();
     let sc = Scenario::default();
-    for tr in generate(&sc, &Level::preset(1), 3, 300, 21) {
+    for tr in generate(&sc, &Level::preset(1), 3, 300, 21).unwrap() {
         batch_frames.push(tr.training_frames());
     }
     batch_frames.extend(frames);
@@ -244,7 +245,8 @@ fn trackers_survive_a_serde_round_trip() {
     let (model, test) = trained(2, CbtConfig::default());
     let s = &test[0];
     let sc = Scenario::default();
-    let cal = Calibration::estimate(&generate(&sc, &Level::preset(2), 2, 200, 3), 32.0).unwrap();
+    let cal =
+        Calibration::estimate(&generate(&sc, &Level::preset(2), 2, 200, 3).unwrap(), 32.0).unwrap();
     let mut trackers: Vec<(Box<dyn Tracker>, String)> = Vec::new();
     let mut cbt = CbtTracker::new(model.clone());
     let mut joint = CbtTracker::new(
@@ -255,7 +257,7 @@ fn trackers_survive_a_serde_round_trip() {
                 order: Order::First,
                 ..Default::default()
             },
-            &generate(&sc, &Level::preset(2), 1, 100, 21),
+            &generate(&sc, &Level::preset(2), 1, 100, 21).unwrap(),
         )
         .unwrap(),
     );

@@ -30,7 +30,7 @@ fn config(input: Option<PeriodicInput>) -> CbtConfig {
 
 /// UNGM runs clamped into the grid (a few states leave ±30 at large noise).
 fn ungm(count: usize, seed: u64) -> Vec<Sequence> {
-    let mut s = Ungm::default().generate(count, 100, seed);
+    let mut s = Ungm::default().generate(count, 100, seed).unwrap();
     for q in &mut s {
         for f in &mut q.frames {
             if let Some(t) = f.truth.as_mut() {

@@ -15,8 +15,8 @@ fn temp_dir(name: &str) -> PathBuf {
 #[test]
 fn generated_sequences_round_trip() {
     let dir = temp_dir("roundtrip");
-    let mut seqs = generate(&Scenario::default(), &Level::preset(3), 3, 80, 4);
-    seqs.extend(Ungm::default().generate(2, 50, 9));
+    let mut seqs = generate(&Scenario::default(), &Level::preset(3), 3, 80, 4).unwrap();
+    seqs.extend(Ungm::default().generate(2, 50, 9).unwrap());
     for s in &seqs {
         csv::write(&dir, s).unwrap();
     }
@@ -251,9 +251,9 @@ fn simulated_detections_follow_the_level() {
         p_detect: 0.8,
         noise_sigma: 3.0,
     };
-    let s = observe(&track, &level, area, 5, 1);
-    assert_eq!(s, observe(&track, &level, area, 5, 1));
-    assert_ne!(s, observe(&track, &level, area, 5, 2));
+    let s = observe(&track, &level, area, 5, 1).unwrap();
+    assert_eq!(s, observe(&track, &level, area, 5, 1).unwrap());
+    assert_ne!(s, observe(&track, &level, area, 5, 2).unwrap());
     assert_eq!((s.first_frame, s.frames.len()), (4, 400));
     let (mut near, mut total, mut truths) = (0usize, 0usize, 0usize);
     for (f, t) in s.frames.iter().zip(&track.frames) {
@@ -286,7 +286,7 @@ fn simulated_detections_follow_the_level() {
 #[test]
 fn a_failed_write_leaves_no_partial_file() {
     let dir = temp_dir("atomic");
-    let seqs = generate(&Scenario::default(), &Level::preset(1), 2, 20, 5);
+    let seqs = generate(&Scenario::default(), &Level::preset(1), 2, 20, 5).unwrap();
     let first = csv::write(&dir, &seqs[0]).unwrap();
     let before = std::fs::read(&first).unwrap();
     // The second sequence's target is a non-empty folder: the text is written, the rename fails.

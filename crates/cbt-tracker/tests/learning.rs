@@ -185,10 +185,11 @@ fn unassociated_sets_count_every_pairing() {
 fn diagonal_stats(level: usize) -> (f64, f64) {
     let sc = Scenario::default();
     let lv = Level::preset(level);
-    let train = generate(&sc, &lv, 3, 300, 11);
+    let train = generate(&sc, &lv, 3, 300, 11).unwrap();
     let spacing = Scales::estimate(&train, sc.width)
         .unwrap()
-        .spacing(sc.height);
+        .spacing(sc.height)
+        .unwrap();
     let space = Space::image(sc.width, sc.height, spacing).unwrap();
     let m = CbtModel::learn_sequences(space.clone(), CbtConfig::default(), &train).unwrap();
     let (o, c) = (
@@ -236,7 +237,7 @@ fn clean_data_concentrate_on_the_diagonal_clutter_keeps_a_floor() {
 fn subtracting_the_background_removes_the_floor() {
     let sc = Scenario::default();
     let lv = Level::preset(3);
-    let train = generate(&sc, &lv, 3, 300, 11);
+    let train = generate(&sc, &lv, 3, 300, 11).unwrap();
     let space = Space::image(sc.width, sc.height, 10.0).unwrap();
     let model = |clutter| {
         let cfg = CbtConfig {

@@ -28,7 +28,9 @@ fn get(m: &Mat, r: usize, c: usize) -> f64 {
 
 #[test]
 fn kalman_matches_opencv() {
-    let s = generate(&Scenario::default(), &Level::preset(1), 1, 150, 3).remove(0);
+    let s = generate(&Scenario::default(), &Level::preset(1), 1, 150, 3)
+        .unwrap()
+        .remove(0);
     let params = KalmanParams {
         accel_sigma: 0.7,
         meas_sigma: 2.0,
@@ -52,7 +54,7 @@ fn kalman_matches_opencv() {
         cv.predict(&Mat::default()).unwrap();
         // The first detection of the frame, when there is one (the same for both).
         if let Some(d) = frame.detections.first() {
-            ours.correct(Vector2::new(d.pos[0], d.pos[1]));
+            ours.correct(Vector2::new(d.pos[0], d.pos[1])).unwrap();
             cv.correct(&to_mat(2, 1, |i, _| d.pos[i])).unwrap();
         } else {
             // OpenCV keeps statePost from before predict when not corrected: copy the

@@ -15,6 +15,7 @@ fn model(velocity: Velocity) -> CbtModel {
     let s = Scales::estimate(&train, W)
         .unwrap()
         .fine_spacing(W)
+        .unwrap()
         .max(2.0);
     let cfg = CbtConfig {
         velocity,

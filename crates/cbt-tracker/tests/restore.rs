@@ -12,7 +12,11 @@ use common::{H, W, data};
 
 fn model(train: &[Sequence], layout: Layout, order: Order) -> CbtModel {
     let (cfg, spacing) = if layout == Layout::Stationary {
-        let s = Scales::estimate(train, W).unwrap().fine_spacing(W).max(2.0);
+        let s = Scales::estimate(train, W)
+            .unwrap()
+            .fine_spacing(W)
+            .unwrap()
+            .max(2.0);
         (CbtConfig::stationary(), s)
     } else {
         (CbtConfig::default(), 8.0)

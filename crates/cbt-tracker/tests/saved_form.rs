@@ -27,6 +27,7 @@ fn scripted() -> Vec<(String, CbtTracker)> {
                 let s = Scales::estimate(&train, W)
                     .unwrap()
                     .fine_spacing(W)
+                    .unwrap()
                     .max(2.0);
                 // The files predate the learned start and the interpolated displacements.
                 let cfg = CbtConfig {
@@ -79,7 +80,7 @@ fn scripted() -> Vec<(String, CbtTracker)> {
         }),
         ..CbtConfig::default()
     };
-    let mut runs = Ungm::default().generate(4, 40, 5);
+    let mut runs = Ungm::default().generate(4, 40, 5).unwrap();
     for q in &mut runs {
         for f in &mut q.frames {
             if let Some(t) = f.truth.as_mut() {

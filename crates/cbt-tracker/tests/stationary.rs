@@ -100,7 +100,8 @@ fn level_space(train: &[Sequence], sc: &Scenario) -> Space {
     let extent = sc.width.min(sc.height);
     let sp = Scales::estimate(train, extent)
         .unwrap()
-        .fine_spacing(extent);
+        .fine_spacing(extent)
+        .unwrap();
     let k = cbt_tracker::DEFAULT_KERNEL;
     let (bx, by) = (
         axis(0.0, sc.width, sp, k).unwrap(),
@@ -113,7 +114,7 @@ fn level_space(train: &[Sequence], sc: &Scenario) -> Space {
 fn learns_detection_probability_and_clutter_density_from_unassociated_sets() {
     let sc = Scenario::default();
     let lv = Level::preset(3); // P_D = 0.8, 6 clutter a frame
-    let train = generate(&sc, &lv, 4, 300, 31);
+    let train = generate(&sc, &lv, 4, 300, 31).unwrap();
     let space = level_space(&train, &sc);
     let model = CbtModel::learn_sequences(space.clone(), stationary(), &train).unwrap();
     let (p_d, b, _) = model.stationary_observation().unwrap();
@@ -126,9 +127,9 @@ fn learns_detection_probability_and_clutter_density_from_unassociated_sets() {
 fn trained(level: usize, cfg: CbtConfig) -> (CbtModel, Vec<Sequence>) {
     let sc = Scenario::default();
     let lv = Level::preset(level);
-    let train = generate(&sc, &lv, 3, 300, 41);
+    let train = generate(&sc, &lv, 3, 300, 41).unwrap();
     let space = level_space(&train, &sc);
-    let test = generate(&sc, &lv, 2, 100, 42);
+    let test = generate(&sc, &lv, 2, 100, 42).unwrap();
     (CbtModel::learn_sequences(space, cfg, &train).unwrap(), test)
 }
 
@@ -293,8 +294,8 @@ proptest! {
             // Clutter of the small scene stays inside it; keep detections on the grid.
             s
         };
-        let train = generate(&sc, &lv, 2, 120, seed);
-        let test = &generate(&sc, &lv, 1, 40, seed + 1)[0];
+        let train = generate(&sc, &lv, 2, 120, seed).unwrap();
+        let test = &generate(&sc, &lv, 1, 40, seed + 1).unwrap()[0];
         let base = 40.0;
         let run = |dx: f64, dy: f64| -> Vec<[f64; 2]> {
             let tr: Vec<Sequence> = train.iter().map(|s| shift(s, base + dx, base + dy)).collect();

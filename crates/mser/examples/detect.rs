@@ -39,7 +39,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         times[times.len() / 2]
     );
     if let Some(out) = args.get(1).filter(|a| !a.starts_with("--")) {
-        let ellipses: Vec<_> = regions.iter().map(|r| r.ellipse()).collect();
+        let ellipses = regions
+            .iter()
+            .map(|r| r.ellipse())
+            .collect::<Result<Vec<_>, _>>()?;
         mser::save_regions(out, &ellipses)?;
         println!("wrote {out}");
     }

@@ -22,7 +22,7 @@
 //! let regions = mser::detect(&img, &params).unwrap();
 //! assert_eq!(regions.len(), 1);
 //! let r = &regions[0];
-//! let e = r.ellipse(); // Oxford (u, v, a, b, c); area close to the region's
+//! let e = r.ellipse().unwrap(); // Oxford (u, v, a, b, c); area close to the region's
 //! assert!((e.u - 20.0).abs() < 1e-9 && (e.area() / r.area as f64 - 1.0).abs() < 0.02);
 //! let contour = r.contour(&img).unwrap(); // closed, counter-clockwise on screen
 //! assert_eq!(contour[0], r.seed);
@@ -114,7 +114,9 @@
 //! (exactly, for an elliptical region) and its semi-axes are twice the standard deviations. This
 //! is twice the linear size of VLFeat/VLBenchmarks MSER frames (`M = Σ⁻¹`, available as
 //! [`Region::ellipse_scaled`]`(1.0)`); the `+1/12` makes Σ positive definite even for one-pixel-wide
-//! regions.
+//! regions. Both return a `Result`: a detected region always has its ellipse, but `Region`'s
+//! fields are public, and a hand-built one with no pixels or with moments no pixel set has is an
+//! [`MserError::InvalidParameter`], not a panic.
 //!
 //! **Contour** ([`Region::contour`]): the outer boundary as a closed list of integer pixel
 //! coordinates `(x, y)`: every point is a region pixel with a non-region 4-neighbour (outside the

@@ -148,12 +148,13 @@ pub struct Ellipse {
 
 impl Ellipse {
     /// The ellipse `dᵀ (k² Σ)⁻¹ d = 1` of a covariance `Σ = [σxx, σxy, σyy]`: semi-axes `k` times
-    /// the standard deviations along the principal axes. `None` if `Σ` is not positive definite or
-    /// `k` is not positive.
+    /// the standard deviations along the principal axes. `None` if `Σ` is not positive definite,
+    /// `k` is not positive, or the centre `(u, v)` or a coefficient is not finite.
     pub fn from_covariance(u: f64, v: f64, cov: [f64; 3], k: f64) -> Option<Self> {
         let [xx, xy, yy] = cov.map(|s| s * k * k);
         let det = xx * yy - xy * xy;
-        if !(det > 0.0 && xx > 0.0 && k > 0.0 && det.is_finite()) {
+        let finite = [u, v, xx, xy, yy, det].iter().all(|c| c.is_finite());
+        if !(finite && det > 0.0 && xx > 0.0 && k > 0.0) {
             return None;
         }
         Some(Ellipse {
@@ -223,16 +224,20 @@ impl Region {
     /// `M = (4Σ)⁻¹`, semi-axes twice the standard deviations, so its area is close to the region's
     /// (equal for elliptical regions). Use [`ellipse_scaled`](Self::ellipse_scaled)`(1.0)` for
     /// VLFeat/VLBenchmarks frames (`M = Σ⁻¹`, half the size).
-    pub fn ellipse(&self) -> Ellipse {
+    ///
+    /// Errors ([`MserError::InvalidParameter`] `region`): moments no pixel set has — a hand-built
+    /// region with no pixels (`n = 0`), or sums whose covariance is not positive definite. A
+    /// region from the detector always has an ellipse.
+    pub fn ellipse(&self) -> Result<Ellipse> {
         self.ellipse_scaled(2.0)
-            .expect("k = 2 scales a positive definite covariance of at most 2^28 pixels")
     }
 
     /// The ellipse `M = (k² Σ)⁻¹` with Σ the region's [`Moments::area_covariance`]. `k = 2` is
     /// [`ellipse`](Self::ellipse); `k = 1` the moment ellipse of VLFeat.
     ///
     /// Errors ([`MserError::InvalidParameter`]): `k` not finite and positive, or so small or
-    /// large that `k² Σ` underflows to a singular matrix or overflows.
+    /// large that `k² Σ` underflows to a singular matrix or overflows (`k`); moments no pixel set
+    /// has (`region`, as [`ellipse`](Self::ellipse)).
     ///
     /// ```
     /// # use mser::{GrayView, Mser, MserParams};
@@ -240,7 +245,7 @@ impl Region {
     /// for y in 5..12 { for x in 4..15 { px[y * 20 + x] = 200; } }
     /// let img = GrayView::new(&px, 20, 20, 20).unwrap();
     /// let r = &Mser::new(MserParams::default()).unwrap().detect(&img).unwrap()[0];
-    /// assert_eq!(r.ellipse_scaled(2.0).unwrap(), r.ellipse());
+    /// assert_eq!(r.ellipse_scaled(2.0).unwrap(), r.ellipse().unwrap());
     /// assert!(r.ellipse_scaled(0.0).is_err() && r.ellipse_scaled(1e-200).is_err());
     /// ```
     pub fn ellipse_scaled(&self, k: f64) -> Result<Ellipse> {
@@ -251,13 +256,22 @@ impl Region {
             });
         }
         let (u, v) = self.centroid();
-        Ellipse::from_covariance(u, v, self.moments.area_covariance(), k).ok_or_else(|| {
-            MserError::InvalidParameter {
-                name: "k",
+        let cov = self.moments.area_covariance();
+        if Ellipse::from_covariance(u, v, cov, 1.0).is_none() {
+            return Err(MserError::InvalidParameter {
+                name: "region",
                 reason: format!(
-                    "the ellipse scale {k} makes k²Σ singular or infinite in floating point"
+                    "moments {:?} are not those of a pixel set (no pixels, or a covariance that \
+                     is not positive definite)",
+                    self.moments
                 ),
-            }
+            });
+        }
+        Ellipse::from_covariance(u, v, cov, k).ok_or_else(|| MserError::InvalidParameter {
+            name: "k",
+            reason: format!(
+                "the ellipse scale {k} makes k²Σ singular or infinite in floating point"
+            ),
         })
     }
 

@@ -208,7 +208,7 @@ proptest! {
             prop_assert_eq!(pixels.len(), r.area as usize);
             let c = r.contour(&img).unwrap();
             common::check_contour(&c, &pixels, w, h);
-            let e = r.ellipse();
+            let e = r.ellipse().unwrap();
             prop_assert!(e.a > 0.0 && e.a * e.c - e.b * e.b > 0.0);
         }
     }
@@ -333,4 +333,54 @@ fn moments_of_pixels_refuse_overflowing_sums() {
         (m.n, m.sx, m.sy, m.sxx, m.sxy, m.syy),
         (2, 4, 6, 10, 14, 20)
     );
+}
+
+/// A hand-built region with no pixels used to panic in `ellipse()`; one whose moments give a
+/// covariance that is not positive definite was blamed on the scale `k`.
+#[test]
+fn regions_without_an_ellipse_are_errors() {
+    use mser::{BoundingBox, Ellipse, Moments, Polarity, Region};
+    let region = |moments: Moments| Region {
+        polarity: Polarity::Dark,
+        level: 10,
+        seed: (0, 0),
+        area: moments.n as u32,
+        variation: 0.0,
+        bbox: BoundingBox {
+            x_min: 0,
+            y_min: 0,
+            x_max: 0,
+            y_max: 0,
+        },
+        moments,
+    };
+    let empty = region(Moments::of_pixels(&[]).unwrap());
+    assert_eq!(empty.moments.n, 0);
+    // Σx² far below (Σx)²/n: a negative variance.
+    let impossible = region(Moments {
+        n: 2,
+        sx: 100,
+        sy: 100,
+        sxx: 1,
+        sxy: 0,
+        syy: 1,
+    });
+    for r in [&empty, &impossible] {
+        assert!(matches!(
+            r.ellipse(),
+            Err(MserError::InvalidParameter { name: "region", .. })
+        ));
+        assert!(matches!(
+            r.ellipse_scaled(1.0),
+            Err(MserError::InvalidParameter { name: "region", .. })
+        ));
+    }
+    let one = region(Moments::of_pixels(&[(3, 4)]).unwrap());
+    let e = one.ellipse().unwrap();
+    assert_eq!((e.u, e.v), (3.0, 4.0));
+    // A NaN or infinite centre used to give an ellipse with that centre.
+    for (u, v) in [(f64::NAN, 1.0), (1.0, f64::INFINITY)] {
+        assert_eq!(Ellipse::from_covariance(u, v, [1.0, 0.0, 1.0], 1.0), None);
+    }
+    assert!(Ellipse::from_covariance(1.0, 2.0, [1.0, 0.0, 1.0], 1.0).is_some());
 }

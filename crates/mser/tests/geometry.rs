@@ -32,7 +32,7 @@ fn rectangle_ellipse_has_the_uniform_ellipse_moments() {
         (r.bbox.x_min, r.bbox.y_min, r.bbox.x_max, r.bbox.y_max),
         (2, 1, 7, 3)
     );
-    let e = r.ellipse();
+    let e = r.ellipse().unwrap();
     assert!((e.u - 4.5).abs() < 1e-12 && (e.v - 2.0).abs() < 1e-12);
     assert!((e.a - 3.0 / 36.0).abs() < 1e-12, "{e:?}");
     assert!(e.b.abs() < 1e-12);

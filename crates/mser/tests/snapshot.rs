@@ -42,7 +42,7 @@ fn summary(p: MserParams) -> Vec<String> {
         .unwrap()
         .iter()
         .map(|r| {
-            let e = r.ellipse();
+            let e = r.ellipse().unwrap();
             let c = r.contour(&img).unwrap();
             format!(
                 "{:?} level {} area {} seed {:?} v {:.4} ellipse ({:.3}, {:.3}, {:.6}, {:.6}, {:.6}) contour {}",

@@ -168,9 +168,15 @@ pub type ServoResult = std::result::Result<ServoRun, ServoAbort>;
 
 /// The image error between percept `x` and target `x_w`: `‖x − x_w‖ / √(n/2)`, i.e. for a
 /// visual plant (`n = 2 × cameras`) the RMS over cameras of the per-camera pixel distance.
-pub fn image_error(x: &[f64], x_w: &[f64]) -> f64 {
+///
+/// Errors: `x_w` not as long as `x` ([`ServoError::DimensionMismatch`] `target`; it used to be
+/// compared over the shorter of the two), a non-finite value ([`ServoError::NonFinite`]).
+pub fn image_error(x: &[f64], x_w: &[f64]) -> Result<f64> {
+    check_len("target", x_w, x.len())?;
+    check_finite("percept", x)?;
+    check_finite("target", x_w)?;
     let ss: f64 = x.iter().zip(x_w).map(|(a, b)| (a - b) * (a - b)).sum();
-    (ss / (x.len() as f64 / 2.0).max(1.0)).sqrt()
+    Ok((ss / (x.len() as f64 / 2.0).max(1.0)).sqrt())
 }
 
 /// Running state shared by the loops: executes, observes and records.
@@ -230,8 +236,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         };
         let obs = self.plant.observe()?;
         check_len("percept", &obs.x, self.x_w.len())?;
-        check_finite("percept", &obs.x)?;
-        let error = image_error(&obs.x, self.x_w);
+        let error = image_error(&obs.x, self.x_w)?;
         self.run.steps.push(ServoStep {
             command: y,
             pre_position,

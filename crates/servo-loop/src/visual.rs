@@ -95,6 +95,33 @@ impl ControlSpace {
         Ok(())
     }
 
+    /// Checks exploration ranges for the controlled servos against the robot: one `[lo, hi]`
+    /// per controlled servo, in order, finite, `lo ≤ hi`, inside that servo's range.
+    /// [`ServoError::DimensionMismatch`] (`explore ranges`) or
+    /// [`ServoError::InvalidParameter`] (`explore`) otherwise.
+    pub fn check_explore<R: Robot>(&self, robot: &R, explore: &[[f64; 2]]) -> Result<()> {
+        if explore.len() != self.controlled.len() {
+            return Err(ServoError::DimensionMismatch {
+                what: "explore ranges",
+                expected: self.controlled.len(),
+                got: explore.len(),
+            });
+        }
+        for (j, (&i, &[lo, hi])) in self.controlled.iter().zip(explore).enumerate() {
+            let [min, max] = robot.servo_range(i);
+            if !(lo.is_finite() && hi.is_finite() && min <= lo && lo <= hi && hi <= max) {
+                return Err(ServoError::InvalidParameter {
+                    name: "explore",
+                    reason: format!(
+                        "range {j} = [{lo}, {hi}] is not a finite interval within servo {i}'s \
+                         range [{min}, {max}]"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// The full command for controlled set-points `y`.
     pub fn full_command(&self, y: &[f64]) -> Vec<f64> {
         let mut c = self.rest.clone();
@@ -109,7 +136,8 @@ impl ControlSpace {
 /// `explore`, seeded), capture with the gripper open, close it, capture again. The views teach
 /// [`TipModel::learn`] and the channel-coded appearance model
 /// ([`GripperModel::learn`](crate::GripperModel::learn)). Leaves the gripper at its `rest`
-/// set-point. Errors: a control space that does not fit the robot or has no gripper servo,
+/// set-point. Errors, before the robot moves: a control space that does not fit the robot or
+/// has no gripper servo, exploration ranges that do not ([`ControlSpace::check_explore`]); then
 /// robot errors.
 pub fn capture_training_views<R: Robot>(
     robot: &mut R,
@@ -123,8 +151,9 @@ pub fn capture_training_views<R: Robot>(
         name: "gripper",
         reason: "learning recognition needs the gripper servo and its two states".into(),
     })?;
+    space.check_explore(robot, explore)?;
     let mut commands = RandomCommands::new(explore, seed)?;
-    let mut training = Vec::with_capacity(views);
+    let mut training = Vec::new();
     for _ in 0..views {
         let mut c = space.full_command(&commands.next_command());
         c[g] = open;

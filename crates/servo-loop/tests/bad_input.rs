@@ -118,3 +118,118 @@ fn percept_bounds_shorter_than_the_percept_are_a_typed_error() {
         Err(ServoError::TargetOutsideImage { camera: 0, .. })
     ));
 }
+
+/// A three-servo robot (two controlled, one gripper) that counts its commands.
+struct Counting {
+    commands: usize,
+}
+
+impl servo_loop::Robot for Counting {
+    type Error = String;
+    fn num_servos(&self) -> usize {
+        3
+    }
+    fn servo_range(&self, _: usize) -> [f64; 2] {
+        [0.0, 100.0]
+    }
+    fn command(&mut self, _: &[f64]) -> Result<(), String> {
+        self.commands += 1;
+        Ok(())
+    }
+    fn capture(&mut self) -> Result<Vec<image::GrayImage>, String> {
+        Ok(vec![image::GrayImage::new(4, 4)])
+    }
+}
+
+/// Exploration ranges that do not fit the controlled servos are refused before the robot
+/// moves (they used to be zipped with the controlled servos: a missing range left a servo at
+/// its rest value, an extra one was ignored; a range beyond the servo's moved the arm until a
+/// command was refused).
+#[test]
+fn training_views_refuse_explore_ranges_that_do_not_fit() {
+    use servo_loop::{ControlSpace, capture_training_views};
+    let space = ControlSpace {
+        controlled: vec![0, 1],
+        rest: vec![50.0; 3],
+        gripper: Some((2, [10.0, 90.0])),
+    };
+    let mut robot = Counting { commands: 0 };
+    for (explore, dims) in [
+        (vec![[0.0, 100.0]], true),
+        (vec![[0.0, 100.0]; 3], true),
+        (vec![[0.0, 100.0], [-5.0, 50.0]], false),
+        (vec![[0.0, 100.0], [20.0, 120.0]], false),
+        (vec![[0.0, 100.0], [60.0, 40.0]], false),
+        (vec![[f64::NAN, 100.0], [0.0, 100.0]], false),
+    ] {
+        let e = capture_training_views(&mut robot, &space, &explore, 3, 1).unwrap_err();
+        if dims {
+            assert!(
+                matches!(
+                    e,
+                    ServoError::DimensionMismatch {
+                        what: "explore ranges",
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+        } else {
+            assert!(
+                matches!(
+                    e,
+                    ServoError::InvalidParameter {
+                        name: "explore",
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+        }
+    }
+    assert_eq!(robot.commands, 0);
+    let views = capture_training_views(&mut robot, &space, &[[0.0, 100.0]; 2], 3, 1).unwrap();
+    assert_eq!((views.len(), robot.commands), (3, 9));
+}
+
+/// The image error of a percept and a target of different lengths used to be taken over the
+/// shorter one; a NaN gave a NaN error.
+#[test]
+fn image_error_refuses_mismatched_or_non_finite_points() {
+    use servo_loop::image_error;
+    assert!(matches!(
+        image_error(&[1.0, 2.0, 3.0, 4.0], &[1.0, 2.0]),
+        Err(ServoError::DimensionMismatch { what: "target", .. })
+    ));
+    assert!(matches!(
+        image_error(&[1.0, f64::NAN], &[1.0, 2.0]),
+        Err(ServoError::NonFinite {
+            what: "percept",
+            ..
+        })
+    ));
+    assert!(matches!(
+        image_error(&[1.0, 2.0], &[f64::INFINITY, 2.0]),
+        Err(ServoError::NonFinite { what: "target", .. })
+    ));
+    assert_eq!(image_error(&[3.0, 4.0], &[0.0, 0.0]).unwrap(), 5.0);
+}
+
+/// A dimension beyond LWPR's limits is the builder's TooBig error, however large (usize::MAX
+/// used to panic with a capacity overflow while the norm vectors were allocated).
+#[test]
+fn inverse_models_beyond_lwpr_limits_are_errors() {
+    let config = InverseModelConfig::default();
+    for (n, m, what) in [
+        (usize::MAX, 2, "n_in"),
+        (lwpr::MAX_INPUTS + 1, 2, "n_in"),
+        (2, usize::MAX, "n_out"),
+    ] {
+        let e = InverseModel::new(n, m, &config).unwrap_err();
+        assert!(
+            matches!(e, ServoError::Lwpr(lwpr::LwprError::TooBig { what: w, .. }) if w == what),
+            "{e}"
+        );
+    }
+    assert!(InverseModel::new(4, 3, &config).is_ok());
+}

@@ -98,7 +98,7 @@ fn region_lines(regions: &[mser::Region]) -> String {
             mser::Polarity::Dark => "dark",
             mser::Polarity::Bright => "bright",
         };
-        let (b, m, c, e) = (r.bbox, r.moments, r.centroid(), r.ellipse());
+        let (b, m, c, e) = (r.bbox, r.moments, r.centroid(), r.ellipse().unwrap());
         let bits = [r.variation, c.0, c.1, e.u, e.v, e.a, e.b, e.c].map(f64::to_bits);
         let bits: Vec<String> = bits.iter().map(u64::to_string).collect();
         writeln!(

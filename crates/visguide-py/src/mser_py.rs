@@ -80,9 +80,9 @@ impl PyRegion {
 
     /// Oxford ellipse ``(u, v, a, b, c)`` with about the region's area.
     #[getter]
-    fn ellipse(&self) -> (f64, f64, f64, f64, f64) {
-        let e = self.r.ellipse();
-        (e.u, e.v, e.a, e.b, e.c)
+    fn ellipse(&self) -> PyResult<(f64, f64, f64, f64, f64)> {
+        let e = self.r.ellipse().map_err(|e| value_error(e.to_string()))?;
+        Ok((e.u, e.v, e.a, e.b, e.c))
     }
 
     /// The ellipse with semi-axes ``k`` standard deviations (``k = 1``: VLFeat's frames; the

@@ -60,7 +60,7 @@ fn points_digest(p: &[(u32, u32)]) -> Value {
 }
 
 fn region_json(r: &mser::Region, img: &mser::GrayView) -> Value {
-    let e = r.ellipse();
+    let e = r.ellipse().unwrap();
     let m = r.moments;
     let b = r.bbox;
     json!({
@@ -339,8 +339,8 @@ fn tracking_cases() -> Value {
         Space, sim,
     };
     let level = sim::Level::preset(1);
-    let train = sim::generate(&sim::Scenario::default(), &level, 2, 120, 7);
-    let test = &sim::generate(&sim::Scenario::default(), &level, 1, 40, 8)[0];
+    let train = sim::generate(&sim::Scenario::default(), &level, 2, 120, 7).unwrap();
+    let test = &sim::generate(&sim::Scenario::default(), &level, 1, 40, 8).unwrap()[0];
     let space = Space::image(320.0, 240.0, 10.0).unwrap();
     let model = CbtModel::learn_sequences(space.clone(), CbtConfig::default(), &train).unwrap();
     let mut cbt = CbtTracker::new(model);

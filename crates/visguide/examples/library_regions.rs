@@ -29,7 +29,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let view = mser::GrayView::from_image(&img)?;
         let regions = mser::detect(&view, &p)?;
         detect += t1.elapsed().as_secs_f64();
-        let ellipses: Vec<mser::Ellipse> = regions.iter().map(mser::Region::ellipse).collect();
+        let ellipses = regions
+            .iter()
+            .map(mser::Region::ellipse)
+            .collect::<mser::Result<Vec<_>>>()?;
         let stem = f.file_stem().unwrap().to_string_lossy();
         mser::save_regions(out.join(format!("{stem}.mser")), &ellipses)?;
         all += t0.elapsed().as_secs_f64();

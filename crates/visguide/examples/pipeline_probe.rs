@@ -94,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .iter()
                 .filter(|v| (v.position[0] - t[0]).hypot(v.position[1] - t[1]) < 5.0)
                 .count();
-            let m = mode(&votes, 2.0);
+            let m = mode(&votes, 2.0)?;
             match m {
                 Some(m) => errs.push((m.position[0] - t[0]).hypot(m.position[1] - t[1])),
                 None => none += 1,

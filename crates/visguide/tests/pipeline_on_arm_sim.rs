@@ -187,4 +187,64 @@ fn the_pipeline_refuses_what_it_cannot_use() {
             ..
         })
     ));
+    // Refused before the robot moves (these used to move it: exploration ranges were zipped
+    // with the controlled servos, a NaN step gave NaN commands, a NaN kernel width or a bad
+    // shape setting was found only after the views were captured).
+    let sent = robot.commands();
+    let nan_step = ActionProtocol {
+        step_us: f64::NAN,
+        ..ActionProtocol::default()
+    };
+    let mut bad_percept = ActionProtocol::default();
+    bad_percept.percept.mode_sigma_px = f64::NAN;
+    let mut bad_shapes = ActionProtocol::default();
+    bad_shapes.shapes.ratio_threshold = 2.0;
+    for (explore, protocol, name) in [
+        (&EXPLORE[..2], &ActionProtocol::default(), None),
+        (
+            &[[0.0, 5000.0]; 3][..],
+            &ActionProtocol::default(),
+            Some("explore"),
+        ),
+        (&EXPLORE[..], &nan_step, Some("step_us")),
+        (&EXPLORE[..], &bad_percept, Some("mode_sigma_px")),
+        (&EXPLORE[..], &bad_shapes, Some("ratio_threshold")),
+    ] {
+        let e = learn_by_action(robot, &space(), explore, heuristic, protocol).unwrap_err();
+        match name {
+            None => assert!(
+                matches!(
+                    e,
+                    PipelineError::Servo(ServoError::DimensionMismatch { .. })
+                ),
+                "{e}"
+            ),
+            Some("explore") => assert!(
+                matches!(
+                    e,
+                    PipelineError::Servo(ServoError::InvalidParameter {
+                        name: "explore",
+                        ..
+                    })
+                ),
+                "{e}"
+            ),
+            Some(want) => assert!(
+                matches!(e, PipelineError::InvalidParameter { name, .. } if name == want),
+                "{e}"
+            ),
+        }
+    }
+    assert_eq!(robot.commands(), sent);
+    // A NaN reset threshold used to mean "never reset the tracks", a negative one "always".
+    for bad in [f64::NAN, -1.0] {
+        assert!(matches!(
+            pipeline.notifier(bad),
+            Err(PipelineError::InvalidParameter {
+                name: "reset_us",
+                ..
+            })
+        ));
+    }
+    assert!(pipeline.notifier(f64::INFINITY).is_ok());
 }

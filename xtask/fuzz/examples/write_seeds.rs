@@ -54,7 +54,8 @@ fn main() {
         1,
         6,
         7,
-    );
+    )
+    .expect("the default scenario and preset levels are valid");
     put(
         "tracking_csv",
         "rc-car",
@@ -98,7 +99,8 @@ fn main() {
         1,
         20,
         11,
-    );
+    )
+    .expect("the default scenario and preset levels are valid");
     let scene = cbt_tracker::sim::Scenario::default();
     let space = || Space::image(scene.width, scene.height, 64.0).unwrap();
     for (name, layout) in [

@@ -33,7 +33,7 @@ fn stats(sets: &[SetResult], name: &str) -> (f64, f64) {
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
-    let specs = synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4]);
+    let specs = synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4])?;
     let pb = ProgressBar::new(specs.iter().map(|s| s.test.len() as u64).sum());
     let mut image = Vec::new();
     let mut ungm = Vec::new();

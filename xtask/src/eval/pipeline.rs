@@ -283,7 +283,7 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
             let pipeline = FdCbtRecogniser::new(l.pipeline.fd.clone(), l.pipeline.model().clone());
             let robot = Notifying {
                 robot: SimRobot::new(ArmSim::new(c.clone())?),
-                notifier: pipeline.notifier(RESET_US),
+                notifier: pipeline.notifier(RESET_US)?,
             };
             let mut plant = VisualPlant::new(robot, space(), pipeline)?;
             plant.set_policy(PerceptPolicy {

@@ -5,7 +5,8 @@ use nalgebra::{Matrix2, Matrix2x4, Matrix4, Matrix4x2, Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
 use super::calibrate::Calibration;
-use crate::error::positive;
+use crate::data::check_finite;
+use crate::error::{non_negative, positive};
 use crate::integrity::finite;
 use crate::tracker::{Estimate, Tracker};
 use crate::{Detection, Point, TrackError};
@@ -147,9 +148,19 @@ impl KalmanTracker {
     }
 
     /// Sets state and covariance (e.g. to match another implementation's start).
-    pub fn set_state(&mut self, x: Vector4<f64>, p: Matrix4<f64>) {
+    ///
+    /// Errors, leaving the filter unchanged: a non-finite element ([`TrackError::NonFinite`]),
+    /// or a negative variance on the covariance's diagonal ([`TrackError::InvalidParameter`]
+    /// `covariance diagonal`). (Both used to be stored and poison every later step.)
+    pub fn set_state(&mut self, x: Vector4<f64>, p: Matrix4<f64>) -> Result<(), TrackError> {
+        check_finite("Kalman state", x.as_slice())?;
+        check_finite("Kalman covariance", p.as_slice())?;
+        for v in p.diagonal().iter() {
+            non_negative("covariance diagonal", *v)?;
+        }
         self.x = x;
         self.p = p;
+        Ok(())
     }
 
     /// Transition `F`, process noise `Q`, measurement matrix `H` and noise `R`.
@@ -169,8 +180,16 @@ impl KalmanTracker {
         s.try_inverse().map(|si| (s, si))
     }
 
-    /// Measurement update with `z` (no gating).
-    pub fn correct(&mut self, z: Vector2<f64>) {
+    /// Measurement update with `z` (no gating). A non-finite `z` is [`TrackError::NonFinite`]
+    /// and leaves the filter unchanged (it used to turn the state into NaN).
+    pub fn correct(&mut self, z: Vector2<f64>) -> Result<(), TrackError> {
+        check_finite("measurement", z.as_slice())?;
+        self.update(z);
+        Ok(())
+    }
+
+    /// [`correct`](Self::correct) with a finite `z`.
+    fn update(&mut self, z: Vector2<f64>) {
         let Some((_, si)) = self.innovation() else {
             return;
         };
@@ -211,7 +230,7 @@ impl Tracker for KalmanTracker {
                 .filter(|(m, _)| *m <= self.params.gate)
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, d)) = best {
-                self.correct(Vector2::new(d.pos[0], d.pos[1]));
+                self.update(Vector2::new(d.pos[0], d.pos[1]));
             }
         }
         Ok(self.estimate())

@@ -10,5 +10,5 @@ pub mod mot;
 mod sequence;
 pub mod sim;
 
-pub(crate) use sequence::check_point;
 pub use sequence::{Detection, Frame, Point, Sequence, TrainingFrame};
+pub(crate) use sequence::{check_finite, check_point};

@@ -45,12 +45,15 @@ impl Detection {
 
 /// Checks the first `dims` coordinates of a point are finite.
 pub(crate) fn check_point(what: &'static str, p: &Point, dims: usize) -> Result<(), TrackError> {
-    for &v in &p[..dims] {
-        if !v.is_finite() {
-            return Err(TrackError::NonFinite { what, value: v });
-        }
+    check_finite(what, &p[..dims])
+}
+
+/// Checks every value is finite: [`TrackError::NonFinite`] with the first that is not.
+pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<(), TrackError> {
+    match v.iter().find(|v| !v.is_finite()) {
+        Some(&value) => Err(TrackError::NonFinite { what, value }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// One training frame: the (unordered) set of true states and the (unordered) set of

@@ -8,7 +8,14 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::{Detection, Frame, Sequence};
+use crate::error::{non_negative, positive, unit};
+use crate::{Detection, Frame, Sequence, TrackError};
+
+/// Largest clutter rate ([`Level::clutter_rate`], detections per frame) the generators accept:
+/// 10⁴, a thousand times the hardest preset's. Larger rates are refused before anything is
+/// drawn (a rate of 10³⁰ used to panic in the Poisson sampler, and one of 10¹⁸ would allocate
+/// that many detections a frame).
+pub const MAX_CLUTTER_RATE: f64 = 1e4;
 
 /// The camera and car dynamics of the RC-car-following scenario: a car seen from a following
 /// vehicle's uncalibrated camera, in image coordinates (pixels, origin top-left).
@@ -39,6 +46,46 @@ pub struct Scenario {
     pub shake_memory: f64,
     /// Margin (px) the car keeps from the image border.
     pub margin: f64,
+}
+
+impl Scenario {
+    /// Checks the scenario: `width` and `height` finite and at least 2 px, `margin` finite,
+    /// non-negative and at most half of each side, the σs and `centre_pull` finite and
+    /// non-negative, `damping` and `turn_rate` in `[0, 1]`, `shake_memory` in `[0, 1)`,
+    /// `turn_accel` finite. [`TrackError::InvalidParameter`] names the first field that is not.
+    pub fn validate(&self) -> Result<(), TrackError> {
+        for (name, side) in [("width", self.width), ("height", self.height)] {
+            positive(name, side)?;
+            if side < 2.0 {
+                return Err(TrackError::InvalidParameter {
+                    name,
+                    value: side,
+                    reason: "must be at least 2 px",
+                });
+            }
+        }
+        non_negative("margin", self.margin)?;
+        if 2.0 * self.margin > self.width.min(self.height) {
+            return Err(TrackError::InvalidParameter {
+                name: "margin",
+                value: self.margin,
+                reason: "must be at most half the image's smaller side",
+            });
+        }
+        non_negative("accel_sigma", self.accel_sigma)?;
+        non_negative("shake_sigma", self.shake_sigma)?;
+        non_negative("centre_pull", self.centre_pull)?;
+        unit("damping", self.damping, false)?;
+        unit("turn_rate", self.turn_rate, false)?;
+        unit("shake_memory", self.shake_memory, true)?;
+        if !self.turn_accel.is_finite() {
+            return Err(TrackError::NonFinite {
+                what: "turn_accel",
+                value: self.turn_accel,
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for Scenario {
@@ -96,6 +143,29 @@ impl Level {
     pub fn presets() -> Vec<Level> {
         (0..5).map(Level::preset).collect()
     }
+
+    /// Checks the level: `clutter_rate` finite, non-negative and at most
+    /// [`MAX_CLUTTER_RATE`], `p_detect` in `[0, 1]`, `noise_sigma` finite and non-negative.
+    /// [`TrackError::InvalidParameter`] names the first field that is not.
+    pub fn validate(&self) -> Result<(), TrackError> {
+        non_negative("clutter_rate", self.clutter_rate)?;
+        if self.clutter_rate > MAX_CLUTTER_RATE {
+            return Err(TrackError::InvalidParameter {
+                name: "clutter_rate",
+                value: self.clutter_rate,
+                reason: "exceeds MAX_CLUTTER_RATE (1e4 detections a frame)",
+            });
+        }
+        unit("p_detect", self.p_detect, false)?;
+        non_negative("noise_sigma", self.noise_sigma)
+    }
+
+    /// The clutter-count distribution (`None` without clutter); the level is valid.
+    fn clutter(&self) -> Option<Poisson<f64>> {
+        (self.clutter_rate > 0.0).then(|| {
+            Poisson::new(self.clutter_rate).expect("validated: 0 < clutter rate ≤ MAX_CLUTTER_RATE")
+        })
+    }
 }
 
 /// A per-sequence generator from `(seed, index)`.
@@ -112,26 +182,38 @@ fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
 }
 
 /// `count` sequences of `frames` frames each.
+///
+/// Errors: an invalid scenario or level ([`Scenario::validate`], [`Level::validate`]), checked
+/// before anything is generated.
 pub fn generate(
     scenario: &Scenario,
     level: &Level,
     count: usize,
     frames: usize,
     seed: u64,
-) -> Vec<Sequence> {
-    (0..count)
-        .map(|i| generate_one(scenario, level, frames, seed, i as u64))
-        .collect()
+) -> Result<Vec<Sequence>, TrackError> {
+    scenario.validate()?;
+    level.validate()?;
+    Ok((0..count)
+        .map(|i| simulate(scenario, level, frames, seed, i as u64))
+        .collect())
 }
 
-/// Sequence `index` of the stream `seed`.
+/// Sequence `index` of the stream `seed`. Errors as [`generate`].
 pub fn generate_one(
     sc: &Scenario,
     level: &Level,
     frames: usize,
     seed: u64,
     index: u64,
-) -> Sequence {
+) -> Result<Sequence, TrackError> {
+    sc.validate()?;
+    level.validate()?;
+    Ok(simulate(sc, level, frames, seed, index))
+}
+
+/// [`generate_one`] on a validated scenario and level.
+fn simulate(sc: &Scenario, level: &Level, frames: usize, seed: u64, index: u64) -> Sequence {
     let mut rng = rng_for(seed, index);
     let (w, h) = (sc.width, sc.height);
     let centre = [w / 2.0, h / 2.0];
@@ -145,9 +227,8 @@ pub fn generate_one(
     let mut shake = [0.0; 2];
     let mut turn_left = 0usize;
     let mut turn = [0.0; 2];
-    let poisson = (level.clutter_rate > 0.0)
-        .then(|| Poisson::new(level.clutter_rate).expect("finite positive clutter rate"));
-    let mut out = Vec::with_capacity(frames);
+    let poisson = level.clutter();
+    let mut out = Vec::new();
     for _ in 0..frames {
         if turn_left == 0 && rng.random::<f64>() < sc.turn_rate {
             turn_left = 15 + (rng.random::<f64>() * 26.0) as usize;
@@ -216,6 +297,10 @@ pub fn generate_one(
 /// outside the area; detections are in random order. The truths are kept; the sequence's
 /// own detections are replaced. Stream `(seed, index)` as [`generate`] uses.
 ///
+/// Errors ([`TrackError::InvalidParameter`]): an invalid level ([`Level::validate`]), or an
+/// `area` that is not finite with `x_lo < x_hi` and `y_lo < y_hi`; checked before anything is
+/// drawn.
+///
 /// ```
 /// use cbt_tracker::sim::{observe, Level};
 /// use cbt_tracker::{Frame, Sequence};
@@ -224,15 +309,30 @@ pub fn generate_one(
 ///     first_frame: 1,
 ///     frames: (0..5).map(|k| Frame { truth: Some([10.0 + k as f64, 20.0]), detections: vec![] }).collect(),
 /// };
-/// let s = observe(&track, &Level::preset(0), [0.0, 100.0, 0.0, 100.0], 7, 0);
+/// let s = observe(&track, &Level::preset(0), [0.0, 100.0, 0.0, 100.0], 7, 0).unwrap();
 /// assert_eq!(s.frames.len(), 5);
 /// assert!(s.frames.iter().all(|f| f.detections.len() == 1));
 /// ```
-pub fn observe(track: &Sequence, level: &Level, area: [f64; 4], seed: u64, index: u64) -> Sequence {
-    let mut rng = rng_for(seed, index);
+pub fn observe(
+    track: &Sequence,
+    level: &Level,
+    area: [f64; 4],
+    seed: u64,
+    index: u64,
+) -> Result<Sequence, TrackError> {
+    level.validate()?;
     let [x_lo, x_hi, y_lo, y_hi] = area;
-    let poisson = (level.clutter_rate > 0.0)
-        .then(|| Poisson::new(level.clutter_rate).expect("finite positive clutter rate"));
+    for (lo, hi) in [(x_lo, x_hi), (y_lo, y_hi)] {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(TrackError::InvalidParameter {
+                name: "area",
+                value: if lo.is_finite() { hi } else { lo },
+                reason: "must be finite with x_lo < x_hi and y_lo < y_hi",
+            });
+        }
+    }
+    let mut rng = rng_for(seed, index);
+    let poisson = level.clutter();
     let frames = track
         .frames
         .iter()
@@ -263,11 +363,11 @@ pub fn observe(track: &Sequence, level: &Level, area: [f64; 4], seed: u64, index
             }
         })
         .collect();
-    Sequence {
+    Ok(Sequence {
         name: track.name.clone(),
         first_frame: track.first_frame,
         frames,
-    }
+    })
 }
 
 /// The UNGM benchmark (Arulampalam et al. 2002, docs/methods.md § Tracking):
@@ -301,13 +401,30 @@ impl Ungm {
     }
 
     /// `count` sequences of `frames` frames (frame 0 holds `x_0` and its measurement).
-    pub fn generate(&self, count: usize, frames: usize, seed: u64) -> Vec<Sequence> {
-        (0..count)
+    ///
+    /// Errors: a variance that is not finite and non-negative
+    /// ([`TrackError::InvalidParameter`]) or a non-finite `x0` ([`TrackError::NonFinite`]),
+    /// checked before anything is drawn (they used to give NaN sequences).
+    pub fn generate(
+        &self,
+        count: usize,
+        frames: usize,
+        seed: u64,
+    ) -> Result<Vec<Sequence>, TrackError> {
+        non_negative("process_var", self.process_var)?;
+        non_negative("meas_var", self.meas_var)?;
+        if !self.x0.is_finite() {
+            return Err(TrackError::NonFinite {
+                what: "UNGM initial state x0",
+                value: self.x0,
+            });
+        }
+        Ok((0..count)
             .map(|i| {
                 let mut rng = rng_for(seed, i as u64);
                 let (sv, sn) = (self.process_var.sqrt(), self.meas_var.sqrt());
                 let mut x = self.x0;
-                let mut out = Vec::with_capacity(frames);
+                let mut out = Vec::new();
                 for k in 0..frames as u64 {
                     if k > 0 {
                         x = Ungm::transition(x, k) + sv * normal(&mut rng);
@@ -324,6 +441,6 @@ impl Ungm {
                     frames: out,
                 }
             })
-            .collect()
+            .collect())
     }
 }

@@ -15,7 +15,7 @@ pub fn data() -> (Vec<Sequence>, Sequence) {
         ..Scenario::default()
     };
     let level = Level::preset(2);
-    let train = generate(&sc, &level, 2, 60, 41);
-    let test = generate(&sc, &level, 1, 30, 42).remove(0);
+    let train = generate(&sc, &level, 2, 60, 41).unwrap();
+    let test = generate(&sc, &level, 1, 30, 42).unwrap().remove(0);
     (train, test)
 }

@@ -121,6 +121,24 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
             )
         })?;
     let (n, m) = (a.inputs, width - a.inputs);
+    // LWPR's bound on its inputs and outputs, checked here so the error names the cell (the
+    // standard deviations below would overflow first, and the builder's error name no file).
+    for (row, line) in t.rows.iter().zip(&t.lines) {
+        if let Some((c, v)) = row
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.abs() > lwpr::MAX_ABS_VALUE)
+        {
+            return Err(format!(
+                "{}:{line}: column `{}` = {v:e} exceeds LWPR's bound of {:e} on inputs and \
+                 outputs",
+                a.data.display(),
+                t.columns[c],
+                lwpr::MAX_ABS_VALUE
+            )
+            .into());
+        }
+    }
     let norm_in: Vec<f64> = (0..n).map(|c| std_dev(&t.rows, c)).collect();
     let norm_out: Vec<f64> = (n..width).map(|c| std_dev(&t.rows, c)).collect();
     let mut model = lwpr::LwprBuilder::new(n, m)
@@ -143,8 +161,10 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
     bar.finish_and_clear();
     // Training error per output.
     let mut sse = vec![0.0; m];
-    for row in &t.rows {
-        let y = model.predict(&row[..n], 0.001)?;
+    for (row, line) in t.rows.iter().zip(&t.lines) {
+        let y = model
+            .predict(&row[..n], 0.001)
+            .map_err(|e| format!("{}:{line}: {e}", a.data.display()))?;
         for o in 0..m {
             sse[o] += (y[o] - row[n + o]).powi(2);
         }

@@ -194,6 +194,16 @@ fn one_with(
             ..Features::default()
         }
     };
+    // The drawing's ellipses before any file is staged: an error leaves nothing behind.
+    let ellipses = if a.draw {
+        features
+            .regions
+            .iter()
+            .map(mser::Region::ellipse)
+            .collect::<mser::Result<Vec<_>>>()?
+    } else {
+        Vec::new()
+    };
     text.clear();
     write(
         text,
@@ -208,8 +218,6 @@ fn one_with(
     let mut files = vec![(staging(&target), target)];
     write_synced(&files[0].0, text)?;
     if a.draw {
-        let ellipses: Vec<mser::Ellipse> =
-            features.regions.iter().map(mser::Region::ellipse).collect();
         let pic = draw::ellipses(img, &ellipses, draw::YELLOW);
         let target = output_for(&a.out, path, "-regions.png");
         let staged = staging(&target);

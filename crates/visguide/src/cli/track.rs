@@ -225,16 +225,16 @@ impl InputOptions {
 
     /// Simulates detections, in `area`, on every sequence that has none; a sequence named `N`
     /// draws from `(seed, fnv1a(N))`. Returns how many were simulated.
-    fn simulate(&self, seqs: &mut [Sequence], area: [f64; 4], seed: u64) -> usize {
+    fn simulate(&self, seqs: &mut [Sequence], area: [f64; 4], seed: u64) -> CliResult<usize> {
         let level = sim::Level::preset(self.sim_level as usize);
         let mut n = 0;
         for s in seqs.iter_mut() {
             if s.frames.iter().all(|f| f.detections.is_empty()) {
-                *s = sim::observe(s, &level, area, seed, fnv1a(s.name.as_bytes()));
+                *s = sim::observe(s, &level, area, seed, fnv1a(s.name.as_bytes()))?;
                 n += 1;
             }
         }
-        n
+        Ok(n)
     }
 
     fn say_simulated(&self, n: usize, what: &str, ui: Ui) {
@@ -270,9 +270,9 @@ fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)>
         lo[1] - margin[1],
         hi[1] + margin[1],
     ];
-    let simulated = input.simulate(&mut train, extent, input.sim_seed);
+    let simulated = input.simulate(&mut train, extent, input.sim_seed)?;
     let size = (extent[1] - extent[0]).min(extent[3] - extent[2]);
-    let spacing = Scales::estimate(&train, size)?.fine_spacing(size);
+    let spacing = Scales::estimate(&train, size)?.fine_spacing(size)?;
     let kernel = cbt_tracker::DEFAULT_KERNEL;
     let (bx, by) = (
         axis(extent[0], extent[1], spacing, kernel)?,
@@ -328,7 +328,7 @@ fn track(
     if seqs.is_empty() {
         return Err(format!("{}: no target to track", seq.display()).into());
     }
-    let simulated = input.simulate(&mut seqs, m.extent, input.sim_seed.wrapping_add(1));
+    let simulated = input.simulate(&mut seqs, m.extent, input.sim_seed.wrapping_add(1))?;
     let mut starts = Vec::with_capacity(seqs.len());
     for (s, label) in seqs.iter().zip(&labels) {
         let Some(first) = s.frames.first() else {

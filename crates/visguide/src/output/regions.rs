@@ -87,10 +87,11 @@ pub struct RegionRecord {
 }
 
 impl RegionRecord {
-    /// From a region (and its contour).
-    pub fn new(r: &Region, contour: Option<&[(u32, u32)]>) -> Self {
-        let e = r.ellipse();
-        RegionRecord {
+    /// From a region (and its contour). Errors: a region without an ellipse (moments no pixel
+    /// set has; never one from the detector).
+    pub fn new(r: &Region, contour: Option<&[(u32, u32)]>) -> Result<Self> {
+        let e = r.ellipse()?;
+        Ok(RegionRecord {
             polarity: match r.polarity {
                 Polarity::Dark => "dark",
                 Polarity::Bright => "bright",
@@ -104,7 +105,7 @@ impl RegionRecord {
             centroid: r.centroid(),
             ellipse: (e.u, e.v, e.a, e.b, e.c),
             contour: contour.map(<[_]>::to_vec),
-        }
+        })
     }
 }
 
@@ -166,7 +167,11 @@ pub fn write(
 ) -> Result<()> {
     match format {
         Format::Oxford => {
-            let ellipses: Vec<mser::Ellipse> = f.regions.iter().map(Region::ellipse).collect();
+            let ellipses = f
+                .regions
+                .iter()
+                .map(Region::ellipse)
+                .collect::<mser::Result<Vec<_>>>()?;
             mser::write_regions(w, &ellipses)?;
         }
         Format::Json => {
@@ -174,14 +179,14 @@ pub fn write(
                 image: image.into(),
                 size,
                 params: ParamsRecord::new(params),
-                regions: records(f, with_contours),
+                regions: records(f, with_contours)?,
             };
             serde_json::to_writer_pretty(&mut *w, &file).map_err(|e| werr(e.into()))?;
             writeln!(w).map_err(werr)?;
         }
         Format::Csv => {
             writeln!(w, "{CSV_HEADER}").map_err(werr)?;
-            for (k, r) in records(f, with_contours).iter().enumerate() {
+            for (k, r) in records(f, with_contours)?.iter().enumerate() {
                 let contour = r.contour.as_ref().map_or(String::new(), |c| {
                     c.iter()
                         .map(|(x, y)| format!("{x} {y}"))
@@ -212,7 +217,7 @@ pub fn write(
     Ok(())
 }
 
-fn records(f: &Features, with_contours: bool) -> Vec<RegionRecord> {
+fn records(f: &Features, with_contours: bool) -> Result<Vec<RegionRecord>> {
     f.regions
         .iter()
         .enumerate()

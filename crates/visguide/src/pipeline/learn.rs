@@ -66,6 +66,12 @@ fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> Pipeli
 
 /// Learns the FD + CBT percept on `robot` (module docs). The gripper servo of `space` is
 /// moved to its first state for the "moved" captures; the servoing set-point is `space`'s rest.
+///
+/// Errors before the robot moves: a control space or exploration ranges that do not fit the
+/// robot ([`ControlSpace::check_explore`]), no gripper servo, a protocol out of range (counts,
+/// `step_us` not finite and non-negative, [`ShapeConfig::validate`],
+/// [`PerceptConfig::validate`](super::track::PerceptConfig::validate)). Later: robot errors, a
+/// capture with fewer images than the heuristic's cameras, too little training data.
 pub fn learn_by_action<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
@@ -80,18 +86,27 @@ pub fn learn_by_action<R: Robot>(
             reason: "learning by action needs a gripper servo".into(),
         });
     };
+    space.check_explore(robot, explore)?;
     if protocol.views == 0 || protocol.walks == 0 || protocol.steps < 3 {
         return Err(PipelineError::InvalidParameter {
             name: "protocol",
             reason: "need views ≥ 1, walks ≥ 1 and steps ≥ 3".into(),
         });
     }
+    if !(protocol.step_us.is_finite() && protocol.step_us >= 0.0) {
+        return Err(PipelineError::InvalidParameter {
+            name: "step_us",
+            reason: format!("{} must be finite and non-negative", protocol.step_us),
+        });
+    }
+    protocol.shapes.validate()?;
+    protocol.percept.validate()?;
     let cams = heuristic.num_cameras();
     let size = Recogniser::image_size(heuristic, 0);
     let mut report = LearnReport::default();
     let mut commands = RandomCommands::new(explore, protocol.seed)?;
     // Views: rest and moved captures per pose.
-    let mut captures = Vec::with_capacity(protocol.views);
+    let mut captures = Vec::new();
     for _ in 0..protocol.views {
         let rest_cmd = space.full_command(&commands.next_command());
         let mut moved_cmd = rest_cmd.clone();
@@ -136,6 +151,15 @@ pub fn learn_by_action<R: Robot>(
                 .map_err(robot_err("command"))?;
             report.actions += 1;
             let images = robot.capture().map_err(robot_err("capture"))?;
+            if images.len() < cams {
+                return Err(PipelineError::Robot {
+                    during: "capture",
+                    message: format!(
+                        "{} images, the heuristic percept has {cams} cameras",
+                        images.len()
+                    ),
+                });
+            }
             let tips = heuristic.locate_all(&images).ok();
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().map(|t| t[cam].position);

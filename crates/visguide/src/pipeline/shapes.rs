@@ -483,7 +483,9 @@ mod tests {
         for (c1, a1) in [([130.0, 100.0], 0.9), ([120.0, 90.0], -0.6)] {
             let query = scene(c1, a1, true);
             let votes = model.votes(0, &query).unwrap();
-            let best = super::super::vote::mode(&votes, 2.0).expect("votes");
+            let best = super::super::vote::mode(&votes, 2.0)
+                .unwrap()
+                .expect("votes");
             let t = tip(c1, a1);
             let err = (best.position[0] - t[0]).hypot(best.position[1] - t[1]);
             assert!(err < 1.5, "tip error {err:.2} px at {a1} rad ({votes:?})");

@@ -37,6 +37,32 @@ pub struct PerceptConfig {
     pub lost_certainty: f64,
 }
 
+impl PerceptConfig {
+    /// Checks the settings: `mode_sigma_px` finite and positive, both certainties in `[0, 1]`.
+    /// (A NaN or zero kernel width made every frame's mode empty, so nothing was ever
+    /// recognised.)
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &'static str, value: f64, range: &str| {
+            Err(PipelineError::InvalidParameter {
+                name,
+                reason: format!("{value} must lie in {range}"),
+            })
+        };
+        if !(self.mode_sigma_px.is_finite() && self.mode_sigma_px > 0.0) {
+            return bad("mode_sigma_px", self.mode_sigma_px, "(0, ∞)");
+        }
+        for (name, v) in [
+            ("start_certainty", self.start_certainty),
+            ("lost_certainty", self.lost_certainty),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(name, v, "[0, 1]");
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for PerceptConfig {
     fn default() -> Self {
         PerceptConfig {
@@ -88,7 +114,7 @@ pub fn learn_tracker(size: [u32; 2], walks: &[Walk]) -> Result<CbtModel> {
         )));
     }
     let extent = f64::from(size[0].max(size[1]));
-    let spacing = Scales::estimate(&sequences, extent)?.fine_spacing(extent);
+    let spacing = Scales::estimate(&sequences, extent)?.fine_spacing(extent)?;
     let space = Space::image(f64::from(size[0]), f64::from(size[1]), spacing)?;
     let config = CbtConfig {
         layout: Layout::Stationary,
@@ -191,6 +217,15 @@ fn check_images(
     Ok(())
 }
 
+/// A pipeline error in a percept, as the servo library's (the percept's settings or votes were
+/// refused).
+fn percept_error(e: PipelineError) -> ServoError {
+    ServoError::InvalidParameter {
+        name: "percept",
+        reason: e.to_string(),
+    }
+}
+
 fn votes_of(shapes: &ShapeModel, cam: usize, img: &GrayImage) -> servo_loop::Result<Vec<Vote>> {
     shapes
         .votes(cam, img)
@@ -225,7 +260,9 @@ impl Recogniser for FdRecogniser {
             .enumerate()
             .map(|(cam, img)| {
                 let votes = votes_of(&self.shapes, cam, img)?;
-                let m = mode(&votes, self.config.mode_sigma_px).ok_or(failed(cam, 0.0, 0.0))?;
+                let m = mode(&votes, self.config.mode_sigma_px)
+                    .map_err(percept_error)?
+                    .ok_or(failed(cam, 0.0, 0.0))?;
                 Ok(Localisation {
                     position: m.position,
                     certainty: m.certainty,
@@ -268,12 +305,21 @@ impl FdCbtRecogniser {
 
     /// A handle that forgets the tracks when a commanded move exceeds `reset_us` on any servo
     /// (see [`Notifying`]): the tracker's learned motion covers small moves only.
-    pub fn notifier(&self, reset_us: f64) -> MoveNotifier {
-        MoveNotifier {
+    ///
+    /// Errors: `reset_us` NaN or negative ([`PipelineError::InvalidParameter`]; a NaN used to
+    /// mean "never reset", a negative value "always"). An infinite `reset_us` never resets.
+    pub fn notifier(&self, reset_us: f64) -> Result<MoveNotifier> {
+        if reset_us.is_nan() || reset_us < 0.0 {
+            return Err(PipelineError::InvalidParameter {
+                name: "reset_us",
+                reason: format!("{reset_us} must be non-negative"),
+            });
+        }
+        Ok(MoveNotifier {
             tracks: Arc::clone(&self.tracks),
             reset_us,
             last: None,
-        }
+        })
     }
 
     /// One camera's step: start (or restart) from the vote mode, or track.
@@ -286,7 +332,9 @@ impl FdCbtRecogniser {
         let cfg = &self.fd.config;
         let start = |track: &mut Option<CbtTracker>| -> servo_loop::Result<Localisation> {
             *track = None;
-            let m = mode(votes, cfg.mode_sigma_px).ok_or(failed(cam, 0.0, cfg.start_certainty))?;
+            let m = mode(votes, cfg.mode_sigma_px)
+                .map_err(percept_error)?
+                .ok_or(failed(cam, 0.0, cfg.start_certainty))?;
             if m.certainty < cfg.start_certainty {
                 return Err(failed(cam, m.certainty, cfg.start_certainty));
             }

@@ -13,6 +13,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::error::{PipelineError, Result};
+
 /// One tip vote of one accepted match.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Vote {
@@ -40,12 +42,34 @@ pub struct Mode {
     pub support: usize,
 }
 
-/// The weighted mode of `votes` with kernel width `sigma` (pixels); `None` without votes.
-pub fn mode(votes: &[Vote], sigma: f64) -> Option<Mode> {
+/// The weighted mode of `votes` with kernel width `sigma` (pixels); `None` without votes (or
+/// with zero total weight).
+///
+/// Errors ([`PipelineError::InvalidParameter`]): `sigma` not finite and positive (`sigma`), a
+/// vote with a non-finite position or a weight not finite and non-negative (`votes`). (They
+/// used to give `None` for a bad `sigma`, and a NaN position or the first vote's for bad votes.)
+pub fn mode(votes: &[Vote], sigma: f64) -> Result<Option<Mode>> {
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Err(PipelineError::InvalidParameter {
+            name: "sigma",
+            reason: format!("{sigma} must be finite and positive"),
+        });
+    }
+    if let Some((i, v)) = votes.iter().enumerate().find(|(_, v)| {
+        !(v.position.iter().all(|c| c.is_finite()) && v.weight.is_finite() && v.weight >= 0.0)
+    }) {
+        return Err(PipelineError::InvalidParameter {
+            name: "votes",
+            reason: format!(
+                "vote {i} at {:?} with weight {}: needs a finite position and a finite, \
+                 non-negative weight",
+                v.position, v.weight
+            ),
+        });
+    }
     let total: f64 = votes.iter().map(|v| v.weight).sum();
-    let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
-    if votes.is_empty() || !positive(total) || !positive(sigma) {
-        return None;
+    if votes.is_empty() || total <= 0.0 {
+        return Ok(None);
     }
     let inv = 1.0 / (2.0 * sigma * sigma);
     let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
@@ -78,11 +102,11 @@ pub fn mode(votes: &[Vote], sigma: f64) -> Option<Mode> {
     }
     let evidence: f64 = regions.values().map(|r| r.0).sum();
     let agrees: f64 = regions.values().map(|r| r.1).sum();
-    Some(Mode {
+    Ok(Some(Mode {
         position: [x / w, y / w],
         certainty: (agrees / evidence).clamp(0.0, 1.0),
         support: n,
-    })
+    }))
 }
 
 #[cfg(test)]
@@ -116,7 +140,7 @@ mod tests {
             vote(300.0, 200.0, 0.9),
             vote(10.0, 400.0, 0.9),
         ]);
-        let m = mode(&votes, 2.0).unwrap();
+        let m = mode(&votes, 2.0).unwrap().unwrap();
         // The weighted mean of the three agreeing votes.
         assert!((m.position[0] - 100.5).abs() < 1e-12);
         assert!((m.position[1] - 50.5).abs() < 1e-12);
@@ -151,7 +175,7 @@ mod tests {
         for (v, r) in votes.iter_mut().zip([0, 0, 0, 1, 2]) {
             v.region = r;
         }
-        let m = mode(&votes, 2.0).unwrap();
+        let m = mode(&votes, 2.0).unwrap().unwrap();
         assert_eq!(m.support, 2);
         // (0.8 + 0.6) of the regions' heaviest votes (0.8 + 0.6 + 0.2).
         assert!((m.certainty - 1.4 / 1.6).abs() < 1e-12, "{}", m.certainty);
@@ -161,10 +185,32 @@ mod tests {
 
     #[test]
     fn no_votes_no_mode_and_one_vote_is_certain() {
-        assert!(mode(&[], 2.0).is_none());
-        assert!(mode(&[vote(1.0, 2.0, 0.0)], 2.0).is_none());
-        assert!(mode(&[vote(1.0, 2.0, 1.0)], 0.0).is_none());
-        let m = mode(&[vote(1.0, 2.0, 0.3)], 2.0).unwrap();
+        assert!(mode(&[], 2.0).unwrap().is_none());
+        assert!(mode(&[vote(1.0, 2.0, 0.0)], 2.0).unwrap().is_none());
+        let m = mode(&[vote(1.0, 2.0, 0.3)], 2.0).unwrap().unwrap();
         assert_eq!((m.position, m.certainty, m.support), ([1.0, 2.0], 1.0, 1));
+    }
+
+    #[test]
+    fn bad_votes_or_kernel_widths_are_errors() {
+        // A zero, negative, NaN or infinite width used to give `None`, as if there were no votes.
+        for sigma in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(
+                mode(&[vote(1.0, 2.0, 1.0)], sigma),
+                Err(PipelineError::InvalidParameter { name: "sigma", .. })
+            ));
+        }
+        // A NaN position used to become the mode; a negative or NaN weight skewed or hid it.
+        for bad in [
+            vote(f64::NAN, 2.0, 1.0),
+            vote(1.0, f64::INFINITY, 1.0),
+            vote(1.0, 2.0, -0.5),
+            vote(1.0, 2.0, f64::NAN),
+        ] {
+            assert!(matches!(
+                mode(&[vote(5.0, 5.0, 0.5), bad], 2.0),
+                Err(PipelineError::InvalidParameter { name: "votes", .. })
+            ));
+        }
     }
 }

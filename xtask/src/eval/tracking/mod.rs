@@ -185,13 +185,17 @@ pub const TEST_PER_LEVEL: usize = 5;
 
 /// The synthetic sets: levels L0–L4 (with `test_per_level` test sequences of `frames`
 /// frames each) and UNGM.
-pub fn synthetic_sets(test_per_level: usize, frames: usize, levels: &[usize]) -> Vec<SetSpec> {
+pub fn synthetic_sets(
+    test_per_level: usize,
+    frames: usize,
+    levels: &[usize],
+) -> Result<Vec<SetSpec>> {
     let sc = Scenario::default();
     let mut sets: Vec<SetSpec> = levels
         .iter()
         .map(|&i| {
             let lv = Level::preset(i);
-            SetSpec {
+            Ok(SetSpec {
                 name: format!("rc-car-{}", lv.name),
                 description: format!(
                     "Synthetic RC-car following, {}×{} px, level {}: clutter {} per frame \
@@ -215,13 +219,13 @@ pub fn synthetic_sets(test_per_level: usize, frames: usize, levels: &[usize]) ->
                     y_lo: 0.0,
                     y_hi: sc.height,
                 },
-                train: generate(&sc, &lv, 4, 300, 1000 + i as u64),
-                test: generate(&sc, &lv, test_per_level, frames, 2000 + i as u64),
+                train: generate(&sc, &lv, 4, 300, 1000 + i as u64)?,
+                test: generate(&sc, &lv, test_per_level, frames, 2000 + i as u64)?,
                 radius: IMAGE_LOSS_RADIUS,
                 seed: 5000 + 100 * i as u64,
-            }
+            })
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let u = Ungm::default();
     sets.push(SetSpec {
         name: "ungm".into(),
@@ -241,12 +245,12 @@ pub fn synthetic_sets(test_per_level: usize, frames: usize, levels: &[usize]) ->
         ),
         clutter_rate: None,
         kind: SetKind::Ungm,
-        train: u.generate(20, 100, 3000),
-        test: u.generate(2 * test_per_level, 100, 3001),
+        train: u.generate(20, 100, 3000)?,
+        test: u.generate(2 * test_per_level, 100, 3001)?,
         radius: UNGM_LOSS_RADIUS,
         seed: 9000,
     });
-    sets
+    Ok(sets)
 }
 
 /// The protocol paragraph of the synthetic study.
@@ -330,7 +334,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
     }
     let specs = match (&args.train, &args.test) {
         (Some(train), Some(test)) => vec![user_set(train, test, args)?],
-        _ => synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4]),
+        _ => synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4])?,
     };
     if let Some(dir) = &args.write_csv {
         for s in &specs {
@@ -484,7 +488,7 @@ fn user_set(train: &Path, test: &Path, args: &TrackingArgs) -> Result<SetSpec> {
         for (i, s) in seqs.iter_mut().enumerate() {
             if s.frames.iter().all(|f| f.detections.is_empty()) {
                 let seed = 7000 + part;
-                *s = observe(s, &level, [x_lo, x_hi, y_lo, y_hi], seed, i as u64);
+                *s = observe(s, &level, [x_lo, x_hi, y_lo, y_hi], seed, i as u64)?;
                 simulated += 1;
             }
         }
@@ -530,7 +534,7 @@ mod tests {
     /// sequences each, plus UNGM), as a snapshot.
     #[test]
     fn summary_snapshot() {
-        let specs = synthetic_sets(2, 40, &[1, 3]);
+        let specs = synthetic_sets(2, 40, &[1, 3]).unwrap();
         let pb = ProgressBar::hidden();
         let results: Vec<SetResult> = specs.iter().map(|s| run_set(s, &pb).unwrap()).collect();
         insta::assert_snapshot!(summary::render(&results, &protocol(&specs)));
@@ -631,7 +635,7 @@ mod tests {
     fn csv_study_runs_on_written_sequences() {
         let dir = std::env::temp_dir().join(format!("visguide-tracking-{}", std::process::id()));
         std::fs::remove_dir_all(&dir).ok();
-        let specs = synthetic_sets(1, 30, &[2]);
+        let specs = synthetic_sets(1, 30, &[2]).unwrap();
         for (part, seqs) in [("train", &specs[0].train), ("test", &specs[0].test)] {
             for q in seqs {
                 csv::write(&dir.join(part), q).unwrap();

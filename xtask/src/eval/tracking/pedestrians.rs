@@ -160,7 +160,13 @@ fn canvas(scenes: &[Scene]) -> [f64; 4] {
 }
 
 /// Track `t` of scene `si` as a sequence with detections at `level`.
-fn sequence(scenes: &[Scene], si: usize, t: usize, level: usize, area: [f64; 4]) -> Sequence {
+fn sequence(
+    scenes: &[Scene],
+    si: usize,
+    t: usize,
+    level: usize,
+    area: [f64; 4],
+) -> Result<Sequence> {
     let s = &scenes[si];
     let track = Sequence {
         name: format!("{}-{t}", s.name),
@@ -179,13 +185,13 @@ fn sequence(scenes: &[Scene], si: usize, t: usize, level: usize, area: [f64; 4])
             .collect(),
     };
     let lv = Difficulty::ALL[level].level();
-    observe(
+    Ok(observe(
         &track,
         &lv,
         area,
         8000 + level as u64,
         (si as u64) << 20 | t as u64,
-    )
+    )?)
 }
 
 /// A seeded choice of at most `n` of the track indices satisfying `keep`.
@@ -288,7 +294,7 @@ pub fn run(scenes: &[Scene], only: &Only) -> Result<Vec<FoldResult>> {
 
 /// The set of one fold and level: training tracks of the other scenes, test tracks of the
 /// held-out one.
-fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
+fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> Result<SetSpec> {
     let si = job.scene;
     let held = &scenes[si];
     let test_idx = pick(held, si, TEST_TRACKS, 1, |t| {
@@ -297,18 +303,18 @@ fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
     let test: Vec<Sequence> = test_idx
         .iter()
         .map(|&t| {
-            let mut s = sequence(scenes, si, t, job.level, area);
+            let mut s = sequence(scenes, si, t, job.level, area)?;
             s.frames.truncate(MAX_TEST_FRAMES);
-            s
+            Ok(s)
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let mut train = Vec::new();
     for (sj, s) in scenes.iter().enumerate() {
         if sj == si {
             continue;
         }
         for t in pick(s, sj, TRAIN_TRACKS, 2, |t| annotated(&s.tracks[t]) >= 3) {
-            train.push(sequence(scenes, sj, t, job.level, area));
+            train.push(sequence(scenes, sj, t, job.level, area)?);
         }
     }
     if job.few {
@@ -321,7 +327,7 @@ fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
         pool.truncate(FEW_TRACKS);
         train = pool;
     }
-    SetSpec {
+    Ok(SetSpec {
         name: format!("{}-{}", held.name, Difficulty::ALL[job.level].level().name),
         description: String::new(),
         clutter_rate: None,
@@ -335,7 +341,7 @@ fn fold_spec(scenes: &[Scene], job: &Job, area: [f64; 4]) -> SetSpec {
         test,
         radius: LOSS_RADIUS,
         seed: 0,
-    }
+    })
 }
 
 /// Whether a tracker's label is selected by `--trackers PREFIX` (a PREFIX ending in `$`: the
@@ -350,7 +356,7 @@ fn label_matches(label: &str, prefix: &str) -> bool {
 fn run_fold(scenes: &[Scene], job: &Job, area: [f64; 4], only: Option<&str>) -> Result<FoldResult> {
     let si = job.scene;
     let held = &scenes[si];
-    let spec = fold_spec(scenes, job, area);
+    let spec = fold_spec(scenes, job, area)?;
     let (trackers, ..) = Trackers::for_set(&spec)?;
     let mut out = Vec::new();
     for (ti, make) in trackers.makers.iter().enumerate() {
@@ -423,7 +429,7 @@ pub fn cpu_times(scenes: &[Scene], names: &[&str]) -> Result<Vec<(String, f64, u
                     few: false,
                 },
                 area,
-            );
+            )?;
             let (trackers, ..) = Trackers::for_set(&spec)?;
             let mut picked = Vec::new();
             for make in &trackers.makers {

@@ -18,7 +18,7 @@ pub const DEV_SEED: u64 = 7000;
 pub fn run() -> Result<()> {
     let sc = Scenario::default();
     let levels = [0, 1, 2, 3, 4];
-    let specs = synthetic_sets(TEST_PER_LEVEL, 150, &levels);
+    let specs = synthetic_sets(TEST_PER_LEVEL, 150, &levels)?;
     for (spec, &i) in specs.iter().zip(&levels) {
         let (trackers, ..) = Trackers::for_set(spec)?;
         let test = generate(
@@ -27,7 +27,7 @@ pub fn run() -> Result<()> {
             2 * TEST_PER_LEVEL,
             150,
             DEV_SEED + i as u64,
-        );
+        )?;
         let (mut rmse, mut loss) = (0.0, 0.0);
         for s in &test {
             let mut t = trackers.makers[0](0)?;

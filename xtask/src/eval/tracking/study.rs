@@ -249,7 +249,7 @@ impl Trackers {
                 let extent = (x_hi - x_lo).min(y_hi - y_lo);
                 // The stationary layout: shift-invariant models and the posterior on its
                 // support, on a grid as fine as the detection noise asks for.
-                let spacing = Scales::estimate(&spec.train, extent)?.fine_spacing(extent);
+                let spacing = Scales::estimate(&spec.train, extent)?.fine_spacing(extent)?;
                 let kernel = cbt_tracker::DEFAULT_KERNEL;
                 let (bx, by) = (
                     axis(x_lo, x_hi, spacing, kernel)?,
