@@ -122,13 +122,31 @@ impl ControlSpace {
         Ok(())
     }
 
-    /// The full command for controlled set-points `y`.
-    pub fn full_command(&self, y: &[f64]) -> Vec<f64> {
+    /// The full command for controlled set-points `y`: `rest` with `y[k]` at servo
+    /// `controlled[k]`. [`ServoError::DimensionMismatch`] (`controlled set-points`) when `y` has
+    /// not one value per controlled servo (a missing value would leave a servo at rest, an extra
+    /// one would be dropped); [`ServoError::InvalidParameter`] (`controlled`) when a controlled
+    /// index is outside `rest` (a space that [`ControlSpace::validate`] would refuse).
+    pub fn full_command(&self, y: &[f64]) -> Result<Vec<f64>> {
+        if y.len() != self.controlled.len() {
+            return Err(ServoError::DimensionMismatch {
+                what: "controlled set-points",
+                expected: self.controlled.len(),
+                got: y.len(),
+            });
+        }
         let mut c = self.rest.clone();
         for (&i, &v) in self.controlled.iter().zip(y) {
-            c[i] = v;
+            let slot = c.get_mut(i).ok_or_else(|| ServoError::InvalidParameter {
+                name: "controlled",
+                reason: format!(
+                    "servo index {i} is outside the rest command ({} servos)",
+                    self.rest.len()
+                ),
+            })?;
+            *slot = v;
         }
-        c
+        Ok(c)
     }
 }
 
@@ -155,7 +173,7 @@ pub fn capture_training_views<R: Robot>(
     let mut commands = RandomCommands::new(explore, seed)?;
     let mut training = Vec::new();
     for _ in 0..views {
-        let mut c = space.full_command(&commands.next_command());
+        let mut c = space.full_command(&commands.next_command())?;
         c[g] = open;
         send(robot, &c)?;
         let before = grab(robot)?;
@@ -193,7 +211,7 @@ pub fn learn_recognition<R: Robot>(
         let mut poses = RandomCommands::new(explore, seed ^ 0xC0FF_EE00)?;
         let mut samples = Vec::new();
         for _ in 0..config.correction_poses {
-            send(robot, &space.full_command(&poses.next_command()))?;
+            send(robot, &space.full_command(&poses.next_command())?)?;
             match model.correction_sample(&grab(robot)?) {
                 Ok(sample) => samples.push(sample),
                 Err(ServoError::RecognitionFailed { .. }) => {}
@@ -563,7 +581,7 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
 
     fn act(&mut self, y: &[f64]) -> Result<()> {
         self.last_command = None;
-        send(&mut self.robot, &self.space.full_command(y))?;
+        send(&mut self.robot, &self.space.full_command(y)?)?;
         self.last_command = Some(y.to_vec());
         Ok(())
     }

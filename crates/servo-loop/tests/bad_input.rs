@@ -233,3 +233,42 @@ fn inverse_models_beyond_lwpr_limits_are_errors() {
     }
     assert!(InverseModel::new(4, 3, &config).is_ok());
 }
+
+/// `ControlSpace::full_command` pairs the set-points with the controlled servos: a length that
+/// does not fit is an error (it used to be zipped: a missing value left a servo at rest, an extra
+/// one was dropped), and so is an index outside the rest command (it used to panic).
+#[test]
+fn full_command_refuses_set_points_that_do_not_fit_the_control_space() {
+    use servo_loop::ControlSpace;
+    let space = ControlSpace {
+        controlled: vec![0, 2],
+        rest: vec![50.0; 3],
+        gripper: None,
+    };
+    assert_eq!(
+        space.full_command(&[10.0, 20.0]).unwrap(),
+        vec![10.0, 50.0, 20.0]
+    );
+    // One value short would leave servo 2 at rest; one too many would be dropped.
+    for y in [&[10.0][..], &[10.0, 20.0, 30.0][..]] {
+        match space.full_command(y) {
+            Err(ServoError::DimensionMismatch {
+                expected: 2, got, ..
+            }) => assert_eq!(got, y.len()),
+            other => panic!("{y:?}: expected a dimension mismatch, got {other:?}"),
+        }
+    }
+    // A hand-built space whose controlled index is outside its rest command.
+    let bad = ControlSpace {
+        controlled: vec![0, 5],
+        rest: vec![50.0; 3],
+        gripper: None,
+    };
+    assert!(matches!(
+        bad.full_command(&[1.0, 2.0]),
+        Err(ServoError::InvalidParameter {
+            name: "controlled",
+            ..
+        })
+    ));
+}

@@ -82,7 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut errs, mut herrs, mut none) = (Vec::new(), Vec::new(), 0);
     for k in 0..20 {
         let y = commands.next_command();
-        robot.0.command(&space.full_command(&y))?;
+        robot.0.command(&space.full_command(&y)?)?;
         let images = robot.0.capture();
         let pose = robot.0.inspect().pose().clone();
         let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;

@@ -89,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for step in 0..6 {
             let mut yy = y.clone();
             yy[k % 3] += 3.0 * step as f64;
-            sim.command(&space.full_command(&yy))?;
+            sim.command(&space.full_command(&yy)?)?;
             let imgs = sim.capture();
             let now: Vec<_> = (0..cams)
                 .map(|cam| {

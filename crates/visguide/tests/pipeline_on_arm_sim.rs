@@ -74,7 +74,7 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
         let mut y = commands.next_command();
         for step in 0..6 {
             y[step % 3] += 4.0;
-            robot.0.command(&space().full_command(&y)).unwrap();
+            robot.0.command(&space().full_command(&y).unwrap()).unwrap();
             let images = robot.0.capture();
             // The true tip: the middle of the finger ends (the point the heuristic percept,
             // the pipeline's teacher, defines as the tip).

@@ -111,7 +111,7 @@ fn gripper_moves_reveal_the_gripper_under_clutter_and_lighting() {
         let mut near = 0;
         let mut total = 0;
         for _ in 0..6 {
-            let c = space().full_command(&commands.next_command());
+            let c = space().full_command(&commands.next_command()).unwrap();
             let mut open = c.clone();
             open[5] = 2100.0;
             sim.command(&open).unwrap();
@@ -155,7 +155,7 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
         let mut commands = RandomCommands::new(&EXPLORE, 21).unwrap();
         let (mut errors, mut repeat) = (Vec::new(), Vec::new());
         for _ in 0..8 {
-            let c = space().full_command(&commands.next_command());
+            let c = space().full_command(&commands.next_command()).unwrap();
             robot.inner.0.command(&c).unwrap();
             let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
             let pose = robot.inner.0.inspect().pose().clone();
@@ -225,7 +225,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
         let mut commands = RandomCommands::new(&EXPLORE, 21).unwrap();
         let (mut errors, mut far, mut repeat) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..12 {
-            let c = space().full_command(&commands.next_command());
+            let c = space().full_command(&commands.next_command()).unwrap();
             robot.inner.0.command(&c).unwrap();
             let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
             let pose = robot.inner.0.inspect().pose().clone();

@@ -201,7 +201,7 @@ fn percepts(
             for (v, d) in y.iter_mut().zip(steps.next_command()) {
                 *v += d;
             }
-            sim.command(&space().full_command(&y))?;
+            sim.command(&space().full_command(&y)?)?;
             let images = sim.capture();
             let t = truth(&sim)?;
             let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &l.pipeline.fd, &l.pipeline];

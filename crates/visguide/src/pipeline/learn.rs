@@ -108,7 +108,7 @@ pub fn learn_by_action<R: Robot>(
     // Views: rest and moved captures per pose.
     let mut captures = Vec::new();
     for _ in 0..protocol.views {
-        let rest_cmd = space.full_command(&commands.next_command());
+        let rest_cmd = space.full_command(&commands.next_command())?;
         let mut moved_cmd = rest_cmd.clone();
         moved_cmd[gripper] = open;
         robot.command(&moved_cmd).map_err(robot_err("command"))?;
@@ -147,7 +147,7 @@ pub fn learn_by_action<R: Robot>(
                 *v = (*v + (2.0 * u - 1.0) * protocol.step_us).clamp(lo, hi);
             }
             robot
-                .command(&space.full_command(&y))
+                .command(&space.full_command(&y)?)
                 .map_err(robot_err("command"))?;
             report.actions += 1;
             let images = robot.capture().map_err(robot_err("capture"))?;

@@ -156,10 +156,10 @@ impl SimPlant {
 
     /// The full command of the arm for the controlled set-points `y` (the held servos at
     /// their rest set-points; servo_loop's `ControlSpace::full_command`).
-    pub fn full_command(&self, y: &[f64]) -> [f64; NUM_SERVOS] {
+    pub fn full_command(&self, y: &[f64]) -> servo_loop::Result<[f64; NUM_SERVOS]> {
         let mut c = [0.0; NUM_SERVOS];
-        c.copy_from_slice(&self.space.full_command(y));
-        c
+        c.copy_from_slice(&self.space.full_command(y)?);
+        Ok(c)
     }
 
     /// Checks the recognised percept's servo percepts against the commanded move
@@ -215,14 +215,12 @@ impl Plant for SimPlant {
         self.last_command = Some(y.to_vec());
         match &mut self.percept {
             Percept::Recognised(v) => v.act(y),
-            Percept::Simulated { robot, .. } => {
-                robot
-                    .command(&self.space.full_command(y))
-                    .map_err(|e| ServoError::Robot {
-                        during: "command",
-                        message: e.to_string(),
-                    })
-            }
+            Percept::Simulated { robot, .. } => robot
+                .command(&self.space.full_command(y)?)
+                .map_err(|e| ServoError::Robot {
+                    during: "command",
+                    message: e.to_string(),
+                }),
         }
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
@@ -310,8 +308,8 @@ pub fn ideal_image_jacobian(plant: &SimPlant, y: &[f64]) -> servo_loop::Result<D
         let (mut yp, mut ym) = (y.to_vec(), y.to_vec());
         yp[k] += h;
         ym[k] -= h;
-        let xp = ideal_pixels(plant.sim(), &plant.full_command(&yp), plant.cameras);
-        let xm = ideal_pixels(plant.sim(), &plant.full_command(&ym), plant.cameras);
+        let xp = ideal_pixels(plant.sim(), &plant.full_command(&yp)?, plant.cameras);
+        let xm = ideal_pixels(plant.sim(), &plant.full_command(&ym)?, plant.cameras);
         let (Some(xp), Some(xm)) = (xp, xm) else {
             return Err(ServoError::InvalidParameter {
                 name: "ideal model",
