@@ -568,7 +568,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             lw_px.median,
             tj_px.median,
             ratio,
-            check(ratio <= 1.2),
+            verdict(ratio, 1.2, "×"),
             lw_px.median,
             br_px.median,
             check(lw_px.median < br_px.median),
