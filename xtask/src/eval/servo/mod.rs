@@ -95,10 +95,16 @@ pub struct ServoArgs {
     #[arg(long)]
     pub cap_training: Option<bool>,
     /// The motion check's factor `κ` on the training moves' median residual
-    /// (`servo_loop::MotionConfig::factor`; 0 = no motion check; default: the study's).
+    /// (`servo_loop::MotionConfig::factor`; 0 = no motion check; default: the study's,
+    /// [`MEASURED_MOTION_FACTOR`]).
     #[arg(long)]
     pub motion_factor: Option<f64>,
 }
+
+/// The study's motion-check factor `κ`: κ = 4 failed the adoption rule on the development seeds
+/// (LWPR 1.33× the true-Jacobian servo on the default arm), κ = 3 met all three parts of it
+/// (docs/methods.md, *Motion check*).
+pub const MEASURED_MOTION_FACTOR: f64 = 3.0;
 
 impl ServoArgs {
     /// The recogniser's settings of these options in `p` (cross-camera choice, gate, spread
@@ -226,7 +232,12 @@ impl Protocol {
             face_gate: MEASURED_FACE_GATE,
             spread_scale: MEASURED_SPREAD_SCALE,
             cap_training: false,
-            motion: None,
+            // The motion check at κ = 3 (docs/methods.md, *Motion check*; chosen on
+            // development seeds by the rule written before its first run).
+            motion: Some(servo_loop::MotionConfig {
+                factor: MEASURED_MOTION_FACTOR,
+                ..servo_loop::MotionConfig::default()
+            }),
             motion_check: None,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],

@@ -441,8 +441,8 @@ pub fn seeds_section(st: &SeedStudy) -> String {
           on the development seeds 1001–1003 (docs/methods.md, *Gated learned tip*, *Motion check*). The 1,600 training moves \
           (in blocks of 100 in monotone-chain order, `servo_loop::chain_order`) were fixed earlier from an action count, not \
           from a servo run; the other thresholds (certainty 0.05, consistency scale, captures) were set before any evaluation \
-          run, not tuned. The evaluation seeds 7001–7005 are new this round (6001–6005 had been scored once, by the previous \
-          round) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
+          run, not tuned. The evaluation seeds 8001–8005 are new this round (7001–7005 had been scored once, by the previous \
+          round, with the motion check off) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
           middle of the finger ends at random reachable poses the learner never visited), checked by `servo_loop::check_image_target` \
           (consistent between the cameras, inside the learned model) before any move; their error is the tool point's against the \
           target pose's.\n\n";
