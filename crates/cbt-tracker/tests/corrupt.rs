@@ -5,12 +5,12 @@
 
 use cbt_tracker::{
     CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker, Layout, Order,
-    ParticleFilter, PfModel, Scales, Space, Tracker,
+    ParticleFilter, PfModel, Space, Tracker,
 };
 use serde_json::Value;
 
 mod common;
-use common::{H, W, data};
+use common::{H, W, data, stationary_spacing};
 
 fn model(layout: Layout, order: Order, spacing: f64) -> CbtModel {
     let (train, _) = data();
@@ -25,11 +25,7 @@ fn model(layout: Layout, order: Order, spacing: f64) -> CbtModel {
 
 fn stationary() -> CbtModel {
     let (train, _) = data();
-    let spacing = Scales::estimate(&train, W)
-        .unwrap()
-        .fine_spacing(W)
-        .unwrap()
-        .max(2.0);
+    let spacing = stationary_spacing(&train);
     model(Layout::Stationary, Order::Second, spacing)
 }
 

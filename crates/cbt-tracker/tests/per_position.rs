@@ -2,21 +2,15 @@
 //! tracks, it changes the result, it is saved with the tracker and validated on loading, and
 //! only the stationary layout takes it.
 
-use cbt_tracker::{
-    CbtConfig, CbtModel, CbtTracker, Layout, Scales, Space, TrackError, Tracker, Velocity,
-};
+use cbt_tracker::{CbtConfig, CbtModel, CbtTracker, Layout, Space, TrackError, Tracker, Velocity};
 use serde_json::Value;
 
 mod common;
-use common::{H, W, data};
+use common::{H, W, data, stationary_spacing};
 
 fn model(velocity: Velocity) -> CbtModel {
     let (train, _) = data();
-    let s = Scales::estimate(&train, W)
-        .unwrap()
-        .fine_spacing(W)
-        .unwrap()
-        .max(2.0);
+    let s = stationary_spacing(&train);
     let cfg = CbtConfig {
         velocity,
         ..CbtConfig::stationary()

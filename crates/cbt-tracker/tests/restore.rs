@@ -3,20 +3,16 @@
 //! order, with and without self-learning (whose online-learning history is part of the state).
 
 use cbt_tracker::{
-    CbtConfig, CbtModel, CbtTracker, Layout, Order, Scales, Sequence, Space, TrackError, Tracker,
+    CbtConfig, CbtModel, CbtTracker, Layout, Order, Sequence, Space, TrackError, Tracker,
 };
 use serde_json::Value;
 
 mod common;
-use common::{H, W, data};
+use common::{H, W, data, stationary_spacing};
 
 fn model(train: &[Sequence], layout: Layout, order: Order) -> CbtModel {
     let (cfg, spacing) = if layout == Layout::Stationary {
-        let s = Scales::estimate(train, W)
-            .unwrap()
-            .fine_spacing(W)
-            .unwrap()
-            .max(2.0);
+        let s = stationary_spacing(train);
         (CbtConfig::stationary(), s)
     } else {
         (CbtConfig::default(), 8.0)

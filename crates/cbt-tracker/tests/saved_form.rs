@@ -11,11 +11,11 @@
 use cbt_tracker::sim::Ungm;
 use cbt_tracker::{
     CbtConfig, CbtModel, CbtTracker, DEFAULT_KERNEL, Displacements, Layout, ObservationFallback,
-    Order, PeriodicInput, Scales, Space, StartMotion, Tracker, axis,
+    Order, PeriodicInput, Space, StartMotion, Tracker, axis,
 };
 
 mod common;
-use common::{H, W, data};
+use common::{H, W, data, stationary_spacing};
 
 /// The scripted trackers: `(file name, tracker)`.
 fn scripted() -> Vec<(String, CbtTracker)> {
@@ -24,11 +24,7 @@ fn scripted() -> Vec<(String, CbtTracker)> {
     for layout in [Layout::Separable, Layout::SparseJoint, Layout::Stationary] {
         for order in [Order::First, Order::Second] {
             let (cfg, spacing) = if layout == Layout::Stationary {
-                let s = Scales::estimate(&train, W)
-                    .unwrap()
-                    .fine_spacing(W)
-                    .unwrap()
-                    .max(2.0);
+                let s = stationary_spacing(&train);
                 // The files predate the learned start and the interpolated displacements.
                 let cfg = CbtConfig {
                     start: StartMotion::Marginal,

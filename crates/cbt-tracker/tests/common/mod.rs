@@ -1,7 +1,8 @@
-//! Data shared by the save-and-load tests (`corrupt`, `restore`).
+//! Data shared by the save-and-load tests (`corrupt`, `restore`, `saved_form`) and
+//! `per_position`.
 
-use cbt_tracker::Sequence;
 use cbt_tracker::sim::{Level, Scenario, generate};
+use cbt_tracker::{Scales, Sequence};
 
 /// Image width and height of the shared data.
 pub const W: f64 = 96.0;
@@ -18,4 +19,14 @@ pub fn data() -> (Vec<Sequence>, Sequence) {
     let train = generate(&sc, &level, 2, 60, 41).unwrap();
     let test = generate(&sc, &level, 1, 30, 42).unwrap().remove(0);
     (train, test)
+}
+
+/// The stationary layout's grid spacing for `train`: the estimated scales' fine spacing on
+/// this image, at least 2 px.
+pub fn stationary_spacing(train: &[Sequence]) -> f64 {
+    Scales::estimate(train, W)
+        .unwrap()
+        .fine_spacing(W)
+        .unwrap()
+        .max(2.0)
 }
