@@ -180,4 +180,5 @@ pub use io::{BINARY_FORMAT_VERSION, METRIC_TOLERANCE};
 pub use model::{Lwpr, PredictionWithConfidence, PredictionWithJacobian, RfView};
 pub use params::{
     Arithmetic, Kernel, LwprBuilder, MAX_ABS_VALUE, MAX_INPUTS, MAX_OUTPUTS, Params, PruneRule,
+    check_sizes,
 };

@@ -327,8 +327,10 @@ impl Params {
     }
 }
 
-/// Checks `n_in ≤ MAX_INPUTS` and `n_out ≤ MAX_OUTPUTS`.
-fn check_sizes(n_in: usize, n_out: usize) -> Result<()> {
+/// Checks `n_in ≤ MAX_INPUTS` and `n_out ≤ MAX_OUTPUTS` ([`LwprError::TooBig`] otherwise), the
+/// check [`LwprBuilder::new`] makes; for callers that allocate per-dimension vectors (norms)
+/// before building.
+pub fn check_sizes(n_in: usize, n_out: usize) -> Result<()> {
     for (what, got, max) in [("n_in", n_in, MAX_INPUTS), ("n_out", n_out, MAX_OUTPUTS)] {
         if got > max {
             return Err(LwprError::TooBig { what, got, max });

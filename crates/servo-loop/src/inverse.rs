@@ -130,14 +130,7 @@ impl InverseModel {
         }
         // LWPR's limits, before the norm vectors are allocated (a huge dimension used to panic
         // with a capacity overflow there, before the builder could refuse it).
-        if percept_dim > lwpr::MAX_INPUTS || command_dim > lwpr::MAX_OUTPUTS {
-            let (what, got, max) = if percept_dim > lwpr::MAX_INPUTS {
-                ("n_in", percept_dim, lwpr::MAX_INPUTS)
-            } else {
-                ("n_out", command_dim, lwpr::MAX_OUTPUTS)
-            };
-            return Err(lwpr::LwprError::TooBig { what, got, max }.into());
-        }
+        lwpr::check_sizes(percept_dim, command_dim)?;
         let lwpr = LwprBuilder::new(percept_dim, command_dim)
             .norm_in(&vec![config.percept_scale; percept_dim])
             .norm_out(&vec![config.command_scale; command_dim])
