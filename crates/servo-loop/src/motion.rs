@@ -77,8 +77,10 @@ impl MotionConfig {
     }
 }
 
-/// The learned motion check (module doc): remembered percepts and the threshold.
+/// The learned motion check (module doc): remembered percepts and the threshold. A saved
+/// check is checked as it is read (settings, dimensions, every remembered pair, the scale).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "MotionCheckFile")]
 pub struct MotionCheck {
     config: MotionConfig,
     percept_dim: usize,
@@ -89,6 +91,83 @@ pub struct MotionCheck {
     trained: usize,
     /// The learned quantile `q` of the leave-one-out residuals.
     scale: f64,
+}
+
+/// A [`MotionCheck`] as read, before its checks.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MotionCheckFile {
+    config: MotionConfig,
+    percept_dim: usize,
+    command_dim: usize,
+    memory: Vec<(Vec<f64>, Vec<f64>)>,
+    trained: usize,
+    scale: f64,
+}
+
+impl TryFrom<MotionCheckFile> for MotionCheck {
+    type Error = ServoError;
+
+    fn try_from(f: MotionCheckFile) -> Result<Self> {
+        f.config.validate()?;
+        check_dims(&f.config, f.percept_dim, f.command_dim)?;
+        check_samples(&f.memory, f.percept_dim, f.command_dim)?;
+        if f.trained == 0 || f.trained > f.memory.len() {
+            return Err(ServoError::invalid(
+                "trained",
+                "must count at least one and at most the remembered percepts",
+            ));
+        }
+        if !(f.scale.is_finite() && f.scale >= 0.0) {
+            return Err(ServoError::invalid("scale", "must be finite and ≥ 0"));
+        }
+        Ok(MotionCheck {
+            config: f.config,
+            percept_dim: f.percept_dim,
+            command_dim: f.command_dim,
+            memory: f.memory,
+            trained: f.trained,
+            scale: f.scale,
+        })
+    }
+}
+
+/// Checks the dimensions against each other and the settings: 2 coordinates per camera, a
+/// non-empty command, enough neighbours for a local linear fit.
+fn check_dims(config: &MotionConfig, percept_dim: usize, command_dim: usize) -> Result<()> {
+    if percept_dim == 0 || !percept_dim.is_multiple_of(2) || command_dim == 0 {
+        return Err(ServoError::invalid(
+            "samples",
+            "percepts of 2 coordinates per camera and a non-empty command",
+        ));
+    }
+    if config.neighbours < command_dim + 2 {
+        return Err(ServoError::invalid(
+            "neighbours",
+            "at least the command dimension + 2 (a local linear fit)",
+        ));
+    }
+    Ok(())
+}
+
+/// Checks every `(percept, command)` pair's dimensions and values.
+fn check_samples(
+    samples: &[(Vec<f64>, Vec<f64>)],
+    percept_dim: usize,
+    command_dim: usize,
+) -> Result<()> {
+    for (x, y) in samples {
+        if x.len() != percept_dim || y.len() != command_dim {
+            return Err(ServoError::DimensionMismatch {
+                what: "motion check sample (percept + command)",
+                expected: percept_dim + command_dim,
+                got: x.len() + y.len(),
+            });
+        }
+        check_finite("sample percept", x)?;
+        check_finite("sample command", y)?;
+    }
+    Ok(())
 }
 
 /// Largest 2-D distance over the cameras (pairs of coordinates).
@@ -112,29 +191,8 @@ impl MotionCheck {
             ));
         };
         let (percept_dim, command_dim) = (x0.len(), y0.len());
-        if percept_dim == 0 || percept_dim % 2 != 0 || command_dim == 0 {
-            return Err(ServoError::invalid(
-                "samples",
-                "percepts of 2 coordinates per camera and a non-empty command",
-            ));
-        }
-        if config.neighbours < command_dim + 2 {
-            return Err(ServoError::invalid(
-                "neighbours",
-                "at least the command dimension + 2 (a local linear fit)",
-            ));
-        }
-        for (x, y) in samples {
-            if x.len() != percept_dim || y.len() != command_dim {
-                return Err(ServoError::DimensionMismatch {
-                    what: "motion check sample (percept + command)",
-                    expected: percept_dim + command_dim,
-                    got: x.len() + y.len(),
-                });
-            }
-            check_finite("sample percept", x)?;
-            check_finite("sample command", y)?;
-        }
+        check_dims(config, percept_dim, command_dim)?;
+        check_samples(samples, percept_dim, command_dim)?;
         if samples.len() <= config.neighbours {
             return Err(ServoError::NotEnoughData(format!(
                 "the motion check needs more than {} training samples",
@@ -446,5 +504,29 @@ mod tests {
         let mut c = check.clone();
         assert!(c.remember(&[1.0; 4], &[f64::INFINITY, 0.0]).is_err());
         assert_eq!(c, check, "nothing remembered on an error");
+    }
+
+    #[test]
+    fn a_saved_check_is_checked_as_it_is_read() {
+        let check = MotionCheck::learn(&grid(), &config()).unwrap();
+        let json = serde_json::to_value(&check).unwrap();
+        let back: MotionCheck = serde_json::from_value(json.clone()).unwrap();
+        assert_eq!(back, check);
+        // Each edit would make `judge` index out of bounds or compare against nonsense.
+        let edits: [(&str, serde_json::Value); 5] = [
+            ("/memory/7/0", serde_json::json!([1.0, 2.0, 3.0])),
+            ("/memory/7/1/0", serde_json::Value::Null),
+            ("/trained", serde_json::json!(100_000)),
+            ("/scale", serde_json::json!(-1.0)),
+            ("/command_dim", serde_json::json!(3)),
+        ];
+        for (path, value) in edits {
+            let mut bad = json.clone();
+            *bad.pointer_mut(path).unwrap() = value;
+            assert!(
+                serde_json::from_value::<MotionCheck>(bad).is_err(),
+                "{path} accepted"
+            );
+        }
     }
 }
