@@ -922,7 +922,8 @@ pub fn run_study(
     recognition_model: Option<LearnedRecogniser>,
 ) -> Result<Study> {
     let (snaps, training, samples) = train(config, p, progress)?;
-    // The motion check (when on) learned from the training moves each model saw.
+    // The motion check (when on) learned from the training moves each model saw, once per
+    // snapshot (the main model's is the snapshot at `training_moves`).
     let curve_protocols = snaps
         .iter()
         .map(|(k, _)| {
@@ -935,11 +936,11 @@ pub fn run_study(
             ))
         })
         .collect::<Result<Vec<_>>>()?;
-    let main_protocol = Protocol {
-        motion_check: learn_motion(p, &samples, p.training_moves)?,
-        ..p.clone()
-    };
-    let p = &main_protocol;
+    let p = curve_protocols
+        .iter()
+        .find(|(k, _)| *k == p.training_moves)
+        .map(|(_, q)| q)
+        .ok_or("no snapshot at the training size")?;
     let learn = training.learn;
     let actions = Actions {
         recognition: recognition_model.as_ref().map_or(0, |r| r.2),
