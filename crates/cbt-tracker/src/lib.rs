@@ -141,7 +141,9 @@
 //!   levels (2.13/5.09 px against 2.19/5.19, measured with `S` also counted at the
 //!   coordinates), not at the hard level or on five tracks (20.21
 //!   against 19.63; easy on five tracks 2.77 against 2.37); before them it made the synthetic
-//!   RC-car sets worse at L2–L4 (L4 13.65 → 18.03 px).
+//!   RC-car sets worse at L2–L4 (L4 13.65 → 18.03 px). Measured again with the current
+//!   defaults: 2.13/5.06/19.73 px trained on the other scenes (hard: best against the
+//!   baselines in 9 of 16 against 7, at a higher mean), 2.56/6.17/20.23 on five tracks.
 //!
 //! - **A known input** (a system model that depends on time, e.g. UNGM's drive
 //!   `8·cos(1.2k)`): [`CbtConfig::input`] with a [`PeriodicInput`] conditions the first-order
