@@ -114,7 +114,8 @@ pub enum StartMotion {
     /// the direction is not taken from the training scenes (isotropic), while the speed at
     /// which targets are first seen still is. For tracks whose direction differs from the
     /// training runs' (the pedestrian study's `biwi_hotel`, walking along y, trained on
-    /// scenes walked along x). Stationary layout only.
+    /// scenes walked along x). Stationary layout only. An option, not the default: measured
+    /// in docs/methods.md § Tracking, "The hard level".
     Pooled,
 }
 
