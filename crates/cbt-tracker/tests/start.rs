@@ -264,7 +264,7 @@ fn a_pooled_start_predicts_with_the_axes_average() {
         p.stationary_first_step(1).unwrap(),
     );
     assert_eq!(sx, sy);
-    let r = (sy.len() / 2) as usize;
+    let r = sy.len() / 2;
     let walking = |v: &[f64]| v[r + 3..=r + 5].iter().sum::<f64>();
     assert!(walking(&sy) > 0.3, "{}", walking(&sy));
     assert!(walking(l.stationary_first_step(1).as_deref().unwrap()) < 0.05);
