@@ -107,12 +107,28 @@ pub enum StartMotion {
     /// broad prior, never the spike at zero displacement that standing targets put into `S`.
     /// Stationary layout only.
     Learned,
+    /// The start density of [`StartMotion::Learned`], learned per axis as there, and the
+    /// first step after a start predicted on every axis with the average of the axes' start
+    /// densities (aligned by displacement; on an axis of smaller radius the part beyond it
+    /// is dropped and the rest renormalised): a start says nothing about the direction, so
+    /// the direction is not taken from the training scenes (isotropic), while the speed at
+    /// which targets are first seen still is. For tracks whose direction differs from the
+    /// training runs' (the pedestrian study's `biwi_hotel`, walking along y, trained on
+    /// scenes walked along x). Stationary layout only. An option, not the default: measured
+    /// in docs/methods.md § Tracking, "The hard level".
+    Pooled,
 }
 
 impl StartMotion {
     /// Whether this is [`StartMotion::Marginal`] (the default, not written to saved files).
     pub fn is_marginal(&self) -> bool {
         *self == StartMotion::Marginal
+    }
+
+    /// Whether a start density is learned from the training runs' first displacements
+    /// ([`StartMotion::Learned`] or [`StartMotion::Pooled`]).
+    pub fn is_learned(&self) -> bool {
+        matches!(self, StartMotion::Learned | StartMotion::Pooled)
     }
 }
 
@@ -411,7 +427,7 @@ impl CbtConfig {
                 reason: "held-out observation smoothing needs the stationary layout",
             });
         }
-        if self.start == StartMotion::Learned && self.layout != Layout::Stationary {
+        if self.start.is_learned() && self.layout != Layout::Stationary {
             return Err(TrackError::InvalidParameter {
                 name: "start",
                 value: 1.0,

@@ -583,12 +583,26 @@ impl CbtModel {
         }
     }
 
-    /// The stationary layout's displacement distribution of the first step after a start on
-    /// axis `d` (`δ ∈ [−r, r]`): the start density `S₀` with
-    /// [`StartMotion::Learned`](crate::StartMotion), `S` otherwise; `None` for other layouts.
+    /// The stationary layout's start density of axis `d` (`δ ∈ [−r, r]`): the axis's own
+    /// `S₀` with [`StartMotion::Learned`](crate::StartMotion) or
+    /// [`StartMotion::Pooled`](crate::StartMotion), `S` otherwise; `None` for other layouts.
+    /// What the filter's first step uses: [`Self::stationary_first_step`].
     pub fn stationary_start(&self, d: usize) -> Option<&[f64]> {
         match &self.sys {
             SystemModel::Stationary(s) => s.get(d).map(|s| s.start()),
+            _ => None,
+        }
+    }
+
+    /// The displacement distribution the stationary filter's first step after a start uses
+    /// on axis `d` (`δ ∈ [−r, r]`): [`Self::stationary_start`], or with
+    /// [`StartMotion::Pooled`](crate::StartMotion) the average over the axes of theirs;
+    /// `None` for other layouts or a missing axis.
+    pub fn stationary_first_step(&self, d: usize) -> Option<Vec<f64>> {
+        match &self.sys {
+            SystemModel::Stationary(s) if d < s.len() => {
+                Some(crate::stationary::start_density(s, d, self.config.start))
+            }
             _ => None,
         }
     }

@@ -44,6 +44,13 @@ fn learned() -> CbtConfig {
     }
 }
 
+fn pooled() -> CbtConfig {
+    CbtConfig {
+        start: StartMotion::Pooled,
+        ..CbtConfig::stationary()
+    }
+}
+
 fn marginal() -> CbtConfig {
     CbtConfig {
         start: StartMotion::Marginal,
@@ -194,18 +201,139 @@ fn the_image_tracking_configuration_learns_its_start() {
 
 #[test]
 fn a_learned_start_needs_the_stationary_layout() {
-    let cfg = CbtConfig {
-        start: StartMotion::Learned,
-        layout: Layout::Separable,
-        ..CbtConfig::default()
-    };
-    assert!(matches!(
-        cfg.validate(),
-        Err(TrackError::InvalidParameter { name: "start", .. })
-    ));
-    let train = enter_and_stand(3, 4.0, 2, 10);
-    assert!(matches!(
-        CbtModel::learn(integer_space(60), cfg, &train),
-        Err(TrackError::InvalidParameter { name: "start", .. })
-    ));
+    for start in [StartMotion::Learned, StartMotion::Pooled] {
+        let cfg = CbtConfig {
+            start,
+            layout: Layout::Separable,
+            ..CbtConfig::default()
+        };
+        assert!(matches!(
+            cfg.validate(),
+            Err(TrackError::InvalidParameter { name: "start", .. })
+        ));
+        let train = enter_and_stand(3, 4.0, 2, 10);
+        assert!(matches!(
+            CbtModel::learn(integer_space(60), cfg, &train),
+            Err(TrackError::InvalidParameter { name: "start", .. })
+        ));
+    }
+}
+
+/// The average of the axes' start densities for axis `d`, aligned by displacement and cut
+/// to axis `d`'s radius (brute force).
+fn axes_average(m: &CbtModel, d: usize) -> Vec<f64> {
+    let own = m.stationary_start(d).unwrap();
+    let r = (own.len() / 2) as i64;
+    let mut out = vec![0.0; own.len()];
+    for e in 0..2 {
+        let v = m.stationary_start(e).unwrap();
+        let re = (v.len() / 2) as i64;
+        for delta in -r..=r {
+            if delta.abs() <= re {
+                out[(delta + r) as usize] += v[(delta + re) as usize];
+            }
+        }
+    }
+    let s: f64 = out.iter().sum();
+    out.iter().map(|x| x / s).collect()
+}
+
+#[test]
+fn a_pooled_start_predicts_with_the_axes_average() {
+    // Walkers entering along x only: the per-axis start densities differ (x at +4, y at 0).
+    let train = enter_and_stand(20, 4.0, 2, 30);
+    let space = integer_space(120);
+    let l = CbtModel::learn(space.clone(), learned(), &train).unwrap();
+    let p = CbtModel::learn(space.clone(), pooled(), &train).unwrap();
+    for d in 0..2 {
+        // The same per-axis learning; the learned start's first step is the axis's own.
+        assert_eq!(p.stationary_start(d), l.stationary_start(d));
+        assert_eq!(
+            l.stationary_first_step(d).unwrap(),
+            l.stationary_start(d).unwrap()
+        );
+        let (got, want) = (p.stationary_first_step(d).unwrap(), axes_average(&p, d));
+        assert_eq!(got.len(), want.len());
+        for (a, b) in got.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-15, "{a} against {b}");
+        }
+    }
+    // Along y nobody entered, but the pooled start walks there as along x.
+    let (sx, sy) = (
+        p.stationary_first_step(0).unwrap(),
+        p.stationary_first_step(1).unwrap(),
+    );
+    assert_eq!(sx, sy);
+    let r = sy.len() / 2;
+    let walking = |v: &[f64]| v[r + 3..=r + 5].iter().sum::<f64>();
+    assert!(walking(&sy) > 0.3, "{}", walking(&sy));
+    assert!(walking(l.stationary_first_step(1).as_deref().unwrap()) < 0.05);
+    assert!(p.stationary_first_step(2).is_none());
+}
+
+#[test]
+fn the_first_prediction_is_the_pooled_convolution() {
+    // Brute force over the grid: q⁻[i, j] = (1 − γ)·Σ_{a,b} q[a, b]·S̄(i − a)·S̄(j − b) + γ/G
+    // with S̄ the axes' average start density; the filter cuts tails of at most 1e-5.
+    let train = enter_and_stand(12, 3.0, 2, 20);
+    let space = integer_space(64);
+    let m = CbtModel::learn(space.clone(), pooled(), &train).unwrap();
+    let gamma = m.config().mixing;
+    let k = [
+        m.stationary_first_step(0).unwrap(),
+        m.stationary_first_step(1).unwrap(),
+    ];
+    let r = [(k[0].len() / 2) as i64, (k[1].len() / 2) as i64];
+    let mut t = CbtTracker::new(m);
+    t.reset([20.0, 17.0]).unwrap();
+    let ([i0, j0], [h, w]) = t.posterior_window().unwrap();
+    let q = t.posterior().to_vec();
+    let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+    let g = (nx * ny) as f64;
+    let mut want = vec![gamma / g; nx * ny];
+    for a in 0..h {
+        for b in 0..w {
+            let v = q[a * w + b];
+            for i in 0..nx as i64 {
+                let dx = i - (i0 + a) as i64;
+                if dx.abs() > r[0] {
+                    continue;
+                }
+                for j in 0..ny as i64 {
+                    let dy = j - (j0 + b) as i64;
+                    if dy.abs() <= r[1] {
+                        want[i as usize * ny + j as usize] += (1.0 - gamma)
+                            * v
+                            * k[0][(dx + r[0]) as usize]
+                            * k[1][(dy + r[1]) as usize];
+                    }
+                }
+            }
+        }
+    }
+    let s: f64 = want.iter().sum();
+    want.iter_mut().for_each(|x| *x /= s);
+    let got = t.predict();
+    let max = want.iter().cloned().fold(0.0, f64::max);
+    for (a, b) in got.iter().zip(&want) {
+        assert!((a - b).abs() <= 1e-4 * max, "{a} against {b}");
+    }
+    // And so a target entering along y (nobody did in training) is predicted to walk: the
+    // prior's y marginal holds mass two and more channels ahead of the start.
+    let ahead: f64 = (0..nx)
+        .flat_map(|i| (18..ny).map(move |j| (i, j)))
+        .map(|(i, j)| got[i * ny + j])
+        .sum();
+    assert!(ahead > 0.3, "{ahead}");
+}
+
+#[test]
+fn a_pooled_start_round_trips() {
+    let train = enter_and_stand(5, 4.0, 2, 10);
+    let m = CbtModel::learn(integer_space(120), pooled(), &train).unwrap();
+    let text = serde_json::to_string(&m).unwrap();
+    assert!(text.contains("\"start\":\"pooled\""));
+    let back: CbtModel = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, m);
+    assert_eq!(back.stationary_first_step(1), m.stationary_first_step(1));
 }

@@ -144,7 +144,7 @@ impl PosKernels {
             match vel.of(c).filter(|v| v.len() == w) {
                 Some(cv) => {
                     let mut k = Kernel1::default();
-                    displacement_from(sys, cv, Order::Second, false, work, &mut k);
+                    displacement_from(sys, cv, Order::Second, None, work, &mut k);
                     each.push(k);
                 }
                 None => each.push(fallback.clone()),

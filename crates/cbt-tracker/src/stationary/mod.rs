@@ -15,5 +15,7 @@ mod pool;
 mod simd;
 mod window;
 
-pub(crate) use model::{StatObservation, StatSystem, check_space, coordinate_runs, motion_radius};
+pub(crate) use model::{
+    StatObservation, StatSystem, check_space, coordinate_runs, motion_radius, start_density,
+};
 pub(crate) use window::{Patch, WindowState};

@@ -37,7 +37,8 @@
 //! biases `T[· | v]` toward the bulk of the training velocities). With
 //! [`StartMotion::Learned`] the first displacement of every run is also counted into `C_0`,
 //! and `S_0[δ] = (C_0[δ] + α·N(δ; 0, σ_0²)) / (Σ C_0 + α)` with `σ_0` the root mean square
-//! displacement of `S` predicts the first step after a start.
+//! displacement of `S` predicts the first step after a start; with [`StartMotion::Pooled`]
+//! every axis's first step uses the average of the axes' `S_0` ([`start_density`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -529,6 +530,34 @@ pub(crate) fn tail_band(v: &[f64], share: f64) -> (usize, usize) {
     (lo, hi)
 }
 
+/// The displacement distribution of the first step after a start on axis `d` (`δ = i − r_d`):
+/// the axis's own [`StatSystem::start`], or with [`StartMotion::Pooled`] the average over the
+/// axes of theirs, aligned by displacement, cut to axis `d`'s radius and renormalised.
+pub(crate) fn start_density(sys: &[StatSystem], d: usize, start: StartMotion) -> Vec<f64> {
+    let own = sys[d].start();
+    if start != StartMotion::Pooled || sys.len() < 2 {
+        return own.to_vec();
+    }
+    let r = sys[d].r as i64;
+    let mut out = vec![0.0; own.len()];
+    for s in sys {
+        let (rs, v) = (s.r as i64, s.start());
+        for (i, o) in out.iter_mut().enumerate() {
+            let j = i as i64 - r + rs;
+            if (0..v.len() as i64).contains(&j) {
+                *o += v[j as usize];
+            }
+        }
+    }
+    let total: f64 = out.iter().sum();
+    if total > 0.0 {
+        out.iter_mut().for_each(|x| *x /= total);
+    } else {
+        out.copy_from_slice(own);
+    }
+    out
+}
+
 /// Mass share of `T[· | v]` the prediction may skip in each tail of a column.
 const BAND_TAIL: f64 = 1e-9;
 
@@ -541,7 +570,7 @@ impl StatSystem {
             c2: vec![0.0; w * w],
             s1: vec![0.0; w],
             t: vec![0.0; w * w],
-            c0: if cfg.start == StartMotion::Learned {
+            c0: if cfg.start.is_learned() {
                 vec![0.0; w]
             } else {
                 Vec::new()
@@ -572,7 +601,7 @@ impl StatSystem {
             len(what, v.len(), n)?;
             nonneg(what, v)?;
         }
-        let learned = cfg.start == StartMotion::Learned;
+        let learned = cfg.start.is_learned();
         for (what, v) in [("start counts", &self.c0), ("start density", &self.s0)] {
             if learned {
                 len(what, v.len(), w)?;
@@ -715,7 +744,7 @@ impl StatSystem {
         for ((s1, &c), &g) in self.s1.iter_mut().zip(&self.c1).zip(&g0) {
             *s1 = (c + alpha * g) / (m1 + alpha);
         }
-        if cfg.start == StartMotion::Learned {
+        if cfg.start.is_learned() {
             // The broad prior: zero mean, as wide as S's root mean square displacement.
             let m2: f64 = self
                 .s1

@@ -9,7 +9,8 @@
 //!    `D_d[δ] = Σ_v c_d[v] T_d[δ | v]`; first order: `D_d = S_d`, the learned displacement
 //!    distribution (the velocities' marginal). The first step after a start (a position
 //!    without a velocity) predicts with the start density `S₀_d` learned from the training
-//!    runs' first displacements ([`StartMotion::Learned`](crate::StartMotion)) or with `S_d`
+//!    runs' first displacements ([`StartMotion::Learned`](crate::StartMotion); with
+//!    [`StartMotion::Pooled`](crate::StartMotion) the axes' average) or with `S_d`
 //!    ([`StartMotion::Marginal`](crate::StartMotion)), rather than `T_d[· | v = 0]`, which
 //!    would claim the target stands still. The velocity is part of the filter's state (`(x, v)` factored as
 //!    `q(x)·c_x(v_x)·c_y(v_y)`), not re-derived from the last two posteriors: a correlation of
@@ -63,7 +64,7 @@ use serde::{Deserialize, Serialize};
 
 use super::coupled::{self, PosKernels, PositionVelocity};
 use super::cover::{self, Block};
-use super::model::{StatObservation, StatSystem, tail_band};
+use super::model::{StatObservation, StatSystem, start_density, tail_band};
 use super::pool::{self, refill};
 use super::simd::{
     Tap, axpy, axpy_inline, axpy_taps, column_sum, column_totals, conv_cols, conv_rows, correlate,
@@ -469,17 +470,17 @@ impl WindowState {
     }
 
     /// Displacement kernel of axis `d` (step 1 of the module doc) into `k`, with `work` as
-    /// the work buffers.
+    /// the work buffers; `start`: the start density (the first step after a start).
     fn displacement_into(
         &self,
         sys: &StatSystem,
         d: usize,
         order: Order,
-        fresh: bool,
+        start: Option<&[f64]>,
         work: &mut DispWork,
         k: &mut Kernel1,
     ) {
-        displacement_from(sys, &self.vel[d], order, fresh, work, k);
+        displacement_from(sys, &self.vel[d], order, start, work, k);
     }
 
     /// `(1 − γ)·(q ⊛ D)` on `rect`, plus `γ/G`, into `out` (row-major over the rect).
@@ -784,9 +785,12 @@ impl WindowState {
     fn kernels(&mut self, sys: &[StatSystem], cfg: &CbtConfig) -> (Kernel1, Kernel1) {
         let (mut kx, mut ky) = std::mem::take(&mut self.scratch.kernels);
         let mut work = std::mem::take(&mut self.scratch.disp);
-        let fresh = self.fresh;
-        self.displacement_into(&sys[0], 0, cfg.order, fresh, &mut work, &mut kx);
-        self.displacement_into(&sys[1], 1, cfg.order, fresh, &mut work, &mut ky);
+        let starts = self
+            .fresh
+            .then(|| [0, 1].map(|d| start_density(sys, d, cfg.start)));
+        let start = |d: usize| starts.as_ref().map(|s| &s[d][..]);
+        self.displacement_into(&sys[0], 0, cfg.order, start(0), &mut work, &mut kx);
+        self.displacement_into(&sys[1], 1, cfg.order, start(1), &mut work, &mut ky);
         self.fresh = false;
         self.scratch.pos = None;
         if cfg.velocity == Velocity::PerPosition && cfg.order == Order::Second {
@@ -1334,12 +1338,13 @@ impl WindowState {
 
 /// The displacement kernel of one axis (step 1 of the module doc) for the carried velocity
 /// distribution `c` (`c[v + r]`; any other length: unknown, the first order's `S_d`), into
-/// `k`, with `work` as the work buffers; `fresh`: the start density.
+/// `k`, with `work` as the work buffers; `start`: the first step after a start, with this
+/// start density (of `S_d`'s length).
 pub(super) fn displacement_from(
     sys: &StatSystem,
     c: &[f64],
     order: Order,
-    fresh: bool,
+    start: Option<&[f64]>,
     work: &mut DispWork,
     k: &mut Kernel1,
 ) {
@@ -1348,10 +1353,10 @@ pub(super) fn displacement_from(
     let w = (2 * r + 1) as usize;
     out.clear();
     out.resize(w, 0.0);
-    match order {
-        _ if fresh => out.copy_from_slice(sys.start()),
-        Order::First => out.copy_from_slice(sys.first()),
-        Order::Second => {
+    match (start, order) {
+        (Some(s), _) => out.copy_from_slice(s),
+        (None, Order::First) => out.copy_from_slice(sys.first()),
+        (None, Order::Second) => {
             if c.len() == w {
                 // Column v of T (zeroed outside its band: the zeros add +0) times c[v],
                 // added to `out` by increasing v.

@@ -131,6 +131,8 @@ pub enum StartArg {
     Marginal,
     /// `StartMotion::Learned`.
     Learned,
+    /// `StartMotion::Pooled`.
+    Pooled,
 }
 
 /// File format of the user's sequences.
@@ -292,6 +294,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         study::set_start(match m {
             StartArg::Marginal => cbt_tracker::StartMotion::Marginal,
             StartArg::Learned => cbt_tracker::StartMotion::Learned,
+            StartArg::Pooled => cbt_tracker::StartMotion::Pooled,
         });
     }
     if let Some(m) = args.displacements {
