@@ -128,6 +128,7 @@ mod learn;
 mod motion;
 mod plant;
 pub mod recognition;
+pub mod recovery;
 mod robot;
 mod servo;
 mod target;
@@ -148,6 +149,7 @@ pub use recognition::{
     RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
     choose_consistent,
 };
+pub use recovery::{Recovery, RefusedMove};
 pub use robot::Robot;
 pub use servo::{
     BroydenConfig, JacobianAt, RangePolicy, ServoAbort, ServoConfig, ServoResult, ServoRun,
