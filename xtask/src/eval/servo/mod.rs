@@ -488,11 +488,14 @@ pub fn run_method(
             let [recaptured, refused_c, inconsistent] =
                 [0, 1, 2].map(|i| after[i] - counts_before[i]);
             eprintln!(
-                "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {}",
+                "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {} recovery moves {} refused at moves {:?} px {:?}",
                 p.seed,
                 px[AT_DIAG.min(px.len() - 1)],
                 error.as_deref().map(|e| e.split(':').next().unwrap_or("")),
-                run.iterations()
+                run.iterations(),
+                run.recovery_moves,
+                run.refused.iter().map(|r| r.at_move).collect::<Vec<_>>(),
+                px.iter().take(AT_DIAG + 1).map(|e| (e * 100.0).round() / 100.0).collect::<Vec<_>>()
             );
         }
         let converged_at = run.converged.then(|| run.iterations());
