@@ -123,7 +123,9 @@ impl Recovery {
         if norm > 1e-12 && norm.is_finite() {
             d.iter_mut().for_each(|v| *v /= norm);
         } else {
-            d.iter_mut().enumerate().for_each(|(j, v)| *v = f64::from(j == 0));
+            d.iter_mut()
+                .enumerate()
+                .for_each(|(j, v)| *v = f64::from(j == 0));
         }
         d
     }
@@ -192,7 +194,9 @@ mod tests {
             let len = c.iter().zip(&y).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
             assert!((len.sqrt() - 20.0).abs() < 1e-9);
             // The plant's range narrower than the workspace: clamped into it.
-            let c = r.command(&[1500.0; 3], attempt, |_| [1495.0, 1505.0]).unwrap();
+            let c = r
+                .command(&[1500.0; 3], attempt, |_| [1495.0, 1505.0])
+                .unwrap();
             assert!(c.iter().all(|v| (1495.0..=1505.0).contains(v)), "{c:?}");
         }
     }

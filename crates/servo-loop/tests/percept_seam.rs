@@ -473,7 +473,10 @@ fn a_users_recogniser_gets_the_recovery_move() {
         recovery.command(&y0, 0, |j| p.command_range(j)).unwrap()
     );
     assert!(run.moves() <= 5, "the budget: the first guess and 4 moves");
-    assert!(run.steps.len() >= 2, "a correction after the recovered percept");
+    assert!(
+        run.steps.len() >= 2,
+        "a correction after the recovered percept"
+    );
     assert_eq!(p.robot().commands, commands + run.moves());
     // Without it the run stops at the refused first guess.
     p.robot_mut().doubt = 2;

@@ -114,8 +114,7 @@ const Y0: [f64; 3] = [1450.0, 1550.0, 1500.0];
 const GOAL: [f64; 3] = [1500.0, 1500.0, 1520.0];
 
 fn true_jacobian_run(plant: &mut Planted, cfg: &ServoConfig) -> Result<ServoRun, ServoError> {
-    servo_image_jacobian(plant, &Y0, &forward(&GOAL), cfg, |_| Ok(jacobian()))
-        .map_err(|a| a.error)
+    servo_image_jacobian(plant, &Y0, &forward(&GOAL), cfg, |_| Ok(jacobian())).map_err(|a| a.error)
 }
 
 #[test]
@@ -220,7 +219,11 @@ fn recovery_tries_are_bounded_and_failure_is_typed() {
         other => panic!("expected RecoveryFailed, got {other:?}"),
     }
     assert!(abort.error.is_refused_percept());
-    assert_eq!(plant.sent.len(), 3, "the first guess and two recovery moves");
+    assert_eq!(
+        plant.sent.len(),
+        3,
+        "the first guess and two recovery moves"
+    );
     assert_eq!(plant.sent[1], r.command(&Y0, 0, |_| RANGE).unwrap());
     assert_eq!(plant.sent[2], r.command(&Y0, 1, |_| RANGE).unwrap());
     assert_eq!((abort.run.moves(), abort.run.recovery_moves), (3, 2));
@@ -231,8 +234,7 @@ fn recovery_tries_are_bounded_and_failure_is_typed() {
 fn recovery_moves_count_against_the_move_budget() {
     // Budget 1 move after the first guess: one recovery move, no more.
     let mut plant = Planted::new(&Y0, 100.0);
-    let abort =
-        true_jacobian_run(&mut plant, &config(Some(recovery(3)), 1)).unwrap_err();
+    let abort = true_jacobian_run(&mut plant, &config(Some(recovery(3)), 1)).unwrap_err();
     assert!(
         matches!(abort, ServoError::RecoveryFailed { tries: 1, .. }),
         "{abort}"
@@ -302,7 +304,13 @@ fn the_learned_servo_recovers_and_learns_only_accepted_percepts() {
         seed: 9,
         approach: None,
     };
-    learn_control(&mut Planted::new(&[0.0; 3], 0.0), &mut model, &learn, |_, _| {}).unwrap();
+    learn_control(
+        &mut Planted::new(&[0.0; 3], 0.0),
+        &mut model,
+        &learn,
+        |_, _| {},
+    )
+    .unwrap();
     let x_w = forward(&GOAL);
     let y0 = model.predict(&x_w).unwrap();
     let before = model.n_data();

@@ -114,8 +114,10 @@ pub struct ServoArgs {
 /// (docs/methods.md, *Motion check*).
 pub const MEASURED_MOTION_FACTOR: f64 = 3.0;
 
-/// The study's recovery move after a refused servo percept, `(step µs, tries)`, or `None`
-/// (docs/methods.md, *Recovery move after a refused percept*).
+/// The study's recovery move after a refused servo percept, `(step µs, tries)`, or `None`:
+/// off, since 20 µs and 40 µs (2 tries) both missed the adoption rule on the development seeds
+/// (LWPR beyond 1.2× the true-Jacobian servo on two arms; docs/methods.md, *Recovery move after
+/// a refused percept*); `--recovery-step` turns it on.
 pub const STUDY_RECOVERY: Option<(f64, usize)> = None;
 
 /// Recovery moves per refused percept when `--recovery-step` is given without
@@ -495,7 +497,10 @@ pub fn run_method(
                 run.iterations(),
                 run.recovery_moves,
                 run.refused.iter().map(|r| r.at_move).collect::<Vec<_>>(),
-                px.iter().take(AT_DIAG + 1).map(|e| (e * 100.0).round() / 100.0).collect::<Vec<_>>()
+                px.iter()
+                    .take(AT_DIAG + 1)
+                    .map(|e| (e * 100.0).round() / 100.0)
+                    .collect::<Vec<_>>()
             );
         }
         let converged_at = run.converged.then(|| run.iterations());

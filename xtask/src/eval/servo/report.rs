@@ -589,7 +589,9 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             fmt(&br_corr),
             format!("{:.0} %", 100.0 * success.median),
             p90.join("; "),
-            format!("{refused_tests}/{tests} / {refused_runs}/{runs}{recovery} / {refused_training}"),
+            format!(
+                "{refused_tests}/{tests} / {refused_runs}/{runs}{recovery} / {refused_training}"
+            ),
             format!(
                 "{}; {} ({image_refused} of {image_offered})",
                 fmt(&image_px),
