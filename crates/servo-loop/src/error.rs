@@ -55,6 +55,16 @@ pub enum ServoError {
         /// The learned threshold at this move's distance.
         threshold: f64,
     },
+    /// A percept was refused and every recovery move after it ([`crate::Recovery`]) was
+    /// refused too: the run stops where the last move left it.
+    #[error("percept refused and not recovered after {tries} recovery move(s); last: {last}")]
+    RecoveryFailed {
+        /// Recovery moves made.
+        tries: usize,
+        /// The last refusal ([`ServoError::PerceptRefused`] or
+        /// [`ServoError::PerceptInconsistent`]).
+        last: Box<ServoError>,
+    },
     /// A command left the servo range; nothing was sent.
     #[error("command for joint {joint} is {value:.1}, outside the servo range [{min}, {max}]")]
     OutOfServoRange {
@@ -137,6 +147,18 @@ pub enum ServoError {
 }
 
 impl ServoError {
+    /// Whether this error is a refused percept: doubted ([`ServoError::PerceptRefused`]),
+    /// inconsistent with the commanded move ([`ServoError::PerceptInconsistent`]) or not
+    /// recovered ([`ServoError::RecoveryFailed`]). The loop stopped instead of moving on it.
+    pub fn is_refused_percept(&self) -> bool {
+        matches!(
+            self,
+            ServoError::PerceptRefused { .. }
+                | ServoError::PerceptInconsistent { .. }
+                | ServoError::RecoveryFailed { .. }
+        )
+    }
+
     /// [`ServoError::InvalidParameter`] for `name`, rejected because of `reason`.
     pub(crate) fn invalid(name: &'static str, reason: &str) -> ServoError {
         ServoError::InvalidParameter {

@@ -97,6 +97,15 @@
 //! [`check_image_target`] checks a user's pixel target the same way (one 3-D point, inside
 //! the learned model) before any move.
 //!
+//! A refused percept need not end a run: with [`ServoConfig::recovery`] ([`Recovery`],
+//! [`recovery`]) every loop answers it with a small known move from the refused command (a
+//! seeded direction, reflected into the learned workspace, executed like every move) and a
+//! fresh percept, up to a bounded number of tries, and goes on from the first accepted one;
+//! the refused percept itself is never used. Every such move is a move made: recorded
+//! ([`ServoRun::refused`], [`ServoRun::recovery_moves`]) and counted against the run's budget
+//! of `max_iterations` moves; when all tries are refused the run stops with
+//! [`ServoError::RecoveryFailed`].
+//!
 //! ## 4. Executing moves on hobby servos ([`approach`])
 //! A servo with a deadband and gear backlash ends where the direction it came from says, and
 //! ignores reversing corrections smaller than its deadband: a plain loop stalls there (on
@@ -128,6 +137,7 @@ mod learn;
 mod motion;
 mod plant;
 pub mod recognition;
+pub mod recovery;
 mod robot;
 mod servo;
 mod target;
@@ -148,6 +158,7 @@ pub use recognition::{
     RecognitionConfig, SilhouetteConfig, SilhouetteReport, TipCorrection, TipModel, TipRule,
     choose_consistent,
 };
+pub use recovery::{Recovery, RefusedMove};
 pub use robot::Robot;
 pub use servo::{
     BroydenConfig, JacobianAt, RangePolicy, ServoAbort, ServoConfig, ServoResult, ServoRun,

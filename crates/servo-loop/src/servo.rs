@@ -16,7 +16,11 @@
 //! - [`open_loop`]: `y₀` only.
 //!
 //! Every run records the percept after each executed move ([`ServoRun::steps`], step 0 = the
-//! first guess), so iteration counts are comparable: one iteration = one executed move.
+//! first guess), so iteration counts are comparable: one iteration = one executed move. With
+//! [`ServoConfig::recovery`] a refused percept is answered by a small known move
+//! ([`crate::recovery`]); such moves are recorded ([`ServoRun::refused`],
+//! [`ServoRun::recovery_moves`]) and count against the same budget: a run makes at most
+//! `max_iterations` moves after the first guess, corrections and recovery moves together.
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -25,6 +29,7 @@ use crate::approach::{Approach, ApproachState};
 use crate::error::{Result, ServoError, check_finite, check_len};
 use crate::inverse::InverseModel;
 use crate::plant::{Observation, Plant, check_command, check_target};
+use crate::recovery::{Recovery, RefusedMove};
 
 /// Where the learned Jacobian is evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -69,6 +74,12 @@ pub struct ServoConfig {
     /// while the error is above the tolerance). For servos with a deadband and backlash.
     #[serde(default)]
     pub approach: Option<Approach>,
+    /// What to do when a percept is refused: `None` stops the run there (the loop never moves
+    /// on a refused percept); `Some` makes up to [`Recovery::tries`] small known moves, each
+    /// followed by a fresh percept, and goes on from the first accepted one. Recovery moves
+    /// count against `max_iterations` ([`crate::recovery`]).
+    #[serde(default)]
+    pub recovery: Option<Recovery>,
 }
 
 impl Default for ServoConfig {
@@ -81,15 +92,19 @@ impl Default for ServoConfig {
             refine_online: true,
             range: RangePolicy::Stop,
             approach: None,
+            recovery: None,
         }
     }
 }
 
 impl ServoConfig {
-    /// Checks `tolerance ≥ 0`, `damping ∈ (0, 1]` and the approach settings.
+    /// Checks `tolerance ≥ 0`, `damping ∈ (0, 1]`, the approach and the recovery settings.
     pub fn validate(&self) -> Result<()> {
         if let Some(a) = &self.approach {
             a.validate()?;
+        }
+        if let Some(r) = &self.recovery {
+            r.validate()?;
         }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(ServoError::InvalidParameter {
@@ -126,36 +141,61 @@ pub struct ServoStep {
 /// The record of a servo run.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ServoRun {
-    /// One entry per executed move; `steps[0]` is the first guess.
+    /// One entry per executed move whose percept was accepted; `steps[0]` is the first
+    /// accepted one (the first guess unless its percept was refused).
     pub steps: Vec<ServoStep>,
     /// Whether the error reached the tolerance.
     pub converged: bool,
+    /// Every executed move whose percept was refused, in order ([`RefusedMove::at_move`]
+    /// places it among all moves made).
+    #[serde(default)]
+    pub refused: Vec<RefusedMove>,
+    /// Recovery moves made after refused percepts ([`ServoConfig::recovery`]; each is in
+    /// `steps` when its percept was accepted, in `refused` otherwise).
+    #[serde(default)]
+    pub recovery_moves: usize,
 }
 
 impl ServoRun {
-    /// Error after the last executed move (`∞` when nothing was executed).
+    /// Error after the last executed move with an accepted percept (`∞` when there is none).
     pub fn final_error(&self) -> f64 {
         self.steps.last().map_or(f64::INFINITY, |s| s.error)
     }
 
-    /// Number of corrections executed after the first guess.
-    pub fn iterations(&self) -> usize {
-        self.steps.len().saturating_sub(1)
+    /// Moves made: executed commands, observed (pre-positions not counted), whether their
+    /// percept was accepted or refused.
+    pub fn moves(&self) -> usize {
+        self.steps.len() + self.refused.len()
     }
 
-    /// Error after iteration `k`, holding the last value after the run stopped (`∞` when
-    /// nothing was executed).
+    /// Moves made after the first guess (corrections, and recovery moves after refused
+    /// percepts).
+    pub fn iterations(&self) -> usize {
+        self.moves().saturating_sub(1)
+    }
+
+    /// Percept error after move `k` (0 = the first guess): that of the last accepted percept
+    /// at or before move `k`, holding the last value after the run stopped (`∞` when no
+    /// percept was accepted by then).
     pub fn error_at(&self, k: usize) -> f64 {
-        if self.steps.is_empty() {
-            return f64::INFINITY;
+        let mut error = f64::INFINITY;
+        let mut steps = self.steps.iter();
+        for m in 0..=k.min(self.moves().saturating_sub(1)) {
+            if self.refused.iter().any(|r| r.at_move == m) {
+                continue;
+            }
+            match steps.next() {
+                Some(s) => error = s.error,
+                None => break,
+            }
         }
-        self.steps[k.min(self.steps.len() - 1)].error
+        error
     }
 }
 
 /// A run that stopped on an error, with everything executed up to that point.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("servoing stopped after {} move(s): {error}", run.steps.len())]
+#[error("servoing stopped after {} move(s): {error}", run.moves())]
 pub struct ServoAbort {
     /// Why it stopped.
     pub error: ServoError,
@@ -208,8 +248,59 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         }
     }
 
-    /// Applies the range policy (and the approach), executes `y`, observes and records.
-    fn execute(&mut self, mut y: Vec<f64>) -> Result<Observation> {
+    /// Whether the budget allows another move: the first guess and `max_iterations` moves
+    /// after it, recovery moves included.
+    fn budget_left(&self) -> bool {
+        self.run.moves() <= self.config.max_iterations
+    }
+
+    /// Executes `y` and observes ([`Runner::execute_once`]); a refused percept is recorded and,
+    /// with [`ServoConfig::recovery`] and budget left, answered by recovery moves from the
+    /// refused command (each executed and observed alike) until one is accepted. Errors: the
+    /// refusal when no recovery move was made, [`ServoError::RecoveryFailed`] when every one
+    /// was refused, any other error as it came.
+    fn execute(&mut self, y: Vec<f64>) -> Result<Observation> {
+        let mut refusal = match self.execute_once(y) {
+            Ok(obs) => return Ok(obs),
+            Err(e) => e,
+        };
+        let Some(recovery) = self.config.recovery.clone() else {
+            return Err(refusal);
+        };
+        if !refusal.is_refused_percept() {
+            return Err(refusal);
+        }
+        // The command the refused percept was taken at (as executed, just recorded).
+        let Some(refused) = self.run.refused.last().map(|r| r.command.clone()) else {
+            return Err(refusal);
+        };
+        let mut tries = 0;
+        while tries < recovery.tries && self.budget_left() {
+            let y = recovery.command(&refused, tries, |j| self.plant.command_range(j))?;
+            tries += 1;
+            self.run.recovery_moves += 1;
+            match self.execute_once(y) {
+                Ok(obs) => return Ok(obs),
+                Err(e) => refusal = e,
+            }
+            if !refusal.is_refused_percept() {
+                // Not a refused percept (a robot or range error): stop with it.
+                return Err(refusal);
+            }
+        }
+        if tries == 0 {
+            return Err(refusal);
+        }
+        Err(ServoError::RecoveryFailed {
+            tries,
+            last: Box::new(refusal),
+        })
+    }
+
+    /// Applies the range policy (and the approach), executes `y`, observes and records: an
+    /// accepted percept as a step, a refused one ([`ServoError::is_refused_percept`]) as a
+    /// [`RefusedMove`] (returned as the error).
+    fn execute_once(&mut self, mut y: Vec<f64>) -> Result<Observation> {
         if let Some(a) = &self.config.approach {
             y = a.round(&y);
         }
@@ -234,7 +325,20 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
                 None
             }
         };
-        let obs = self.plant.observe()?;
+        let obs = match self.plant.observe() {
+            Ok(obs) => obs,
+            Err(e) => {
+                if e.is_refused_percept() {
+                    self.run.refused.push(RefusedMove {
+                        at_move: self.run.moves(),
+                        command: y,
+                        pre_position,
+                        reason: e.to_string(),
+                    });
+                }
+                return Err(e);
+            }
+        };
         check_len("percept", &obs.x, self.x_w.len())?;
         let error = image_error(&obs.x, self.x_w)?;
         self.run.steps.push(ServoStep {
@@ -323,10 +427,7 @@ pub fn servo_lwpr<P: Plant + ?Sized>(
         Ok(x) => x,
         Err(e) => return Err(r.abort(e)),
     };
-    for _ in 0..config.max_iterations {
-        if r.run.converged {
-            break;
-        }
+    while !r.run.converged && r.budget_left() {
         let at = match config.jacobian_at {
             JacobianAt::Target => x_w,
             JacobianAt::Current => &x[..],
@@ -366,10 +467,7 @@ where
         Ok(o) => o.x,
         Err(e) => return Err(r.abort(e)),
     };
-    for _ in 0..config.max_iterations {
-        if r.run.converged {
-            break;
-        }
+    while !r.run.converged && r.budget_left() {
         let y = r.last_command();
         let dy = match image_jacobian(y.as_slice())
             .and_then(|j| least_squares_step(&j, &r.deviation(&x)))
@@ -403,7 +501,9 @@ impl Default for BroydenConfig {
 
 /// Uncalibrated servoing with a Broyden-updated image Jacobian (module doc). Executes `y0`,
 /// then one probing move per command dimension (`y0 + probe·e_j`, flipped to `−probe` where
-/// that would leave the range), then Broyden steps. Probes count as iterations.
+/// that would leave the range), then Broyden steps. Probes count as iterations. A probe whose
+/// percept was refused and recovered ([`ServoConfig::recovery`]) updates the Jacobian by
+/// Broyden's rank-one rule along the move made from `y0`.
 pub fn servo_broyden<P: Plant + ?Sized>(
     plant: &mut P,
     y0: &[f64],
@@ -432,9 +532,8 @@ pub fn servo_broyden<P: Plant + ?Sized>(
     let mut b = DMatrix::zeros(n, m);
     let mut x = x0.clone();
     let mut y = y0r.clone();
-    let mut probes = 0;
     for j in 0..m {
-        if r.run.converged || probes >= config.max_iterations {
+        if r.run.converged || !r.budget_left() {
             break;
         }
         let [lo, hi] = r.plant.command_range(j);
@@ -449,22 +548,25 @@ pub fn servo_broyden<P: Plant + ?Sized>(
             Ok(o) => o.x,
             Err(e) => return Err(r.abort(e)),
         };
-        // The probe as executed (rounded with an approach).
-        let delta = r.last_command()[j] - y0r[j];
-        probes += 1;
-        if delta != 0.0 {
-            for i in 0..n {
-                b[(i, j)] = (x[i] - x0[i]) / delta;
+        // The probe as executed (rounded with an approach; a recovery move after a refused
+        // probe moves every joint: then a rank-one update along the move made).
+        let dyv = r.last_command() - &y0r;
+        let delta = dyv[j];
+        if dyv.iter().enumerate().all(|(k, &v)| k == j || v == 0.0) {
+            if delta != 0.0 {
+                for i in 0..n {
+                    b[(i, j)] = (x[i] - x0[i]) / delta;
+                }
             }
+        } else {
+            let dxv = DVector::from_iterator(n, x.iter().zip(&x0).map(|(a, b)| a - b));
+            b += (&dxv - &b * &dyv) * dyv.transpose() / dyv.dot(&dyv);
         }
         y = r.last_command();
     }
     let mut x_prev = x.clone();
     let mut y_prev = y.clone();
-    for _ in probes..config.max_iterations {
-        if r.run.converged {
-            break;
-        }
+    while !r.run.converged && r.budget_left() {
         let dy = match least_squares_step(&b, &r.deviation(&x)) {
             Ok(dy) => dy,
             Err(e) => return Err(r.abort(e)),

@@ -438,3 +438,53 @@ fn the_servo_loop_never_moves_on_a_motion_refused_percept() {
     );
     assert_eq!(p.inconsistent(), 1);
 }
+
+/// Behind the percept seam every recogniser gets the recovery move: a user's recogniser doubts
+/// the first guess's percept (and its re-capture); with a recovery the loop makes one small
+/// known move instead of stopping, and goes on from its accepted percept.
+#[test]
+fn a_users_recogniser_gets_the_recovery_move() {
+    let mut p = plant(0);
+    let (mut model, learn) = toy_learning(200);
+    learn_control(&mut p, &mut model, &learn, |_, _| {}).unwrap();
+    let x_w = [10.0 + 120.0, 20.0 + 90.0, 15.0 + 120.0, 17.0 + 90.0];
+    let recovery = servo_loop::Recovery {
+        step: 10.0,
+        tries: 2,
+        workspace: learn.explore.clone(),
+        seed: 1,
+    };
+    let cfg = ServoConfig {
+        tolerance: 0.0,
+        max_iterations: 4,
+        recovery: Some(recovery.clone()),
+        ..ServoConfig::default()
+    };
+    let (refused, commands) = (p.refused(), p.robot().commands);
+    // The first guess's capture and its re-capture are doubted: refused.
+    p.robot_mut().doubt = 2;
+    let run = servo_lwpr(&mut p, &mut model.clone(), &x_w, &cfg).unwrap();
+    assert_eq!(p.refused(), refused + 1);
+    assert_eq!(run.refused.len(), 1);
+    assert_eq!(run.recovery_moves, 1);
+    let y0 = run.refused[0].command.clone();
+    assert_eq!(
+        run.steps[0].command,
+        recovery.command(&y0, 0, |j| p.command_range(j)).unwrap()
+    );
+    assert!(run.moves() <= 5, "the budget: the first guess and 4 moves");
+    assert!(
+        run.steps.len() >= 2,
+        "a correction after the recovered percept"
+    );
+    assert_eq!(p.robot().commands, commands + run.moves());
+    // Without it the run stops at the refused first guess.
+    p.robot_mut().doubt = 2;
+    let cfg = ServoConfig {
+        recovery: None,
+        ..cfg
+    };
+    let abort = servo_lwpr(&mut p, &mut model, &x_w, &cfg).unwrap_err();
+    assert!(matches!(abort.error, ServoError::PerceptRefused { .. }));
+    assert_eq!(abort.run.moves(), 1);
+}

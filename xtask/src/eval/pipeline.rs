@@ -236,6 +236,7 @@ fn servo<Q: Recogniser>(
         refine_online: true,
         range: servo_loop::RangePolicy::Stop,
         approach: Some(Approach::hobby_servo()),
+        recovery: None,
     };
     let (mut out, mut stopped) = (Vec::new(), 0);
     for (x_w, t_w, _) in targets {

@@ -99,12 +99,41 @@ pub struct ServoArgs {
     /// [`MEASURED_MOTION_FACTOR`]).
     #[arg(long)]
     pub motion_factor: Option<f64>,
+    /// The recovery move after a refused servo percept: its length in µs
+    /// (`servo_loop::Recovery::step`; 0 = no recovery; default: the study's,
+    /// [`STUDY_RECOVERY`]).
+    #[arg(long)]
+    pub recovery_step: Option<f64>,
+    /// Recovery moves per refused percept, at most (`servo_loop::Recovery::tries`; default 2).
+    #[arg(long)]
+    pub recovery_tries: Option<usize>,
 }
 
 /// The study's motion-check factor `κ`: κ = 4 failed the adoption rule on the development seeds
 /// (LWPR 1.33× the true-Jacobian servo on the default arm), κ = 3 met all three parts of it
 /// (docs/methods.md, *Motion check*).
 pub const MEASURED_MOTION_FACTOR: f64 = 3.0;
+
+/// The study's recovery move after a refused servo percept, `(step µs, tries)`, or `None`:
+/// off, since 20 µs and 40 µs (2 tries) both missed the adoption rule on the development seeds
+/// (LWPR beyond 1.2× the true-Jacobian servo on two arms; docs/methods.md, *Recovery move after
+/// a refused percept*); `--recovery-step` turns it on.
+pub const STUDY_RECOVERY: Option<(f64, usize)> = None;
+
+/// Recovery moves per refused percept when `--recovery-step` is given without
+/// `--recovery-tries`.
+const RECOVERY_TRIES: usize = 2;
+
+/// A recovery of `step` µs and `tries` moves (its workspace and seed are the protocol's,
+/// [`servo_config`]).
+fn recovery(step: f64, tries: usize) -> servo_loop::Recovery {
+    servo_loop::Recovery {
+        step,
+        tries,
+        workspace: Vec::new(),
+        seed: 0,
+    }
+}
 
 impl ServoArgs {
     /// The recogniser's settings of these options in `p` (cross-camera choice, gate, spread
@@ -125,6 +154,12 @@ impl ServoArgs {
                 factor: k,
                 ..servo_loop::MotionConfig::default()
             });
+        }
+        if let Some(s) = self.recovery_step {
+            p.recovery =
+                (s > 0.0).then(|| recovery(s, self.recovery_tries.unwrap_or(RECOVERY_TRIES)));
+        } else if let (Some(t), Some(r)) = (self.recovery_tries, &mut p.recovery) {
+            r.tries = t;
         }
     }
 }
@@ -153,6 +188,8 @@ impl Default for ServoArgs {
             spread_scale: None,
             cap_training: None,
             motion_factor: None,
+            recovery_step: None,
+            recovery_tries: None,
         }
     }
 }
@@ -194,6 +231,11 @@ pub struct Protocol {
     pub motion: Option<servo_loop::MotionConfig>,
     #[serde(skip)]
     pub motion_check: Option<servo_loop::MotionCheck>,
+    /// The recovery move after a refused servo percept (`servo_loop::Recovery`, its workspace
+    /// the exploration box; `None`: a refused percept stops the run; not written, the summary
+    /// names it).
+    #[serde(skip)]
+    pub recovery: Option<servo_loop::Recovery>,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -239,6 +281,7 @@ impl Protocol {
                 ..servo_loop::MotionConfig::default()
             }),
             motion_check: None,
+            recovery: STUDY_RECOVERY.map(|(step, tries)| recovery(step, tries)),
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -296,6 +339,11 @@ pub struct TargetResult {
     pub error: Option<String>,
     /// Whether that error was a refused percept (the loop stopped instead of moving on it).
     pub refused: bool,
+    /// Recovery moves made after refused percepts (`servo_loop::ServoRun::recovery_moves`;
+    /// they are moves in `px` and `mm`).
+    pub recovery_moves: usize,
+    /// Whether a percept was refused and the run went on after a recovery move.
+    pub recovered: bool,
 }
 
 fn image_error_true(a: &Truth, b: &Truth, cameras: usize) -> f64 {
@@ -318,6 +366,12 @@ fn servo_config(p: &Protocol) -> ServoConfig {
         refine_online: true,
         range: servo_loop::RangePolicy::Stop,
         approach: p.approach.clone(),
+        // Recovery moves stay in the learned workspace (the training moves' box).
+        recovery: p.recovery.clone().map(|r| servo_loop::Recovery {
+            workspace: p.explore_us.clone(),
+            seed: p.seed,
+            ..r
+        }),
     }
 }
 
@@ -414,14 +468,13 @@ pub fn run_method(
         let (run, error, refused) = match result {
             Ok(run) => (run, None, false),
             Err(a) => {
-                let refused = matches!(
-                    a.error,
-                    servo_loop::ServoError::PerceptRefused { .. }
-                        | servo_loop::ServoError::PerceptInconsistent { .. }
-                );
+                let refused = a.error.is_refused_percept();
                 (a.run, Some(a.error.to_string()), refused)
             }
         };
+        // A recovered run: a refused percept answered by a recovery move, and not stopped by
+        // a refusal afterwards.
+        let recovered = run.recovery_moves > 0 && !refused;
         let mut px = Vec::with_capacity(iterations + 1);
         let mut mm = Vec::with_capacity(iterations + 1);
         let mut last = start;
@@ -437,11 +490,17 @@ pub fn run_method(
             let [recaptured, refused_c, inconsistent] =
                 [0, 1, 2].map(|i| after[i] - counts_before[i]);
             eprintln!(
-                "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {}",
+                "servo-run seed {} method {method} px5 {:.2} stop {:?} counts recaptured {recaptured} refused {refused_c} inconsistent {inconsistent} iterations {} recovery moves {} refused at moves {:?} px {:?}",
                 p.seed,
                 px[AT_DIAG.min(px.len() - 1)],
                 error.as_deref().map(|e| e.split(':').next().unwrap_or("")),
-                run.iterations()
+                run.iterations(),
+                run.recovery_moves,
+                run.refused.iter().map(|r| r.at_move).collect::<Vec<_>>(),
+                px.iter()
+                    .take(AT_DIAG + 1)
+                    .map(|e| (e * 100.0).round() / 100.0)
+                    .collect::<Vec<_>>()
             );
         }
         let converged_at = run.converged.then(|| run.iterations());
@@ -451,6 +510,8 @@ pub fn run_method(
             converged_at,
             error,
             refused,
+            recovery_moves: run.recovery_moves,
+            recovered,
         });
     }
     Ok(out)

@@ -173,6 +173,9 @@ pub fn summary(study: &Study) -> String {
             s += "**Execution:** every command is sent as it is (no unidirectional approach).\n\n"
         }
     }
+    if let Some(r) = &p.recovery {
+        s += &recovery_text(r.step, r.tries);
+    }
     s += "## Error per iteration (median / p90 px, median mm, success rate)\n\n";
     let mut t = Table::new(
         std::iter::once("iteration".to_string()).chain(stats.iter().map(|st| st.method.clone())),
@@ -206,6 +209,23 @@ pub fn summary(study: &Study) -> String {
     }
     s += "\n";
     s += &t.to_string();
+    if p.recovery.is_some() {
+        let counts: Vec<String> = study
+            .per_method
+            .iter()
+            .map(|(m, r)| {
+                format!(
+                    "{m} {} moves, {} runs went on",
+                    r.iter().map(|t| t.recovery_moves).sum::<usize>(),
+                    r.iter().filter(|t| t.recovered).count()
+                )
+            })
+            .collect();
+        s += &format!(
+            "\nRecovery moves after refused percepts (counted as iterations above): {}.\n",
+            counts.join("; ")
+        );
+    }
     s += "\n## Accuracy against training moves (lwpr, first ";
     s += &format!("{} targets, 5 corrections)\n\n", p.curve_targets);
     let mut t = Table::new([
@@ -421,6 +441,18 @@ fn gate_text(gate: f64, scale: f64, cap_training: bool) -> String {
     s
 }
 
+/// What the recovery move after a refused servo percept is and how it is counted (markdown).
+fn recovery_text(step: f64, tries: usize) -> String {
+    format!(
+        "**Recovery:** a refused servo percept (after its re-capture) is answered by a small known move instead of \
+         stopping the run (`servo_loop::Recovery`): from the refused command, {step} µs along a seeded direction in the \
+         controlled joints, reflected into the training moves' box, executed with the approach, then a fresh percept; at most \
+         {tries} such moves per refusal (`ServoError::RecoveryFailed` when all are refused). Every recovery move is a move made: \
+         it counts as an iteration (the errors after 5 moves include them) and against the run's budget of moves; the table \
+         counts the runs a refusal stopped, the runs that went on after a recovery move, and the recovery moves.\n\n"
+    )
+}
+
 /// The study over arms and seeds (markdown): per arm the median over seeds with the spread and
 /// the worst seed, and the goal lines judged on them.
 pub fn seeds_section(st: &SeedStudy) -> String {
@@ -458,6 +490,9 @@ pub fn seeds_section(st: &SeedStudy) -> String {
                  development seeds, docs/methods.md, *Motion check*).\n\n"
             .into(),
     };
+    if let Some((step, tries)) = st.recovery {
+        s += &recovery_text(step, tries);
+    }
     let fmt = |o: &super::seeds::OverSeeds| {
         format!(
             "{:.2} [{:.2} – {:.2}] (worst: seed {})",
@@ -521,6 +556,19 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             .map(|r| r.methods.iter().map(|m| m.refused_runs).sum::<usize>())
             .sum();
         let runs: usize = rows.len() * st.targets_per_seed * super::seeds::METHODS.len();
+        let recovered = |f: fn(&super::seeds::SeedMethod) -> usize| -> usize {
+            rows.iter()
+                .map(|r| r.methods.iter().map(f).sum::<usize>())
+                .sum()
+        };
+        let recovery = match st.recovery {
+            Some(_) => format!(
+                " (recovered {}, {} recovery moves)",
+                recovered(|m| m.recovered_runs),
+                recovered(|m| m.recovery_moves)
+            ),
+            None => String::new(),
+        };
         let refused_training: usize = rows.iter().map(|r| r.training_refused).sum();
         let actions = rows.iter().map(|r| r.actions.total()).max().unwrap_or(0);
         let image_px = over_seeds(&per_seed(st, arm, |r| {
@@ -541,7 +589,9 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             fmt(&br_corr),
             format!("{:.0} %", 100.0 * success.median),
             p90.join("; "),
-            format!("{refused_tests}/{tests} / {refused_runs}/{runs} / {refused_training}"),
+            format!(
+                "{refused_tests}/{tests} / {refused_runs}/{runs}{recovery} / {refused_training}"
+            ),
             format!(
                 "{}; {} ({image_refused} of {image_offered})",
                 fmt(&image_px),

@@ -80,6 +80,16 @@ pub struct SeedMethod {
     /// Runs stopped because a percept was refused, and by any other typed error.
     pub refused_runs: usize,
     pub other_errors: usize,
+    /// Recovery moves made after refused percepts, and runs that went on after one (written
+    /// only when non-zero: the study without recovery writes what it wrote before).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub recovery_moves: usize,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub recovered_runs: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Everything one (arm, seed) gives.
@@ -113,6 +123,10 @@ pub struct SeedStudy {
     /// `None`: off).
     #[serde(default)]
     pub motion_factor: Option<f64>,
+    /// The recovery move after a refused servo percept, `(step µs, tries)` (`None`: off; not
+    /// written then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recovery: Option<(f64, usize)>,
     pub results: Vec<SeedResult>,
 }
 
@@ -151,6 +165,11 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
             let mut p = Protocol::default_for(0);
             args.apply_percept(&mut p);
             p.motion.map(|m| m.factor)
+        },
+        recovery: {
+            let mut p = Protocol::default_for(0);
+            args.apply_percept(&mut p);
+            p.recovery.map(|r| (r.step, r.tries))
         },
         results,
     })
@@ -240,6 +259,8 @@ fn method_figures(method: &str, r: &[TargetResult]) -> SeedMethod {
         median_px_after_corrections: (method == "broyden").then(|| quantile(&at(AT + PROBES), 0.5)),
         refused_runs: r.iter().filter(|t| t.refused).count(),
         other_errors: r.iter().filter(|t| t.error.is_some() && !t.refused).count(),
+        recovery_moves: r.iter().map(|t| t.recovery_moves).sum(),
+        recovered_runs: r.iter().filter(|t| t.recovered).count(),
     }
 }
 

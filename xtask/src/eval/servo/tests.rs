@@ -81,9 +81,14 @@ fn committed_summary_matches_committed_seeds_json() {
     }
 }
 
-/// The recognition goal line is judged on the seed median and names the worst seed.
-#[test]
-fn recognition_goal_is_judged_on_the_seed_median() {
+/// A study over seeds on the default arm, one seed per `p90s` entry (the recognition p90 per
+/// camera), each method with `recovery` = (recovery moves, recovered runs) per seed, and the
+/// study's recovery setting.
+fn seed_study(
+    p90s: &[[f64; 2]],
+    recovery: (usize, usize),
+    setting: Option<(f64, usize)>,
+) -> super::seeds::SeedStudy {
     use super::seeds::{SeedRecognition, SeedResult, SeedStudy};
     let result = |arm: &str, seed: u64, p90: [f64; 2]| SeedResult {
         arm: arm.into(),
@@ -110,23 +115,49 @@ fn recognition_goal_is_judged_on_the_seed_median() {
                 median_px_after_corrections: None,
                 refused_runs: 0,
                 other_errors: 0,
+                recovery_moves: recovery.0,
+                recovered_runs: recovery.1,
             })
             .collect(),
         image_targets: 0,
         image_targets_refused: 0,
         image: None,
     };
-    let study = |p90s: &[[f64; 2]]| SeedStudy {
+    SeedStudy {
         seeds_role: "development".into(),
         seeds: (1..=p90s.len() as u64).collect(),
         targets_per_seed: 30,
         motion_factor: None,
+        recovery: setting,
         results: p90s
             .iter()
             .enumerate()
             .map(|(i, p)| result("default", i as u64 + 1, *p))
             .collect(),
-    };
+    }
+}
+
+/// With the recovery on, the study names it and counts its moves and recovered runs; off, its
+/// text and JSON are what they were before the recovery existed (the fixtures' bytes).
+#[test]
+fn the_recovery_is_reported_only_when_on() {
+    let on = report::seeds_section(&seed_study(&[[1.0, 1.0]; 3], (2, 1), Some((20.0, 2))));
+    assert!(on.contains("**Recovery:**") && on.contains("20 µs"), "{on}");
+    // 3 seeds × 3 methods: 9 recovered runs, 18 recovery moves.
+    assert!(on.contains("(recovered 9, 18 recovery moves)"), "{on}");
+    let off = report::seeds_section(&seed_study(&[[1.0, 1.0]; 3], (0, 0), None));
+    assert!(
+        !off.contains("Recovery") && !off.contains("recovered"),
+        "{off}"
+    );
+    let json = serde_json::to_string(&seed_study(&[[1.0, 1.0]; 3], (0, 0), None)).unwrap();
+    assert!(!json.contains("recover"), "{json}");
+}
+
+/// The recognition goal line is judged on the seed median and names the worst seed.
+#[test]
+fn recognition_goal_is_judged_on_the_seed_median() {
+    let study = |p90s: &[[f64; 2]]| seed_study(p90s, (0, 0), None);
     let goal = |text: String| -> String {
         text.lines()
             .find(|l| l.starts_with("- recognition p90"))
