@@ -124,15 +124,35 @@
 //! count), so time follows instructions, and tiles make every vertical neighbour index
 //! conditional (several more instructions per visit).
 //!
-//! Where a detection's time goes (callgrind instructions, both polarities, one detection; leuven
-//! img6 87.4 M, graf img1 95.9 M): the open/raise/merge events with the listing of big nodes and
-//! their lower-end walks 10 % and 15 %, the moments (module `stats`) 3 % and 9 %, the histogram
-//! 1 %; the rest, 85 % and 75 %, is the flood itself (mostly its inner loop: pushing boundary
-//! pixels and loading neighbours) and the selection inlined beside it (about 1 % when last
-//! measured apart); the two polarities are balanced.
+//! Also tried and dropped (callgrind, both polarities, `min_diversity` 0, leuven img4, which has
+//! pixels at 0 and 255, so that the search for the next part's first pixel reads nearly every
+//! cell at 5 instructions each: 2.7 M of the 90.5 M of the code above with the moments of
+//! module `stats` as they were, of 87.1 M with them as they are). Every restructuring that made
+//! that search cheaper made the compiler keep the flood order's pointer on the stack (a load,
+//! add and store per joined pixel: a dependence through memory from one join to the next), and
+//! most also kept a second copy of the current level in a register: the search out of line, 32
+//! cells at a time (90.1 of 90.5 M); the flood of a part as a function of its own, the search in
+//! the caller (91.3 of 90.5 M with the stack bottoms passed by reference; 93.9 of 89.8 M with
+//! its own copy of them and its own components); the start of a part as a rare event of the one
+//! flood loop, out of line like `rise` (86.9 of 87.1 M); the search by 8-byte words inline,
+//! ended by sentinel cells after the frame instead of a bound (86.9 of 87.1 M). And the test "a
+//! neighbour is at the current level" taken from whether the pushes moved the current stack's
+//! top, to free the register of the neighbours' minimum: 88.2 of 87.1 M (two instructions more
+//! per join), and with the one-loop form above 88.0 M, the pointer still on the stack. None
+//! was timed (the machine was loaded); each adds the dependence through memory that came with
+//! the measured 5 % loss above.
+//!
+//! Where a detection's time goes (callgrind instructions, both polarities, one detection, default
+//! parameters; leuven img6 83.2 M, graf img1 86.1 M; before the unchecked upward scan and the
+//! AVX2 moments of module `stats`, 87.4 M and 95.9 M): the open/raise/merge events with the
+//! listing of big nodes and their lower-end walks 10 % and 16 %, the selection 1 % and 3 %, the
+//! histogram 2 %, the moments (module `stats`) 0.6 % and 2 % (were 3 % and 9 %); the rest, 85 %
+//! and 77 %, is the flood itself, mostly its inner loop: per joined pixel 20 instructions to load
+//! and compare the neighbours, 29 to mark and push them and append the pixel, 3 to 8 to take
+//! the next one. The two polarities are balanced.
 
 use crate::image::GrayView;
-use crate::layout::{RowDiv, padded_stride};
+use crate::layout::{RowDiv, RowDiv32, padded_stride};
 use crate::params::{MserParams, Variation};
 
 /// Marks "no node".
@@ -198,6 +218,8 @@ pub struct Tree {
     pub order: Vec<u32>,
     /// Row and column of a padded index (module `layout`).
     pub div: RowDiv,
+    /// The same by a 32-bit product, if exact for every padded index of the image.
+    pub div32: Option<RowDiv32>,
 }
 
 impl Tree {
@@ -514,6 +536,7 @@ impl TreeBuilder {
         let total = stride * (h + 2);
         let npix = w * h;
         tree.div = RowDiv::new(stride as u32);
+        tree.div32 = tree.div.narrow((total - 1) as u32);
         tree.nodes.clear();
         tree.nodes.reserve(npix);
         tree.big.clear();
