@@ -26,7 +26,9 @@
 //! products and no 32-bit multiplication): the compiler no longer vectorised the SSE2 loop (30
 //! instructions per pixel, leuven img4 90.2 M).
 
-use crate::layout::{ColRow, RowDiv, RowDiv32};
+#[cfg(target_arch = "x86_64")]
+use crate::layout::RowDiv32;
+use crate::layout::{ColRow, RowDiv};
 use crate::region::{BoundingBox, Moments};
 use crate::tree::Tree;
 
