@@ -12,19 +12,24 @@
 //! over its run (nested regions share their pixels), with no second flood and no per-region
 //! allocation.
 //!
-//! The loop over a run is written so that the compiler vectorises it: the row by the high half of a
-//! 32 × 32-bit product where that is exact (`RowDiv32` of module `layout`; every image of the
-//! Oxford sets), and the whole summation compiled a second time for AVX2, chosen at run time when
-//! the CPU has it (`is_x86_feature_detected`). Sums of integers in any order are the same integers,
-//! so every path gives the same sums (the test below compares them). Per pixel: 32 instructions
-//! with the 128-bit product (whose fixed registers cost three copies and three reloads), 26.5 with
-//! the 32-bit one (two pixels per SSE2 step, the minima and maxima built from compares and masks),
-//! 6 with AVX2 (four pixels per step, native minima and maxima). One detection of both polarities
-//! under callgrind, `min_diversity` 0 as in `bench mser`: the summation on boat img2 8.9 → 7.6 →
-//! 2.0 M instructions, and the detection 95.9 → 94.6 → 89.0 M; leuven img4 90.5 → 89.8 → 87.1 M.
-//! Tried: the column as the fraction of the same product times the row length (exact too, two
-//! products and no 32-bit multiplication): the compiler no longer vectorised the SSE2 loop (30
-//! instructions per pixel, leuven img4 90.2 M).
+//! The loop over a run is written so that the compiler can vectorise it: the row by the high half
+//! of a 32 × 32-bit product where that is exact (`RowDiv32` of module `layout`; every image of
+//! the Oxford sets), in the summation compiled a second time for AVX2 and chosen at run time when
+//! the CPU has it (`is_x86_feature_detected`); otherwise the scalar loop with the 128-bit
+//! product. Sums of integers in any order are the same integers, so every path gives the same
+//! sums (the test below compares all three). Per pixel: 32 instructions with the 128-bit product
+//! (whose fixed registers cost three copies and three reloads), 26.5 with the 32-bit one without
+//! AVX2 (two pixels per SSE2 step, minima and maxima built from compares and masks), 6 with AVX2
+//! (four pixels per step, native minima and maxima). One detection of both polarities under
+//! callgrind, `min_diversity` 0 as in `bench mser`: the summation on boat img2 8.9 → 7.6 (SSE2)
+//! → 2.0 M (AVX2) instructions, the detection 95.9 → 94.6 → 89.0 M; leuven img4 90.5 → 89.8 →
+//! 87.1 M. Time (paired A/B of the two builds, alternating in random order, 20–30 pairs of 5
+//! rounds on 8 Oxford images, pinned to one core at real-time priority, load 3–4; an A/A run of
+//! one build against itself spread 0.99–1.02): with AVX2, `detect_with_pixels` 1.5–2.5 % faster,
+//! `detect` unchanged within ±2 %; the SSE2 loop 1–3 % slower than the scalar one despite fewer
+//! instructions, so it is not used. Also tried: the column as the fraction of the same product
+//! times the row length (exact too, two products and no 32-bit multiplication): the compiler no
+//! longer vectorised the SSE2 loop (30 instructions per pixel, leuven img4 90.2 M).
 
 #[cfg(target_arch = "x86_64")]
 use crate::layout::RowDiv32;
@@ -187,8 +192,9 @@ impl Summer {
                 // SAFETY: the CPU has AVX2 (checked at run time).
                 unsafe { self.sums_avx2::<PIXELS>(tree, div, ids, out, xy) }
             }
-            Some(div) => self.sums_by::<PIXELS>(tree, div, ids, out, xy),
-            None => self.sums_by::<PIXELS>(tree, tree.div, ids, out, xy),
+            // Without AVX2, the 128-bit row division: the SSE2 loop that the 32-bit one gives
+            // runs fewer instructions but measured no faster (module docs).
+            _ => self.sums_by::<PIXELS>(tree, tree.div, ids, out, xy),
         }
     }
 
