@@ -1,5 +1,6 @@
 //! The padded pixel layout of the flood: row length, and padded index → row and column by the
-//! high half of one multiplication.
+//! high half of one multiplication (64 × 64 bits for every layout, [`RowDiv`]; 32 × 32 bits
+//! where that is exact, [`RowDiv32`], which the moment summation vectorises).
 //!
 //! The flood works on a copy of the image with a frame: image pixel `(x, y)` has the padded index
 //! `(y + 1) · stride + x`, and every row ends in at least one padding column, so the left
@@ -58,6 +59,56 @@ impl RowDiv {
     }
 }
 
+/// Row and column of padded indices by the high half of a 32 × 32-bit product, for layouts small
+/// enough that it is exact (see [`RowDiv::narrow`]): `row(i) = ⌊i · m / 2^32⌋` with
+/// `m = ⌈2^32 / s⌉`.
+///
+/// Exactness: `m · s = 2^32 + r` with `0 ≤ r < s`, so `i · m / 2^32 = i / s + i · r / (s · 2^32)`;
+/// the fractional part of `i / s` is at most `1 − 1/s`, so the floor is `⌊i / s⌋` whenever
+/// `i · r < 2^32`, which [`RowDiv::narrow`] checks for the largest index. The product needs no
+/// 128-bit multiplication (whose fixed registers cost the moment summation of module `stats`
+/// three register copies and three reloads per pixel).
+#[derive(Debug, Clone, Copy)]
+pub struct RowDiv32 {
+    stride: u32,
+    mul: u32,
+}
+
+impl RowDiv {
+    /// The 32-bit divider for the same row length, if it is exact for every index up to `last`.
+    pub fn narrow(&self, last: u32) -> Option<RowDiv32> {
+        let s = self.stride as u64;
+        let mul = (1u64 << 32).div_ceil(s);
+        let r = mul * s - (1 << 32);
+        (mul <= u32::MAX as u64 && (last as u64) * r < 1 << 32).then_some(RowDiv32 {
+            stride: self.stride,
+            mul: mul as u32,
+        })
+    }
+}
+
+/// Column and padded row of a padded index: [`RowDiv`] for every layout, [`RowDiv32`] for those
+/// small enough.
+pub trait ColRow: Copy {
+    /// Column and padded row `(x, y + 1)` of padded index `i`.
+    fn col_row(self, i: u32) -> (u32, u32);
+}
+
+impl ColRow for RowDiv {
+    #[inline]
+    fn col_row(self, i: u32) -> (u32, u32) {
+        RowDiv::col_row(&self, i)
+    }
+}
+
+impl ColRow for RowDiv32 {
+    #[inline]
+    fn col_row(self, i: u32) -> (u32, u32) {
+        let y = ((i as u64 * self.mul as u64) >> 32) as u32;
+        (i - y * self.stride, y)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,5 +158,63 @@ mod tests {
             let top = (1 << 28) - 1;
             assert_eq!(d.row(top), top / s, "stride {s}, index {top}");
         }
+    }
+
+    #[test]
+    fn narrow_division_is_exact_where_offered() {
+        // Every index of small layouts; for every stride the largest index it is offered for
+        // (found by halving) and the indices around multiples of the stride below it.
+        for s in 2..600u32 {
+            let d = RowDiv::new(s).narrow(s * 40).expect("small layout");
+            for i in 0..s * 40 {
+                assert_eq!(
+                    ColRow::col_row(d, i),
+                    (i % s, i / s),
+                    "stride {s}, index {i}"
+                );
+            }
+        }
+        let strides = (4..=28).flat_map(|b| [(1u32 << b) - 1, 1 << b, (1 << b) + 1]);
+        let more = [816, 880, 912, 1040, 3 * 5 * 7 * 16, (1 << 28) - 16];
+        for s in strides.chain(more).filter(|&s| s <= 1 << 28) {
+            let wide = RowDiv::new(s);
+            // The largest `last` with `narrow(last)` offered.
+            let (mut lo, mut hi) = (0u32, u32::MAX);
+            if wide.narrow(0).is_none() {
+                continue;
+            }
+            while lo < hi {
+                let mid = lo + (hi - lo).div_ceil(2);
+                if wide.narrow(mid).is_some() {
+                    lo = mid;
+                } else {
+                    hi = mid - 1;
+                }
+            }
+            let d = wide.narrow(lo).unwrap();
+            let rows = lo / s;
+            for r in (0..=rows)
+                .step_by((rows as usize / 2000).max(1))
+                .chain([rows])
+            {
+                let at = r.saturating_mul(s);
+                for j in [at.saturating_sub(1), at, at.saturating_add(s - 1)] {
+                    if j <= lo {
+                        assert_eq!(
+                            ColRow::col_row(d, j),
+                            (j % s, j / s),
+                            "stride {s}, index {j}"
+                        );
+                    }
+                }
+            }
+            assert_eq!(
+                ColRow::col_row(d, lo),
+                (lo % s, lo / s),
+                "stride {s}, index {lo}"
+            );
+        }
+        // The Oxford images' layouts (up to 850 × 680 pixels) get it.
+        assert!(RowDiv::new(880).narrow(880 * 682).is_some());
     }
 }

@@ -189,7 +189,9 @@
 //! - `opencv`: `OpenCvMser`, OpenCV's detector with our parameters, for cross-checks and
 //!   benchmarks (needs libopencv-dev 4.x and libclang).
 //!
-//! Deterministic: no randomness, no dependence on thread count.
+//! Deterministic: no randomness, no dependence on thread count, nor on the CPU (the moment
+//! summation has a version compiled for AVX2, chosen at run time; it sums the same integers,
+//! module `stats`).
 #![deny(missing_docs)]
 
 mod contour;
