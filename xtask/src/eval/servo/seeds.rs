@@ -157,20 +157,15 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .par_iter()
         .map(|&(name, config, seed)| run_seed(name, config, seed, args))
         .collect::<Result<Vec<_>>>()?;
+    // The study's percept settings, as every seed's protocol has them.
+    let mut p = Protocol::default_for(0);
+    args.apply_percept(&mut p);
     Ok(SeedStudy {
         seeds_role: role.into(),
         seeds,
         targets_per_seed: TARGETS,
-        motion_factor: {
-            let mut p = Protocol::default_for(0);
-            args.apply_percept(&mut p);
-            p.motion.map(|m| m.factor)
-        },
-        recovery: {
-            let mut p = Protocol::default_for(0);
-            args.apply_percept(&mut p);
-            p.recovery.map(|r| (r.step, r.tries))
-        },
+        motion_factor: p.motion.map(|m| m.factor),
+        recovery: p.recovery.map(|r| (r.step, r.tries)),
         results,
     })
 }
