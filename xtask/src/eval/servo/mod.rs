@@ -6,8 +6,8 @@
 //! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both
 //! cameras → set-points); 100 targets are the true tip projections of random commands from the
 //! same exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and
-//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the current percept, online
-//! refinement), `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and
+//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the target percept, from the model as
+//! refined online by every executed move), `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and
 //! `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
 //! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
 //! distance) and 3-D tip distance (mm).
@@ -70,6 +70,13 @@ pub struct ServoArgs {
     /// chosen), and print it instead of writing fixtures.
     #[arg(long)]
     pub development: bool,
+    /// With `--development`: these seeds instead of the development seeds 1001–1005 (more
+    /// development data; an evaluation seed is refused).
+    #[arg(long, value_delimiter = ',', requires = "development")]
+    pub dev_seeds: Vec<u64>,
+    /// With `--development`: only these arms (`default`, `worn-arm`, `second-rig`).
+    #[arg(long = "only-arm", value_delimiter = ',', requires = "development")]
+    pub only_arms: Vec<String>,
     /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
     #[arg(long)]
     pub no_seeds: bool,
@@ -107,6 +114,18 @@ pub struct ServoArgs {
     /// Recovery moves per refused percept, at most (`servo_loop::Recovery::tries`; default 2).
     #[arg(long)]
     pub recovery_tries: Option<usize>,
+    /// Where LWPR's learned Jacobian is evaluated: `target` (the study's,
+    /// [`STUDY_JACOBIAN_AT`]) or `current` (at every percept; the study's setting before).
+    #[arg(long, value_parser = parse_jacobian_at)]
+    pub jacobian_at: Option<JacobianAt>,
+}
+
+fn parse_jacobian_at(s: &str) -> std::result::Result<JacobianAt, String> {
+    match s {
+        "target" => Ok(JacobianAt::Target),
+        "current" => Ok(JacobianAt::Current),
+        other => Err(format!("`{other}`: expected `target` or `current`")),
+    }
 }
 
 /// The study's motion-check factor `κ`: κ = 4 failed the adoption rule on the development seeds
@@ -119,6 +138,12 @@ pub const MEASURED_MOTION_FACTOR: f64 = 3.0;
 /// (LWPR beyond 1.2× the true-Jacobian servo on two arms; docs/methods.md, *Recovery move after
 /// a refused percept*); `--recovery-step` turns it on.
 pub const STUDY_RECOVERY: Option<(f64, usize)> = None;
+
+/// Where the study's LWPR servo evaluates its learned Jacobian: at the target percept (the
+/// papers' Jacobian; the model is still refined online, so `J(x_w)` follows it). It replaced the current percept by the
+/// rule written before its confirmation runs on development seeds (docs/methods.md, *Where
+/// LWPR's Jacobian is evaluated*); `--jacobian-at current` runs the earlier setting.
+pub const STUDY_JACOBIAN_AT: JacobianAt = JacobianAt::Target;
 
 /// Recovery moves per refused percept when `--recovery-step` is given without
 /// `--recovery-tries`.
@@ -136,9 +161,13 @@ fn recovery(step: f64, tries: usize) -> servo_loop::Recovery {
 }
 
 impl ServoArgs {
-    /// The recogniser's settings of these options in `p` (cross-camera choice, gate, spread
-    /// scale; the library's defaults where not given).
-    pub fn apply_percept(&self, p: &mut Protocol) {
+    /// The settings of these options in `p`: the recogniser's (cross-camera choice, gate,
+    /// spread scale, motion check), the recovery and where LWPR's Jacobian is evaluated; the
+    /// study's where not given.
+    pub fn apply_settings(&self, p: &mut Protocol) {
+        if let Some(j) = self.jacobian_at {
+            p.jacobian_at = j;
+        }
         p.cross_camera_choice = self.cross_camera_choice;
         if let Some(k) = self.face_gate {
             p.face_gate = k;
@@ -181,6 +210,8 @@ impl Default for ServoArgs {
             arm: None,
             percept: PerceptMode::Recognised,
             development: false,
+            dev_seeds: Vec::new(),
+            only_arms: Vec::new(),
             no_seeds: false,
             cross_camera_choice: false,
             diagnose_recognition: false,
@@ -190,6 +221,7 @@ impl Default for ServoArgs {
             motion_factor: None,
             recovery_step: None,
             recovery_tries: None,
+            jacobian_at: None,
         }
     }
 }
@@ -236,6 +268,8 @@ pub struct Protocol {
     /// names it).
     #[serde(skip)]
     pub recovery: Option<servo_loop::Recovery>,
+    /// Where LWPR's learned Jacobian is evaluated ([`STUDY_JACOBIAN_AT`]).
+    pub jacobian_at: JacobianAt,
     pub controlled: Vec<usize>,
     pub rest_us: [f64; NUM_SERVOS],
     pub explore_us: Vec<[f64; 2]>,
@@ -282,6 +316,7 @@ impl Protocol {
             }),
             motion_check: None,
             recovery: STUDY_RECOVERY.map(|(step, tries)| recovery(step, tries)),
+            jacobian_at: STUDY_JACOBIAN_AT,
             controlled: vec![0, 1, 2],
             rest_us: [1500.0, 1500.0, 1500.0, 1944.0, 1500.0, 1500.0],
             explore_us: vec![[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]],
@@ -362,7 +397,7 @@ fn servo_config(p: &Protocol) -> ServoConfig {
         max_iterations: p.iterations,
         tolerance: p.tolerance_px,
         damping: 1.0,
-        jacobian_at: JacobianAt::Current,
+        jacobian_at: p.jacobian_at,
         refine_online: true,
         range: servo_loop::RangePolicy::Stop,
         approach: p.approach.clone(),
@@ -1119,7 +1154,7 @@ pub fn run(ctx: &EvalContext, args: &ServoArgs) -> Result<()> {
     };
     let mut p = Protocol::default_for(args.seed);
     p.percept = args.percept;
-    args.apply_percept(&mut p);
+    args.apply_settings(&mut p);
     let learned = if args.percept == PerceptMode::Recognised {
         let learned = learn_recogniser(&config, &p)?;
         p.recogniser = Some(learned.0.clone());

@@ -345,7 +345,10 @@ pub fn summary(study: &Study) -> String {
         );
     }
     // Goal check.
-    s += "\n## Goals\n\n";
+    s += &format!(
+        "\n## Seed {} against Paper C's goals (one seed; the goals over arms and seeds are judged below)\n\n",
+        p.seed
+    );
     let lw = stats.iter().find(|s| s.method == "lwpr").expect("lwpr");
     let br = stats
         .iter()
@@ -473,8 +476,8 @@ pub fn seeds_section(st: &SeedStudy) -> String {
           on the development seeds 1001–1003 (docs/methods.md, *Gated learned tip*, *Motion check*). The 1,600 training moves \
           (in blocks of 100 in monotone-chain order, `servo_loop::chain_order`) were fixed earlier from an action count, not \
           from a servo run; the other thresholds (certainty 0.05, consistency scale, captures) were set before any evaluation \
-          run, not tuned. The evaluation seeds 8001–8005 are new this round (7001–7005 had been scored once, by the previous \
-          round, with the motion check off) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
+          run, not tuned. The evaluation seeds 9001–9005 are new this round (7001–7005 and 8001–8005 were each scored once, \
+          by an earlier round) and were scored once, by this run. Image targets are pixel positions per camera (the projected \
           middle of the finger ends at random reachable poses the learner never visited), checked by `servo_loop::check_image_target` \
           (consistent between the cameras, inside the learned model) before any move; their error is the tool point's against the \
           target pose's.\n\n";
@@ -493,6 +496,17 @@ pub fn seeds_section(st: &SeedStudy) -> String {
     if let Some((step, tries)) = st.recovery {
         s += &recovery_text(step, tries);
     }
+    s += match st.jacobian_at {
+        servo_loop::JacobianAt::Target => {
+            "**LWPR's Jacobian** is evaluated at the target percept, `J(x_w)`, from the model as refined online by every \
+             executed move (`servo_loop::JacobianAt::Target`; chosen on the development seeds 1006–1045 and 1001–1005 by a \
+             rule written before its confirmation runs, docs/methods.md, *Where LWPR's Jacobian is evaluated*).\n\n"
+        }
+        servo_loop::JacobianAt::Current => {
+            "**LWPR's Jacobian** is evaluated at the current percept (`servo_loop::JacobianAt::Current`, \
+             `--jacobian-at current`; not the study's setting).\n\n"
+        }
+    };
     let fmt = |o: &super::seeds::OverSeeds| {
         format!(
             "{:.2} [{:.2} – {:.2}] (worst: seed {})",

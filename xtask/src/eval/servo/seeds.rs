@@ -24,7 +24,10 @@ use crate::Result;
 /// Seeds every setting was chosen on.
 pub const DEVELOPMENT_SEEDS: [u64; 5] = [1001, 1002, 1003, 1004, 1005];
 /// Seeds scored once for the fixtures.
-pub const EVALUATION_SEEDS: [u64; 5] = [8001, 8002, 8003, 8004, 8005];
+pub const EVALUATION_SEEDS: [u64; 5] = [9001, 9002, 9003, 9004, 9005];
+/// Seeds kept for evaluation, past and present (7001–7005 and 8001–8005 were scored by earlier
+/// rounds, 9001–9005 by this one): never development data.
+pub const EVALUATION_RANGE: std::ops::RangeInclusive<u64> = 7000..=9999;
 /// Targets per (arm, seed).
 pub const TARGETS: usize = 30;
 /// Image targets per (arm, seed).
@@ -127,6 +130,8 @@ pub struct SeedStudy {
     /// written then).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub recovery: Option<(f64, usize)>,
+    /// Where LWPR's learned Jacobian is evaluated.
+    pub jacobian_at: servo_loop::JacobianAt,
     pub results: Vec<SeedResult>,
 }
 
@@ -135,12 +140,22 @@ use crate::stats::quantile_linear as quantile;
 /// Runs every (arm, seed) of `args` in parallel (one job each; results do not depend on the
 /// thread count).
 pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
-    let (role, seeds) = if args.development {
-        ("development", DEVELOPMENT_SEEDS.to_vec())
-    } else {
+    let (role, seeds) = if !args.development {
         ("evaluation", EVALUATION_SEEDS.to_vec())
+    } else if args.dev_seeds.is_empty() {
+        ("development", DEVELOPMENT_SEEDS.to_vec())
+    } else if let Some(s) = args.dev_seeds.iter().find(|s| EVALUATION_RANGE.contains(s)) {
+        return Err(format!("seed {s} is kept for evaluation (7000–9999), not development data").into());
+    } else {
+        ("development", args.dev_seeds.clone())
     };
-    let arms = shipped_arms();
+    let mut arms = shipped_arms();
+    if !args.only_arms.is_empty() {
+        if let Some(a) = args.only_arms.iter().find(|a| !arms.iter().any(|(n, _)| n == *a)) {
+            return Err(format!("no shipped arm `{a}` (default, worn-arm, second-rig)").into());
+        }
+        arms.retain(|(n, _)| args.only_arms.contains(n));
+    }
     let mut configs = Vec::new();
     for (name, path) in &arms {
         let config = match path {
@@ -159,22 +174,23 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .collect::<Result<Vec<_>>>()?;
     // The study's percept settings, as every seed's protocol has them.
     let mut p = Protocol::default_for(0);
-    args.apply_percept(&mut p);
+    args.apply_settings(&mut p);
     Ok(SeedStudy {
         seeds_role: role.into(),
         seeds,
         targets_per_seed: TARGETS,
         motion_factor: p.motion.map(|m| m.factor),
         recovery: p.recovery.map(|r| (r.step, r.tries)),
+        jacobian_at: p.jacobian_at,
         results,
     })
 }
 
 /// The whole pipeline on one arm and seed (the recogniser's settings from `args`,
-/// [`ServoArgs::apply_percept`]).
+/// [`ServoArgs::apply_settings`]).
 pub fn run_seed(arm: &str, config: &SimConfig, seed: u64, args: &ServoArgs) -> Result<SeedResult> {
     let mut p = Protocol::default_for(seed);
-    args.apply_percept(&mut p);
+    args.apply_settings(&mut p);
     p.curve_moves = vec![p.training_moves];
     p.targets = TARGETS;
     let (model, report, recognition_commands) = learn_recogniser(config, &p)?;

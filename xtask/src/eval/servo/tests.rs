@@ -129,6 +129,7 @@ fn seed_study(
         targets_per_seed: 30,
         motion_factor: None,
         recovery: setting,
+        jacobian_at: servo_loop::JacobianAt::Target,
         results: p90s
             .iter()
             .enumerate()
