@@ -145,13 +145,19 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
     } else if args.dev_seeds.is_empty() {
         ("development", DEVELOPMENT_SEEDS.to_vec())
     } else if let Some(s) = args.dev_seeds.iter().find(|s| EVALUATION_RANGE.contains(s)) {
-        return Err(format!("seed {s} is kept for evaluation (7000–9999), not development data").into());
+        return Err(
+            format!("seed {s} is kept for evaluation (7000–9999), not development data").into(),
+        );
     } else {
         ("development", args.dev_seeds.clone())
     };
     let mut arms = shipped_arms();
     if !args.only_arms.is_empty() {
-        if let Some(a) = args.only_arms.iter().find(|a| !arms.iter().any(|(n, _)| n == *a)) {
+        if let Some(a) = args
+            .only_arms
+            .iter()
+            .find(|a| !arms.iter().any(|(n, _)| n == *a))
+        {
             return Err(format!("no shipped arm `{a}` (default, worn-arm, second-rig)").into());
         }
         arms.retain(|(n, _)| args.only_arms.contains(n));

@@ -202,3 +202,40 @@ fn recognition_goal_is_judged_on_the_seed_median() {
         "{line}"
     );
 }
+
+/// Development runs refuse evaluation seeds and unknown arms before any work, and the study's
+/// Jacobian setting is the one `--jacobian-at` overrides.
+#[test]
+fn development_options_are_checked() {
+    let dev = |seeds: Vec<u64>, arms: Vec<&str>| super::ServoArgs {
+        development: true,
+        dev_seeds: seeds,
+        only_arms: arms.into_iter().map(String::from).collect(),
+        ..Default::default()
+    };
+    for seed in [7001, 8004, 9003] {
+        let e = super::seeds::run_all(&dev(vec![1006, seed], vec![])).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains(&format!("seed {seed} is kept for evaluation")),
+            "{e}"
+        );
+    }
+    let e = super::seeds::run_all(&dev(vec![1006], vec!["default", "bent-arm"])).unwrap_err();
+    assert!(e.to_string().contains("no shipped arm `bent-arm`"), "{e}");
+
+    let mut p = Protocol::default_for(1);
+    assert_eq!(p.jacobian_at, super::STUDY_JACOBIAN_AT);
+    let args = super::ServoArgs {
+        jacobian_at: Some(servo_loop::JacobianAt::Current),
+        ..Default::default()
+    };
+    args.apply_settings(&mut p);
+    assert_eq!(p.jacobian_at, servo_loop::JacobianAt::Current);
+    assert_eq!(
+        super::servo_config(&p).jacobian_at,
+        servo_loop::JacobianAt::Current
+    );
+    assert!(super::parse_jacobian_at("target").is_ok());
+    assert!(super::parse_jacobian_at("middle").is_err());
+}
