@@ -77,6 +77,10 @@ pub struct ServoArgs {
     /// With `--development`: only these arms (`default`, `worn-arm`, `second-rig`).
     #[arg(long = "only-arm", value_delimiter = ',', requires = "development")]
     pub only_arms: Vec<String>,
+    /// With `--development`: also this arm file (repeatable; named by its file stem), e.g. a
+    /// harsher arm written while developing.
+    #[arg(long = "dev-arm", value_name = "FILE", requires = "development")]
+    pub dev_arms: Vec<PathBuf>,
     /// Skip the study over arms and seeds (only the single-seed study of `--seed`).
     #[arg(long)]
     pub no_seeds: bool,
@@ -212,6 +216,7 @@ impl Default for ServoArgs {
             development: false,
             dev_seeds: Vec::new(),
             only_arms: Vec::new(),
+            dev_arms: Vec::new(),
             no_seeds: false,
             cross_camera_choice: false,
             diagnose_recognition: false,

@@ -162,6 +162,13 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         }
         arms.retain(|(n, _)| args.only_arms.contains(n));
     }
+    for path in &args.dev_arms {
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .ok_or_else(|| format!("arm file {} has no name", path.display()))?;
+        arms.push((name, Some(path.clone())));
+    }
     let mut configs = Vec::new();
     for (name, path) in &arms {
         let config = match path {

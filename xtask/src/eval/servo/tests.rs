@@ -223,6 +223,12 @@ fn development_options_are_checked() {
     }
     let e = super::seeds::run_all(&dev(vec![1006], vec!["default", "bent-arm"])).unwrap_err();
     assert!(e.to_string().contains("no shipped arm `bent-arm`"), "{e}");
+    let missing = super::ServoArgs {
+        dev_arms: vec!["/nonexistent/harsh-arm.json".into()],
+        ..dev(vec![1006], vec!["default"])
+    };
+    let e = super::seeds::run_all(&missing).unwrap_err();
+    assert!(e.to_string().contains("harsh-arm.json"), "{e}");
 
     let mut p = Protocol::default_for(1);
     assert_eq!(p.jacobian_at, super::STUDY_JACOBIAN_AT);
