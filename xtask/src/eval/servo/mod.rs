@@ -6,9 +6,9 @@
 //! `servo_loop::ControlSpace`); `N` random moves train LWPR on (tip image position in both
 //! cameras → set-points); 100 targets are the true tip projections of random commands from the
 //! same exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and
-//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the target percept, from the model as
-//! refined online by every executed move), `lwpr-open-loop` (`y₀` only), `broyden` (probing + rank-one updates) and
-//! `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
+//! runs `K = 10` corrections: `lwpr` (learned Jacobian at the target percept, from the model
+//! as refined online by every executed move), `lwpr-open-loop` (`y₀` only), `broyden`
+//! (probing + rank-one updates) and `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
 //! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
 //! distance) and 3-D tip distance (mm).
 //!
@@ -144,9 +144,10 @@ pub const MEASURED_MOTION_FACTOR: f64 = 3.0;
 pub const STUDY_RECOVERY: Option<(f64, usize)> = None;
 
 /// Where the study's LWPR servo evaluates its learned Jacobian: at the target percept (the
-/// papers' Jacobian; the model is still refined online, so `J(x_w)` follows it). It replaced the current percept by the
-/// rule written before its confirmation runs on development seeds (docs/methods.md, *Where
-/// LWPR's Jacobian is evaluated*); `--jacobian-at current` runs the earlier setting.
+/// papers' Jacobian; the model is still refined online, so `J(x_w)` follows it). It replaced
+/// the current percept by the rule written before its confirmation runs on development seeds
+/// (docs/methods.md, *Where LWPR's Jacobian is evaluated*); `--jacobian-at current` runs the
+/// earlier setting.
 pub const STUDY_JACOBIAN_AT: JacobianAt = JacobianAt::Target;
 
 /// Recovery moves per refused percept when `--recovery-step` is given without
