@@ -8,9 +8,9 @@
 //! same exploration box (so they are reachable); every method starts from `y₀ = f̂(x_w)` and
 //! runs `K = 10` corrections: `lwpr` (learned Jacobian at the target percept, from the model
 //! as refined online by every executed move), `lwpr-open-loop` (`y₀` only), `broyden`
-//! (probing + rank-one updates) and `true-jacobian` (analytic Jacobian of the ideal arm). Errors are measured on the
-//! simulator's ground truth: image error of the true tip (RMS over the cameras of the pixel
-//! distance) and 3-D tip distance (mm).
+//! (probing + rank-one updates) and `true-jacobian` (analytic Jacobian of the ideal arm).
+//! Errors are measured on the simulator's ground truth: image error of the true tip (RMS over
+//! the cameras of the pixel distance) and 3-D tip distance (mm).
 //!
 //! **Percept.** By default (and in the fixtures) the percept is `servo-loop`'s learned
 //! recognition on the rendered images: the recogniser learns the static scene and which end
