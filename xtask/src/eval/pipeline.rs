@@ -442,7 +442,144 @@ fn markdown(s: &Summary) -> String {
          Learning seed {LEARN_SEED}; development seed 101 (settings looked at there only); \
          evaluation seeds {:?}, scored once. True tip: the middle of the finger ends.\n\n\
          ## Percepts on the same captures ({WALKS} walks × {STEPS} small moves per seed)\n\n{t}\n\
-         ## Servo: true image error after {ITERATIONS} iterations ({TARGETS} targets per seed)\n\n{v}\n",
-        s.evaluation_seeds
+         ## Servo: true image error after {ITERATIONS} iterations ({TARGETS} targets per seed)\n\n{v}\n{}",
+        s.evaluation_seeds,
+        goals(s)
     )
+}
+
+/// The issue's goals for the FD + CBT percept.
+const GOAL_GROSS_PCT: f64 = 1.0;
+const GOAL_MEDIAN_PX: f64 = 1.0;
+/// The servo goal per scene after `ITERATIONS` iterations (median over the seeds' medians).
+const GOAL_SERVO_PX: [(&str, f64); 2] = [("default", 0.5), ("hard", 1.0)];
+
+fn verdict(value: f64, limit: f64, unit: &str) -> String {
+    if value <= limit {
+        "met".into()
+    } else {
+        format!("MISSED by {:.2}{unit}", value - limit)
+    }
+}
+
+/// The goal lines, judged on the evaluation seeds (the reason for a miss is measured in
+/// docs/methods.md, *FD + CBT as the servo percept*; the percept's cost is a timing, so it is
+/// not in this fixture).
+fn goals(s: &Summary) -> String {
+    let mut g = String::from(
+        "## Goals (FD + CBT, evaluation seeds)\n\n\
+         *Gross* is the share of all captures with an accepted percept more than 5 px from the \
+         true tip; refused captures are counted apart.\n\n",
+    );
+    for r in s.percepts.iter().filter(|r| r.percept == "fd+cbt") {
+        let gross = 100.0 * r.gross as f64 / r.captures.max(1) as f64;
+        let refused = 100.0 * r.refused as f64 / r.captures.max(1) as f64;
+        g += &format!(
+            "- {} scene, camera {}: gross failures ≤ {GOAL_GROSS_PCT} %: {gross:.1} % — {} \
+             (refused {refused:.1} %); median ≤ {GOAL_MEDIAN_PX} px: {} px — {}\n",
+            r.scene,
+            r.camera,
+            verdict(gross, GOAL_GROSS_PCT, " percentage points"),
+            fmt(r.median_px),
+            verdict(r.median_px, GOAL_MEDIAN_PX, " px"),
+        );
+    }
+    for (scene, limit) in GOAL_SERVO_PX {
+        let row = |percept: &str| {
+            s.servo
+                .iter()
+                .find(|r| r.scene == scene && r.percept == percept)
+        };
+        if let Some(r) = row("fd+cbt") {
+            g += &format!(
+                "- {scene} scene, servo with FD + CBT after {ITERATIONS} iterations ≤ {limit} px \
+                 (median over {} seeds): {} px — {}",
+                r.seed_median_px.len(),
+                fmt(r.median_px),
+                verdict(r.median_px, limit, " px"),
+            );
+            if let Some(h) = row("heuristic") {
+                g += &format!(
+                    "; the heuristic percept at the same target poses {} px ({})",
+                    fmt(h.median_px),
+                    if h.median_px <= limit {
+                        "within the goal"
+                    } else {
+                        "failing it"
+                    }
+                );
+            }
+            g += "\n";
+        }
+    }
+    g += "- percept cost ≤ 25 ms per capture of both cameras on one core: a timing, not in this \
+          fixture (`eval pipeline` prints it; docs/performance.md, *visguide pipeline*)\n\n\
+          Why the FD percept misses, measured on development seeds only (101 and 102; \
+          docs/methods.md, *FD + CBT as the servo percept*): the single-region gripper model's \
+          votes are wrong before any choice between them: in 23 of 40 frames at least one camera \
+          had no vote mode within 5 px of the true tip.\n";
+    g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn percept(scene: &str, percept: &'static str, camera: usize, median: f64) -> PerceptRow {
+        PerceptRow {
+            scene: scene.into(),
+            percept,
+            camera,
+            captures: 200,
+            median_px: median,
+            p90_px: 9.0,
+            gross: 1,
+            gross_pct: 1.5,
+            refused: 2,
+        }
+    }
+
+    fn servo(scene: &str, percept: &'static str, median: f64) -> ServoRow {
+        ServoRow {
+            scene: scene.into(),
+            percept,
+            seed_median_px: vec![median; 5],
+            median_px: median,
+            spread_px: [median, median],
+            stopped: 0,
+            runs: 20,
+        }
+    }
+
+    /// The goal lines judge the FD + CBT rows only, each against its own limit, and say how
+    /// the heuristic percept fares at the same targets.
+    #[test]
+    fn goals_judge_fd_cbt_against_the_issue_limits() {
+        let s = Summary {
+            description: "",
+            development_seeds: vec![101],
+            evaluation_seeds: EVAL_SEEDS.to_vec(),
+            learning: Vec::new(),
+            percepts: vec![
+                percept("default", "heuristic", 0, 9.0),
+                percept("default", "fd+cbt", 0, 0.8),
+                percept("hard", "fd+cbt", 1, 1.25),
+            ],
+            servo: vec![
+                servo("default", "fd+cbt", 0.75),
+                servo("default", "heuristic", 0.4),
+                servo("hard", "fd+cbt", 0.9),
+                servo("hard", "heuristic", 2.0),
+            ],
+        };
+        let g = goals(&s);
+        assert!(!g.contains("9.00"), "{g}");
+        assert!(
+            g.contains("- default scene, camera 0: gross failures ≤ 1 %: 0.5 % — met (refused 1.0 %); median ≤ 1 px: 0.80 px — met"),
+            "{g}"
+        );
+        assert!(g.contains("- hard scene, camera 1: gross failures ≤ 1 %: 0.5 % — met (refused 1.0 %); median ≤ 1 px: 1.25 px — MISSED by 0.25 px"), "{g}");
+        assert!(g.contains("servo with FD + CBT after 5 iterations ≤ 0.5 px (median over 5 seeds): 0.75 px — MISSED by 0.25 px; the heuristic percept at the same target poses 0.40 px (within the goal)"), "{g}");
+        assert!(g.contains("- hard scene, servo with FD + CBT after 5 iterations ≤ 1 px (median over 5 seeds): 0.90 px — met; the heuristic percept at the same target poses 2.00 px (failing it)"), "{g}");
+    }
 }
