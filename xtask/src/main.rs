@@ -12,6 +12,7 @@ mod data_fetch;
 mod doc_links;
 mod eval;
 mod fixture_check;
+mod goal;
 mod markdown;
 mod output;
 mod palette;

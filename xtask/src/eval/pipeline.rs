@@ -34,6 +34,7 @@ use visguide::pipeline::{ActionProtocol, FdCbtRecogniser, Notifying, learn_by_ac
 
 use super::{EvalContext, write_json};
 use crate::Result;
+use crate::goal::verdict;
 use crate::markdown::Table;
 use crate::stats::{median, quantile_rank};
 
@@ -454,14 +455,6 @@ const GOAL_MEDIAN_PX: f64 = 1.0;
 /// The servo goal per scene after `ITERATIONS` iterations (median over the seeds' medians).
 const GOAL_SERVO_PX: [(&str, f64); 2] = [("default", 0.5), ("hard", 1.0)];
 
-fn verdict(value: f64, limit: f64, unit: &str) -> String {
-    if value <= limit {
-        "met".into()
-    } else {
-        format!("MISSED by {:.2}{unit}", value - limit)
-    }
-}
-
 /// The goal lines, judged on the evaluation seeds (the reason for a miss is measured in
 /// docs/methods.md, *FD + CBT as the servo percept*; the percept's cost is a timing, so it is
 /// not in this fixture).
@@ -479,9 +472,9 @@ fn goals(s: &Summary) -> String {
              (refused {refused:.1} %); median ≤ {GOAL_MEDIAN_PX} px: {} px — {}\n",
             r.scene,
             r.camera,
-            verdict(gross, GOAL_GROSS_PCT, " percentage points"),
+            verdict(gross, GOAL_GROSS_PCT, "percentage points"),
             fmt(r.median_px),
-            verdict(r.median_px, GOAL_MEDIAN_PX, " px"),
+            verdict(r.median_px, GOAL_MEDIAN_PX, "px"),
         );
     }
     for (scene, limit) in GOAL_SERVO_PX {
@@ -496,7 +489,7 @@ fn goals(s: &Summary) -> String {
                  (median over {} seeds): {} px — {}",
                 r.seed_median_px.len(),
                 fmt(r.median_px),
-                verdict(r.median_px, limit, " px"),
+                verdict(r.median_px, limit, "px"),
             );
             if let Some(h) = row("heuristic") {
                 g += &format!(

@@ -10,6 +10,7 @@ use super::plant::SimPlant;
 use super::seeds::SeedStudy;
 use super::{EvalContext, Protocol, Study, Target, TargetResult, servo_config, write_json};
 use crate::Result;
+use crate::goal::{met, verdict};
 use crate::markdown::Table;
 
 #[derive(Debug, Clone, Serialize)]
@@ -355,7 +356,7 @@ pub fn summary(study: &Study) -> String {
         .find(|s| s.method == "broyden")
         .expect("broyden");
     let at5 = &lw.per_iteration[5.min(lw.per_iteration.len() - 1)];
-    let check = |ok: bool| if ok { "met" } else { "MISSED" };
+    let check = met;
     s += &format!(
         "- median image error ≤ 0.5 px after ≤ 5 iterations: {:.2} px — {}\n",
         at5.median_px,
@@ -613,7 +614,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             ),
             actions.to_string(),
         ]);
-        let check = |ok: bool| if ok { "met" } else { "MISSED" };
+        let check = met;
         if *arm == "default" {
             goals += &format!(
                 "- default arm, median over seeds ≤ 0.5 px after ≤ {AT} iterations: {:.2} px — {}; ≤ 0.5 mm: {:.2} mm — {}; worst seed ≤ 0.7 px: seed {} {:.2} px — {}\n",
@@ -647,7 +648,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
     s += &recognition.line();
     s += &format!(
         "- all actions ≤ 3,000 on every (arm, seed): at most {actions_max} — {}\n",
-        if actions_max <= 3000 { "met" } else { "MISSED" }
+        met(actions_max <= 3000)
     );
     s
 }
@@ -706,18 +707,6 @@ impl RecognitionGoal {
         format!(
             "- recognition p90 ≤ {RECOGNITION_P90_PX} px on every camera of every arm, judged on the seed median (accepted percepts; refusals counted above): largest seed median {median:.2} px ({at}) — {verdict}; worst seed {worst:.2} px ({worst_at})\n",
         )
-    }
-}
-
-/// "met" for a value within its upper `limit`, else "MISSED by <excess> <unit>" ("MISSED"
-/// alone when the value is not a number).
-fn verdict(value: f64, limit: f64, unit: &str) -> String {
-    if value <= limit {
-        "met".into()
-    } else if value > limit {
-        format!("MISSED by {:.2} {unit}", value - limit)
-    } else {
-        "MISSED".into()
     }
 }
 

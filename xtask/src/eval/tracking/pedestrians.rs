@@ -20,6 +20,7 @@
 //!   seeds (the "best in" count uses it), and a set's figure is given as the mean over seeds
 //!   with the standard deviation over seeds of the set's mean RMSE.
 
+use crate::goal::met;
 use crate::markdown::Table;
 use std::fmt::Write;
 use std::path::Path;
@@ -646,10 +647,6 @@ fn mean_of(group: &[&FoldResult], tracker: &str) -> Option<f64> {
         .map(|r| r.mean)
 }
 
-fn verdict(met: bool) -> &'static str {
-    if met { "met" } else { "MISSED" }
-}
-
 /// The goals of the real-motion study, judged on the test scenes (the validation scenes'
 /// figures are in the tables above). Time per frame is not in the fixtures: it is in
 /// `docs/performance.md`.
@@ -679,8 +676,8 @@ fn goals(s: &mut String, folds: &[FoldResult]) {
                 "- {name}, trained on the other scenes: mean RMSE ≤ {GOAL_PF}'s: {cbt:.2} vs \
                  {pf:.2} px — {}; best or tied in most test sequences: {b} of {n} against the \
                  baselines — {} ({a} of {n} against all seven)",
-                verdict(cbt <= pf),
-                verdict(2 * b > n)
+                met(cbt <= pf),
+                met(2 * b > n)
             );
         }
         let few = group("five tracks");
@@ -690,7 +687,7 @@ fn goals(s: &mut String, folds: &[FoldResult]) {
                 "- {name}, trained on {FEW_TRACKS} tracks: mean RMSE ≤ {FEW_TRACKS_FACTOR} × \
                  {GOAL_PF}'s: {cbt:.2} vs {pf:.2} px ({:.2}×) — {}",
                 cbt / pf,
-                verdict(cbt <= FEW_TRACKS_FACTOR * pf)
+                met(cbt <= FEW_TRACKS_FACTOR * pf)
             );
         }
     }
