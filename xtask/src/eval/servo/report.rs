@@ -356,7 +356,6 @@ pub fn summary(study: &Study) -> String {
         .find(|s| s.method == "broyden")
         .expect("broyden");
     let at5 = &lw.per_iteration[5.min(lw.per_iteration.len() - 1)];
-    let check = met;
     s += &format!(
         "- median image error ≤ 0.5 px after ≤ 5 iterations: {:.2} px — {}\n",
         at5.median_px,
@@ -370,13 +369,13 @@ pub fn summary(study: &Study) -> String {
     s += &format!(
         "- from ≤ 2,000 training moves: {} — {}\n",
         p.training_moves,
-        check(p.training_moves <= 2000)
+        met(p.training_moves <= 2000)
     );
     s += &format!(
         "- fewer iterations than Broyden (median iterations to ≤ 1 px): lwpr {} vs broyden {} — {}\n",
         lw.median_iterations_to_success,
         br.median_iterations_to_success,
-        check(lw.median_iterations_to_success < br.median_iterations_to_success)
+        met(lw.median_iterations_to_success < br.median_iterations_to_success)
     );
     match &study.recognition {
         Some(r) => {
@@ -416,7 +415,7 @@ pub fn summary(study: &Study) -> String {
     s += &format!(
         "- all actions ≤ 3,000: {} — {}\n",
         study.actions.total(),
-        check(study.actions.total() <= 3000)
+        met(study.actions.total() <= 3000)
     );
     s += "- whole `eval servo` under 8 minutes on 2 cores: see docs/performance.md (`## servo-loop`)\n";
     s
@@ -614,7 +613,6 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             ),
             actions.to_string(),
         ]);
-        let check = met;
         if *arm == "default" {
             goals += &format!(
                 "- default arm, median over seeds ≤ 0.5 px after ≤ {AT} iterations: {:.2} px — {}; ≤ 0.5 mm: {:.2} mm — {}; worst seed ≤ 0.7 px: seed {} {:.2} px — {}\n",
@@ -636,7 +634,7 @@ pub fn seeds_section(st: &SeedStudy) -> String {
             verdict(ratio, 1.2, "×"),
             lw_px.median,
             br_px.median,
-            check(lw_px.median < br_px.median),
+            met(lw_px.median < br_px.median),
             lw_px.worst_seed,
             tj_px.worst_seed,
             br_px.worst_seed,
