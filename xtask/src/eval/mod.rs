@@ -70,7 +70,7 @@ pub enum EvalTarget {
     Servo(servo::ServoArgs),
     /// The thesis's future work: FD recognition + CBT tracking as the servo percept, on the
     /// default and the hard scene.
-    Pipeline,
+    Pipeline(pipeline::PipelineArgs),
 }
 
 impl EvalTarget {
@@ -84,7 +84,7 @@ impl EvalTarget {
             EvalTarget::Tracking(Default::default()),
             EvalTarget::ArmSim,
             EvalTarget::Servo(Default::default()),
-            EvalTarget::Pipeline,
+            EvalTarget::Pipeline(Default::default()),
         ]
     }
 
@@ -98,7 +98,7 @@ impl EvalTarget {
             EvalTarget::PaperASynthetic => "paper-a-synthetic",
             EvalTarget::ArmSim => "arm-sim",
             EvalTarget::Servo(_) => "paper-c",
-            EvalTarget::Pipeline => "pipeline",
+            EvalTarget::Pipeline(_) => "pipeline",
         }
     }
 
@@ -131,7 +131,7 @@ impl EvalTarget {
             EvalTarget::PaperASynthetic => paper_a::run_synthetic(ctx),
             EvalTarget::ArmSim => arm_sim::run(ctx),
             EvalTarget::Servo(args) => servo::run(ctx, args),
-            EvalTarget::Pipeline => pipeline::run(ctx),
+            EvalTarget::Pipeline(args) => pipeline::run(ctx, args),
         }
     }
 }

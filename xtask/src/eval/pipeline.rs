@@ -22,6 +22,7 @@
 
 use std::time::Instant;
 
+use clap::Args;
 use arm_sim::{ArmSim, SimConfig};
 use serde::Serialize;
 use servo_loop::{
@@ -41,6 +42,21 @@ use crate::stats::{median, quantile_rank};
 const EXPLORE: [[f64; 2]; 3] = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
 const LEARN_SEED: u64 = 2009;
 const EVAL_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
+/// Where settings are chosen (`--development`); never scored for the fixtures.
+const DEV_SEEDS: [u64; 2] = [101, 102];
+
+/// Options of `cargo xtask eval pipeline`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct PipelineArgs {
+    /// Run the study on the development seeds (101, 102) and print it instead of writing
+    /// fixtures.
+    #[arg(long)]
+    pub development: bool,
+    /// With `--development`: the forward model's random moves (0: no forward model; the
+    /// tracks restart after large moves). Default: the library's (`MotionConfig`).
+    #[arg(long, requires = "development")]
+    pub motion_moves: Option<usize>,
+}
 const WALKS: usize = 6;
 const STEPS: usize = 8;
 const TARGETS: usize = 4;
@@ -137,7 +153,7 @@ struct Learned {
     report: SceneLearning,
 }
 
-fn learn(name: &str, config: &SimConfig) -> Result<Learned> {
+fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned> {
     let mut sim_config = config.clone();
     sim_config.seed = LEARN_SEED;
     let mut robot = SimRobot::new(ArmSim::new(sim_config)?);
@@ -153,10 +169,13 @@ fn learn(name: &str, config: &SimConfig) -> Result<Learned> {
         },
     )?;
     let heuristic_actions = robot.commands();
-    let protocol = ActionProtocol {
+    let mut protocol = ActionProtocol {
         seed: LEARN_SEED ^ 0xF00D,
         ..ActionProtocol::default()
     };
+    if let Some(moves) = args.motion_moves {
+        protocol.motion.moves = moves;
+    }
     let (pipeline, lr) = learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol)?;
     let mut plant = VisualPlant::new(robot, space(), heuristic.clone())?;
     let mut lwpr = InverseModel::new(4, 3, &InverseModelConfig::default())?;
@@ -195,6 +214,8 @@ fn percepts(
     let mut sim = ArmSim::new(c)?;
     let mut commands = RandomCommands::new(&EXPLORE, seed ^ 0x5EE)?;
     let mut steps = RandomCommands::new(&[[-12.0, 12.0]; 3], seed ^ 0x57E)?;
+    // The tracker is told every command, as through `Notifying` in the servo.
+    let mut notifier = l.pipeline.notifier(RESET_US)?;
     for _ in 0..WALKS {
         l.pipeline.reset();
         let mut y = commands.next_command();
@@ -202,7 +223,9 @@ fn percepts(
             for (v, d) in y.iter_mut().zip(steps.next_command()) {
                 *v += d;
             }
-            sim.command(&space().full_command(&y)?)?;
+            let full = space().full_command(&y)?;
+            sim.command(&full)?;
+            notifier.commanded(&full);
             let images = sim.capture();
             let t = truth(&sim)?;
             let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &l.pipeline.fd, &l.pipeline];
@@ -258,31 +281,36 @@ fn fmt(v: f64) -> String {
 }
 
 /// Runs the target.
-pub fn run(ctx: &EvalContext) -> Result<()> {
+pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
+    let seeds: &[u64] = if args.development {
+        &DEV_SEEDS
+    } else {
+        &EVAL_SEEDS
+    };
     let hard =
         SimConfig::read_file(crate::workspace_root().join("crates/arm-sim/arms/hard-scene.json"))?;
     let scenes = [("default", SimConfig::default()), ("hard", hard)];
     let mut summary = Summary {
         description: "FD + CBT as the servo percept (visguide::pipeline) against the heuristic percept",
         development_seeds: vec![101],
-        evaluation_seeds: EVAL_SEEDS.to_vec(),
+        evaluation_seeds: seeds.to_vec(),
         learning: Vec::new(),
         percepts: Vec::new(),
         servo: Vec::new(),
     };
     const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
     for (name, config) in &scenes {
-        let l = learn(name, config)?;
+        let l = learn(name, config, args)?;
         let mut errors: [[Errors; 2]; 3] = Default::default();
         let mut seconds = [0.0; 3];
         let mut servo_rows: Vec<(Vec<f64>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
-        for &seed in &EVAL_SEEDS {
+        for &seed in seeds {
             percepts(config, &l, seed, &mut errors, &mut seconds)?;
             // Targets: the FD + CBT percept at random reachable poses, with the true tip.
             let mut c = config.clone();
             c.seed = seed ^ 0x5E0;
             // A fresh FD + CBT percept; the robot tells it of large commanded moves.
-            let pipeline = FdCbtRecogniser::new(l.pipeline.fd.clone(), l.pipeline.model().clone());
+            let pipeline = l.pipeline.fresh();
             let robot = Notifying {
                 robot: SimRobot::new(ArmSim::new(c.clone())?),
                 notifier: pipeline.notifier(RESET_US)?,
@@ -359,7 +387,7 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
                 });
             }
         }
-        let captures = (EVAL_SEEDS.len() * WALKS * STEPS) as f64;
+        let captures = (seeds.len() * WALKS * STEPS) as f64;
         println!(
             "pipeline {name}: time per capture of both cameras (wall, this machine, not a fixture): heuristic {:.1} ms, FD {:.1} ms, FD+CBT {:.1} ms",
             1e3 * seconds[0] / captures,
@@ -383,6 +411,13 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
             });
         }
         summary.learning.push(l.report);
+    }
+    if args.development {
+        println!(
+            "DEVELOPMENT seeds {seeds:?} (the tables' \"evaluation seeds\" are these; nothing written)\n\n{}",
+            markdown(&summary)
+        );
+        return Ok(());
     }
     write_json(&ctx.out_dir, "summary.json", &summary)?;
     std::fs::write(ctx.out_dir.join("summary.md"), markdown(&summary))?;

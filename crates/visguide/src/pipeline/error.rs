@@ -33,6 +33,9 @@ pub enum PipelineError {
     /// The tracker refused its input or model.
     #[error(transparent)]
     Track(#[from] cbt_tracker::TrackError),
+    /// The forward model's regression (LWPR) refused its input.
+    #[error("lwpr: {0}")]
+    Lwpr(#[from] lwpr::LwprError),
     /// The servo library (the heuristic percept, the control space) failed.
     #[error(transparent)]
     Servo(#[from] servo_loop::ServoError),

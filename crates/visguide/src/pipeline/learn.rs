@@ -1,14 +1,18 @@
 //! Learning the pipeline by action on any [`servo_loop::Robot`] (Paper C's "action precedes
 //! perception"; no ground truth): gripper moves at random poses give the shape model
-//! ([`super::shapes`]), small random walks give the tracker's training frames
-//! ([`super::track`]). The heuristic percept (servo-loop's learned silhouette recogniser,
+//! ([`super::shapes`]), random moves the forward model of the commanded moves
+//! ([`super::motion`]), and small random walks the tracker's training frames
+//! ([`super::track`]), compensated by the forward model's predicted shifts. The heuristic percept (servo-loop's learned silhouette recogniser,
 //! learned beforehand on the same robot) supplies the tip on the training captures.
 
 use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
 
 use super::error::{PipelineError, Result};
+use super::motion::{MotionConfig, MotionModel};
 use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
-use super::track::{FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker};
+use super::track::{
+    FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker, on_canvas,
+};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
@@ -26,6 +30,8 @@ pub struct ActionProtocol {
     pub step_us: f64,
     /// Seed of every random draw.
     pub seed: u64,
+    /// The forward model of the commanded moves (`moves` 0: none).
+    pub motion: MotionConfig,
     /// Shape model settings.
     pub shapes: ShapeConfig,
     /// Percept settings.
@@ -40,6 +46,7 @@ impl Default for ActionProtocol {
             steps: 15,
             step_us: 12.0,
             seed: 23,
+            motion: MotionConfig::default(),
             shapes: ShapeConfig::default(),
             percept: PerceptConfig::default(),
         }
@@ -55,6 +62,8 @@ pub struct LearnReport {
     pub shapes: ShapeReport,
     /// Training frames for the tracker (both cameras) with a heuristic percept.
     pub track_frames: usize,
+    /// Training pairs of the forward model (moves with a heuristic percept).
+    pub motion_pairs: usize,
 }
 
 fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> PipelineError {
@@ -101,6 +110,7 @@ pub fn learn_by_action<R: Robot>(
     }
     protocol.shapes.validate()?;
     protocol.percept.validate()?;
+    protocol.motion.validate()?;
     let cams = heuristic.num_cameras();
     let size = Recogniser::image_size(heuristic, 0);
     let mut report = LearnReport::default();
@@ -134,46 +144,107 @@ pub fn learn_by_action<R: Robot>(
     drop(pairs);
     drop(captures);
     report.shapes = shape_report;
-    // Walks: small random moves from random poses; per frame the percept and the votes.
+    let capture = |robot: &mut R| -> Result<Vec<image::GrayImage>> {
+        let images = robot.capture().map_err(robot_err("capture"))?;
+        if images.len() < cams {
+            return Err(PipelineError::Robot {
+                during: "capture",
+                message: format!(
+                    "{} images, the heuristic percept has {cams} cameras",
+                    images.len()
+                ),
+            });
+        }
+        Ok(images)
+    };
+    // The forward model: random moves (their own draws, so the walks do not depend on it).
+    let motion = if protocol.motion.moves > 0 {
+        let mut m = MotionModel::new(&space.controlled, cams, &protocol.motion)?;
+        let mut draws = RandomCommands::new(explore, protocol.seed ^ 0x3071)?;
+        for _ in 0..protocol.motion.moves {
+            let full = space.full_command(&draws.next_command())?;
+            robot.command(&full).map_err(robot_err("command"))?;
+            report.actions += 1;
+            let images = capture(robot)?;
+            if let Ok(t) = heuristic.locate_all(&images) {
+                let tips: Vec<[f64; 2]> = t.iter().take(cams).map(|l| l.position).collect();
+                m.update(&full, &tips)?;
+                report.motion_pairs += 1;
+            }
+        }
+        Some(m)
+    } else {
+        None
+    };
+    // Walks: small random moves from random poses; per frame the percept and the votes, in
+    // coordinates compensated by the predicted shifts since the walk's start (a move the
+    // forward model cannot predict starts a new training sequence).
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(protocol.seed ^ 0x7A1C);
     let mut walks: Vec<Walk> = Vec::new();
     for _ in 0..protocol.walks {
         let mut y = commands.next_command();
         let mut per_cam: Vec<Walk> = vec![Vec::new(); cams];
+        let mut offsets = vec![[0.0; 2]; cams];
+        let mut last: Option<Vec<f64>> = None;
         for _ in 0..protocol.steps {
             for (j, v) in y.iter_mut().enumerate() {
                 let [lo, hi] = explore[j];
                 let u: f64 = StandardUniform.sample(&mut rng);
                 *v = (*v + (2.0 * u - 1.0) * protocol.step_us).clamp(lo, hi);
             }
-            robot
-                .command(&space.full_command(&y)?)
-                .map_err(robot_err("command"))?;
+            let full = space.full_command(&y)?;
+            robot.command(&full).map_err(robot_err("command"))?;
             report.actions += 1;
-            let images = robot.capture().map_err(robot_err("capture"))?;
-            if images.len() < cams {
-                return Err(PipelineError::Robot {
-                    during: "capture",
-                    message: format!(
-                        "{} images, the heuristic percept has {cams} cameras",
-                        images.len()
-                    ),
-                });
+            if let (Some(m), Some(l)) = (&motion, &last) {
+                match m.shift(l, &full)? {
+                    Some(d) => offsets.iter_mut().zip(&d).for_each(|(o, d)| {
+                        o[0] += d[0];
+                        o[1] += d[1];
+                    }),
+                    None => {
+                        walks.extend(per_cam.iter_mut().map(std::mem::take));
+                        offsets.iter_mut().for_each(|o| *o = [0.0; 2]);
+                    }
+                }
             }
+            last = Some(full);
+            let images = capture(robot)?;
             let tips = heuristic.locate_all(&images).ok();
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
-                walk.push((truth, shapes.votes(cam, &images[cam])?));
+                // Shifted off the image canvas the tracker covers: dropped, as in tracking.
+                let o = offsets[cam];
+                let shifted = |p: [f64; 2]| {
+                    let q = [p[0] - o[0], p[1] - o[1]];
+                    on_canvas(q, size).then_some(q)
+                };
+                let votes = shapes
+                    .votes(cam, &images[cam])?
+                    .into_iter()
+                    .filter_map(|mut v| {
+                        v.position = shifted(v.position)?;
+                        Some(v)
+                    })
+                    .collect();
+                walk.push((truth.and_then(shifted), votes));
             }
         }
         walks.extend(per_cam);
     }
+    walks.retain(|w| !w.is_empty());
     let model = learn_tracker(size, &walks)?;
     let fd = FdRecogniser {
         shapes,
         size,
         config: protocol.percept,
     };
-    Ok((FdCbtRecogniser::new(fd, model), report))
+    let recogniser = FdCbtRecogniser::new(fd, model);
+    Ok((
+        match motion {
+            Some(m) => recogniser.with_motion(m)?,
+            None => recogniser,
+        },
+        report,
+    ))
 }

@@ -13,6 +13,13 @@
 //! A track starts at the first frame whose vote mode has certainty ≥ `start_certainty`; it is
 //! started again there when the tracker's own certainty falls below `lost_certainty`.
 //! [`FdCbtRecogniser::reset`] forgets every track (call it before a new, unrelated run).
+//!
+//! The commanded move is a known input ([`super::motion`]): with a forward model
+//! ([`FdCbtRecogniser::with_motion`]) each commanded move, told by [`Notifying`], adds its
+//! predicted shift to the track's offset `c`, and the tracker runs on the votes at `z − c`
+//! (learned on walks compensated the same way), so a servo move of any size keeps the track.
+//! Without one, or where the forward model has no prediction, a move larger than `reset_us`
+//! restarts the tracks from the votes.
 
 use std::sync::{Arc, Mutex};
 
@@ -23,6 +30,7 @@ use image::GrayImage;
 use servo_loop::{Localisation, Recogniser, Robot, ServoError};
 
 use super::error::{PipelineError, Result};
+use super::motion::MotionModel;
 use super::shapes::ShapeModel;
 use super::vote::{Vote, mode};
 
@@ -84,6 +92,11 @@ pub fn detections(votes: &[Vote]) -> Vec<Detection> {
         .collect()
 }
 
+/// Whether `p` lies on the `size` image canvas the tracker covers (its edges included).
+pub(crate) fn on_canvas(p: [f64; 2], size: [u32; 2]) -> bool {
+    (0.0..=f64::from(size[0])).contains(&p[0]) && (0.0..=f64::from(size[1])).contains(&p[1])
+}
+
 /// One training walk of one camera: per frame the heuristic percept (if any) and the votes.
 pub type Walk = Vec<(Option<[f64; 2]>, Vec<Vote>)>;
 
@@ -123,31 +136,57 @@ pub fn learn_tracker(size: [u32; 2], walks: &[Walk]) -> Result<CbtModel> {
     Ok(CbtModel::learn_sequences(space, config, &sequences)?)
 }
 
-fn forget(tracks: &Mutex<Vec<Option<CbtTracker>>>) {
+/// One camera's track: the tracker, running in coordinates compensated by `offset`, the sum of
+/// the commanded moves' predicted shifts since it started (module docs).
+#[derive(Debug, Clone)]
+struct Track {
+    tracker: CbtTracker,
+    offset: [f64; 2],
+}
+
+type Tracks = Arc<Mutex<Vec<Option<Track>>>>;
+
+fn forget(tracks: &Mutex<Vec<Option<Track>>>) {
     let mut t = tracks.lock().unwrap_or_else(|p| p.into_inner());
     t.iter_mut().for_each(|x| *x = None);
 }
 
-/// Tells an [`FdCbtRecogniser`] of the commanded moves: the one use this pipeline makes of the
-/// known command (a move larger than the tracker learned restarts the tracks from the votes).
+/// Tells an [`FdCbtRecogniser`] of the commanded moves: with a forward model, each move shifts
+/// the tracks by its predicted image motion; without one (or outside it), a move larger than
+/// the tracker learned restarts the tracks from the votes.
 #[derive(Debug)]
 pub struct MoveNotifier {
-    tracks: Arc<Mutex<Vec<Option<CbtTracker>>>>,
+    tracks: Tracks,
+    motion: Option<Arc<MotionModel>>,
     reset_us: f64,
     last: Option<Vec<f64>>,
 }
 
 impl MoveNotifier {
-    /// A command was sent.
+    /// A command was sent (the full set-points, as the robot was given them).
     pub fn commanded(&mut self, set_points: &[f64]) {
-        let far = self.last.as_ref().is_none_or(|l| {
-            l.len() != set_points.len()
-                || l.iter()
-                    .zip(set_points)
-                    .any(|(a, b)| (a - b).abs() > self.reset_us)
-        });
-        if far {
-            forget(&self.tracks);
+        let shift = match (&self.motion, &self.last) {
+            (Some(m), Some(l)) => m.shift(l, set_points).ok().flatten(),
+            _ => None,
+        };
+        if let Some(d) = shift {
+            let mut t = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
+            for (track, d) in t.iter_mut().zip(&d) {
+                if let Some(track) = track {
+                    track.offset[0] += d[0];
+                    track.offset[1] += d[1];
+                }
+            }
+        } else {
+            let far = self.last.as_ref().is_none_or(|l| {
+                l.len() != set_points.len()
+                    || l.iter()
+                        .zip(set_points)
+                        .any(|(a, b)| (a - b).abs() > self.reset_us)
+            });
+            if far {
+                forget(&self.tracks);
+            }
         }
         self.last = Some(set_points.to_vec());
     }
@@ -279,17 +318,48 @@ pub struct FdCbtRecogniser {
     /// The FD-only percept whose votes are tracked.
     pub fd: FdRecogniser,
     model: CbtModel,
-    tracks: Arc<Mutex<Vec<Option<CbtTracker>>>>,
+    motion: Option<Arc<MotionModel>>,
+    tracks: Tracks,
 }
 
 impl FdCbtRecogniser {
-    /// The percept with `model` learned by [`learn_tracker`]; no track yet.
+    /// The percept with `model` learned by [`learn_tracker`]; no track yet, no forward model.
     pub fn new(fd: FdRecogniser, model: CbtModel) -> Self {
         let n = fd.shapes.num_cameras();
         FdCbtRecogniser {
             fd,
             model,
+            motion: None,
             tracks: Arc::new(Mutex::new(vec![None; n])),
+        }
+    }
+
+    /// With the forward model that predicts each commanded move's image shift (module docs);
+    /// `model` must have been learned on walks compensated by it ([`super::learn_by_action`]
+    /// does both). Errors: a forward model for another number of cameras.
+    pub fn with_motion(mut self, motion: MotionModel) -> Result<Self> {
+        if motion.num_cameras() != self.fd.shapes.num_cameras() {
+            return Err(PipelineError::InvalidParameter {
+                name: "motion",
+                reason: format!(
+                    "a forward model of {} cameras, the shape model has {}",
+                    motion.num_cameras(),
+                    self.fd.shapes.num_cameras()
+                ),
+            });
+        }
+        self.motion = Some(Arc::new(motion));
+        Ok(self)
+    }
+
+    /// The same percept (shape, tracker and forward models) with no track, independent of
+    /// this one's tracks and notifiers.
+    pub fn fresh(&self) -> Self {
+        FdCbtRecogniser {
+            fd: self.fd.clone(),
+            model: self.model.clone(),
+            motion: self.motion.clone(),
+            tracks: Arc::new(Mutex::new(vec![None; self.fd.shapes.num_cameras()])),
         }
     }
 
@@ -298,13 +368,20 @@ impl FdCbtRecogniser {
         &self.model
     }
 
+    /// The forward model of the commanded moves, if any.
+    pub fn motion(&self) -> Option<&MotionModel> {
+        self.motion.as_deref()
+    }
+
     /// Forgets every track (the next frame starts them from the votes).
     pub fn reset(&self) {
         forget(&self.tracks);
     }
 
-    /// A handle that forgets the tracks when a commanded move exceeds `reset_us` on any servo
-    /// (see [`Notifying`]): the tracker's learned motion covers small moves only.
+    /// A handle told of every commanded move (see [`Notifying`]): with a forward model it
+    /// shifts the tracks by the move's predicted image motion; without one, or where the
+    /// forward model has no prediction, it forgets the tracks when the move exceeds `reset_us`
+    /// on any servo (the tracker's learned motion covers small moves only).
     ///
     /// Errors: `reset_us` NaN or negative ([`PipelineError::InvalidParameter`]; a NaN used to
     /// mean "never reset", a negative value "always"). An infinite `reset_us` never resets.
@@ -317,6 +394,7 @@ impl FdCbtRecogniser {
         }
         Ok(MoveNotifier {
             tracks: Arc::clone(&self.tracks),
+            motion: self.motion.clone(),
             reset_us,
             last: None,
         })
@@ -327,10 +405,14 @@ impl FdCbtRecogniser {
         &self,
         cam: usize,
         votes: &[Vote],
-        track: &mut Option<CbtTracker>,
+        track: &mut Option<Track>,
     ) -> servo_loop::Result<Localisation> {
         let cfg = &self.fd.config;
-        let start = |track: &mut Option<CbtTracker>| -> servo_loop::Result<Localisation> {
+        let tracker_error = |e: cbt_tracker::TrackError| ServoError::InvalidParameter {
+            name: "tracker",
+            reason: e.to_string(),
+        };
+        let start = |track: &mut Option<Track>| -> servo_loop::Result<Localisation> {
             *track = None;
             let m = mode(votes, cfg.mode_sigma_px)
                 .map_err(percept_error)?
@@ -338,13 +420,12 @@ impl FdCbtRecogniser {
             if m.certainty < cfg.start_certainty {
                 return Err(failed(cam, m.certainty, cfg.start_certainty));
             }
-            let mut t = CbtTracker::new(self.model.clone());
-            t.reset(m.position)
-                .map_err(|e| ServoError::InvalidParameter {
-                    name: "tracker",
-                    reason: e.to_string(),
-                })?;
-            *track = Some(t);
+            let mut tracker = CbtTracker::new(self.model.clone());
+            tracker.reset(m.position).map_err(tracker_error)?;
+            *track = Some(Track {
+                tracker,
+                offset: [0.0; 2],
+            });
             Ok(Localisation {
                 position: m.position,
                 certainty: m.certainty,
@@ -353,18 +434,23 @@ impl FdCbtRecogniser {
         let Some(t) = track.as_mut() else {
             return start(track);
         };
-        let e = t
-            .step(&detections(votes))
-            .map_err(|e| ServoError::InvalidParameter {
-                name: "tracker",
-                reason: e.to_string(),
-            })?;
+        // The votes in the track's compensated coordinates; those that fall off the image
+        // canvas the tracker covers are far from the track and dropped.
+        let seen: Vec<Detection> = votes
+            .iter()
+            .map(|v| Detection {
+                pos: [v.position[0] - t.offset[0], v.position[1] - t.offset[1]],
+                weight: v.weight,
+            })
+            .filter(|d| on_canvas(d.pos, self.fd.size))
+            .collect();
+        let e = t.tracker.step(&seen).map_err(tracker_error)?;
         let certainty = e.certainty.unwrap_or(0.0).clamp(0.0, 1.0);
         if certainty < cfg.lost_certainty {
             return start(track);
         }
         Ok(Localisation {
-            position: e.position,
+            position: [e.position[0] + t.offset[0], e.position[1] + t.offset[1]],
             certainty,
         })
     }

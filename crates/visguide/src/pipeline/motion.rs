@@ -1,0 +1,287 @@
+//! The commanded move as a known input of the tracker: a forward model, learned by action, of
+//! where each camera sees the tip for a command, `x̂ = g(y)`, so that a move from `y` to `y'`
+//! is predicted to shift the tip by `g(y') − g(y)` in each image.
+//!
+//! `g` is one LWPR model (crate `lwpr`, the thesis's incremental regression of Paper C) from the
+//! controlled servos' set-points to the tip's image positions of every camera, learned from
+//! random moves seen through the heuristic percept (the same teacher as the shape model; no
+//! ground truth). Where no trustworthy receptive field covers a command the prediction is
+//! `None`, and the tracker falls back to its learned motion alone.
+//!
+//! How the tracker uses it ([`super::track`]): each track keeps the sum `c` of the predicted
+//! shifts since it started and tracks in *compensated* coordinates `z − c`, where the tip moves
+//! only by what the prediction got wrong. The stationary layout's models depend on
+//! displacements only, so this change of coordinates is exactly a shift of the posterior by the
+//! predicted move before the learned prediction; and the training walks are compensated the
+//! same way, so the learned system model is the distribution of the prediction's residuals.
+
+use lwpr::{Lwpr, LwprBuilder};
+
+use super::error::{PipelineError, Result};
+
+/// Settings of the forward model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionConfig {
+    /// Random moves through the heuristic percept to learn it from (0: no forward model; the
+    /// tracker then uses its learned motion alone).
+    pub moves: usize,
+    /// Input normalisation (µs for RC servos).
+    pub command_scale: f64,
+    /// Output normalisation (pixels).
+    pub pixel_scale: f64,
+    /// Initial spherical distance metric (normalised units).
+    pub init_d: f64,
+    /// Learning rate of the distance metric.
+    pub init_alpha: f64,
+    /// Activation below which a new receptive field is created.
+    pub w_gen: f64,
+    /// Activation below which a prediction is refused.
+    pub cutoff: f64,
+}
+
+impl Default for MotionConfig {
+    /// The inverse model's LWPR settings (`servo_loop::InverseModelConfig`), inputs and
+    /// outputs swapped; 300 moves.
+    fn default() -> Self {
+        MotionConfig {
+            moves: 300,
+            command_scale: 500.0,
+            pixel_scale: 320.0,
+            init_d: 25.0,
+            init_alpha: 250.0,
+            w_gen: 0.2,
+            cutoff: 0.001,
+        }
+    }
+}
+
+impl MotionConfig {
+    /// Checks the settings: scales, `init_d` and `init_alpha` finite and positive, `w_gen` and
+    /// `cutoff` in `(0, 1)`.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("command_scale", self.command_scale),
+            ("pixel_scale", self.pixel_scale),
+            ("init_d", self.init_d),
+            ("init_alpha", self.init_alpha),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(PipelineError::InvalidParameter {
+                    name,
+                    reason: format!("{v} must be finite and positive"),
+                });
+            }
+        }
+        for (name, v) in [("w_gen", self.w_gen), ("cutoff", self.cutoff)] {
+            if !(v > 0.0 && v < 1.0) {
+                return Err(PipelineError::InvalidParameter {
+                    name,
+                    reason: format!("{v} must lie in (0, 1)"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The learned forward model `x̂ = g(y)`: controlled servos' set-points → the tip in every camera.
+#[derive(Debug, Clone)]
+pub struct MotionModel {
+    lwpr: Lwpr,
+    controlled: Vec<usize>,
+    cameras: usize,
+    cutoff: f64,
+}
+
+impl MotionModel {
+    /// An empty model reading the servos `controlled` of a full command, for `cameras`
+    /// cameras.
+    pub fn new(controlled: &[usize], cameras: usize, config: &MotionConfig) -> Result<Self> {
+        config.validate()?;
+        if controlled.is_empty() || cameras == 0 {
+            return Err(PipelineError::InvalidParameter {
+                name: "motion model",
+                reason: "needs at least one controlled servo and one camera".into(),
+            });
+        }
+        let (n_in, n_out) = (controlled.len(), 2 * cameras);
+        lwpr::check_sizes(n_in, n_out)?;
+        let lwpr = LwprBuilder::new(n_in, n_out)
+            .norm_in(&vec![config.command_scale; n_in])
+            .norm_out(&vec![config.pixel_scale; n_out])
+            .init_d_spherical(config.init_d)
+            .init_alpha(config.init_alpha)
+            .w_gen(config.w_gen)
+            .update_d(true)
+            .build()?;
+        Ok(MotionModel {
+            lwpr,
+            controlled: controlled.to_vec(),
+            cameras,
+            cutoff: config.cutoff,
+        })
+    }
+
+    /// Cameras predicted.
+    pub fn num_cameras(&self) -> usize {
+        self.cameras
+    }
+
+    /// Training pairs seen.
+    pub fn n_data(&self) -> u64 {
+        self.lwpr.n_data()
+    }
+
+    fn input(&self, command: &[f64]) -> Result<Vec<f64>> {
+        let x: Option<Vec<f64>> = self
+            .controlled
+            .iter()
+            .map(|&i| command.get(i).copied().filter(|v| v.is_finite()))
+            .collect();
+        x.ok_or_else(|| PipelineError::InvalidParameter {
+            name: "command",
+            reason: format!(
+                "{} set-points, finite at servos {:?} expected",
+                command.len(),
+                self.controlled
+            ),
+        })
+    }
+
+    /// One training pair: the full `command` and the tip seen in every camera. Invalid input
+    /// (a short or non-finite command, a wrong camera count, a non-finite position) is refused
+    /// and leaves the model unchanged.
+    pub fn update(&mut self, command: &[f64], tips: &[[f64; 2]]) -> Result<()> {
+        let x = self.input(command)?;
+        if tips.len() != self.cameras || tips.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(PipelineError::InvalidParameter {
+                name: "tips",
+                reason: format!("{} finite positions expected", self.cameras),
+            });
+        }
+        let y: Vec<f64> = tips.iter().flatten().copied().collect();
+        self.lwpr.update(&x, &y)?;
+        Ok(())
+    }
+
+    /// The tip in every camera for the full `command`; `None` where no trustworthy receptive
+    /// field covers it. Errors: a short or non-finite command.
+    pub fn predict(&self, command: &[f64]) -> Result<Option<Vec<[f64; 2]>>> {
+        let x = self.input(command)?;
+        let (y, w) = self.lwpr.predict_with_max_activation(&x, self.cutoff)?;
+        if w.iter().any(|&w| w <= self.cutoff) {
+            return Ok(None);
+        }
+        Ok(Some(y.chunks_exact(2).map(|p| [p[0], p[1]]).collect()))
+    }
+
+    /// The predicted shift of the tip in every camera for a move from `from` to `to` (full
+    /// commands): `g(to) − g(from)`, `None` where either lies outside the model.
+    pub fn shift(&self, from: &[f64], to: &[f64]) -> Result<Option<Vec<[f64; 2]>>> {
+        let (Some(a), Some(b)) = (self.predict(from)?, self.predict(to)?) else {
+            return Ok(None);
+        };
+        Ok(Some(
+            a.iter()
+                .zip(&b)
+                .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
+                .collect(),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A linear arm: the tip moves 0.3 px per µs of servo 0 along x in camera 0, and so on.
+    fn truth(y: &[f64]) -> Vec<[f64; 2]> {
+        vec![
+            [0.3 * (y[0] - 1500.0) + 320.0, -0.2 * (y[2] - 1500.0) + 240.0],
+            [0.25 * (y[0] - 1500.0) + 300.0, 0.2 * (y[2] - 1500.0) + 250.0],
+        ]
+    }
+
+    fn learned() -> MotionModel {
+        let mut m = MotionModel::new(&[0, 2], 2, &MotionConfig::default()).unwrap();
+        let mut s = 1u64;
+        for _ in 0..400 {
+            let mut y = vec![1500.0; 3];
+            for v in [0, 2] {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                y[v] = 1300.0 + 400.0 * ((s >> 11) as f64 / (1u64 << 53) as f64);
+            }
+            m.update(&y, &truth(&y)).unwrap();
+        }
+        m
+    }
+
+    #[test]
+    fn shift_of_a_linear_arm_is_learned() {
+        let m = learned();
+        let (a, b) = (vec![1400.0, 1500.0, 1450.0], vec![1550.0, 1500.0, 1600.0]);
+        let d = m.shift(&a, &b).unwrap().expect("inside the model");
+        let (ta, tb) = (truth(&a), truth(&b));
+        for c in 0..2 {
+            for k in 0..2 {
+                let want = tb[c][k] - ta[c][k];
+                assert!(
+                    (d[c][k] - want).abs() < 1.0,
+                    "camera {c} axis {k}: {} vs {want}",
+                    d[c][k]
+                );
+            }
+        }
+        // The servo it does not read does not matter.
+        let b2 = vec![1550.0, 1900.0, 1600.0];
+        assert_eq!(m.shift(&a, &b2).unwrap(), Some(d));
+    }
+
+    #[test]
+    fn outside_the_model_is_none_and_bad_input_an_error() {
+        let m = learned();
+        assert_eq!(m.predict(&[9000.0, 1500.0, 9000.0]).unwrap(), None);
+        assert!(m.predict(&[1500.0, 1500.0]).is_err());
+        assert!(m.predict(&[f64::NAN, 1500.0, 1500.0]).is_err());
+        let empty = MotionModel::new(&[0], 1, &MotionConfig::default()).unwrap();
+        assert_eq!(empty.predict(&[1500.0]).unwrap(), None);
+    }
+
+    #[test]
+    fn refused_updates_change_nothing() {
+        let mut m = learned();
+        let n = m.n_data();
+        let before = m.predict(&[1500.0, 1500.0, 1500.0]).unwrap();
+        assert!(m.update(&[1500.0, 1500.0, 1500.0], &[[1.0, 2.0]]).is_err());
+        assert!(m.update(&[1500.0, 1500.0, 1500.0], &[[1.0, f64::NAN], [0.0, 0.0]]).is_err());
+        assert!(m.update(&[1500.0], &[[1.0, 2.0], [0.0, 0.0]]).is_err());
+        assert_eq!(m.n_data(), n);
+        assert_eq!(m.predict(&[1500.0, 1500.0, 1500.0]).unwrap(), before);
+    }
+
+    #[test]
+    fn settings_are_checked() {
+        for bad in [
+            MotionConfig {
+                command_scale: 0.0,
+                ..MotionConfig::default()
+            },
+            MotionConfig {
+                pixel_scale: f64::NAN,
+                ..MotionConfig::default()
+            },
+            MotionConfig {
+                w_gen: 1.0,
+                ..MotionConfig::default()
+            },
+            MotionConfig {
+                cutoff: 0.0,
+                ..MotionConfig::default()
+            },
+        ] {
+            assert!(MotionModel::new(&[0], 1, &bad).is_err());
+        }
+        assert!(MotionModel::new(&[], 1, &MotionConfig::default()).is_err());
+        assert!(MotionModel::new(&[0], 0, &MotionConfig::default()).is_err());
+    }
+}
