@@ -7,7 +7,9 @@ use servo_loop::{
     RandomCommands, Recogniser, ServoError, SilhouetteConfig, TipModel, learn_recognition,
 };
 use visguide::SimRobot;
-use visguide::pipeline::{ActionProtocol, FdCbtRecogniser, PipelineError, learn_by_action};
+use visguide::pipeline::{
+    ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, learn_by_action,
+};
 
 #[path = "../../servo-loop/tests/common/stats.rs"]
 mod stats;
@@ -18,6 +20,9 @@ mod arm;
 use arm::{EXPLORE, space};
 
 type Learned = (SimRobot, TipModel, FdCbtRecogniser);
+
+/// Random moves the forward model of the commanded moves is learned from.
+const MOTION_MOVES: usize = 150;
 
 /// The heuristic percept and the pipeline, learned once on the default arm (both tests share
 /// it; each locks it for its whole run).
@@ -44,16 +49,22 @@ fn learned(config: SimConfig) -> Learned {
         },
     )
     .unwrap();
-    let protocol = ActionProtocol {
+    let mut protocol = ActionProtocol {
         views: 24,
         walks: 4,
         steps: 10,
         ..ActionProtocol::default()
     };
+    protocol.motion.moves = MOTION_MOVES;
     let (pipeline, report) =
         learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol).unwrap();
     eprintln!("{report:?}");
-    assert_eq!(report.actions, 2 * 24 + 4 * 10);
+    assert_eq!(report.actions, 2 * 24 + MOTION_MOVES + 4 * 10);
+    assert!(report.motion_pairs >= MOTION_MOVES * 9 / 10, "{report:?}");
+    assert_eq!(
+        pipeline.motion().map(|m| m.n_data()),
+        Some(report.motion_pairs as u64)
+    );
     assert!(report.shapes.views.iter().all(|&v| v >= 20), "{report:?}");
     (robot, heuristic, pipeline)
 }
@@ -140,6 +151,94 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
     }
 }
 
+/// The true tip in both cameras.
+fn true_tip(robot: &SimRobot) -> Vec<[f64; 2]> {
+    let pose = robot.0.inspect().pose().clone();
+    let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+    (0..2)
+        .map(|c| robot.0.inspect().project(c, &mid).unwrap())
+        .collect()
+}
+
+#[test]
+fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
+    let guard = shared();
+    let (_, _, pipeline) = &*guard;
+    let motion = pipeline.motion().expect("learned with a forward model").clone();
+    // A simulator of its own (the shared one's state is the other tests').
+    let robot = &mut SimRobot::new(
+        ArmSim::new(SimConfig {
+            seed: 505,
+            ..SimConfig::default()
+        })
+        .unwrap(),
+    );
+    // The forward model against the simulator's true tip, on servo-sized moves it never made.
+    let mut commands = RandomCommands::new(&EXPLORE, 404).unwrap();
+    let mut errors = Vec::new();
+    let mut predicted = 0;
+    for _ in 0..12 {
+        let a = space().full_command(&commands.next_command()).unwrap();
+        let b = space().full_command(&commands.next_command()).unwrap();
+        robot.0.command(&a).unwrap();
+        let ta = true_tip(robot);
+        robot.0.command(&b).unwrap();
+        let tb = true_tip(robot);
+        if let Some(d) = motion.shift(&a, &b).unwrap() {
+            predicted += 1;
+            for c in 0..2 {
+                errors.push(dist(d[c], [tb[c][0] - ta[c][0], tb[c][1] - ta[c][1]]));
+            }
+        }
+    }
+    let m = median(&mut errors);
+    eprintln!("forward model: {predicted} of 12 moves predicted, shift error median {m:.2} px");
+    assert!(predicted >= 10, "{predicted}");
+    assert!(m < 5.0, "shift error median {m:.2} px");
+
+    // Through the notifier: a large move keeps the running tracks, shifted by the prediction;
+    // without a forward model it forgets them.
+    let fresh = pipeline.fresh();
+    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone());
+    for (recogniser, keeps) in [(&fresh, true), (&plain, false)] {
+        let mut notifier = recogniser.notifier(30.0).unwrap();
+        let mut started = false;
+        let mut from = Vec::new();
+        for _ in 0..20 {
+            from = space().full_command(&commands.next_command()).unwrap();
+            robot.0.command(&from).unwrap();
+            notifier.commanded(&from);
+            let _ = recogniser.locate_all(&robot.0.capture());
+            if recogniser.offsets().iter().any(Option::is_some) {
+                started = true;
+                break;
+            }
+        }
+        assert!(started, "no track started in 20 poses");
+        let before = recogniser.offsets();
+        assert!(before.iter().flatten().all(|o| *o == [0.0; 2]));
+        let mut to = from.clone();
+        to[0] += 80.0;
+        robot.0.command(&to).unwrap();
+        notifier.commanded(&to);
+        let after = recogniser.offsets();
+        if keeps {
+            let d = motion.shift(&from, &to).unwrap().expect("inside the model");
+            for c in 0..2 {
+                assert_eq!(after[c], before[c].map(|_| d[c]), "camera {c}");
+            }
+        } else {
+            assert!(after.iter().all(Option::is_none), "{after:?}");
+        }
+    }
+    // A forward model of another camera count is refused.
+    let one_camera = MotionModel::new(&[0, 1, 2], 1, &MotionConfig::default()).unwrap();
+    assert!(matches!(
+        pipeline.fresh().with_motion(one_camera),
+        Err(PipelineError::InvalidParameter { name: "motion", .. })
+    ));
+}
+
 #[test]
 fn the_pipeline_refuses_what_it_cannot_use() {
     let mut guard = shared();
@@ -199,6 +298,8 @@ fn the_pipeline_refuses_what_it_cannot_use() {
     bad_percept.percept.mode_sigma_px = f64::NAN;
     let mut bad_shapes = ActionProtocol::default();
     bad_shapes.shapes.ratio_threshold = 2.0;
+    let mut bad_motion = ActionProtocol::default();
+    bad_motion.motion.w_gen = 2.0;
     for (explore, protocol, name) in [
         (&EXPLORE[..2], &ActionProtocol::default(), None),
         (
@@ -209,6 +310,7 @@ fn the_pipeline_refuses_what_it_cannot_use() {
         (&EXPLORE[..], &nan_step, Some("step_us")),
         (&EXPLORE[..], &bad_percept, Some("mode_sigma_px")),
         (&EXPLORE[..], &bad_shapes, Some("ratio_threshold")),
+        (&EXPLORE[..], &bad_motion, Some("w_gen")),
     ] {
         let e = learn_by_action(robot, &space(), explore, heuristic, protocol).unwrap_err();
         match name {

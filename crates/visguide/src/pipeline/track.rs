@@ -373,6 +373,13 @@ impl FdCbtRecogniser {
         self.motion.as_deref()
     }
 
+    /// Per camera, the running track's offset `c` (the summed predicted shifts of the
+    /// commanded moves since it started; module docs), `None` where no track runs.
+    pub fn offsets(&self) -> Vec<Option<[f64; 2]>> {
+        let t = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
+        t.iter().map(|x| x.as_ref().map(|t| t.offset)).collect()
+    }
+
     /// Forgets every track (the next frame starts them from the votes).
     pub fn reset(&self) {
         forget(&self.tracks);
