@@ -16,9 +16,10 @@
 //!   percept (target: what that sees there); the true image error (RMS over cameras of the
 //!   true tip's distance to where it was at the target pose) after the last iteration.
 //!
-//! Seeds: development seed 101 (`examples/pipeline_probe.rs`, the only seed the settings were
-//! looked at on); evaluation seeds 3001–3005, scored once. Fixtures hold no timings; the time
-//! per capture is printed to stdout only.
+//! Seeds: development seeds 101 and 102 (`examples/pipeline_probe.rs` and `--development`, which
+//! runs this study on them and prints it: the only seeds the settings were looked at on);
+//! evaluation seeds 3001–3005, scored once. Fixtures hold no timings; the time per capture is
+//! printed to stdout only.
 
 use std::time::Instant;
 
@@ -123,6 +124,8 @@ struct SceneLearning {
 #[derive(Debug, Serialize)]
 struct Summary {
     description: &'static str,
+    /// Random moves of the tracker's forward model (0: none).
+    motion_moves: usize,
     development_seeds: Vec<u64>,
     evaluation_seeds: Vec<u64>,
     learning: Vec<SceneLearning>,
@@ -292,7 +295,10 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
     let scenes = [("default", SimConfig::default()), ("hard", hard)];
     let mut summary = Summary {
         description: "FD + CBT as the servo percept (visguide::pipeline) against the heuristic percept",
-        development_seeds: vec![101],
+        motion_moves: args
+            .motion_moves
+            .unwrap_or(visguide::pipeline::MotionConfig::default().moves),
+        development_seeds: DEV_SEEDS.to_vec(),
         evaluation_seeds: seeds.to_vec(),
         learning: Vec::new(),
         percepts: Vec::new(),
@@ -475,11 +481,15 @@ fn markdown(s: &Summary) -> String {
     }
     format!(
         "# FD + CBT as the servo percept (`cargo xtask eval pipeline`)\n\n\
-         Learning seed {LEARN_SEED}; development seed 101 (settings looked at there only); \
-         evaluation seeds {:?}, scored once. True tip: the middle of the finger ends.\n\n\
+         Learning seed {LEARN_SEED}; development seeds {:?} (settings looked at there only); \
+         evaluation seeds {:?}, scored once. True tip: the middle of the finger ends. The \
+         tracker is told each commanded move and shifts its track by the learned forward \
+         model's prediction ({} random moves).\n\n\
          ## Percepts on the same captures ({WALKS} walks × {STEPS} small moves per seed)\n\n{t}\n\
          ## Servo: true image error after {ITERATIONS} iterations ({TARGETS} targets per seed)\n\n{v}\n{}",
+        s.development_seeds,
         s.evaluation_seeds,
+        s.motion_moves,
         goals(s)
     )
 }
@@ -590,7 +600,8 @@ mod tests {
     fn goals_judge_fd_cbt_against_the_issue_limits() {
         let s = Summary {
             description: "",
-            development_seeds: vec![101],
+            motion_moves: 300,
+            development_seeds: DEV_SEEDS.to_vec(),
             evaluation_seeds: EVAL_SEEDS.to_vec(),
             learning: Vec::new(),
             percepts: vec![

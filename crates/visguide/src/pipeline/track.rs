@@ -478,10 +478,12 @@ impl Recogniser for FdCbtRecogniser {
             .map(|(cam, img)| votes_of(&self.fd.shapes, cam, img))
             .collect::<servo_loop::Result<_>>()?;
         let mut tracks = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
-        let mut out = Vec::with_capacity(votes.len());
-        for (cam, v) in votes.iter().enumerate() {
-            out.push(self.step(cam, v, &mut tracks[cam])?);
-        }
-        Ok(out)
+        // Every camera's track takes the frame, also when another camera's percept fails.
+        let steps: Vec<_> = votes
+            .iter()
+            .enumerate()
+            .map(|(cam, v)| self.step(cam, v, &mut tracks[cam]))
+            .collect();
+        steps.into_iter().collect()
     }
 }
