@@ -23,8 +23,8 @@
 
 use std::time::Instant;
 
-use clap::Args;
 use arm_sim::{ArmSim, SimConfig};
+use clap::Args;
 use serde::Serialize;
 use servo_loop::{
     Approach, ControlSpace, InverseModel, InverseModelConfig, JacobianAt, LearnConfig,

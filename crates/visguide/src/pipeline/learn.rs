@@ -10,9 +10,7 @@ use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
 use super::error::{PipelineError, Result};
 use super::motion::{MotionConfig, MotionModel};
 use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
-use super::track::{
-    FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker, on_canvas,
-};
+use super::track::{FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker, on_canvas};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};

@@ -11,13 +11,15 @@
 //!    view's recovered rotation and scale ([`Vote`]; a generalised Hough transform). The
 //!    frame's mode is the FD-only percept ([`FdRecogniser`]).
 //! 3. **Track** ([`FdCbtRecogniser`]): CBT learns its observation and system models from the
-//!    votes and percepts of small random walks (unordered sets) and tracks each camera's tip
-//!    through the frames; its estimate and certainty are the percept, through servo-loop's
+//!    votes and percepts of small random walks (unordered sets, in coordinates compensated by
+//!    the commanded moves' predicted shifts) and tracks each camera's tip through the frames; its estimate and certainty are the percept, through servo-loop's
 //!    [`servo_loop::Recogniser`] seam (the servo loop is unchanged).
 //!
-//! The commanded move is used only to restart the tracks after a move larger than the
-//! training walks' ([`Notifying`]); the tracker's prediction itself does not use it (the
-//! stationary model predicts with the displacements it learned from the walks).
+//! The commanded move is a known input ([`motion`]): a forward model learned by action (LWPR
+//! from the controlled servos to the tip in each image) predicts each move's image shift, the
+//! tracks are shifted by it ([`Notifying`] tells them the commands) and the tracker's learned
+//! motion is the prediction's residual; without a prediction, a move larger than the training
+//! walks' restarts the tracks from the votes.
 
 pub mod error;
 pub mod learn;
