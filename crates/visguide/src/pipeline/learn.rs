@@ -2,8 +2,9 @@
 //! perception"; no ground truth): gripper moves at random poses give the shape model
 //! ([`super::shapes`]), random moves the forward model of the commanded moves
 //! ([`super::motion`]), and small random walks the tracker's training frames
-//! ([`super::track`]), compensated by the forward model's predicted shifts. The heuristic percept (servo-loop's learned silhouette recogniser,
-//! learned beforehand on the same robot) supplies the tip on the training captures.
+//! ([`super::track`]), compensated by the forward model's predicted shifts. The heuristic
+//! percept (servo-loop's learned silhouette recogniser, learned beforehand on the same robot)
+//! supplies the tip on the training captures.
 
 use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
 

@@ -142,9 +142,6 @@ pub struct GripperView {
     pub area: f64,
     /// The tip minus its centre (pixels), in the training image.
     pub offset: [f64; 2],
-    /// The training capture it was seen in (the index of its [`ActionPair`]).
-    #[serde(default)]
-    pub capture: usize,
 }
 
 /// One camera's part of the model.
@@ -258,7 +255,6 @@ impl ShapeModel {
                             contour: rest.contours[i].clone(),
                             area,
                             offset: [t[0] - c[0], t[1] - c[1]],
-                            capture,
                         });
                     }
                     _ => report.far_changes[p.camera] += 1,
@@ -360,7 +356,6 @@ impl ShapeModel {
         let t_r = self.config.ratio_threshold;
         let (w, h) = (f64::from(img.width()), f64::from(img.height()));
         let mut votes = Vec::new();
-        let mut captures = Vec::new();
         let dc = descriptor_config();
         let mut corr = fd_match::Correlator::new(dc.max_frequency(), dc.samples)?;
         for (k, (g, b)) in grip.iter().zip(&bg).enumerate() {
@@ -413,24 +408,7 @@ impl ShapeModel {
                     rotation,
                     region: k,
                 });
-                captures.push((view.capture, shapes.grip.source(j)));
             }
-        }
-        if let Some(px) = std::env::var("VG_CONFIRM").ok().and_then(|v| v.parse::<f64>().ok()) {
-            let keep: Vec<bool> = (0..votes.len())
-                .map(|a| {
-                    (0..votes.len()).any(|b| {
-                        votes[b].region != votes[a].region
-                            && captures[b].0 == captures[a].0
-                            && captures[b].1 != captures[a].1
-                            && (votes[a].position[0] - votes[b].position[0])
-                                .hypot(votes[a].position[1] - votes[b].position[1])
-                                <= px
-                    })
-                })
-                .collect();
-            let mut k = keep.iter();
-            votes.retain(|_| *k.next().expect("one flag per vote"));
         }
         Ok(votes)
     }
