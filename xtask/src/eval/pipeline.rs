@@ -45,6 +45,15 @@ const LEARN_SEED: u64 = 2009;
 const EVAL_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
 /// Where settings are chosen (`--development`); never scored for the fixtures.
 const DEV_SEEDS: [u64; 2] = [101, 102];
+const WALKS: usize = 6;
+const STEPS: usize = 8;
+const TARGETS: usize = 4;
+const ITERATIONS: usize = 5;
+const TRAINING_MOVES: usize = 400;
+const GROSS_PX: f64 = 5.0;
+/// A commanded move larger than this on any servo restarts the tracks when the forward model
+/// has no prediction for it (the training walks' steps are at most 12 µs).
+const RESET_US: f64 = 30.0;
 
 /// Options of `cargo xtask eval pipeline`.
 #[derive(Args, Clone, Debug, Default)]
@@ -58,15 +67,6 @@ pub struct PipelineArgs {
     #[arg(long, requires = "development")]
     pub motion_moves: Option<usize>,
 }
-const WALKS: usize = 6;
-const STEPS: usize = 8;
-const TARGETS: usize = 4;
-const ITERATIONS: usize = 5;
-const TRAINING_MOVES: usize = 400;
-const GROSS_PX: f64 = 5.0;
-/// A commanded move larger than this on any servo restarts the tracks (the training walks'
-/// steps are at most 12 µs).
-const RESET_US: f64 = 30.0;
 
 fn space() -> ControlSpace {
     ControlSpace {
@@ -315,7 +315,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
             // Targets: the FD + CBT percept at random reachable poses, with the true tip.
             let mut c = config.clone();
             c.seed = seed ^ 0x5E0;
-            // A fresh FD + CBT percept; the robot tells it of large commanded moves.
+            // A fresh FD + CBT percept; the robot tells it of every commanded move.
             let pipeline = l.pipeline.fresh();
             let robot = Notifying {
                 robot: SimRobot::new(ArmSim::new(c.clone())?),

@@ -6,7 +6,8 @@
 //! controlled servos' set-points to the tip's image positions of every camera, learned from
 //! random moves seen through the heuristic percept (the same teacher as the shape model; no
 //! ground truth). Where no trustworthy receptive field covers a command the prediction is
-//! `None`, and the tracker falls back to its learned motion alone.
+//! `None`: that move shifts no track, and one larger than the notifier's `reset_us` restarts
+//! the tracks, as without a forward model.
 //!
 //! How the tracker uses it ([`super::track`]): each track keeps the sum `c` of the predicted
 //! shifts since it started and tracks in *compensated* coordinates `z − c`, where the tip moves
