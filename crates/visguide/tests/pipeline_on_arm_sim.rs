@@ -87,13 +87,7 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
             y[step % 3] += 4.0;
             robot.0.command(&space().full_command(&y).unwrap()).unwrap();
             let images = robot.0.capture();
-            // The true tip: the middle of the finger ends (the point the heuristic percept,
-            // the pipeline's teacher, defines as the tip).
-            let pose = robot.0.inspect().pose().clone();
-            let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-            let truth: Vec<[f64; 2]> = (0..2)
-                .map(|c| robot.0.inspect().project(c, &mid).unwrap())
-                .collect();
+            let truth = true_tip(robot);
             match pipeline.fd.locate_all(&images) {
                 Ok(l) => fd.extend((0..2).map(|c| dist(l[c].position, truth[c]))),
                 Err(_) => refused += 1,
@@ -153,7 +147,8 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
     }
 }
 
-/// The true tip in both cameras.
+/// The true tip in both cameras: the middle of the finger ends (the point the heuristic
+/// percept, the pipeline's teacher, defines as the tip).
 fn true_tip(robot: &SimRobot) -> Vec<[f64; 2]> {
     let pose = robot.0.inspect().pose().clone();
     let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;

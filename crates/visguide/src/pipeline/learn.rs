@@ -11,7 +11,9 @@ use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
 use super::error::{PipelineError, Result};
 use super::motion::{MotionConfig, MotionModel};
 use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
-use super::track::{FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, learn_tracker, on_canvas};
+use super::track::{
+    FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, compensated, learn_tracker,
+};
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
@@ -212,12 +214,7 @@ pub fn learn_by_action<R: Robot>(
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
-                // Shifted off the image canvas the tracker covers: dropped, as in tracking.
-                let o = offsets[cam];
-                let shifted = |p: [f64; 2]| {
-                    let q = [p[0] - o[0], p[1] - o[1]];
-                    on_canvas(q, size).then_some(q)
-                };
+                let shifted = |p: [f64; 2]| compensated(p, offsets[cam], size);
                 let votes = shapes
                     .votes(cam, &images[cam])?
                     .into_iter()

@@ -92,9 +92,13 @@ pub fn detections(votes: &[Vote]) -> Vec<Detection> {
         .collect()
 }
 
-/// Whether `p` lies on the `size` image canvas the tracker covers (its edges included).
-pub(crate) fn on_canvas(p: [f64; 2], size: [u32; 2]) -> bool {
-    (0.0..=f64::from(size[0])).contains(&p[0]) && (0.0..=f64::from(size[1])).contains(&p[1])
+/// `p` in the coordinates compensated by `offset` (module docs), or `None` when it falls off
+/// the `size` image canvas the tracker covers (its edges included): such a vote is far from
+/// the track and dropped, in learning and in tracking alike.
+pub(crate) fn compensated(p: [f64; 2], offset: [f64; 2], size: [u32; 2]) -> Option<[f64; 2]> {
+    let q = [p[0] - offset[0], p[1] - offset[1]];
+    ((0.0..=f64::from(size[0])).contains(&q[0]) && (0.0..=f64::from(size[1])).contains(&q[1]))
+        .then_some(q)
 }
 
 /// One training walk of one camera: per frame the heuristic percept (if any) and the votes.
@@ -441,15 +445,14 @@ impl FdCbtRecogniser {
         let Some(t) = track.as_mut() else {
             return start(track);
         };
-        // The votes in the track's compensated coordinates; those that fall off the image
-        // canvas the tracker covers are far from the track and dropped.
         let seen: Vec<Detection> = votes
             .iter()
-            .map(|v| Detection {
-                pos: [v.position[0] - t.offset[0], v.position[1] - t.offset[1]],
-                weight: v.weight,
+            .filter_map(|v| {
+                Some(Detection {
+                    pos: compensated(v.position, t.offset, self.fd.size)?,
+                    weight: v.weight,
+                })
             })
-            .filter(|d| on_canvas(d.pos, self.fd.size))
             .collect();
         let e = t.tracker.step(&seen).map_err(tracker_error)?;
         let certainty = e.certainty.unwrap_or(0.0).clamp(0.0, 1.0);
