@@ -18,8 +18,9 @@
 //!
 //! Seeds: development seeds 101 and 102 (`examples/pipeline_probe.rs` and `--development`, which
 //! runs this study on them and prints it: the only seeds the settings were looked at on);
-//! evaluation seeds 3001–3005, scored once. Fixtures hold no timings; the time per capture is
-//! printed to stdout only.
+//! evaluation seeds 3101–3105, scored once (3001–3005 were scored before the prior on the votes'
+//! position was adopted, and are not used again). Fixtures hold no timings; the time per capture
+//! is printed to stdout only.
 
 use std::time::Instant;
 
@@ -42,7 +43,7 @@ use crate::stats::{median, quantile_rank};
 
 const EXPLORE: [[f64; 2]; 3] = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
 const LEARN_SEED: u64 = 2009;
-const EVAL_SEEDS: [u64; 5] = [3001, 3002, 3003, 3004, 3005];
+const EVAL_SEEDS: [u64; 5] = [3101, 3102, 3103, 3104, 3105];
 /// Where settings are chosen (`--development`); never scored for the fixtures.
 const DEV_SEEDS: [u64; 2] = [101, 102];
 const WALKS: usize = 6;
@@ -66,6 +67,10 @@ pub struct PipelineArgs {
     /// tracks restart after large moves). Default: the library's (`MotionConfig`).
     #[arg(long, requires = "development")]
     pub motion_moves: Option<usize>,
+    /// With `--development`: without the prior on the FD + CBT percept's votes from the
+    /// forward model's prediction (`PerceptConfig::position_prior`).
+    #[arg(long, requires = "development")]
+    pub no_position_prior: bool,
 }
 
 fn space() -> ControlSpace {
@@ -100,11 +105,13 @@ struct PerceptRow {
 struct ServoRow {
     scene: String,
     percept: &'static str,
-    /// Per evaluation seed: median true image error after `ITERATIONS` iterations (px).
-    seed_median_px: Vec<f64>,
-    /// Median over the seeds' medians.
+    /// Per evaluation seed: median true image error after `ITERATIONS` iterations (px); `None`
+    /// for a seed with no servo run (the percept saw none of its targets: every run counts as
+    /// stopped).
+    seed_median_px: Vec<Option<f64>>,
+    /// Median over the seeds' medians (the seeds with a run; NaN if none has one).
     median_px: f64,
-    /// Min and max of the seeds' medians.
+    /// Min and max of the seeds' medians (the seeds with a run).
     spread_px: [f64; 2],
     /// Runs stopped by a refused or failed percept (the loop did not move on it).
     stopped: usize,
@@ -119,6 +126,10 @@ struct SceneLearning {
     gripper_views: Vec<usize>,
     background_regions: Vec<usize>,
     lwpr_moves: usize,
+    /// Per camera, the forward model's error scale σ (px) of the prior on the votes' position
+    /// and whether the prior applies (empty without a prior).
+    prior_sigma_px: Vec<f64>,
+    prior_applied: Vec<bool>,
 }
 
 #[derive(Debug, Serialize)]
@@ -179,6 +190,9 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
     if let Some(moves) = args.motion_moves {
         protocol.motion.moves = moves;
     }
+    if args.no_position_prior {
+        protocol.percept.position_prior = false;
+    }
     let (pipeline, lr) = learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol)?;
     let mut plant = VisualPlant::new(robot, space(), heuristic.clone())?;
     let mut lwpr = InverseModel::new(4, 3, &InverseModelConfig::default())?;
@@ -189,6 +203,10 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
         approach: Some(Approach::hobby_servo()),
     };
     learn_control(&mut plant, &mut lwpr, &lc, |_, _| {})?;
+    let prior_sigma_px = pipeline.prior().map_or(Vec::new(), |p| p.sigmas().to_vec());
+    let prior_applied = pipeline.prior().map_or(Vec::new(), |p| {
+        (0..p.num_cameras()).map(|c| p.applies(c)).collect()
+    });
     Ok(Learned {
         heuristic,
         pipeline,
@@ -200,6 +218,8 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
             gripper_views: lr.shapes.views,
             background_regions: lr.shapes.background,
             lwpr_moves: TRAINING_MOVES,
+            prior_sigma_px,
+            prior_applied,
         },
     })
 }
@@ -309,7 +329,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
         let l = learn(name, config, args)?;
         let mut errors: [[Errors; 2]; 3] = Default::default();
         let mut seconds = [0.0; 3];
-        let mut servo_rows: Vec<(Vec<f64>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
+        let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
         for &seed in seeds {
             percepts(config, &l, seed, &mut errors, &mut seconds)?;
             // Targets: the FD + CBT percept at random reachable poses, with the true tip.
@@ -373,7 +393,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
             {
                 row.1 += s;
                 row.2 += TARGETS;
-                row.0.push(median(&mut e));
+                row.0.push((!e.is_empty()).then(|| median(&mut e)));
             }
         }
         for (k, per_cam) in errors.iter_mut().enumerate() {
@@ -400,12 +420,12 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
             1e3 * seconds[1] / captures,
             1e3 * seconds[2] / captures
         );
-        for (percept, (mut meds, stopped, runs)) in
+        for (percept, (seed_median_px, stopped, runs)) in
             ["fd+cbt", "heuristic"].into_iter().zip(servo_rows)
         {
+            let mut meds: Vec<f64> = seed_median_px.iter().flatten().copied().collect();
             let lo = meds.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = meds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let seed_median_px = meds.clone();
             summary.servo.push(ServoRow {
                 scene: name.to_string(),
                 percept,
@@ -471,7 +491,7 @@ fn markdown(s: &Summary) -> String {
             r.percept.to_string(),
             r.seed_median_px
                 .iter()
-                .map(|x| fmt(*x))
+                .map(|x| x.map_or_else(|| "— (no target seen)".to_string(), fmt))
                 .collect::<Vec<_>>()
                 .join(", "),
             fmt(r.median_px),
@@ -484,13 +504,60 @@ fn markdown(s: &Summary) -> String {
          Learning seed {LEARN_SEED}; development seeds {:?} (settings looked at there only); \
          evaluation seeds {:?}, scored once. True tip: the middle of the finger ends. The \
          tracker is told each commanded move and shifts its track by the learned forward \
-         model's prediction ({} random moves).\n\n\
+         model's prediction ({} random moves). {}\n\n\
          ## Percepts on the same captures ({WALKS} walks × {STEPS} small moves per seed)\n\n{t}\n\
          ## Servo: true image error after {ITERATIONS} iterations ({TARGETS} targets per seed)\n\n{v}\n{}",
         s.development_seeds,
         s.evaluation_seeds,
         s.motion_moves,
+        prior_sentence(s),
         goals(s)
+    )
+}
+
+/// "5 seeds", or "4 of 5 seeds (1 saw no target)" when a seed had no servo run.
+fn seeds_counted(r: &ServoRow) -> String {
+    let n = r.seed_median_px.len();
+    let k = r.seed_median_px.iter().flatten().count();
+    if k == n {
+        format!("{n} seeds")
+    } else {
+        format!("{k} of {n} seeds; {} saw no target", n - k)
+    }
+}
+
+/// What the prior on the votes' position did per scene.
+fn prior_sentence(s: &Summary) -> String {
+    let scenes: Vec<String> = s
+        .learning
+        .iter()
+        .filter(|l| !l.prior_sigma_px.is_empty())
+        .map(|l| {
+            let cams: Vec<String> = l
+                .prior_sigma_px
+                .iter()
+                .zip(&l.prior_applied)
+                .enumerate()
+                .map(|(c, (sigma, on))| {
+                    format!(
+                        "camera {c} σ {} px{}",
+                        fmt(*sigma),
+                        if *on { "" } else { " (not applied)" }
+                    )
+                })
+                .collect();
+            format!("{}: {}", l.scene, cams.join(", "))
+        })
+        .collect();
+    if scenes.is_empty() {
+        return String::from("No prior on the votes' position.");
+    }
+    format!(
+        "The votes are weighed by their agreement with the forward model's predicted tip, on a \
+         camera whose learned error scale σ makes the prior at most {} px wide \
+         (`visguide::pipeline::prior`): {}.",
+        visguide::pipeline::prior::MAX_WIDTH_PX,
+        scenes.join("; ")
     )
 }
 
@@ -533,15 +600,16 @@ fn goals(s: &Summary) -> String {
         if let Some(r) = row("fd+cbt") {
             g += &format!(
                 "- {scene} scene, servo with FD + CBT after {ITERATIONS} iterations ≤ {limit} px \
-                 (median over {} seeds): {} px — {}",
-                r.seed_median_px.len(),
+                 (median over {}): {} px — {}",
+                seeds_counted(r),
                 fmt(r.median_px),
                 verdict(r.median_px, limit, "px"),
             );
             if let Some(h) = row("heuristic") {
                 g += &format!(
-                    "; the heuristic percept at the same target poses {} px ({})",
+                    "; the heuristic percept at the same target poses {} px (over {}; {})",
                     fmt(h.median_px),
+                    seeds_counted(h),
                     if h.median_px <= limit {
                         "within the goal"
                     } else {
@@ -586,7 +654,7 @@ mod tests {
         ServoRow {
             scene: scene.into(),
             percept,
-            seed_median_px: vec![median; 5],
+            seed_median_px: vec![Some(median); 5],
             median_px: median,
             spread_px: [median, median],
             stopped: 0,
@@ -623,7 +691,37 @@ mod tests {
             "{g}"
         );
         assert!(g.contains("- hard scene, camera 1: gross failures ≤ 1 %: 0.5 % — met (refused 1.0 %); median ≤ 1 px: 1.25 px — MISSED by 0.25 px"), "{g}");
-        assert!(g.contains("servo with FD + CBT after 5 iterations ≤ 0.5 px (median over 5 seeds): 0.75 px — MISSED by 0.25 px; the heuristic percept at the same target poses 0.40 px (within the goal)"), "{g}");
-        assert!(g.contains("- hard scene, servo with FD + CBT after 5 iterations ≤ 1 px (median over 5 seeds): 0.90 px — met; the heuristic percept at the same target poses 2.00 px (failing it)"), "{g}");
+        assert!(g.contains("servo with FD + CBT after 5 iterations ≤ 0.5 px (median over 5 seeds): 0.75 px — MISSED by 0.25 px; the heuristic percept at the same target poses 0.40 px (over 5 seeds; within the goal)"), "{g}");
+        assert!(g.contains("- hard scene, servo with FD + CBT after 5 iterations ≤ 1 px (median over 5 seeds): 0.90 px — met; the heuristic percept at the same target poses 2.00 px (over 5 seeds; failing it)"), "{g}");
+    }
+
+    /// A seed on which a percept saw none of its targets has no servo median: it is shown as
+    /// such, left out of the median and the spread, and the goal line says so (it used to
+    /// print "NaN" and count as the largest value).
+    #[test]
+    fn a_seed_without_a_servo_run_is_named_not_a_nan() {
+        let mut h = servo("hard", "heuristic", 2.0);
+        h.seed_median_px = vec![None, Some(1.0), Some(3.0), Some(14.0), Some(8.0)];
+        h.median_px = 5.5;
+        h.spread_px = [1.0, 14.0];
+        let s = Summary {
+            description: "",
+            motion_moves: 300,
+            development_seeds: DEV_SEEDS.to_vec(),
+            evaluation_seeds: EVAL_SEEDS.to_vec(),
+            learning: Vec::new(),
+            percepts: Vec::new(),
+            servo: vec![servo("hard", "fd+cbt", 0.9), h],
+        };
+        let m = markdown(&s);
+        assert!(!m.contains("NaN"), "{m}");
+        assert!(
+            m.contains("| hard | heuristic | — (no target seen), 1.00, 3.00, 14.00, 8.00 | 5.50 | 1.00–14.00 |"),
+            "{m}"
+        );
+        assert!(
+            m.contains("the heuristic percept at the same target poses 5.50 px (over 4 of 5 seeds; 1 saw no target; failing it)"),
+            "{m}"
+        );
     }
 }

@@ -10,10 +10,12 @@ use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
 
 use super::error::{PipelineError, Result};
 use super::motion::{MotionConfig, MotionModel};
+use super::prior::PositionPrior;
 use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
 use super::track::{
     FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, compensated, learn_tracker,
 };
+use super::vote::Vote;
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
@@ -179,12 +181,14 @@ pub fn learn_by_action<R: Robot>(
     };
     // Walks: small random moves from random poses; per frame the percept and the votes, in
     // coordinates compensated by the predicted shifts since the walk's start (a move the
-    // forward model cannot predict starts a new training sequence).
+    // forward model cannot predict starts a new training sequence). The frames are kept in
+    // image coordinates first, with the forward model's prediction, so that the prior on the
+    // votes' position can be measured on all of them before it weighs them.
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(protocol.seed ^ 0x7A1C);
-    let mut walks: Vec<Walk> = Vec::new();
+    let mut raw: Vec<Vec<RawFrame>> = Vec::new();
     for _ in 0..protocol.walks {
         let mut y = commands.next_command();
-        let mut per_cam: Vec<Walk> = vec![Vec::new(); cams];
+        let mut per_cam: Vec<Vec<RawFrame>> = vec![Vec::new(); cams];
         let mut offsets = vec![[0.0; 2]; cams];
         let mut last: Option<Vec<f64>> = None;
         for _ in 0..protocol.steps {
@@ -203,32 +207,68 @@ pub fn learn_by_action<R: Robot>(
                         o[1] += d[1];
                     }),
                     None => {
-                        walks.extend(per_cam.iter_mut().map(std::mem::take));
+                        raw.extend(per_cam.iter_mut().map(std::mem::take));
                         offsets.iter_mut().for_each(|o| *o = [0.0; 2]);
                     }
                 }
             }
+            let predicted = match &motion {
+                Some(m) => m.predict(&full)?,
+                None => None,
+            };
             last = Some(full);
             let images = capture(robot)?;
             let tips = heuristic.locate_all(&images).ok();
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
-                let shifted = |p: [f64; 2]| compensated(p, offsets[cam], size);
-                let votes = shapes
-                    .votes(cam, &images[cam])?
-                    .into_iter()
-                    .filter_map(|mut v| {
-                        v.position = shifted(v.position)?;
-                        Some(v)
-                    })
-                    .collect();
-                walk.push((truth.and_then(shifted), votes));
+                walk.push(RawFrame {
+                    camera: cam,
+                    truth,
+                    votes: shapes.votes(cam, &images[cam])?,
+                    offset: offsets[cam],
+                    predicted: predicted.as_ref().map(|p| p[cam]),
+                });
             }
         }
-        walks.extend(per_cam);
+        raw.extend(per_cam);
     }
-    walks.retain(|w| !w.is_empty());
+    raw.retain(|w| !w.is_empty());
+    // The forward model's error on the walks' frames (it learned from the random moves only).
+    let prior = match &motion {
+        Some(_) if protocol.percept.position_prior => {
+            let mut distances = vec![Vec::new(); cams];
+            for f in raw.iter().flatten() {
+                if let (Some(t), Some(p)) = (f.truth, f.predicted) {
+                    distances[f.camera].push((t[0] - p[0]).hypot(t[1] - p[1]));
+                }
+            }
+            Some(PositionPrior::from_distances(&distances)?)
+        }
+        _ => None,
+    };
+    let walks: Vec<Walk> = raw
+        .into_iter()
+        .map(|walk| {
+            walk.into_iter()
+                .map(|mut f| {
+                    if let (Some(prior), Some(p)) = (&prior, f.predicted) {
+                        prior.weigh(f.camera, p, &mut f.votes)?;
+                    }
+                    let shifted = |p: [f64; 2]| compensated(p, f.offset, size);
+                    let votes = f
+                        .votes
+                        .into_iter()
+                        .filter_map(|mut v| {
+                            v.position = shifted(v.position)?;
+                            Some(v)
+                        })
+                        .collect();
+                    Ok((f.truth.and_then(shifted), votes))
+                })
+                .collect::<Result<Walk>>()
+        })
+        .collect::<Result<_>>()?;
     let model = learn_tracker(size, &walks)?;
     let fd = FdRecogniser {
         shapes,
@@ -236,11 +276,26 @@ pub fn learn_by_action<R: Robot>(
         config: protocol.percept,
     };
     let recogniser = FdCbtRecogniser::new(fd, model);
+    let recogniser = match motion {
+        Some(m) => recogniser.with_motion(m)?,
+        None => recogniser,
+    };
     Ok((
-        match motion {
-            Some(m) => recogniser.with_motion(m)?,
+        match prior {
+            Some(p) => recogniser.with_prior(p)?,
             None => recogniser,
         },
         report,
     ))
+}
+
+/// One training frame of one camera before compensation: the teacher's tip, the votes and the
+/// forward model's prediction in image coordinates, and the walk's summed predicted shifts.
+#[derive(Debug, Clone)]
+struct RawFrame {
+    camera: usize,
+    truth: Option<[f64; 2]>,
+    votes: Vec<Vote>,
+    offset: [f64; 2],
+    predicted: Option<[f64; 2]>,
 }

@@ -24,6 +24,7 @@
 pub mod error;
 pub mod learn;
 pub mod motion;
+pub mod prior;
 pub mod shapes;
 pub mod track;
 pub mod vote;
@@ -31,6 +32,7 @@ pub mod vote;
 pub use error::PipelineError;
 pub use learn::{ActionProtocol, LearnReport, learn_by_action};
 pub use motion::{MotionConfig, MotionModel};
+pub use prior::PositionPrior;
 pub use shapes::{ActionPair, GripperView, ShapeConfig, ShapeModel, ShapeReport};
 pub use track::{
     FdCbtRecogniser, FdRecogniser, MoveNotifier, Notifying, PerceptConfig, Walk, detections,

@@ -31,6 +31,7 @@ use servo_loop::{Localisation, Recogniser, Robot, ServoError};
 
 use super::error::{PipelineError, Result};
 use super::motion::MotionModel;
+use super::prior::PositionPrior;
 use super::shapes::ShapeModel;
 use super::vote::{Vote, mode};
 
@@ -43,6 +44,9 @@ pub struct PerceptConfig {
     pub start_certainty: f64,
     /// Below this certainty of the tracker the track is started again from the votes.
     pub lost_certainty: f64,
+    /// With a forward model, weigh the FD + CBT percept's votes (and its training walks') by
+    /// their agreement with the forward model's predicted tip ([`super::prior`]).
+    pub position_prior: bool,
 }
 
 impl PerceptConfig {
@@ -77,6 +81,7 @@ impl Default for PerceptConfig {
             mode_sigma_px: 2.0,
             start_certainty: 0.3,
             lost_certainty: 0.05,
+            position_prior: true,
         }
     }
 }
@@ -148,11 +153,29 @@ struct Track {
     offset: [f64; 2],
 }
 
-type Tracks = Arc<Mutex<Vec<Option<Track>>>>;
+/// What the percept and its notifiers share: each camera's track, and the forward model's
+/// predicted tip at the last command (`None` without a forward model or outside it).
+#[derive(Debug, Clone)]
+struct State {
+    tracks: Vec<Option<Track>>,
+    predicted: Option<Vec<[f64; 2]>>,
+}
 
-fn forget(tracks: &Mutex<Vec<Option<Track>>>) {
-    let mut t = tracks.lock().unwrap_or_else(|p| p.into_inner());
-    t.iter_mut().for_each(|x| *x = None);
+type Shared = Arc<Mutex<State>>;
+
+fn shared(cameras: usize) -> Shared {
+    Arc::new(Mutex::new(State {
+        tracks: vec![None; cameras],
+        predicted: None,
+    }))
+}
+
+fn lock(state: &Mutex<State>) -> std::sync::MutexGuard<'_, State> {
+    state.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn forget(state: &Mutex<State>) {
+    lock(state).tracks.iter_mut().for_each(|x| *x = None);
 }
 
 /// Tells an [`FdCbtRecogniser`] of the commanded moves: with a forward model, each move shifts
@@ -160,22 +183,35 @@ fn forget(tracks: &Mutex<Vec<Option<Track>>>) {
 /// the tracker learned restarts the tracks from the votes.
 #[derive(Debug)]
 pub struct MoveNotifier {
-    tracks: Tracks,
+    state: Shared,
     motion: Option<Arc<MotionModel>>,
     reset_us: f64,
     last: Option<Vec<f64>>,
+    /// The forward model's prediction at `last`.
+    last_predicted: Option<Vec<[f64; 2]>>,
 }
 
 impl MoveNotifier {
     /// A command was sent (the full set-points, as the robot was given them).
     pub fn commanded(&mut self, set_points: &[f64]) {
-        let shift = match (&self.motion, &self.last) {
-            (Some(m), Some(l)) => m.shift(l, set_points).ok().flatten(),
+        let predicted = self
+            .motion
+            .as_ref()
+            .and_then(|m| m.predict(set_points).ok().flatten());
+        // `g(y') − g(y)`, as `MotionModel::shift`, with `g(y)` kept from the last command.
+        let shift = match (&self.last_predicted, &predicted, &self.last) {
+            (Some(a), Some(b), Some(_)) => Some(
+                a.iter()
+                    .zip(b)
+                    .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
+                    .collect::<Vec<_>>(),
+            ),
             _ => None,
         };
+        lock(&self.state).predicted.clone_from(&predicted);
         if let Some(d) = shift {
-            let mut t = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
-            for (track, d) in t.iter_mut().zip(&d) {
+            let mut state = lock(&self.state);
+            for (track, d) in state.tracks.iter_mut().zip(&d) {
                 if let Some(track) = track {
                     track.offset[0] += d[0];
                     track.offset[1] += d[1];
@@ -189,10 +225,11 @@ impl MoveNotifier {
                         .any(|(a, b)| (a - b).abs() > self.reset_us)
             });
             if far {
-                forget(&self.tracks);
+                forget(&self.state);
             }
         }
         self.last = Some(set_points.to_vec());
+        self.last_predicted = predicted;
     }
 }
 
@@ -323,7 +360,8 @@ pub struct FdCbtRecogniser {
     pub fd: FdRecogniser,
     model: CbtModel,
     motion: Option<Arc<MotionModel>>,
-    tracks: Tracks,
+    prior: Option<PositionPrior>,
+    state: Shared,
 }
 
 impl FdCbtRecogniser {
@@ -334,7 +372,8 @@ impl FdCbtRecogniser {
             fd,
             model,
             motion: None,
-            tracks: Arc::new(Mutex::new(vec![None; n])),
+            prior: None,
+            state: shared(n),
         }
     }
 
@@ -356,6 +395,37 @@ impl FdCbtRecogniser {
         Ok(self)
     }
 
+    /// With the prior on the votes' position ([`super::prior`]), applied to every frame whose
+    /// last command the forward model predicts; `model` must have been learned on walks
+    /// weighed the same way ([`super::learn_by_action`] does both). Errors: no forward model
+    /// yet, or a prior for another number of cameras.
+    pub fn with_prior(mut self, prior: PositionPrior) -> Result<Self> {
+        if self.motion.is_none() || prior.num_cameras() != self.fd.shapes.num_cameras() {
+            return Err(PipelineError::InvalidParameter {
+                name: "prior",
+                reason: format!(
+                    "a prior of {} cameras needs a forward model and {} cameras",
+                    prior.num_cameras(),
+                    self.fd.shapes.num_cameras()
+                ),
+            });
+        }
+        self.prior = Some(prior);
+        Ok(self)
+    }
+
+    /// The prior on the votes' position, if any.
+    pub fn prior(&self) -> Option<&PositionPrior> {
+        self.prior.as_ref()
+    }
+
+    /// The forward model's predicted tip in every camera at the last command a notifier was
+    /// told of (the centre of the prior on the votes' position), `None` before any, without a
+    /// forward model, or where it has no prediction.
+    pub fn predicted(&self) -> Option<Vec<[f64; 2]>> {
+        lock(&self.state).predicted.clone()
+    }
+
     /// The same percept (shape, tracker and forward models) with no track, independent of
     /// this one's tracks and notifiers.
     pub fn fresh(&self) -> Self {
@@ -363,7 +433,8 @@ impl FdCbtRecogniser {
             fd: self.fd.clone(),
             model: self.model.clone(),
             motion: self.motion.clone(),
-            tracks: Arc::new(Mutex::new(vec![None; self.fd.shapes.num_cameras()])),
+            prior: self.prior.clone(),
+            state: shared(self.fd.shapes.num_cameras()),
         }
     }
 
@@ -380,13 +451,16 @@ impl FdCbtRecogniser {
     /// Per camera, the running track's offset `c` (the summed predicted shifts of the
     /// commanded moves since it started; module docs), `None` where no track runs.
     pub fn offsets(&self) -> Vec<Option<[f64; 2]>> {
-        let t = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
-        t.iter().map(|x| x.as_ref().map(|t| t.offset)).collect()
+        lock(&self.state)
+            .tracks
+            .iter()
+            .map(|x| x.as_ref().map(|t| t.offset))
+            .collect()
     }
 
     /// Forgets every track (the next frame starts them from the votes).
     pub fn reset(&self) {
-        forget(&self.tracks);
+        forget(&self.state);
     }
 
     /// A handle told of every commanded move (see [`Notifying`]): with a forward model it
@@ -404,10 +478,11 @@ impl FdCbtRecogniser {
             });
         }
         Ok(MoveNotifier {
-            tracks: Arc::clone(&self.tracks),
+            state: Arc::clone(&self.state),
             motion: self.motion.clone(),
             reset_us,
             last: None,
+            last_predicted: None,
         })
     }
 
@@ -475,17 +550,22 @@ impl Recogniser for FdCbtRecogniser {
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
         check_images(images, &self.fd.shapes, self.fd.size)?;
-        let votes: Vec<Vec<Vote>> = images
+        let mut votes: Vec<Vec<Vote>> = images
             .iter()
             .enumerate()
             .map(|(cam, img)| votes_of(&self.fd.shapes, cam, img))
             .collect::<servo_loop::Result<_>>()?;
-        let mut tracks = self.tracks.lock().unwrap_or_else(|p| p.into_inner());
+        let mut state = lock(&self.state);
+        if let (Some(prior), Some(predicted)) = (&self.prior, &state.predicted) {
+            for (cam, v) in votes.iter_mut().enumerate() {
+                prior.weigh(cam, predicted[cam], v).map_err(percept_error)?;
+            }
+        }
         // Every camera's track takes the frame, also when another camera's percept fails.
         let steps: Vec<_> = votes
             .iter()
             .enumerate()
-            .map(|(cam, v)| self.step(cam, v, &mut tracks[cam]))
+            .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam]))
             .collect();
         steps.into_iter().collect()
     }

@@ -1,0 +1,223 @@
+//! The forward model as a prior on where the tip can be: each vote's weight is multiplied by
+//! how well its position agrees with the forward model's absolute prediction `g(y)` at the
+//! last command ([`super::motion`]).
+//!
+//! The shape model's wrong votes come mostly from gripper regions voting with another part's
+//! offset, 20–60 px from the tip; they move with the gripper, so the commanded-move
+//! compensation cannot tell them from the tip. The forward model's absolute prediction is too
+//! coarse to gate the votes at the percept's precision, but it tells a cluster near the tip
+//! from one a part's length away. Per camera `c`,
+//!
+//! `w' = w · max(ε, exp(−d² / 2(kσ_c)²))`,
+//!
+//! `d` the vote's distance to `g(y)`, `σ_c` the forward model's error scale on that camera,
+//! measured during learning on frames the model did not learn from, against the teacher: the
+//! median distance divided by `√(2 ln 2) ≈ 1.1774`, the median of a Rayleigh distribution of unit
+//! scale (an isotropic Gaussian error of s.d. `σ_c` per axis has that median distance; the median
+//! ignores the teacher's own gross failures, and a teacher that fails most of the time makes
+//! `σ_c` wide and the prior weak). `k = 2`, because the errors are heavy-tailed (p90 about twice
+//! the median); the floor `ε = 10⁻³` keeps a frame whose votes all lie far from the prediction
+//! decidable by the votes alone.
+//!
+//! A camera whose prior would be wider than [`MAX_WIDTH_PX`] (`kσ_c` above 20 px) gets none:
+//! the wrong clusters lie a part's length from the tip (the stored offsets are 20–60 px), and a
+//! prior wider than the shortest of them cannot tell such a cluster from the tip; it would
+//! only tilt the votes toward the forward model's own error (on the hard scene, a teacher that
+//! fails on camera 0 makes that error tens of pixels).
+
+use super::error::{PipelineError, Result};
+use super::vote::Vote;
+
+/// Width multiplier `k` of the prior (module docs).
+pub const WIDTH_FACTOR: f64 = 2.0;
+/// Floor `ε` of the prior's factor (module docs).
+pub const FLOOR: f64 = 1e-3;
+/// The widest prior applied, `kσ_c` (px; module docs).
+pub const MAX_WIDTH_PX: f64 = 20.0;
+
+/// The median of a Rayleigh distribution of unit scale, `√(2 ln 2)`.
+const RAYLEIGH_MEDIAN: f64 = 1.177_410_022_515_474_6;
+
+/// The forward model's error scale per camera, and the vote weighting it gives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PositionPrior {
+    sigma: Vec<f64>,
+}
+
+impl PositionPrior {
+    /// The prior from per-camera distances (px) between the forward model's prediction and the
+    /// teacher's tip on frames the model did not learn from: `σ_c` = their median / 1.1774.
+    ///
+    /// Errors: no camera, a camera without distances, a distance not finite and non-negative,
+    /// or a median of zero (a prior of zero width would refuse every vote).
+    pub fn from_distances(distances: &[Vec<f64>]) -> Result<Self> {
+        if distances.is_empty() {
+            return Err(PipelineError::InvalidParameter {
+                name: "distances",
+                reason: "need at least one camera".into(),
+            });
+        }
+        let sigma = distances
+            .iter()
+            .enumerate()
+            .map(|(cam, d)| {
+                if let Some(bad) = d.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                    return Err(PipelineError::InvalidParameter {
+                        name: "distances",
+                        reason: format!("camera {cam}: {bad} is not a finite distance"),
+                    });
+                }
+                let mut s = d.clone();
+                s.sort_by(f64::total_cmp);
+                let median = match s.len() {
+                    0 => {
+                        return Err(PipelineError::NotEnoughData(format!(
+                            "camera {cam}: no frame to measure the forward model's error on"
+                        )));
+                    }
+                    n if n % 2 == 1 => s[n / 2],
+                    n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+                };
+                if median <= 0.0 {
+                    return Err(PipelineError::InvalidParameter {
+                        name: "distances",
+                        reason: format!("camera {cam}: median distance 0"),
+                    });
+                }
+                Ok(median / RAYLEIGH_MEDIAN)
+            })
+            .collect::<Result<Vec<f64>>>()?;
+        Ok(PositionPrior { sigma })
+    }
+
+    /// Cameras covered.
+    pub fn num_cameras(&self) -> usize {
+        self.sigma.len()
+    }
+
+    /// The error scale `σ_c` of every camera (px).
+    pub fn sigmas(&self) -> &[f64] {
+        &self.sigma
+    }
+
+    /// Whether camera `cam` gets the prior: its width `kσ_c` is at most [`MAX_WIDTH_PX`].
+    pub fn applies(&self, cam: usize) -> bool {
+        self.sigma
+            .get(cam)
+            .is_some_and(|s| WIDTH_FACTOR * s <= MAX_WIDTH_PX)
+    }
+
+    /// The factor `max(ε, exp(−d² / 2(kσ_c)²))` for a vote at `position` when the forward model
+    /// predicts the tip of camera `cam` at `predicted` (the camera must be covered; 1 where the
+    /// prior does not [apply](Self::applies)).
+    pub fn factor(&self, cam: usize, predicted: [f64; 2], position: [f64; 2]) -> f64 {
+        if !self.applies(cam) {
+            return 1.0;
+        }
+        let s = WIDTH_FACTOR * self.sigma[cam];
+        let d2 = (position[0] - predicted[0]).powi(2) + (position[1] - predicted[1]).powi(2);
+        (-d2 / (2.0 * s * s)).exp().max(FLOOR)
+    }
+
+    /// Multiplies every vote's weight of camera `cam` by its [`factor`](Self::factor) (no change
+    /// where the prior does not [apply](Self::applies)).
+    /// Errors: a camera the prior does not cover, or a non-finite prediction.
+    pub fn weigh(&self, cam: usize, predicted: [f64; 2], votes: &mut [Vote]) -> Result<()> {
+        if cam >= self.sigma.len() || !predicted.iter().all(|v| v.is_finite()) {
+            return Err(PipelineError::InvalidParameter {
+                name: "predicted",
+                reason: format!(
+                    "camera {cam} of {} at {predicted:?}: a covered camera and a finite position expected",
+                    self.sigma.len()
+                ),
+            });
+        }
+        if self.applies(cam) {
+            for v in votes {
+                v.weight *= self.factor(cam, predicted, v.position);
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vote(position: [f64; 2]) -> Vote {
+        Vote {
+            position,
+            weight: 0.5,
+            error: 0.0,
+            rotation: 0.0,
+            region: 0,
+        }
+    }
+
+    #[test]
+    fn sigma_is_the_median_distance_over_the_rayleigh_median() {
+        // Brute force: a Rayleigh sample of scale 3 has median 3·√(2 ln 2).
+        let p = PositionPrior::from_distances(&[vec![1.0, 5.0, 2.0], vec![4.0, 2.0, 8.0, 6.0]])
+            .unwrap();
+        assert!((p.sigmas()[0] - 2.0 / (2.0 * 2f64.ln()).sqrt()).abs() < 1e-12);
+        assert!((p.sigmas()[1] - 5.0 / (2.0 * 2f64.ln()).sqrt()).abs() < 1e-12);
+        let q = PositionPrior::from_distances(&[vec![3.0 * RAYLEIGH_MEDIAN]]).unwrap();
+        assert!((q.sigmas()[0] - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn votes_far_from_the_prediction_lose_weight_down_to_the_floor() {
+        let p = PositionPrior::from_distances(&[vec![RAYLEIGH_MEDIAN * 5.0]]).unwrap();
+        // σ = 5 px, k σ = 10 px.
+        let at = [100.0, 50.0];
+        let mut votes = vec![
+            vote(at),
+            vote([110.0, 50.0]),
+            vote([100.0, 80.0]),
+            vote([400.0, 50.0]),
+        ];
+        p.weigh(0, at, &mut votes).unwrap();
+        assert_eq!(votes[0].weight, 0.5);
+        assert!((votes[1].weight - 0.5 * (-0.5f64).exp()).abs() < 1e-12);
+        assert!((votes[2].weight - 0.5 * (-4.5f64).exp()).abs() < 1e-12);
+        assert_eq!(votes[3].weight, 0.5 * FLOOR);
+        // The positions are not touched.
+        assert_eq!(votes[3].position, [400.0, 50.0]);
+    }
+
+    #[test]
+    fn a_prior_wider_than_the_limit_is_not_applied() {
+        // kσ = 20 px exactly applies; just above does not.
+        let at = [10.0, 10.0];
+        let p = PositionPrior::from_distances(&[
+            vec![RAYLEIGH_MEDIAN * MAX_WIDTH_PX / WIDTH_FACTOR],
+            vec![RAYLEIGH_MEDIAN * MAX_WIDTH_PX / WIDTH_FACTOR * 1.01],
+        ])
+        .unwrap();
+        assert!(p.applies(0) && !p.applies(1) && !p.applies(2));
+        let mut votes = vec![vote([60.0, 10.0])];
+        p.weigh(1, at, &mut votes).unwrap();
+        assert_eq!(votes[0].weight, 0.5);
+        assert_eq!(p.factor(1, at, [60.0, 10.0]), 1.0);
+        p.weigh(0, at, &mut votes).unwrap();
+        assert!((votes[0].weight - 0.5 * (-50.0f64 * 50.0 / 800.0).exp()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_input_is_refused_and_changes_nothing() {
+        assert!(PositionPrior::from_distances(&[]).is_err());
+        assert!(matches!(
+            PositionPrior::from_distances(&[vec![1.0], vec![]]),
+            Err(PipelineError::NotEnoughData(_))
+        ));
+        assert!(PositionPrior::from_distances(&[vec![1.0, f64::NAN]]).is_err());
+        assert!(PositionPrior::from_distances(&[vec![-1.0, 2.0, 3.0]]).is_err());
+        assert!(PositionPrior::from_distances(&[vec![0.0, 0.0, 1.0]]).is_err());
+        let p = PositionPrior::from_distances(&[vec![2.0]]).unwrap();
+        let mut votes = vec![vote([1.0, 2.0])];
+        assert!(p.weigh(1, [0.0, 0.0], &mut votes).is_err());
+        assert!(p.weigh(0, [f64::NAN, 0.0], &mut votes).is_err());
+        assert_eq!(votes[0].weight, 0.5);
+    }
+}
