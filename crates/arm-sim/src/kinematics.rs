@@ -35,7 +35,8 @@ pub struct ArmPose {
     pub elbow: Vector3<f64>,
     /// Wrist pitch axis centre.
     pub wrist: Vector3<f64>,
-    /// Tool point: the gripper tip, between the finger pads.
+    /// Tool point: the gripper tip, between the finger pads, `finger_pad_mm` behind the finger
+    /// ends (not their middle: that is [`ArmPose::finger_middle`]).
     pub tip: Vector3<f64>,
     /// Unit direction along the hand, from wrist to tip.
     pub approach: Vector3<f64>,
@@ -47,6 +48,29 @@ pub struct ArmPose {
     pub opening_mm: f64,
     /// Centres of the two finger ends (mm).
     pub finger_ends: [Vector3<f64>; 2],
+}
+
+impl ArmPose {
+    /// The middle of the finger ends (mm): the mean of the two [`finger_ends`](Self::finger_ends),
+    /// `(e₀ + e₁) / 2`, the middle of the gripper's far end, between the fingers.
+    ///
+    /// This is the point a system that sees the arm can call its tip: the heuristic percepts
+    /// (`servo-loop`'s tip rules) define the tip as the middle of the gripper's far end, between
+    /// the finger ends, so studies and tests measure them against this point's projection
+    /// ([`Inspection::finger_middle_pixels`](crate::Inspection::finger_middle_pixels)). It is
+    /// not the tool point [`tip`](Self::tip), which lies `finger_pad_mm` (8 mm by default)
+    /// behind the finger ends along [`approach`](Self::approach), where nothing marks it.
+    ///
+    /// ```
+    /// use arm_sim::{ArmGeometry, forward_kinematics};
+    /// let g = ArmGeometry::default();
+    /// let pose = forward_kinematics(&g, &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    /// // Upright: 8 mm above the tool point at 415 mm.
+    /// assert!((pose.finger_middle().z - 423.0).abs() < 1e-9);
+    /// ```
+    pub fn finger_middle(&self) -> Vector3<f64> {
+        (self.finger_ends[0] + self.finger_ends[1]) * 0.5
+    }
 }
 
 fn rad(deg: f64) -> f64 {

@@ -27,7 +27,9 @@
 //! ## Two APIs
 //! A learner uses [`ArmSim::command`] and [`ArmSim::capture`] only. Evaluation uses
 //! [`ArmSim::inspect`] ([`Inspection`]): true joint angles, 3-D pose, projection of any point,
-//! per-pixel part labels.
+//! per-pixel part labels, and in every image the tool point ([`Inspection::tip_pixels`]) and the
+//! middle of the finger ends ([`Inspection::finger_middle_pixels`], [`ArmPose::finger_middle`]:
+//! the tip as a percept sees it, `finger_pad_mm` (8 mm) ahead of the tool point).
 //!
 //! ## Not modelled (by design or not yet)
 //! Collisions other than with the table (links with each other or with the base, the arm with

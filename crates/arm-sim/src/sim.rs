@@ -286,10 +286,26 @@ impl<'a> Inspection<'a> {
         self.camera(i)?.project(p)
     }
 
-    /// The true gripper tip in every camera's image.
+    /// The true gripper tip (the tool point, [`ArmPose::tip`]) in every camera's image.
+    ///
+    /// Nothing in the image marks this point: it lies `finger_pad_mm` behind the finger ends.
+    /// The tip a percept finds is [`Inspection::finger_middle_pixels`].
     pub fn tip_pixels(&self) -> Result<Vec<[f64; 2]>> {
+        self.pixels_of(&self.sim.pose.tip)
+    }
+
+    /// The middle of the finger ends ([`ArmPose::finger_middle`]) in every camera's image: the
+    /// true tip as the heuristic percepts define it (the middle of the gripper's far end), the
+    /// point studies and tests measure percepts against. Unlike [`Inspection::tip_pixels`]
+    /// (the tool point, `finger_pad_mm` further back) it is a point the images show.
+    pub fn finger_middle_pixels(&self) -> Result<Vec<[f64; 2]>> {
+        self.pixels_of(&self.sim.pose.finger_middle())
+    }
+
+    /// Projects the world point `p` (mm) into every camera.
+    fn pixels_of(&self, p: &Vector3<f64>) -> Result<Vec<[f64; 2]>> {
         (0..self.sim.views.len())
-            .map(|i| self.project(i, &self.sim.pose.tip))
+            .map(|i| self.project(i, p))
             .collect()
     }
 

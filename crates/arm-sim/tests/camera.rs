@@ -116,3 +116,31 @@ fn default_cameras_see_the_home_tip() {
         );
     }
 }
+
+#[test]
+fn finger_middle_pixels_project_the_finger_ends_middle_into_every_camera() {
+    let config = SimConfig::default().with_image_scale(0.25);
+    let mut one_camera = config.clone();
+    one_camera.cameras.truncate(1);
+    for (config, cameras) in [(config, 2), (one_camera, 1)] {
+        let mut sim = ArmSim::new(config).unwrap();
+        for set_points in [
+            [1500.0; 6],
+            [1600.0, 1350.0, 1700.0, 1500.0, 1500.0, 1200.0],
+            [1300.0, 1450.0, 1850.0, 1200.0, 1900.0, 2000.0],
+        ] {
+            sim.command(&set_points).unwrap();
+            let inspect = sim.inspect();
+            let [a, b] = inspect.pose().finger_ends;
+            let mean = Vector3::new((a.x + b.x) / 2.0, (a.y + b.y) / 2.0, (a.z + b.z) / 2.0);
+            let pixels = inspect.finger_middle_pixels().unwrap();
+            let tips = inspect.tip_pixels().unwrap();
+            assert_eq!(pixels.len(), cameras);
+            for (c, (uv, tip)) in pixels.into_iter().zip(tips).enumerate() {
+                assert_eq!(uv, inspect.project(c, &mean).unwrap(), "camera {c}");
+                // Not the tool point, 8 mm further back.
+                assert!((uv[0] - tip[0]).hypot(uv[1] - tip[1]) > 0.1, "camera {c}");
+            }
+        }
+    }
+}

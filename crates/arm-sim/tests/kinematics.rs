@@ -79,6 +79,35 @@ fn wrist_roll_turns_fingers_not_tip() {
 }
 
 #[test]
+fn finger_middle_is_the_mean_of_the_finger_ends() {
+    // Brute force over a grid of poses (yaw, shoulder, elbow, wrist pitch, roll, gripper):
+    // the mean of the two ends coordinate by coordinate, bit for bit, and 8 mm (the pad)
+    // ahead of the tool point.
+    let g = ArmGeometry::default();
+    let steps = [-75.0, -20.0, 0.0, 35.0, 80.0];
+    let mut checked = 0;
+    for &yaw in &steps {
+        for &q1 in &steps {
+            for &q2 in &steps {
+                for &q3 in &steps {
+                    let roll = q1 + q2;
+                    let grip = q3 - yaw;
+                    let p = forward_kinematics(&g, &[yaw, q1, q2, q3, roll, grip]);
+                    let [a, b] = p.finger_ends;
+                    let mean =
+                        Vector3::new((a.x + b.x) / 2.0, (a.y + b.y) / 2.0, (a.z + b.z) / 2.0);
+                    assert_eq!(p.finger_middle(), mean);
+                    let ahead = (mean - p.tip).dot(&p.approach);
+                    assert!((ahead - g.finger_pad_mm).abs() < 1e-9, "{ahead}");
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 625);
+}
+
+#[test]
 fn gripper_opening_is_linear_in_servo_angle() {
     let g = ArmGeometry::default();
     assert_eq!(gripper_opening(&g, -90.0), 0.0);

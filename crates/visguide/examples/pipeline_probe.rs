@@ -84,11 +84,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let y = commands.next_command();
         robot.0.command(&space.full_command(&y)?)?;
         let images = robot.0.capture();
-        let pose = robot.0.inspect().pose().clone();
-        let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+        let truth = robot.0.inspect().finger_middle_pixels()?;
         let heur = servo_loop::Recogniser::locate_all(&heuristic, &images).ok();
-        for cam in 0..2 {
-            let t = robot.0.inspect().project(cam, &mid)?;
+        for (cam, &t) in truth.iter().enumerate() {
             let votes = pipeline.fd.shapes.votes(cam, &images[cam])?;
             let near = votes
                 .iter()

@@ -72,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // (truth, per rule: tip) of camera `cam` in the current image.
     let observe = |sim: &ArmSim, imgs: &[GrayImage], cam: usize| {
         let pose = sim.inspect().pose().clone();
-        let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+        let mid = pose.finger_middle();
         let back = mid - pose.approach * 20.0;
         let t = sim.inspect().project(cam, &mid).expect("in front");
         let b = sim.inspect().project(cam, &back).expect("in front");

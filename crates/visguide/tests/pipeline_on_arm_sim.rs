@@ -87,7 +87,7 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
             y[step % 3] += 4.0;
             robot.0.command(&space().full_command(&y).unwrap()).unwrap();
             let images = robot.0.capture();
-            let truth = true_tip(robot);
+            let truth = robot.0.inspect().finger_middle_pixels().unwrap();
             match pipeline.fd.locate_all(&images) {
                 Ok(l) => fd.extend((0..2).map(|c| dist(l[c].position, truth[c]))),
                 Err(_) => refused += 1,
@@ -147,16 +147,6 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
     }
 }
 
-/// The true tip in both cameras: the middle of the finger ends (the point the heuristic
-/// percept, the pipeline's teacher, defines as the tip).
-fn true_tip(robot: &SimRobot) -> Vec<[f64; 2]> {
-    let pose = robot.0.inspect().pose().clone();
-    let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-    (0..2)
-        .map(|c| robot.0.inspect().project(c, &mid).unwrap())
-        .collect()
-}
-
 #[test]
 fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
     let guard = shared();
@@ -181,9 +171,9 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
         let a = space().full_command(&commands.next_command()).unwrap();
         let b = space().full_command(&commands.next_command()).unwrap();
         robot.0.command(&a).unwrap();
-        let ta = true_tip(robot);
+        let ta = robot.0.inspect().finger_middle_pixels().unwrap();
         robot.0.command(&b).unwrap();
-        let tb = true_tip(robot);
+        let tb = robot.0.inspect().finger_middle_pixels().unwrap();
         if let Some(d) = motion.shift(&a, &b).unwrap() {
             predicted += 1;
             for c in 0..2 {

@@ -158,10 +158,8 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
             let c = space().full_command(&commands.next_command()).unwrap();
             robot.inner.0.command(&c).unwrap();
             let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
-            let pose = robot.inner.0.inspect().pose().clone();
-            let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-            for cam in 0..2 {
-                let truth = robot.inner.0.inspect().project(cam, &mid).unwrap();
+            let truths = robot.inner.0.inspect().finger_middle_pixels().unwrap();
+            for (cam, &truth) in truths.iter().enumerate() {
                 if let (Ok(la), Ok(lb)) = (model.locate(cam, &a[cam]), model.locate(cam, &b[cam])) {
                     errors.push((la.position[0] - truth[0]).hypot(la.position[1] - truth[1]));
                     repeat.push(
@@ -228,8 +226,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             let c = space().full_command(&commands.next_command()).unwrap();
             robot.inner.0.command(&c).unwrap();
             let (a, b) = (robot.inner.0.capture(), robot.inner.0.capture());
-            let pose = robot.inner.0.inspect().pose().clone();
-            let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+            let truth = robot.inner.0.inspect().finger_middle_pixels().unwrap();
             let (Ok(la), Ok(lb), Ok(lf)) = (
                 model.locate_all(&a),
                 model.locate_all(&b),
@@ -240,10 +237,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
             // Image targets: the true views of the finger ends' middle are one 3-D point (then
             // only the empty inverse model refuses them); moved 40 px across the epipolar line
             // in camera 1 they are not.
-            let (t0, t1) = (
-                robot.inner.0.inspect().project(0, &mid).unwrap(),
-                robot.inner.0.inspect().project(1, &mid).unwrap(),
-            );
+            let (t0, t1) = (truth[0], truth[1]);
             assert!(
                 geometry.consistency(t0, t1) > 0.3,
                 "{}",
@@ -261,8 +255,7 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
                 Err(ServoError::TargetInconsistent { camera: 1, .. })
             ));
             checked += 1;
-            for cam in 0..2 {
-                let t = robot.inner.0.inspect().project(cam, &mid).unwrap();
+            for (cam, &t) in truth.iter().enumerate() {
                 let dist = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
                 errors.push(dist(la[cam].position, t));
                 far.push(dist(lf[cam].position, t));

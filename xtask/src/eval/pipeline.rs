@@ -144,15 +144,6 @@ struct Summary {
     servo: Vec<ServoRow>,
 }
 
-/// The true tip in every camera: the middle of the finger ends.
-fn truth(sim: &ArmSim) -> Result<Vec<[f64; 2]>> {
-    let pose = sim.inspect().pose().clone();
-    let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-    Ok((0..2)
-        .map(|c| sim.inspect().project(c, &mid))
-        .collect::<arm_sim::Result<_>>()?)
-}
-
 /// A servo target: the percept there, the true tip there and the command that reached it.
 type Target = (Vec<f64>, Vec<[f64; 2]>, Vec<f64>);
 
@@ -250,7 +241,7 @@ fn percepts(
             sim.command(&full)?;
             notifier.commanded(&full);
             let images = sim.capture();
-            let t = truth(&sim)?;
+            let t = sim.inspect().finger_middle_pixels()?;
             let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &l.pipeline.fd, &l.pipeline];
             for (k, r) in recognisers.iter().enumerate() {
                 let start = Instant::now();
@@ -292,7 +283,7 @@ fn servo<Q: Recogniser>(
         if servo_lwpr(plant, &mut model, x_w, &cfg).is_err() {
             stopped += 1;
         }
-        let t = truth(&plant.robot().robot.0)?;
+        let t = plant.robot().robot.0.inspect().finger_middle_pixels()?;
         let e = ((0..2).map(|c| dist(t[c], t_w[c]).powi(2)).sum::<f64>() / 2.0).sqrt();
         out.push(e);
     }
@@ -357,7 +348,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
                     continue;
                 }
                 let Ok(obs) = plant.observe() else { continue };
-                let t = truth(&plant.robot().robot.0)?;
+                let t = plant.robot().robot.0.inspect().finger_middle_pixels()?;
                 targets.push((obs.x, t, y));
             }
             let (fd_err, fd_stopped) = servo(&mut plant, &l.lwpr, &targets, |q| q.reset())?;

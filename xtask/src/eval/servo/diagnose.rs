@@ -64,8 +64,6 @@ fn one(arm: &str, config: &SimConfig, seed: u64) -> Result<Vec<Capture>> {
                 sim.command(&c)?;
             }
             let images = sim.capture();
-            let pose_now = sim.inspect().pose().clone();
-            let mid = (pose_now.finger_ends[0] + pose_now.finger_ends[1]) * 0.5;
             let mut ends = Vec::new();
             for (cam, img) in images.iter().enumerate().take(2) {
                 match model.estimate_end(cam, img) {
@@ -80,9 +78,7 @@ fn one(arm: &str, config: &SimConfig, seed: u64) -> Result<Vec<Capture>> {
             let face: Vec<Option<[f64; 2]>> = ends.iter().map(|e| e.end_face).collect();
             let learned = correction.tips(&far, &face)?;
             let gated = correction.tips_gated(&far, &face, model.config().face_gate)?;
-            let truth = (0..2)
-                .map(|cam| sim.inspect().project(cam, &mid))
-                .collect::<std::result::Result<Vec<_>, _>>()?;
+            let truth = sim.inspect().finger_middle_pixels()?;
             let cand = |cam: usize, i: usize| -> Option<[f64; 2]> {
                 if i == 0 {
                     Some(learned[cam])

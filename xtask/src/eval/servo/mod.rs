@@ -624,13 +624,8 @@ fn targets_of(
         // The target is what the learner would see at that pose: the true projection, or
         // with `--percept recognised` the recognised gripper point.
         let x_w = if image {
-            let pose = plant.sim().inspect().pose().clone();
-            let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
-            let mut x = Vec::with_capacity(2 * cams);
-            for k in 0..cams {
-                x.extend(plant.sim().inspect().project(k, &mid)?);
-            }
-            x
+            let truth = plant.sim().inspect().finger_middle_pixels()?;
+            truth[..cams].concat()
         } else if p.recogniser.is_some() {
             match servo_loop::Plant::observe(&mut plant) {
                 Ok(o) => o.x,
@@ -889,7 +884,7 @@ pub fn evaluate_recognition(
             .map(|_| sim.capture())
             .collect();
         let pose = sim.inspect().pose().clone();
-        let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+        let truths = sim.inspect().finger_middle_pixels()?;
         let tips = sim.inspect().tip_pixels()?;
         // The servo percept's tips in `a`: its rule's row below, and the appearance model's hints.
         let first_a = models[0].locate_all(&a);
@@ -909,10 +904,10 @@ pub fn evaluate_recognition(
             let (search, cam) = (k / cams, k % cams);
             let Some(l) = l else { continue };
             let [u, v] = l.position;
-            let truth = sim.inspect().project(cam, &mid)?;
+            let truth = truths[cam];
             let fingers = sim
                 .inspect()
-                .project(cam, &(mid - pose.approach * half_finger))?;
+                .project(cam, &(pose.finger_middle() - pose.approach * half_finger))?;
             app_certs[search].push(l.certainty);
             let [ends, tool, middle] = &mut app[search];
             ends[cam].push((u - truth[0]).hypot(v - truth[1]));
@@ -929,7 +924,7 @@ pub fn evaluate_recognition(
             };
             let lb = m.locate_all(&b);
             for cam in 0..cams {
-                let truth = sim.inspect().project(cam, &mid)?;
+                let truth = truths[cam];
                 if let (Ok(la), Ok(lb)) = (la.as_ref().map(|l| l[cam]), lb.as_ref().map(|l| l[cam]))
                 {
                     found[r] += 1;
@@ -945,7 +940,7 @@ pub fn evaluate_recognition(
             let grab = || Ok(next.next().unwrap_or_default());
             if let Ok((locs, _)) = observe_averaged(m, still.len(), grab) {
                 for (cam, l) in locs.iter().enumerate().take(cams) {
-                    let truth = sim.inspect().project(cam, &mid)?;
+                    let truth = truths[cam];
                     averaged[r][cam]
                         .push((l.position[0] - truth[0]).hypot(l.position[1] - truth[1]));
                 }

@@ -314,11 +314,10 @@ fn recognition(config: &SimConfig, p: &Protocol) -> Result<SeedRecognition> {
         }
         match plant.observe() {
             Ok(o) => {
-                let pose = plant.sim().inspect().pose().clone();
-                let mid = (pose.finger_ends[0] + pose.finger_ends[1]) * 0.5;
+                let truth = plant.sim().inspect().finger_middle_pixels()?;
                 let mut line = Vec::new();
                 for (cam, e) in errors.iter_mut().enumerate() {
-                    let t = plant.sim().inspect().project(cam, &mid)?;
+                    let t = truth[cam];
                     e.push((o.x[2 * cam] - t[0]).hypot(o.x[2 * cam + 1] - t[1]));
                     line.push(format!("{:.2}", e[e.len() - 1]));
                 }
