@@ -8,7 +8,8 @@ use servo_loop::{
 };
 use visguide::SimRobot;
 use visguide::pipeline::{
-    ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, learn_by_action,
+    ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, PositionPrior,
+    learn_by_action, mode,
 };
 
 #[path = "../../servo-loop/tests/common/stats.rs"]
@@ -237,6 +238,72 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
     assert!(matches!(
         pipeline.fresh().with_motion(one_camera),
         Err(PipelineError::InvalidParameter { name: "motion", .. })
+    ));
+}
+
+/// The prior on the votes' position: learned on the default arm it applies on a camera,
+/// the notifier sets its centre to the forward model's prediction at the command, and a fresh
+/// track starts at the mode of the votes weighed by it (computed here by hand).
+#[test]
+fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
+    let guard = shared();
+    let (_, _, pipeline) = &*guard;
+    let prior = pipeline.prior().expect("learned with a prior").clone();
+    let motion = pipeline.motion().expect("a forward model").clone();
+    // Learned here from 150 moves: σ 7.0 / 23.8 px, so camera 1's prior (47.6 px wide) is not
+    // applied (its votes keep their weights; `weigh` below does the same).
+    assert!((0..2).any(|c| prior.applies(c)), "{:?}", prior.sigmas());
+    let sigma = pipeline.fd.config.mode_sigma_px;
+    let robot = &mut SimRobot::new(
+        ArmSim::new(SimConfig {
+            seed: 606,
+            ..SimConfig::default()
+        })
+        .unwrap(),
+    );
+    let mut commands = RandomCommands::new(&EXPLORE, 707).unwrap();
+    let (mut checked, mut moved_mode) = (0, 0);
+    for _ in 0..16 {
+        let y = space().full_command(&commands.next_command()).unwrap();
+        robot.0.command(&y).unwrap();
+        let images = robot.0.capture();
+        let percept = pipeline.fresh();
+        assert!(percept.predicted().is_none());
+        let mut notifier = percept.notifier(30.0).unwrap();
+        notifier.commanded(&y);
+        let Some(centre) = percept.predicted() else {
+            continue;
+        };
+        assert_eq!(Some(centre.clone()), motion.predict(&y).unwrap());
+        let Ok(got) = percept.locate_all(&images) else {
+            continue;
+        };
+        checked += 1;
+        for cam in 0..2 {
+            let mut votes = pipeline.fd.shapes.votes(cam, &images[cam]).unwrap();
+            let plain = mode(&votes, sigma).unwrap().expect("votes");
+            prior.weigh(cam, centre[cam], &mut votes).unwrap();
+            let weighed = mode(&votes, sigma).unwrap().expect("votes");
+            assert_eq!(got[cam].position, weighed.position, "camera {cam}");
+            assert_eq!(got[cam].certainty, weighed.certainty, "camera {cam}");
+            moved_mode += usize::from(dist(plain.position, weighed.position) > 0.5);
+        }
+    }
+    eprintln!(
+        "prior: {checked} frames checked, mode moved by the prior on {moved_mode} camera frames"
+    );
+    assert!(checked >= 4, "{checked} frames answered");
+    assert!(moved_mode >= 1, "the prior never moved a mode");
+    // A prior needs a forward model and the shape model's camera count.
+    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone());
+    assert!(matches!(
+        plain.with_prior(prior.clone()),
+        Err(PipelineError::InvalidParameter { name: "prior", .. })
+    ));
+    let one = PositionPrior::from_distances(&[vec![3.0]]).unwrap();
+    assert!(matches!(
+        pipeline.fresh().with_prior(one),
+        Err(PipelineError::InvalidParameter { name: "prior", .. })
     ));
 }
 

@@ -19,7 +19,11 @@
 //! from the controlled servos to the tip in each image) predicts each move's image shift, the
 //! tracks are shifted by it ([`Notifying`] tells them the commands) and the tracker's learned
 //! motion is the prediction's residual; without a prediction, a move larger than the training
-//! walks' restarts the tracks from the votes.
+//! walks' restarts the tracks from the votes. Its absolute prediction at the last command is also
+//! a prior on where the tip can be ([`prior`]): on a camera where the forward model is sharp
+//! enough, each vote's weight falls with its distance to the prediction, so that the clusters a
+//! gripper part voting with another part's offset makes, a part's length from the tip, lose to
+//! the cluster at the tip (in tracking and in the training walks alike).
 
 pub mod error;
 pub mod learn;

@@ -19,7 +19,10 @@
 //! predicted shift to the track's offset `c`, and the tracker runs on the votes at `z − c`
 //! (learned on walks compensated the same way), so a servo move of any size keeps the track.
 //! Without one, or where the forward model has no prediction, a move larger than `reset_us`
-//! restarts the tracks from the votes.
+//! restarts the tracks from the votes. With a prior on the votes' position
+//! ([`FdCbtRecogniser::with_prior`], [`super::prior`]), the notifier also keeps the forward
+//! model's prediction at the last command, and every frame's votes are weighed by it before the
+//! tracker (or a track start) sees them.
 
 use std::sync::{Arc, Mutex};
 
