@@ -71,6 +71,10 @@ pub struct PipelineArgs {
     /// forward model's prediction (`PerceptConfig::position_prior`).
     #[arg(long, requires = "development")]
     pub no_position_prior: bool,
+    /// With `--development`: the forward model's `min_teacher_certainty` (default: the
+    /// library's).
+    #[arg(long, requires = "development")]
+    pub motion_min_certainty: Option<f64>,
 }
 
 fn space() -> ControlSpace {
@@ -180,6 +184,9 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
     };
     if let Some(moves) = args.motion_moves {
         protocol.motion.moves = moves;
+    }
+    if let Some(c) = args.motion_min_certainty {
+        protocol.motion.min_teacher_certainty = c;
     }
     if args.no_position_prior {
         protocol.percept.position_prior = false;

@@ -169,7 +169,11 @@ pub fn learn_by_action<R: Robot>(
             robot.command(&full).map_err(robot_err("command"))?;
             report.actions += 1;
             let images = capture(robot)?;
-            if let Ok(t) = heuristic.locate_all(&images) {
+            let accepted = heuristic.locate_all(&images).ok().filter(|t| {
+                t.iter()
+                    .all(|l| l.certainty >= protocol.motion.min_teacher_certainty)
+            });
+            if let Some(t) = accepted {
                 let tips: Vec<[f64; 2]> = t.iter().take(cams).map(|l| l.position).collect();
                 m.update(&full, &tips)?;
                 report.motion_pairs += 1;
@@ -219,12 +223,17 @@ pub fn learn_by_action<R: Robot>(
             last = Some(full);
             let images = capture(robot)?;
             let tips = heuristic.locate_all(&images).ok();
+            let accepted = tips.as_ref().is_some_and(|t| {
+                t.iter()
+                    .all(|l| l.certainty >= protocol.motion.min_teacher_certainty)
+            });
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
                 walk.push(RawFrame {
                     camera: cam,
                     truth,
+                    accepted,
                     votes: shapes.votes(cam, &images[cam])?,
                     offset: offsets[cam],
                     predicted: predicted.as_ref().map(|p| p[cam]),
@@ -238,7 +247,7 @@ pub fn learn_by_action<R: Robot>(
     let prior = match &motion {
         Some(_) if protocol.percept.position_prior => {
             let mut distances = vec![Vec::new(); cams];
-            for f in raw.iter().flatten() {
+            for f in raw.iter().flatten().filter(|f| f.accepted) {
                 if let (Some(t), Some(p)) = (f.truth, f.predicted) {
                     distances[f.camera].push((t[0] - p[0]).hypot(t[1] - p[1]));
                 }
@@ -295,6 +304,9 @@ pub fn learn_by_action<R: Robot>(
 struct RawFrame {
     camera: usize,
     truth: Option<[f64; 2]>,
+    /// The teacher's percept is certain enough for the forward model
+    /// ([`MotionConfig::min_teacher_certainty`]).
+    accepted: bool,
     votes: Vec<Vote>,
     offset: [f64; 2],
     predicted: Option<[f64; 2]>,
