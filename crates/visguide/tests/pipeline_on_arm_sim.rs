@@ -307,6 +307,50 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
     ));
 }
 
+/// `MotionConfig::min_teacher_certainty`: the forward model learns only from teacher percepts
+/// whose every camera is at least that certain. On the same moves (same seeds), the largest
+/// threshold keeps fewer pairs than none; and with too few accepted walk frames the percept gets
+/// no prior, which the report says.
+#[test]
+fn the_forward_model_can_learn_from_accepted_teacher_percepts_only() {
+    let heuristic = {
+        let guard = shared();
+        guard.1.clone()
+    };
+    let learn = |min_teacher_certainty: f64| {
+        let mut robot = SimRobot::new(ArmSim::new(SimConfig::default()).unwrap());
+        let mut protocol = ActionProtocol {
+            views: 24,
+            walks: 4,
+            steps: 10,
+            ..ActionProtocol::default()
+        };
+        protocol.motion.moves = 60;
+        protocol.motion.min_teacher_certainty = min_teacher_certainty;
+        learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol).unwrap()
+    };
+    let runs: Vec<_> = [0.0, 0.5, 1.0].into_iter().map(learn).collect();
+    let pairs: Vec<usize> = runs.iter().map(|(_, r)| r.motion_pairs).collect();
+    let frames: Vec<&Vec<usize>> = runs.iter().map(|(_, r)| &r.prior_frames).collect();
+    eprintln!("pairs {pairs:?}, prior frames {frames:?}");
+    assert!(pairs[0] >= pairs[1] && pairs[1] >= pairs[2], "{pairs:?}");
+    assert!(pairs[2] < pairs[0], "{pairs:?}");
+    for (p, r) in &runs {
+        // A forward model that accepted no percept is no forward model.
+        assert_eq!(
+            p.motion().map(|m| m.n_data()),
+            (r.motion_pairs > 0).then_some(r.motion_pairs as u64),
+            "{r:?}"
+        );
+        let enough = r.prior_frames.len() == 2
+            && r.prior_frames
+                .iter()
+                .all(|&n| n >= visguide::pipeline::MIN_PRIOR_FRAMES);
+        assert_eq!(p.prior().is_some(), enough, "{r:?}");
+    }
+    assert!(runs[0].0.prior().is_some(), "{:?}", runs[0].1);
+}
+
 #[test]
 fn the_pipeline_refuses_what_it_cannot_use() {
     let mut guard = shared();

@@ -65,9 +65,18 @@ pub struct LearnReport {
     pub shapes: ShapeReport,
     /// Training frames for the tracker (both cameras) with a heuristic percept.
     pub track_frames: usize,
-    /// Training pairs of the forward model (moves with a heuristic percept).
+    /// Training pairs of the forward model (moves with a heuristic percept, at least
+    /// [`MotionConfig::min_teacher_certainty`] certain).
     pub motion_pairs: usize,
+    /// Per camera, the walk frames the prior's error scale was measured on (empty without a
+    /// forward model or with the prior off). With fewer than [`MIN_PRIOR_FRAMES`] on a camera
+    /// the percept has no prior ([`FdCbtRecogniser::prior`] is `None`).
+    pub prior_frames: Vec<usize>,
 }
+
+/// Fewest walk frames per camera the prior's error scale is measured on (with fewer, the
+/// percept has no prior).
+pub const MIN_PRIOR_FRAMES: usize = 10;
 
 fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> PipelineError {
     move |e| PipelineError::Robot {
@@ -179,7 +188,9 @@ pub fn learn_by_action<R: Robot>(
                 report.motion_pairs += 1;
             }
         }
-        Some(m)
+        // A model that learned nothing predicts nothing: every walk step would start a new
+        // training sequence. The tracker then runs without one (`motion_pairs` says 0).
+        (m.n_data() > 0).then_some(m)
     } else {
         None
     };
@@ -252,7 +263,12 @@ pub fn learn_by_action<R: Robot>(
                     distances[f.camera].push((t[0] - p[0]).hypot(t[1] - p[1]));
                 }
             }
-            Some(PositionPrior::from_distances(&distances)?)
+            report.prior_frames = distances.iter().map(Vec::len).collect();
+            if distances.iter().all(|d| d.len() >= MIN_PRIOR_FRAMES) {
+                Some(PositionPrior::from_distances(&distances)?)
+            } else {
+                None
+            }
         }
         _ => None,
     };

@@ -34,7 +34,7 @@ pub mod track;
 pub mod vote;
 
 pub use error::PipelineError;
-pub use learn::{ActionProtocol, LearnReport, learn_by_action};
+pub use learn::{ActionProtocol, LearnReport, MIN_PRIOR_FRAMES, learn_by_action};
 pub use motion::{MotionConfig, MotionModel};
 pub use prior::PositionPrior;
 pub use shapes::{ActionPair, GripperView, ShapeConfig, ShapeModel, ShapeReport};
