@@ -310,14 +310,15 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
 /// `MotionConfig::min_teacher_certainty`: the forward model learns only from teacher percepts
 /// whose every camera is at least that certain. On the same moves (same seeds), the largest
 /// threshold keeps fewer pairs than none; and with too few accepted walk frames the percept gets
-/// no prior, which the report says.
+/// no prior, which the report says. `ActionProtocol::min_teacher_certainty` does the same for
+/// the shape model's tips and the tracker's training states.
 #[test]
 fn the_forward_model_can_learn_from_accepted_teacher_percepts_only() {
     let heuristic = {
         let guard = shared();
         guard.1.clone()
     };
-    let learn = |min_teacher_certainty: f64| {
+    let learn = |(min_teacher_certainty, taught): (f64, f64)| {
         let mut robot = SimRobot::new(ArmSim::new(SimConfig::default()).unwrap());
         let mut protocol = ActionProtocol {
             views: 24,
@@ -327,15 +328,30 @@ fn the_forward_model_can_learn_from_accepted_teacher_percepts_only() {
         };
         protocol.motion.moves = 60;
         protocol.motion.min_teacher_certainty = min_teacher_certainty;
+        protocol.min_teacher_certainty = taught;
         learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol).unwrap()
     };
-    let runs: Vec<_> = [0.0, 0.5, 1.0].into_iter().map(learn).collect();
+    let runs: Vec<_> = [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (0.0, 0.5)]
+        .into_iter()
+        .map(learn)
+        .collect();
+    let states: Vec<usize> = runs.iter().map(|(_, r)| r.track_frames).collect();
+    let views: Vec<usize> = runs.iter().map(|(_, r)| r.shapes.views[0]).collect();
+    eprintln!("training states {states:?}, camera 0 views {views:?}");
+    // The forward model's threshold alone changes neither the tips nor the states.
+    assert!(states[..3].iter().all(|&n| n == states[0]), "{states:?}");
+    assert!(views[..3].iter().all(|&n| n == views[0]), "{views:?}");
+    assert!(
+        states[3] < states[0] && views[3] < views[0],
+        "{states:?} {views:?}"
+    );
+    let runs = &runs[..3];
     let pairs: Vec<usize> = runs.iter().map(|(_, r)| r.motion_pairs).collect();
     let frames: Vec<&Vec<usize>> = runs.iter().map(|(_, r)| &r.prior_frames).collect();
     eprintln!("pairs {pairs:?}, prior frames {frames:?}");
     assert!(pairs[0] >= pairs[1] && pairs[1] >= pairs[2], "{pairs:?}");
     assert!(pairs[2] < pairs[0], "{pairs:?}");
-    for (p, r) in &runs {
+    for (p, r) in runs {
         // A forward model that accepted no percept is no forward model.
         assert_eq!(
             p.motion().map(|m| m.n_data()),
@@ -412,6 +428,12 @@ fn the_pipeline_refuses_what_it_cannot_use() {
     bad_shapes.shapes.ratio_threshold = 2.0;
     let mut bad_motion = ActionProtocol::default();
     bad_motion.motion.w_gen = 2.0;
+    let mut bad_motion_teacher = ActionProtocol::default();
+    bad_motion_teacher.motion.min_teacher_certainty = -0.1;
+    let bad_teacher = ActionProtocol {
+        min_teacher_certainty: f64::NAN,
+        ..ActionProtocol::default()
+    };
     for (explore, protocol, name) in [
         (&EXPLORE[..2], &ActionProtocol::default(), None),
         (
@@ -423,6 +445,12 @@ fn the_pipeline_refuses_what_it_cannot_use() {
         (&EXPLORE[..], &bad_percept, Some("mode_sigma_px")),
         (&EXPLORE[..], &bad_shapes, Some("ratio_threshold")),
         (&EXPLORE[..], &bad_motion, Some("w_gen")),
+        (
+            &EXPLORE[..],
+            &bad_motion_teacher,
+            Some("min_teacher_certainty"),
+        ),
+        (&EXPLORE[..], &bad_teacher, Some("min_teacher_certainty")),
     ] {
         let e = learn_by_action(robot, &space(), explore, heuristic, protocol).unwrap_err();
         match name {

@@ -75,6 +75,14 @@ pub struct PipelineArgs {
     /// library's).
     #[arg(long, requires = "development")]
     pub motion_min_certainty: Option<f64>,
+    /// With `--development`: `ActionProtocol::min_teacher_certainty` (the shape model's and
+    /// the tracker's teacher; default: the library's).
+    #[arg(long, requires = "development")]
+    pub teacher_min_certainty: Option<f64>,
+    /// With `--development`: the development seeds to run (default 101, 102; seeds of the
+    /// evaluation, 3000 and above, are refused).
+    #[arg(long, requires = "development", value_delimiter = ',')]
+    pub dev_seeds: Option<Vec<u64>>,
 }
 
 fn space() -> ControlSpace {
@@ -184,6 +192,9 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
     };
     if let Some(moves) = args.motion_moves {
         protocol.motion.moves = moves;
+    }
+    if let Some(c) = args.teacher_min_certainty {
+        protocol.min_teacher_certainty = c;
     }
     if let Some(c) = args.motion_min_certainty {
         protocol.motion.min_teacher_certainty = c;
@@ -303,8 +314,15 @@ fn fmt(v: f64) -> String {
 
 /// Runs the target.
 pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
+    let dev_seeds: Vec<u64> = args.dev_seeds.clone().unwrap_or_else(|| DEV_SEEDS.to_vec());
+    if let Some(s) = dev_seeds.iter().find(|&&s| s >= 3000) {
+        return Err(format!(
+            "seed {s} is kept for evaluation (3000 and above), not development data"
+        )
+        .into());
+    }
     let seeds: &[u64] = if args.development {
-        &DEV_SEEDS
+        &dev_seeds
     } else {
         &EVAL_SEEDS
     };
@@ -316,7 +334,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
         motion_moves: args
             .motion_moves
             .unwrap_or(visguide::pipeline::MotionConfig::default().moves),
-        development_seeds: DEV_SEEDS.to_vec(),
+        development_seeds: dev_seeds.clone(),
         evaluation_seeds: seeds.to_vec(),
         learning: Vec::new(),
         percepts: Vec::new(),

@@ -33,6 +33,11 @@ pub struct ActionProtocol {
     pub step_us: f64,
     /// Seed of every random draw.
     pub seed: u64,
+    /// The shape model takes a training capture's tip, and the tracker a walk frame's state,
+    /// only from a teacher percept whose every camera is at least this certain (0: every
+    /// percept). The forward model has its own threshold,
+    /// [`MotionConfig::min_teacher_certainty`].
+    pub min_teacher_certainty: f64,
     /// The forward model of the commanded moves (`moves` 0: none).
     pub motion: MotionConfig,
     /// Shape model settings.
@@ -49,6 +54,7 @@ impl Default for ActionProtocol {
             steps: 15,
             step_us: 12.0,
             seed: 23,
+            min_teacher_certainty: 0.0,
             motion: MotionConfig::default(),
             shapes: ShapeConfig::default(),
             percept: PerceptConfig::default(),
@@ -63,7 +69,8 @@ pub struct LearnReport {
     pub actions: usize,
     /// The shape model's report.
     pub shapes: ShapeReport,
-    /// Training frames for the tracker (both cameras) with a heuristic percept.
+    /// Training frames for the tracker (both cameras) with a heuristic percept (at least
+    /// [`ActionProtocol::min_teacher_certainty`] certain).
     pub track_frames: usize,
     /// Training pairs of the forward model (moves with a heuristic percept, at least
     /// [`MotionConfig::min_teacher_certainty`] certain).
@@ -114,6 +121,12 @@ pub fn learn_by_action<R: Robot>(
             reason: "need views ≥ 1, walks ≥ 1 and steps ≥ 3".into(),
         });
     }
+    if !(0.0..=1.0).contains(&protocol.min_teacher_certainty) {
+        return Err(PipelineError::InvalidParameter {
+            name: "min_teacher_certainty",
+            reason: format!("{} must lie in [0, 1]", protocol.min_teacher_certainty),
+        });
+    }
     if !(protocol.step_us.is_finite() && protocol.step_us >= 0.0) {
         return Err(PipelineError::InvalidParameter {
             name: "step_us",
@@ -138,7 +151,10 @@ pub fn learn_by_action<R: Robot>(
         robot.command(&rest_cmd).map_err(robot_err("command"))?;
         let rest = robot.capture().map_err(robot_err("capture"))?;
         report.actions += 2;
-        let tips = heuristic.locate_all(&rest).ok();
+        let tips = heuristic.locate_all(&rest).ok().filter(|t| {
+            t.iter()
+                .all(|l| l.certainty >= protocol.min_teacher_certainty)
+        });
         captures.push((rest, moved, tips));
     }
     let mut pairs = Vec::new();
@@ -238,8 +254,12 @@ pub fn learn_by_action<R: Robot>(
                 t.iter()
                     .all(|l| l.certainty >= protocol.motion.min_teacher_certainty)
             });
+            let taught = tips.as_ref().is_some_and(|t| {
+                t.iter()
+                    .all(|l| l.certainty >= protocol.min_teacher_certainty)
+            });
             for (cam, walk) in per_cam.iter_mut().enumerate() {
-                let truth = tips.as_ref().map(|t| t[cam].position);
+                let truth = tips.as_ref().filter(|_| taught).map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
                 walk.push(RawFrame {
                     camera: cam,
