@@ -1,6 +1,6 @@
 //! Command-line arguments shared by the `visguide` binary and other programs built on this
 //! crate (feature `cli`, on by default): [`MserArgs`], the MSER setting as a clap
-//! [`Args`](clap::Args) group (`--preset` and every parameter), flattened into `visguide
+//! [`Args`] group (`--preset` and every parameter), flattened into `visguide
 //! regions`, `visguide match`, `visguide eval` and `cargo xtask eval paper-a`.
 
 use clap::Args;
