@@ -678,28 +678,35 @@ mod tests {
         }
     }
 
-    /// The goal lines judge the FD + CBT rows only, each against its own limit, and say how
-    /// the heuristic percept fares at the same targets.
-    #[test]
-    fn goals_judge_fd_cbt_against_the_issue_limits() {
-        let s = Summary {
+    fn summary(percepts: Vec<PerceptRow>, servo: Vec<ServoRow>) -> Summary {
+        Summary {
             description: "",
             motion_moves: 300,
             development_seeds: DEV_SEEDS.to_vec(),
             evaluation_seeds: EVAL_SEEDS.to_vec(),
             learning: Vec::new(),
-            percepts: vec![
+            percepts,
+            servo,
+        }
+    }
+
+    /// The goal lines judge the FD + CBT rows only, each against its own limit, and say how
+    /// the heuristic percept fares at the same targets.
+    #[test]
+    fn goals_judge_fd_cbt_against_the_issue_limits() {
+        let s = summary(
+            vec![
                 percept("default", "heuristic", 0, 9.0),
                 percept("default", "fd+cbt", 0, 0.8),
                 percept("hard", "fd+cbt", 1, 1.25),
             ],
-            servo: vec![
+            vec![
                 servo("default", "fd+cbt", 0.75),
                 servo("default", "heuristic", 0.4),
                 servo("hard", "fd+cbt", 0.9),
                 servo("hard", "heuristic", 2.0),
             ],
-        };
+        );
         let g = goals(&s);
         assert!(!g.contains("9.00"), "{g}");
         assert!(
@@ -720,15 +727,7 @@ mod tests {
         h.seed_median_px = vec![None, Some(1.0), Some(3.0), Some(14.0), Some(8.0)];
         h.median_px = 5.5;
         h.spread_px = [1.0, 14.0];
-        let s = Summary {
-            description: "",
-            motion_moves: 300,
-            development_seeds: DEV_SEEDS.to_vec(),
-            evaluation_seeds: EVAL_SEEDS.to_vec(),
-            learning: Vec::new(),
-            percepts: Vec::new(),
-            servo: vec![servo("hard", "fd+cbt", 0.9), h],
-        };
+        let s = summary(Vec::new(), vec![servo("hard", "fd+cbt", 0.9), h]);
         let m = markdown(&s);
         assert!(!m.contains("NaN"), "{m}");
         assert!(

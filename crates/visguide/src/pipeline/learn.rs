@@ -6,7 +6,7 @@
 //! percept (servo-loop's learned silhouette recogniser, learned beforehand on the same robot)
 //! supplies the tip on the training captures.
 
-use servo_loop::{ControlSpace, RandomCommands, Recogniser, Robot, TipModel};
+use servo_loop::{ControlSpace, Localisation, RandomCommands, Recogniser, Robot, TipModel};
 
 use super::error::{PipelineError, Result};
 use super::motion::{MotionConfig, MotionModel};
@@ -85,6 +85,11 @@ pub struct LearnReport {
 /// percept has no prior).
 pub const MIN_PRIOR_FRAMES: usize = 10;
 
+/// Whether a teacher percept is at least `min` certain in every camera.
+fn certain(percept: &[Localisation], min: f64) -> bool {
+    percept.iter().all(|l| l.certainty >= min)
+}
+
 fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> PipelineError {
     move |e| PipelineError::Robot {
         during,
@@ -151,10 +156,10 @@ pub fn learn_by_action<R: Robot>(
         robot.command(&rest_cmd).map_err(robot_err("command"))?;
         let rest = robot.capture().map_err(robot_err("capture"))?;
         report.actions += 2;
-        let tips = heuristic.locate_all(&rest).ok().filter(|t| {
-            t.iter()
-                .all(|l| l.certainty >= protocol.min_teacher_certainty)
-        });
+        let tips = heuristic
+            .locate_all(&rest)
+            .ok()
+            .filter(|t| certain(t, protocol.min_teacher_certainty));
         captures.push((rest, moved, tips));
     }
     let mut pairs = Vec::new();
@@ -194,10 +199,10 @@ pub fn learn_by_action<R: Robot>(
             robot.command(&full).map_err(robot_err("command"))?;
             report.actions += 1;
             let images = capture(robot)?;
-            let accepted = heuristic.locate_all(&images).ok().filter(|t| {
-                t.iter()
-                    .all(|l| l.certainty >= protocol.motion.min_teacher_certainty)
-            });
+            let accepted = heuristic
+                .locate_all(&images)
+                .ok()
+                .filter(|t| certain(t, protocol.motion.min_teacher_certainty));
             if let Some(t) = accepted {
                 let tips: Vec<[f64; 2]> = t.iter().take(cams).map(|l| l.position).collect();
                 m.update(&full, &tips)?;
@@ -250,14 +255,12 @@ pub fn learn_by_action<R: Robot>(
             last = Some(full);
             let images = capture(robot)?;
             let tips = heuristic.locate_all(&images).ok();
-            let accepted = tips.as_ref().is_some_and(|t| {
-                t.iter()
-                    .all(|l| l.certainty >= protocol.motion.min_teacher_certainty)
-            });
-            let taught = tips.as_ref().is_some_and(|t| {
-                t.iter()
-                    .all(|l| l.certainty >= protocol.min_teacher_certainty)
-            });
+            let accepted = tips
+                .as_ref()
+                .is_some_and(|t| certain(t, protocol.motion.min_teacher_certainty));
+            let taught = tips
+                .as_ref()
+                .is_some_and(|t| certain(t, protocol.min_teacher_certainty));
             for (cam, walk) in per_cam.iter_mut().enumerate() {
                 let truth = tips.as_ref().filter(|_| taught).map(|t| t[cam].position);
                 report.track_frames += usize::from(truth.is_some());
