@@ -262,12 +262,13 @@ pub fn learn_by_action<R: Robot>(
                 .as_ref()
                 .is_some_and(|t| certain(t, protocol.min_teacher_certainty));
             for (cam, walk) in per_cam.iter_mut().enumerate() {
-                let truth = tips.as_ref().filter(|_| taught).map(|t| t[cam].position);
+                let teacher = tips.as_ref().map(|t| t[cam].position);
+                let truth = teacher.filter(|_| taught);
                 report.track_frames += usize::from(truth.is_some());
                 walk.push(RawFrame {
                     camera: cam,
                     truth,
-                    accepted,
+                    teacher: teacher.filter(|_| accepted),
                     votes: shapes.votes(cam, &images[cam])?,
                     offset: offsets[cam],
                     predicted: predicted.as_ref().map(|p| p[cam]),
@@ -281,8 +282,8 @@ pub fn learn_by_action<R: Robot>(
     let prior = match &motion {
         Some(_) if protocol.percept.position_prior => {
             let mut distances = vec![Vec::new(); cams];
-            for f in raw.iter().flatten().filter(|f| f.accepted) {
-                if let (Some(t), Some(p)) = (f.truth, f.predicted) {
+            for f in raw.iter().flatten() {
+                if let (Some(t), Some(p)) = (f.teacher, f.predicted) {
                     distances[f.camera].push((t[0] - p[0]).hypot(t[1] - p[1]));
                 }
             }
@@ -337,15 +338,18 @@ pub fn learn_by_action<R: Robot>(
     ))
 }
 
-/// One training frame of one camera before compensation: the teacher's tip, the votes and the
-/// forward model's prediction in image coordinates, and the walk's summed predicted shifts.
+/// One training frame of one camera before compensation: the teacher's tip (as the tracker's
+/// state and as the forward model's reference), the votes and the forward model's prediction in
+/// image coordinates, and the walk's summed predicted shifts.
 #[derive(Debug, Clone)]
 struct RawFrame {
     camera: usize,
+    /// The tracker's training state: the teacher's tip, if certain enough
+    /// ([`ActionProtocol::min_teacher_certainty`]).
     truth: Option<[f64; 2]>,
-    /// The teacher's percept is certain enough for the forward model
-    /// ([`MotionConfig::min_teacher_certainty`]).
-    accepted: bool,
+    /// The teacher's tip the prior's error scale is measured against, if certain enough for
+    /// the forward model ([`MotionConfig::min_teacher_certainty`]).
+    teacher: Option<[f64; 2]>,
     votes: Vec<Vote>,
     offset: [f64; 2],
     predicted: Option<[f64; 2]>,

@@ -182,7 +182,8 @@ fn forget(state: &Mutex<State>) {
 }
 
 /// Tells an [`FdCbtRecogniser`] of the commanded moves: with a forward model, each move shifts
-/// the tracks by its predicted image motion; without one (or outside it), a move larger than
+/// the tracks by its predicted image motion and sets the centre of the prior on the votes'
+/// position ([`FdCbtRecogniser::predicted`]); without one (or outside it), a move larger than
 /// the tracker learned restarts the tracks from the votes.
 #[derive(Debug)]
 pub struct MoveNotifier {
@@ -202,8 +203,8 @@ impl MoveNotifier {
             .as_ref()
             .and_then(|m| m.predict(set_points).ok().flatten());
         // `g(y') − g(y)`, as `MotionModel::shift`, with `g(y)` kept from the last command.
-        let shift = match (&self.last_predicted, &predicted, &self.last) {
-            (Some(a), Some(b), Some(_)) => Some(
+        let shift = match (&self.last_predicted, &predicted) {
+            (Some(a), Some(b)) => Some(
                 a.iter()
                     .zip(b)
                     .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
