@@ -16,8 +16,9 @@
 //!   percept (target: what that sees there); the true image error (RMS over cameras of the
 //!   true tip's distance to where it was at the target pose) after the last iteration.
 //!
-//! Seeds: development seeds 101 and 102 (`examples/pipeline_probe.rs` and `--development`, which
-//! runs this study on them and prints it: the only seeds the settings were looked at on);
+//! Seeds: development seeds 101 and 102 by default (`examples/pipeline_probe.rs` and
+//! `--development`, which runs this study on them and prints it; `--dev-seeds` runs others below
+//! 3000, and 103–104 have been used too: the only seeds the settings were looked at on);
 //! evaluation seeds 3101–3105, scored once (3001–3005 were scored before the prior on the votes'
 //! position was adopted, and are not used again). Fixtures hold no timings; the time per capture
 //! is printed to stdout only.
