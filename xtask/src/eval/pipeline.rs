@@ -532,7 +532,7 @@ fn markdown(s: &Summary) -> String {
     )
 }
 
-/// "5 seeds", or "4 of 5 seeds (1 saw no target)" when a seed had no servo run.
+/// "5 seeds", or "4 of 5 seeds; 1 saw no target" when a seed had no servo run.
 fn seeds_counted(r: &ServoRow) -> String {
     let n = r.seed_median_px.len();
     let k = r.seed_median_px.iter().flatten().count();
