@@ -70,6 +70,17 @@ fn learned(config: SimConfig) -> Learned {
     (robot, heuristic, pipeline)
 }
 
+/// A default arm of its own, seeded (the shared one's state is the other tests').
+fn own_arm(seed: u64) -> SimRobot {
+    SimRobot::new(
+        ArmSim::new(SimConfig {
+            seed,
+            ..SimConfig::default()
+        })
+        .unwrap(),
+    )
+}
+
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
@@ -157,13 +168,7 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
         .expect("learned with a forward model")
         .clone();
     // A simulator of its own (the shared one's state is the other tests').
-    let robot = &mut SimRobot::new(
-        ArmSim::new(SimConfig {
-            seed: 505,
-            ..SimConfig::default()
-        })
-        .unwrap(),
-    );
+    let robot = &mut own_arm(505);
     // The forward model against the simulator's true tip, on servo-sized moves it never made.
     let mut commands = RandomCommands::new(&EXPLORE, 404).unwrap();
     let (mut errors, mut moved) = (Vec::new(), Vec::new());
@@ -254,13 +259,7 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
     // applied (its votes keep their weights; `weigh` below does the same).
     assert!((0..2).any(|c| prior.applies(c)), "{:?}", prior.sigmas());
     let sigma = pipeline.fd.config.mode_sigma_px;
-    let robot = &mut SimRobot::new(
-        ArmSim::new(SimConfig {
-            seed: 606,
-            ..SimConfig::default()
-        })
-        .unwrap(),
-    );
+    let robot = &mut own_arm(606);
     let mut commands = RandomCommands::new(&EXPLORE, 707).unwrap();
     let (mut checked, mut moved_mode) = (0, 0);
     for _ in 0..16 {

@@ -43,3 +43,16 @@ pub enum PipelineError {
 
 /// The pipeline's result type.
 pub type Result<T> = std::result::Result<T, PipelineError>;
+
+/// `Ok` when `value` lies in `[0, 1]` (a certainty or a share), else
+/// [`PipelineError::InvalidParameter`] naming the setting `name`.
+pub(crate) fn check_unit_interval(name: &'static str, value: f64) -> Result<()> {
+    if (0.0..=1.0).contains(&value) {
+        Ok(())
+    } else {
+        Err(PipelineError::InvalidParameter {
+            name,
+            reason: format!("{value} must lie in [0, 1]"),
+        })
+    }
+}

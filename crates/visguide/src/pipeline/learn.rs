@@ -8,7 +8,7 @@
 
 use servo_loop::{ControlSpace, Localisation, RandomCommands, Recogniser, Robot, TipModel};
 
-use super::error::{PipelineError, Result};
+use super::error::{PipelineError, Result, check_unit_interval};
 use super::motion::{MotionConfig, MotionModel};
 use super::prior::PositionPrior;
 use super::shapes::{ActionPair, ShapeConfig, ShapeModel, ShapeReport};
@@ -126,12 +126,7 @@ pub fn learn_by_action<R: Robot>(
             reason: "need views ≥ 1, walks ≥ 1 and steps ≥ 3".into(),
         });
     }
-    if !(0.0..=1.0).contains(&protocol.min_teacher_certainty) {
-        return Err(PipelineError::InvalidParameter {
-            name: "min_teacher_certainty",
-            reason: format!("{} must lie in [0, 1]", protocol.min_teacher_certainty),
-        });
-    }
+    check_unit_interval("min_teacher_certainty", protocol.min_teacher_certainty)?;
     if !(protocol.step_us.is_finite() && protocol.step_us >= 0.0) {
         return Err(PipelineError::InvalidParameter {
             name: "step_us",
@@ -226,7 +221,8 @@ pub fn learn_by_action<R: Robot>(
         let mut y = commands.next_command();
         let mut per_cam: Vec<Vec<RawFrame>> = vec![Vec::new(); cams];
         let mut offsets = vec![[0.0; 2]; cams];
-        let mut last: Option<Vec<f64>> = None;
+        // The forward model's prediction at the walk's previous step (`None` before it).
+        let mut last: Option<Option<Vec<[f64; 2]>>> = None;
         for _ in 0..protocol.steps {
             for (j, v) in y.iter_mut().enumerate() {
                 let [lo, hi] = explore[j];
@@ -236,23 +232,27 @@ pub fn learn_by_action<R: Robot>(
             let full = space.full_command(&y)?;
             robot.command(&full).map_err(robot_err("command"))?;
             report.actions += 1;
-            if let (Some(m), Some(l)) = (&motion, &last) {
-                match m.shift(l, &full)? {
-                    Some(d) => offsets.iter_mut().zip(&d).for_each(|(o, d)| {
-                        o[0] += d[0];
-                        o[1] += d[1];
-                    }),
-                    None => {
+            let predicted = match &motion {
+                Some(m) => m.predict(&full)?,
+                None => None,
+            };
+            // The move's predicted shift, `MotionModel::shift` from the kept prediction.
+            if let (Some(_), Some(previous)) = (&motion, &last) {
+                match (previous, &predicted) {
+                    (Some(a), Some(b)) => offsets
+                        .iter_mut()
+                        .zip(MotionModel::difference(a, b))
+                        .for_each(|(o, d)| {
+                            o[0] += d[0];
+                            o[1] += d[1];
+                        }),
+                    _ => {
                         raw.extend(per_cam.iter_mut().map(std::mem::take));
                         offsets.iter_mut().for_each(|o| *o = [0.0; 2]);
                     }
                 }
             }
-            let predicted = match &motion {
-                Some(m) => m.predict(&full)?,
-                None => None,
-            };
-            last = Some(full);
+            last = Some(predicted.clone());
             let images = capture(robot)?;
             let tips = heuristic.locate_all(&images).ok();
             let accepted = tips

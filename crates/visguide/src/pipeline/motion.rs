@@ -18,7 +18,7 @@
 
 use lwpr::{Lwpr, LwprBuilder};
 
-use super::error::{PipelineError, Result};
+use super::error::{PipelineError, Result, check_unit_interval};
 
 /// Settings of the forward model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,12 +81,7 @@ impl MotionConfig {
                 });
             }
         }
-        if !(0.0..=1.0).contains(&self.min_teacher_certainty) {
-            return Err(PipelineError::InvalidParameter {
-                name: "min_teacher_certainty",
-                reason: format!("{} must lie in [0, 1]", self.min_teacher_certainty),
-            });
-        }
+        check_unit_interval("min_teacher_certainty", self.min_teacher_certainty)?;
         for (name, v) in [("w_gen", self.w_gen), ("cutoff", self.cutoff)] {
             if !(v > 0.0 && v < 1.0) {
                 return Err(PipelineError::InvalidParameter {
@@ -196,12 +191,17 @@ impl MotionModel {
         let (Some(a), Some(b)) = (self.predict(from)?, self.predict(to)?) else {
             return Ok(None);
         };
-        Ok(Some(
-            a.iter()
-                .zip(&b)
-                .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
-                .collect(),
-        ))
+        Ok(Some(Self::difference(&a, &b)))
+    }
+
+    /// The shift between two predictions of every camera, `to − from` (what [`Self::shift`]
+    /// returns for the commands they were predicted at, for a caller that keeps the last
+    /// prediction instead of predicting it again).
+    pub fn difference(from: &[[f64; 2]], to: &[[f64; 2]]) -> Vec<[f64; 2]> {
+        from.iter()
+            .zip(to)
+            .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
+            .collect()
     }
 }
 

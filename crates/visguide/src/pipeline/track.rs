@@ -32,7 +32,7 @@ use cbt_tracker::{
 use image::GrayImage;
 use servo_loop::{Localisation, Recogniser, Robot, ServoError};
 
-use super::error::{PipelineError, Result};
+use super::error::{PipelineError, Result, check_unit_interval};
 use super::motion::MotionModel;
 use super::prior::PositionPrior;
 use super::shapes::ShapeModel;
@@ -57,24 +57,14 @@ impl PerceptConfig {
     /// (A NaN or zero kernel width made every frame's mode empty, so nothing was ever
     /// recognised.)
     pub fn validate(&self) -> Result<()> {
-        let bad = |name: &'static str, value: f64, range: &str| {
-            Err(PipelineError::InvalidParameter {
-                name,
-                reason: format!("{value} must lie in {range}"),
-            })
-        };
         if !(self.mode_sigma_px.is_finite() && self.mode_sigma_px > 0.0) {
-            return bad("mode_sigma_px", self.mode_sigma_px, "(0, ∞)");
+            return Err(PipelineError::InvalidParameter {
+                name: "mode_sigma_px",
+                reason: format!("{} must lie in (0, ∞)", self.mode_sigma_px),
+            });
         }
-        for (name, v) in [
-            ("start_certainty", self.start_certainty),
-            ("lost_certainty", self.lost_certainty),
-        ] {
-            if !(0.0..=1.0).contains(&v) {
-                return bad(name, v, "[0, 1]");
-            }
-        }
-        Ok(())
+        check_unit_interval("start_certainty", self.start_certainty)?;
+        check_unit_interval("lost_certainty", self.lost_certainty)
     }
 }
 
@@ -204,12 +194,7 @@ impl MoveNotifier {
             .and_then(|m| m.predict(set_points).ok().flatten());
         // `g(y') − g(y)`, as `MotionModel::shift`, with `g(y)` kept from the last command.
         let shift = match (&self.last_predicted, &predicted) {
-            (Some(a), Some(b)) => Some(
-                a.iter()
-                    .zip(b)
-                    .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
-                    .collect::<Vec<_>>(),
-            ),
+            (Some(a), Some(b)) => Some(MotionModel::difference(a, b)),
             _ => None,
         };
         lock(&self.state).predicted.clone_from(&predicted);
