@@ -140,6 +140,7 @@ pub mod recognition;
 pub mod recovery;
 mod robot;
 mod servo;
+pub mod stats;
 mod target;
 mod temporal;
 mod visual;

@@ -27,7 +27,8 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError, check_finite};
-use crate::temporal::{Verdict, distance, quantile};
+use crate::stats::quantile_linear;
+use crate::temporal::{Verdict, distance};
 
 /// Settings of [`MotionCheck::learn`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -207,7 +208,7 @@ impl MotionCheck {
             trained: samples.len(),
             scale: 0.0,
         };
-        let mut residuals: Vec<f64> = (0..samples.len())
+        let residuals: Vec<f64> = (0..samples.len())
             .filter_map(|i| {
                 let (x, y) = &samples[i];
                 check
@@ -221,7 +222,7 @@ impl MotionCheck {
                 config.neighbours, config.reach
             )));
         }
-        check.scale = quantile(&mut residuals, config.quantile);
+        check.scale = quantile_linear(&residuals, config.quantile);
         Ok(check)
     }
 
@@ -299,7 +300,7 @@ impl MotionCheck {
             .iter()
             .map(|&i| camera_residual(&self.memory[i].0, &self.fitted(&first, y, i)))
             .collect();
-        let cut = 3.0 * quantile(&mut res.clone(), 0.5);
+        let cut = 3.0 * quantile_linear(&res, 0.5);
         let kept: Vec<usize> = idx
             .iter()
             .zip(res.drain(..))

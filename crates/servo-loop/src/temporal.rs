@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError, check_finite, check_len};
 use crate::inverse::InverseModel;
 use crate::plant::{Observation, Plant};
+use crate::stats::quantile_linear;
 
 /// Settings of [`TemporalCheck::learn`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -145,14 +146,6 @@ pub(crate) fn distance(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
-/// Linear-interpolated quantile of a non-empty slice (sorted in place).
-pub(crate) fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let pos = q * (v.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
-}
-
 impl TemporalCheck {
     /// Least training pairs per distance bin for the bin to count.
     pub const MIN_PAIRS_PER_BIN: usize = 10;
@@ -191,10 +184,15 @@ impl TemporalCheck {
         }
         let pairs = binned.iter().map(Vec::len).sum();
         let points: Vec<(f64, f64)> = binned
-            .iter_mut()
+            .iter()
             .enumerate()
             .filter(|(_, r)| r.len() >= Self::MIN_PAIRS_PER_BIN)
-            .map(|(k, r)| ((k as f64 + 0.5) * width, quantile(r, config.quantile)))
+            .map(|(k, r)| {
+                (
+                    (k as f64 + 0.5) * width,
+                    quantile_linear(r, config.quantile),
+                )
+            })
             .collect();
         if points.len() < 2 {
             return Err(ServoError::NotEnoughData(format!(

@@ -8,9 +8,7 @@ use servo_loop::{
     Observation, Plant, ServoConfig, ServoError, learn_control, servo_image_jacobian, servo_lwpr,
 };
 
-#[path = "common/stats.rs"]
-mod stats;
-use stats::median;
+use servo_loop::stats::quantile_rank;
 
 const DEG_PER_US: f64 = 0.09;
 const DEADBAND_US: f64 = 4.0;
@@ -205,7 +203,7 @@ fn unidirectional_approach_converges_to_the_resolution_floor() {
         worst <= floor,
         "worst {worst} > floor {floor}: {approached:?}"
     );
-    assert!(median(&mut approached) < 0.5 * median(&mut plain));
+    assert!(quantile_rank(&mut approached, 0.5) < 0.5 * quantile_rank(&mut plain, 0.5));
 }
 
 #[test]

@@ -17,9 +17,7 @@ use servo_loop::{
 };
 use visguide::SimRobot;
 
-#[path = "../../servo-loop/tests/common/stats.rs"]
-mod stats;
-use stats::quantile;
+use servo_loop::stats::quantile_rank as quantile;
 
 /// Per rule and camera: errors, along/across components and step inconsistencies.
 #[derive(Default, Clone)]

@@ -12,9 +12,7 @@ use visguide::pipeline::{
     learn_by_action, mode,
 };
 
-#[path = "../../servo-loop/tests/common/stats.rs"]
-mod stats;
-use stats::{median, quantile};
+use servo_loop::stats::quantile_rank;
 
 #[path = "common/arm.rs"]
 mod arm;
@@ -112,8 +110,12 @@ fn fd_and_fd_cbt_find_the_tip_on_new_walks() {
             }
         }
     }
-    let (m_fd, m_cbt, m_h) = (median(&mut fd), median(&mut cbt), median(&mut heur));
-    let (p_fd, p_cbt) = (quantile(&mut fd, 0.9), quantile(&mut cbt, 0.9));
+    let (m_fd, m_cbt, m_h) = (
+        quantile_rank(&mut fd, 0.5),
+        quantile_rank(&mut cbt, 0.5),
+        quantile_rank(&mut heur, 0.5),
+    );
+    let (p_fd, p_cbt) = (quantile_rank(&mut fd, 0.9), quantile_rank(&mut cbt, 0.9));
     eprintln!(
         "FD median {m_fd:.2} p90 {p_fd:.2} ({} located, {refused} refused); FD+CBT median {m_cbt:.2} p90 {p_cbt:.2} ({}); heuristic median {m_h:.2}",
         fd.len(),
@@ -189,7 +191,10 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
             }
         }
     }
-    let (m, shift) = (median(&mut errors), median(&mut moved));
+    let (m, shift) = (
+        quantile_rank(&mut errors, 0.5),
+        quantile_rank(&mut moved, 0.5),
+    );
     eprintln!(
         "forward model: {predicted} of 12 moves predicted, shift error median {m:.2} px, \
          true shift median {shift:.2} px"

@@ -14,9 +14,7 @@ use servo_loop::{
 };
 use visguide::SimRobot;
 
-#[path = "../../servo-loop/tests/common/stats.rs"]
-mod stats;
-use stats::median;
+use servo_loop::stats::quantile_rank;
 
 /// The shared adapter ([`SimRobot`]) behind a serial link that can be unplugged after some
 /// commands (a fault injector for these tests, not another adapter).
@@ -170,7 +168,10 @@ fn tip_is_recognised_in_single_images_under_clutter_and_lighting() {
         }
         assert!(errors.len() >= 14, "found in {} of 16 images", errors.len());
         // Measured: median about 3 px from the finger ends' middle, repeatability ≈ 0.1 px.
-        let (e, r) = (median(&mut errors), median(&mut repeat));
+        let (e, r) = (
+            quantile_rank(&mut errors, 0.5),
+            quantile_rank(&mut repeat, 0.5),
+        );
         assert!(e < 6.0, "median error {e:.2} px");
         assert!(r < 0.5, "median frame-to-frame change {r:.2} px");
     }
@@ -264,7 +265,11 @@ fn learned_tip_rule_beats_the_far_end_under_clutter_and_lighting() {
         }
         assert!(errors.len() >= 20, "found in {} of 24 images", errors.len());
         assert_eq!(checked, errors.len() / 2);
-        let (e, f, r) = (median(&mut errors), median(&mut far), median(&mut repeat));
+        let (e, f, r) = (
+            quantile_rank(&mut errors, 0.5),
+            quantile_rank(&mut far, 0.5),
+            quantile_rank(&mut repeat, 0.5),
+        );
         assert!(
             e < 1.5 && e < f,
             "median error {e:.2} px (far end {f:.2} px)"

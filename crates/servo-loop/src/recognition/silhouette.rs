@@ -88,14 +88,6 @@ impl Silhouette {
     }
 }
 
-pub(super) fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f64::total_cmp).1
-}
-
 /// The end analysis of one silhouette: tip, direction, covered area of the end window.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct EndFit {

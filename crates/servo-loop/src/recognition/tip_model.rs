@@ -15,11 +15,12 @@ use crate::recognition::image::{
 use crate::recognition::lighting::{fit_lighting, residual};
 use crate::recognition::scene::{CameraScene, learn_scene};
 use crate::recognition::silhouette::{
-    EndFit, FACE_WINDOW, Silhouette, end_face_centre, farthest, learn_root, median, pixel_cdf,
+    EndFit, FACE_WINDOW, Silhouette, end_face_centre, farthest, learn_root, pixel_cdf,
 };
 use crate::recognition::tip_correction::{CorrectionReport, CorrectionSample, TipCorrection};
 use crate::recognition::tip_rule::{EndEstimate, TipRule, far_end};
 use crate::recognition::{Localisation, PerceptUse, TrainingView, training_image_sizes};
+use crate::stats::quantile_rank;
 
 /// Settings of the silhouette recogniser.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -209,7 +210,7 @@ impl TipModel {
                 let r = residual(f, &scene.background, w, h, coef);
                 spread.extend(r.iter().step_by(7).map(|v| f64::from(v.abs())));
             }
-            scene.noise_sigma = (1.4826 * median(&mut spread)).max(0.5) as f32;
+            scene.noise_sigma = (1.4826 * quantile_rank(&mut spread, 0.5)).max(0.5) as f32;
             // Root: the point from which the gripper, as revealed by the gripper moves, is the
             // silhouette's farthest pixel in most training views (action precedes perception).
             let model_one = TipModel {
@@ -253,7 +254,7 @@ impl TipModel {
                     "no gripper move changed camera {cam}'s image"
                 )));
             }
-            let typical = median(&mut reach.clone());
+            let typical = quantile_rank(&mut reach.clone(), 0.5);
 
             scene.end_length = (2.0 * typical).clamp(8.0, 80.0);
             report.end_agrees.push(
@@ -272,7 +273,7 @@ impl TipModel {
                     areas.push(fit.area);
                 }
             }
-            scene.end_area = median(&mut areas).max(1.0);
+            scene.end_area = quantile_rank(&mut areas, 0.5).max(1.0);
             cameras.push(scene);
         }
         Ok((
@@ -677,7 +678,9 @@ impl TipModel {
             .filter(|p| (p[0] - far[0]).hypot(p[1] - far[1]) <= l)
             .map(|p| f64::from(s.residual(scene, p[0] as usize, p[1] as usize).abs()))
             .collect();
-        let contrast = (median(&mut near) as f32).max(s.threshold).max(noise + 1.0);
+        let contrast = (quantile_rank(&mut near, 0.5) as f32)
+            .max(s.threshold)
+            .max(noise + 1.0);
         // Covered pixels (coverage > 0) of a box around the far end, computed once.
         let reach = l + 8.0;
         let (x0, x1) = (

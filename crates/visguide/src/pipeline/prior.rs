@@ -25,6 +25,8 @@
 //! only tilt the votes toward the forward model's own error (on the hard scene, a teacher that
 //! fails on camera 0 makes that error tens of pixels).
 
+use servo_loop::stats::median;
+
 use super::error::{PipelineError, Result};
 use super::vote::Vote;
 
@@ -67,17 +69,12 @@ impl PositionPrior {
                         reason: format!("camera {cam}: {bad} is not a finite distance"),
                     });
                 }
-                let mut s = d.clone();
-                s.sort_by(f64::total_cmp);
-                let median = match s.len() {
-                    0 => {
-                        return Err(PipelineError::NotEnoughData(format!(
-                            "camera {cam}: no frame to measure the forward model's error on"
-                        )));
-                    }
-                    n if n % 2 == 1 => s[n / 2],
-                    n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
-                };
+                if d.is_empty() {
+                    return Err(PipelineError::NotEnoughData(format!(
+                        "camera {cam}: no frame to measure the forward model's error on"
+                    )));
+                }
+                let median = median(&mut d.clone());
                 if median <= 0.0 {
                     return Err(PipelineError::InvalidParameter {
                         name: "distances",
