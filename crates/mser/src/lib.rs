@@ -100,6 +100,12 @@
 //! share pixels; [`RegionsWithPixels`]); and for a single region [`Region::pixels`] refills
 //! them from the seed in O(area). [`Region::contour`] follows the boundary in O(perimeter).
 //!
+//! Against OpenCV (`cargo xtask bench mser`; ratios in `docs/performance.md`, *mser*): our time
+//! varies little between images, since most of it is the flood, which visits every pixel and is
+//! bound by load latency and mispredicted branches, not by instructions (module `tree`); OpenCV's
+//! grows with the regions it keeps and lists. So the images with the fewest regions give the
+//! lowest ratios.
+//!
 //! # Regions, ellipses and contours
 //!
 //! [`Region`] carries polarity, level, seed, area, variation, inclusive bounding box and the raw
@@ -186,6 +192,12 @@
 //! - `rayon`: `Mser::detect_parallel` and `Mser::detect_with_pixels_parallel` (the two
 //!   polarities on two tasks) and `detect_many` (many images); results equal the sequential
 //!   ones (`tests/parallel.rs`, `tests/pixels.rs`). Plain [`Mser::detect`] is single-threaded.
+//!   Two tasks on one image gain little: the join waits for the later polarity, and a task may
+//!   start late (the other core waking) or be held off its core (in one run of `bench mser` on
+//!   the 2-core VM the second task started 2.3 ms after the first, and the first had 6.9 ms of
+//!   CPU in 11.1 ms wall; the bench prints each task's start delay, CPU and wall time). A batch
+//!   of images (`detect_many`) keeps every core busy, so image strips are not built. Speed-ups:
+//!   `docs/performance.md`, *mser*.
 //! - `opencv`: `OpenCvMser`, OpenCV's detector with our parameters, for cross-checks and
 //!   benchmarks (needs libopencv-dev 4.x and libclang).
 //!

@@ -17,6 +17,12 @@
 //! other layouts are copied once. Long computations (`mser.detect`, `LWPR.update_batch`,
 //! `LWPR.predict_batch`) release the GIL.
 //!
+//! What a call adds to the Rust call: argument conversion, one `Region` object per region, one
+//! copy of a batch. `python/benchmarks/overhead.py` times the same calls from Python and from
+//! Rust (`examples/overhead.rs`, a separate process) and finds no measurable overhead
+//! (`docs/performance.md`, *visguide-py*); that the Python side took less CPU than the Rust
+//! process is unexplained.
+//!
 //! The library target has no Rust unit tests: the bindings are tested by pytest (`python/tests`,
 //! run by `.ci/run`) against reference values that `tests/reference.rs` computes with the crates
 //! directly (`tests/reference.json`). The Rust side links libpython only for the extension

@@ -24,6 +24,9 @@
 //! prior wider than the shortest of them cannot tell such a cluster from the tip; it would
 //! only tilt the votes toward the forward model's own error (on the hard scene, a teacher that
 //! fails on camera 0 makes that error tens of pixels).
+//!
+//! Cost: the centre `g(y)` is the forward-model prediction that [`super::MoveNotifier`] makes
+//! once per command for the tracks' shift anyway; per vote the prior adds one exponential.
 
 use servo_loop::stats::median;
 
