@@ -11,7 +11,7 @@
 //! - **percepts side by side**: 6 walks of 8 small moves; on every capture the heuristic, FD
 //!   only and FD + CBT percepts against the true tip (the middle of the finger ends, the point
 //!   the heuristic defines as the tip): median, p90, gross failures (> 5 px), refusals;
-//! - **servo**: 4 reachable target poses, 5 iterations of the LWPR servo with the FD + CBT
+//! - **servo**: 12 reachable target poses, 5 iterations of the LWPR servo with the FD + CBT
 //!   percept (target: what it sees at the pose) and, at the same poses, with the heuristic
 //!   percept (target: what that sees there); the true image error (RMS over cameras of the
 //!   true tip's distance to where it was at the target pose) after the last iteration.
@@ -49,7 +49,7 @@ const EVAL_SEEDS: [u64; 5] = [3101, 3102, 3103, 3104, 3105];
 const DEV_SEEDS: [u64; 2] = [101, 102];
 const WALKS: usize = 6;
 const STEPS: usize = 8;
-const TARGETS: usize = 4;
+const TARGETS: usize = 12;
 const ITERATIONS: usize = 5;
 const TRAINING_MOVES: usize = 400;
 const GROSS_PX: f64 = 5.0;
