@@ -72,6 +72,10 @@ pub struct PipelineArgs {
     /// forward model's prediction (`PerceptConfig::position_prior`).
     #[arg(long, requires = "development")]
     pub no_position_prior: bool,
+    /// With `--development`: `ActionProtocol::views`, the shape model's training poses
+    /// (default: the library's).
+    #[arg(long, requires = "development")]
+    pub views: Option<usize>,
     /// With `--development`: the forward model's `min_teacher_certainty` (default: the
     /// library's).
     #[arg(long, requires = "development")]
@@ -202,6 +206,9 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
     }
     if args.no_position_prior {
         protocol.percept.position_prior = false;
+    }
+    if let Some(views) = args.views {
+        protocol.views = views;
     }
     let (pipeline, lr) = learn_by_action(&mut robot, &space(), &EXPLORE, &heuristic, &protocol)?;
     let mut plant = VisualPlant::new(robot, space(), heuristic.clone())?;
