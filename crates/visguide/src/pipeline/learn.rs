@@ -23,7 +23,9 @@ use rand_distr::{Distribution, StandardUniform};
 /// The training protocol.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ActionProtocol {
-    /// Random poses seen with the gripper at rest and moved (two commands each).
+    /// Random poses seen with the gripper at rest and moved (two commands each). 80 by default:
+    /// the shape model's coverage of poses is what limits the percept most (docs/methods.md,
+    /// *Twice the training poses for the shape model*).
     pub views: usize,
     /// Random walks for the tracker.
     pub walks: usize,
@@ -49,7 +51,7 @@ pub struct ActionProtocol {
 impl Default for ActionProtocol {
     fn default() -> Self {
         ActionProtocol {
-            views: 40,
+            views: 80,
             walks: 6,
             steps: 15,
             step_us: 12.0,
