@@ -26,8 +26,7 @@
 //! 3000, and 103–108 have been used too: the only seeds the settings were looked at on);
 //! evaluation seeds 3201–3205, scored once (3001–3005 were scored before the prior on the votes'
 //! position was adopted, 3101–3105 before the shape model's 80 training poses, and are not used
-//! again). Fixtures hold no timings; the time per capture
-//! is printed to stdout only.
+//! again). Fixtures hold no timings; the time per capture is printed to stdout only.
 
 use std::time::Instant;
 
@@ -40,7 +39,9 @@ use servo_loop::{
     VisualPlant, learn_control, learn_recognition, servo_lwpr,
 };
 use visguide::SimRobot;
-use visguide::pipeline::{ActionProtocol, FdCbtRecogniser, Notifying, learn_by_action};
+use visguide::pipeline::{
+    ActionProtocol, FdCbtRecogniser, MoveNotifier, Notifying, learn_by_action,
+};
 
 use super::{EvalContext, write_json};
 use crate::Result;
@@ -290,6 +291,25 @@ fn percepts(
     Ok(())
 }
 
+/// The servo study's plant for `percept`: a simulator made afresh from `sim` that tells
+/// `notifier` of every command, each percept from two captures.
+fn study_plant<Q: Recogniser>(
+    sim: &SimConfig,
+    notifier: MoveNotifier,
+    percept: Q,
+) -> Result<VisualPlant<Notifying<SimRobot>, Q>> {
+    let robot = Notifying {
+        robot: SimRobot::new(ArmSim::new(sim.clone())?),
+        notifier,
+    };
+    let mut plant = VisualPlant::new(robot, space(), percept)?;
+    plant.set_policy(PerceptPolicy {
+        captures: 2,
+        ..PerceptPolicy::default()
+    })?;
+    Ok(plant)
+}
+
 /// One percept's paired servo runs (module docs): for target `k` the arm goes to `poses[k]`,
 /// the percept's reading there is the target (a pose where it answers nothing is a run it
 /// cannot make, counted as stopped), the arm goes back to `poses[k − 1]`, and the LWPR servo
@@ -388,26 +408,11 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
             let poses: Vec<Vec<f64>> = (0..=TARGETS).map(|_| commands.next_command()).collect();
             // A fresh FD + CBT percept; the robot tells it of every commanded move.
             let pipeline = l.pipeline.fresh();
-            let robot = Notifying {
-                robot: SimRobot::new(ArmSim::new(c.clone())?),
-                notifier: pipeline.notifier(RESET_US)?,
-            };
-            let mut plant = VisualPlant::new(robot, space(), pipeline)?;
-            plant.set_policy(PerceptPolicy {
-                captures: 2,
-                ..PerceptPolicy::default()
-            })?;
+            let notifier = pipeline.notifier(RESET_US)?;
+            let mut plant = study_plant(&c, notifier, pipeline)?;
             let (fd_err, fd_stopped) = paired_runs(&mut plant, &l.lwpr, &poses, |q| q.reset())?;
             let notifier = plant.into_robot().notifier;
-            let robot = Notifying {
-                robot: SimRobot::new(ArmSim::new(c)?),
-                notifier,
-            };
-            let mut plant = VisualPlant::new(robot, space(), l.heuristic.clone())?;
-            plant.set_policy(PerceptPolicy {
-                captures: 2,
-                ..PerceptPolicy::default()
-            })?;
+            let mut plant = study_plant(&c, notifier, l.heuristic.clone())?;
             let (h_err, h_stopped) = paired_runs(&mut plant, &l.lwpr, &poses, |_| {})?;
             for (row, (mut e, s)) in servo_rows
                 .iter_mut()
@@ -649,8 +654,8 @@ fn goals(s: &Summary) -> String {
     );
     g += "Why the FD + CBT percept misses, measured on development seeds only (101–104, with \
           40 training poses; docs/methods.md, *Where the FD + CBT percept goes wrong*): a camera \
-          refuses only where it has no vote at all (poses its stored views do not cover, in \
-          runs of whole walks), and most gross answers come from a track that started on a \
+          refuses only where it has no vote at all (no region of the frame passed the matching \
+          against the stored views, mostly in runs of whole walks), and most gross answers come from a track that started on a \
           wrong vote cluster and stayed there; on the hard scene most gross answers had no vote \
           within 5 px of the true tip.\n";
     g
