@@ -50,7 +50,7 @@ impl From<FormatArg> for Format {
 /// Detect MSER regions in images and write one region file per image.
 ///
 /// Each IMAGE (PNG, PGM or PPM; colour is converted to grey with BT.601 weights) gives
-/// OUT/<stem>.mser|.json|.csv. A directory stands for all the images in it. Images are processed
+/// `OUT/<stem>.mser|.json|.csv`. A directory stands for all the images in it. Images are processed
 /// in parallel (--threads); the files are identical whatever the number of threads. The
 /// Oxford format writes the ellipse `a(x−u)² + 2b(x−u)(y−v) + c(y−v)² = 1` with about the
 /// region's own area (M = (4Σ)⁻¹, Σ the region's second moments), 0-based pixel coordinates,
@@ -73,7 +73,7 @@ pub struct RegionsArgs {
     /// Include each region's outer contour (JSON and CSV).
     #[arg(long)]
     pub contours: bool,
-    /// Also write OUT/<stem>-regions.png, the image with every region's ellipse drawn.
+    /// Also write `OUT/<stem>-regions.png`, the image with every region's ellipse drawn.
     #[arg(long)]
     pub draw: bool,
     #[command(flatten)]
