@@ -173,6 +173,17 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         None => EvalTarget::all(),
     };
     let single = args.target.is_some();
+    if let Some(EvalTarget::Pipeline(p)) = &args.target
+        && !p.arms.is_empty()
+        && !p.development
+        && (args.check || args.out.is_none())
+    {
+        return Err(
+            "eval pipeline --arm writes the study of your arm files: name a folder with \
+                    --out (fixtures/pipeline holds the shipped scenes), and no --check"
+                .into(),
+        );
+    }
     let data_dir = match &args.data {
         Some(d) if !d.is_dir() => {
             let why = format!("data folder {} not found", d.display());
@@ -304,7 +315,27 @@ pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Res
 
 #[cfg(test)]
 mod staging_tests {
-    use super::replaces_destination;
+    use super::{EvalArgs, EvalTarget, pipeline::PipelineArgs, replaces_destination, run};
+
+    /// `eval pipeline --arm` writes only to a folder the user names: without `--out`, or with
+    /// `--check`, it is refused before anything runs (it would replace or fail the fixtures of
+    /// the shipped scenes).
+    #[test]
+    fn pipeline_arm_files_need_an_output_folder_of_their_own() {
+        let args = |check: bool, out: Option<&str>| EvalArgs {
+            check,
+            data: None,
+            out: out.map(Into::into),
+            target: Some(EvalTarget::Pipeline(PipelineArgs {
+                arms: vec!["no-such-arm.json".into()],
+                ..PipelineArgs::default()
+            })),
+        };
+        for (check, out) in [(false, None), (true, None), (true, Some("somewhere"))] {
+            let e = run(&args(check, out)).unwrap_err().to_string();
+            assert!(e.contains("name a folder with --out"), "{e}");
+        }
+    }
 
     #[test]
     fn a_target_that_wrote_nothing_leaves_its_folder_unless_checked() {

@@ -32,6 +32,8 @@ mod seeds;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use seeds::shipped_arms;
+
 use std::path::PathBuf;
 
 use arm_sim::{ArmSim, NUM_SERVOS, SimConfig};
