@@ -260,7 +260,7 @@ struct Learned {
     report: SceneLearning,
 }
 
-fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned> {
+fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Result<Learned> {
     let mut sim_config = config.clone();
     sim_config.seed = LEARN_SEED;
     let mut robot = SimRobot::new(ArmSim::new(sim_config)?);
@@ -308,7 +308,7 @@ fn learn(name: &str, config: &SimConfig, args: &PipelineArgs) -> Result<Learned>
         pipeline,
         report: SceneLearning {
             scene: name.to_string(),
-            role: Role::Developed,
+            role,
             heuristic_actions,
             pipeline_actions: lr.actions,
             gripper_views: lr.shapes.views,
@@ -486,8 +486,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
     };
     const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
     for (name, config, role) in &scenes {
-        let mut l = learn(name, config, args)?;
-        l.report.role = *role;
+        let l = learn(name, *role, config, args)?;
         let mut errors: [[Errors; 2]; 3] = Default::default();
         let mut seconds = [0.0; 3];
         let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
