@@ -114,6 +114,15 @@ impl EvalTarget {
         }
     }
 
+    /// Why the target, as asked, must write to a folder the user names (`--out`, no
+    /// `--check`) instead of its fixtures, if it must.
+    fn needs_own_out(&self) -> Option<&'static str> {
+        match self {
+            EvalTarget::Pipeline(args) => pipeline::needs_own_out(args),
+            _ => None,
+        }
+    }
+
     /// Why the target cannot run without (complete) benchmark data, if it needs data.
     fn missing_data(&self, data: Option<&Path>) -> Option<String> {
         match self {
@@ -173,16 +182,10 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         None => EvalTarget::all(),
     };
     let single = args.target.is_some();
-    if let Some(EvalTarget::Pipeline(p)) = &args.target
-        && !p.arms.is_empty()
-        && !p.development
+    if let Some(why) = args.target.as_ref().and_then(EvalTarget::needs_own_out)
         && (args.check || args.out.is_none())
     {
-        return Err(
-            "eval pipeline --arm writes the study of your arm files: name a folder with \
-                    --out (fixtures/pipeline holds the shipped scenes), and no --check"
-                .into(),
-        );
+        return Err(why.into());
     }
     let data_dir = match &args.data {
         Some(d) if !d.is_dir() => {

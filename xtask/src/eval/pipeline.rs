@@ -114,6 +114,16 @@ pub struct PipelineArgs {
     pub arms: Vec<PathBuf>,
 }
 
+/// Why this run must write to a folder the user names (`--out`, no `--check`), if it must:
+/// the study of the user's arm files would replace, or fail against, the fixtures of the
+/// shipped scenes.
+pub fn needs_own_out(args: &PipelineArgs) -> Option<&'static str> {
+    (!args.arms.is_empty() && !args.development).then_some(
+        "eval pipeline --arm writes the study of your arm files: name a folder with --out \
+         (fixtures/pipeline holds the shipped scenes), and no --check",
+    )
+}
+
 /// How a scene of the study came to be in it; the goals' servo limit depends on it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -146,10 +156,7 @@ fn scenes(args: &PipelineArgs) -> Result<Vec<(String, SimConfig, Role)>> {
     let mut out: Vec<(String, SimConfig, Role)> = Vec::new();
     if !args.arms.is_empty() {
         for path in &args.arms {
-            let name = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .ok_or_else(|| format!("arm file {} has no name", path.display()))?;
+            let name = super::servo::arm_name(path)?;
             if out.iter().any(|(n, _, _)| *n == name) {
                 return Err(format!(
                     "two arm files named `{name}`: each scene of the study is named by its file stem"
@@ -326,15 +333,16 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
 /// no setting of the pipeline's learning changes it (LWPR used to learn once per scene on the
 /// learning simulator, after the pipeline, whose number of moves then shifted its training).
 fn train_lwpr(config: &SimConfig, heuristic: &TipModel, seed: u64) -> Result<InverseModel> {
+    let lwpr_seed = seed ^ 0x1A7B;
     let mut c = config.clone();
-    c.seed = seed ^ 0x1A7B;
+    c.seed = lwpr_seed;
     let robot = SimRobot::new(ArmSim::new(c)?);
     let mut plant = VisualPlant::new(robot, space(), heuristic.clone())?;
     let mut lwpr = InverseModel::new(4, 3, &InverseModelConfig::default())?;
     let lc = LearnConfig {
         moves: TRAINING_MOVES,
         explore: EXPLORE.to_vec(),
-        seed: seed ^ 0x1A7B,
+        seed: lwpr_seed,
         approach: Some(Approach::hobby_servo()),
     };
     learn_control(&mut plant, &mut lwpr, &lc, |_, _| {})?;

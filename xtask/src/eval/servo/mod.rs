@@ -32,7 +32,7 @@ mod seeds;
 #[cfg(test)]
 mod tests;
 
-pub(crate) use seeds::shipped_arms;
+pub(crate) use seeds::{arm_name, shipped_arms};
 
 use std::path::PathBuf;
 

@@ -53,6 +53,13 @@ pub fn shipped_arms() -> Vec<(String, Option<PathBuf>)> {
     ]
 }
 
+/// The name of an arm file in a study's tables: its file stem.
+pub fn arm_name(path: &Path) -> Result<String> {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .ok_or_else(|| format!("arm file {} has no name", path.display()).into())
+}
+
 /// Recognition at random poses (single captures, the servo percept's policy otherwise).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SeedRecognition {
@@ -163,11 +170,7 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         arms.retain(|(n, _)| args.only_arms.contains(n));
     }
     for path in &args.dev_arms {
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .ok_or_else(|| format!("arm file {} has no name", path.display()))?;
-        arms.push((name, Some(path.clone())));
+        arms.push((arm_name(path)?, Some(path.clone())));
     }
     let mut configs = Vec::new();
     for (name, path) in &arms {
