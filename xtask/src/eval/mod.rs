@@ -263,8 +263,15 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             data_dir: data_dir.clone(),
         };
         eprintln!("eval {} -> {} (data: {data})", t.name(), dest.display());
+        let started = std::time::Instant::now();
         t.run(&ctx)
             .map_err(|e| format!("{}: {e} ({} left unchanged)", t.name(), dest.display()))?;
+        // A log's note of where the time goes (stderr, never a fixture).
+        eprintln!(
+            "eval {}: done in {:.0} s",
+            t.name(),
+            started.elapsed().as_secs_f64()
+        );
         for (i, (name, stage)) in stages.into_iter().enumerate() {
             if replaces_destination(i == 0, check_root.is_some(), stage.is_unused()) {
                 staged.push((name, stage));

@@ -32,12 +32,18 @@
 //! evaluation seeds 3201–3205, scored once (3001–3005 were scored before the prior on the votes'
 //! position was adopted, 3101–3105 before the shape model's 80 training poses, and are not used
 //! again). Fixtures hold no timings; the time per capture is printed to stdout only.
+//!
+//! Scenes and seeds run at once on rayon's pool, each seed on simulators, an LWPR model and a
+//! percept copy of its own, gathered in order: the fixture is the same on any number of
+//! threads. The printed time per capture is each call's wall time while the others run; the
+//! one-core cost figures of docs/performance.md are runs with `RAYON_NUM_THREADS=1`.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use arm_sim::{ArmSim, SimConfig};
 use clap::Args;
+use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, ControlSpace, InverseModel, InverseModelConfig, JacobianAt, LearnConfig,
@@ -349,7 +355,9 @@ fn train_lwpr(config: &SimConfig, heuristic: &TipModel, seed: u64) -> Result<Inv
     Ok(lwpr)
 }
 
-/// Percepts side by side on walks of small moves; [heuristic, fd, fd+cbt][camera].
+/// Percepts side by side on walks of small moves; [heuristic, fd, fd+cbt][camera]. The FD + CBT
+/// percept is a fresh copy of the learned one (its tracks restart at every walk anyway), so
+/// seeds can run at once.
 fn percepts(
     config: &SimConfig,
     l: &Learned,
@@ -362,10 +370,11 @@ fn percepts(
     let mut sim = ArmSim::new(c)?;
     let mut commands = RandomCommands::new(&EXPLORE, seed ^ 0x5EE)?;
     let mut steps = RandomCommands::new(&[[-12.0, 12.0]; 3], seed ^ 0x57E)?;
+    let pipeline = l.pipeline.fresh();
     // The tracker is told every command, as through `Notifying` in the servo.
-    let mut notifier = l.pipeline.notifier(RESET_US)?;
+    let mut notifier = pipeline.notifier(RESET_US)?;
     for _ in 0..WALKS {
-        l.pipeline.reset();
+        pipeline.reset();
         let mut y = commands.next_command();
         for _ in 0..STEPS {
             for (v, d) in y.iter_mut().zip(steps.next_command()) {
@@ -376,7 +385,7 @@ fn percepts(
             notifier.commanded(&full);
             let images = sim.capture();
             let t = sim.inspect().finger_middle_pixels()?;
-            let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &l.pipeline.fd, &l.pipeline];
+            let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &pipeline.fd, &pipeline];
             for (k, r) in recognisers.iter().enumerate() {
                 let start = Instant::now();
                 let found = r.locate_all(&images);
@@ -458,6 +467,127 @@ fn paired_runs<Q: Recogniser>(
     Ok((out, stopped))
 }
 
+/// One evaluation seed's part of a scene's study.
+struct SeedOutcome {
+    /// [heuristic, fd, fd+cbt][camera].
+    errors: [[Errors; 2]; 3],
+    /// Wall seconds spent in each percept's `locate_all`.
+    seconds: [f64; 3],
+    /// [fd+cbt, heuristic]: the true image errors after the servo runs, and the runs stopped.
+    servo: [(Vec<f64>, usize); 2],
+}
+
+/// The percepts side by side and the paired servo runs of one evaluation seed.
+fn seed_study(config: &SimConfig, l: &Learned, seed: u64) -> Result<SeedOutcome> {
+    let mut errors: [[Errors; 2]; 3] = Default::default();
+    let mut seconds = [0.0; 3];
+    percepts(config, l, seed, &mut errors, &mut seconds)?;
+    // Paired runs: the same random poses for both percepts (module docs), each percept on a
+    // simulator of its own made afresh from the seed.
+    let mut c = config.clone();
+    c.seed = seed ^ 0x5E0;
+    let mut commands = RandomCommands::new(&EXPLORE, seed ^ 0x7A6)?;
+    let poses: Vec<Vec<f64>> = (0..=TARGETS).map(|_| commands.next_command()).collect();
+    // A fresh FD + CBT percept; the robot tells it of every commanded move.
+    let lwpr = train_lwpr(config, &l.heuristic, seed)?;
+    let pipeline = l.pipeline.fresh();
+    let notifier = pipeline.notifier(RESET_US)?;
+    let mut plant = study_plant(&c, notifier, pipeline)?;
+    let fd = paired_runs(&mut plant, &lwpr, &poses, |q| q.reset())?;
+    let notifier = plant.into_robot().notifier;
+    let mut plant = study_plant(&c, notifier, l.heuristic.clone())?;
+    let heuristic = paired_runs(&mut plant, &lwpr, &poses, |_| {})?;
+    Ok(SeedOutcome {
+        errors,
+        seconds,
+        servo: [fd, heuristic],
+    })
+}
+
+/// One scene's part of the study.
+struct SceneOutcome {
+    learning: SceneLearning,
+    percepts: Vec<PerceptRow>,
+    servo: Vec<ServoRow>,
+    /// Wall seconds spent in each percept's `locate_all`, over the seeds.
+    seconds: [f64; 3],
+}
+
+/// Learns the percepts on one scene and runs every seed's study on it (at once), gathering the
+/// seeds in order.
+fn scene_study(
+    name: &str,
+    role: Role,
+    config: &SimConfig,
+    seeds: &[u64],
+    args: &PipelineArgs,
+) -> Result<SceneOutcome> {
+    const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
+    let l = learn(name, role, config, args)?;
+    let outcomes = seeds
+        .par_iter()
+        .map(|&seed| seed_study(config, &l, seed))
+        .collect::<Result<Vec<_>>>()?;
+    let mut errors: [[Errors; 2]; 3] = Default::default();
+    let mut seconds = [0.0; 3];
+    let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
+    for o in outcomes {
+        for (k, per_cam) in o.errors.into_iter().enumerate() {
+            for (cam, e) in per_cam.into_iter().enumerate() {
+                errors[k][cam].px.extend(e.px);
+                errors[k][cam].refused += e.refused;
+            }
+            seconds[k] += o.seconds[k];
+        }
+        for (row, (mut e, s)) in servo_rows.iter_mut().zip(o.servo) {
+            row.1 += s;
+            row.2 += TARGETS;
+            row.0.push((!e.is_empty()).then(|| median(&mut e)));
+        }
+    }
+    let mut percepts = Vec::new();
+    for (k, per_cam) in errors.iter_mut().enumerate() {
+        for (cam, e) in per_cam.iter_mut().enumerate() {
+            let n = e.px.len();
+            let gross = e.px.iter().filter(|&&x| x > GROSS_PX).count();
+            percepts.push(PerceptRow {
+                scene: name.to_string(),
+                percept: NAMES[k],
+                camera: cam,
+                captures: n + e.refused,
+                median_px: quantile_rank(&mut e.px, 0.5),
+                p90_px: quantile_rank(&mut e.px, 0.9),
+                gross,
+                gross_pct: 100.0 * (gross + e.refused) as f64 / (n + e.refused).max(1) as f64,
+                refused: e.refused,
+            });
+        }
+    }
+    let mut servo = Vec::new();
+    for (percept, (seed_median_px, stopped, runs)) in
+        ["fd+cbt", "heuristic"].into_iter().zip(servo_rows)
+    {
+        let mut meds: Vec<f64> = seed_median_px.iter().flatten().copied().collect();
+        let lo = meds.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = meds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        servo.push(ServoRow {
+            scene: name.to_string(),
+            percept,
+            seed_median_px,
+            median_px: median(&mut meds),
+            spread_px: [lo, hi],
+            stopped,
+            runs,
+        });
+    }
+    Ok(SceneOutcome {
+        learning: l.report,
+        percepts,
+        servo,
+        seconds,
+    })
+}
+
 fn fmt(v: f64) -> String {
     format!("{v:.2}")
 }
@@ -492,79 +622,25 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
         percepts: Vec::new(),
         servo: Vec::new(),
     };
-    const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
-    for (name, config, role) in &scenes {
-        let l = learn(name, *role, config, args)?;
-        let mut errors: [[Errors; 2]; 3] = Default::default();
-        let mut seconds = [0.0; 3];
-        let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
-        for &seed in seeds {
-            percepts(config, &l, seed, &mut errors, &mut seconds)?;
-            // Paired runs: the same random poses for both percepts (module docs), each percept
-            // on a simulator of its own made afresh from the seed.
-            let mut c = config.clone();
-            c.seed = seed ^ 0x5E0;
-            let mut commands = RandomCommands::new(&EXPLORE, seed ^ 0x7A6)?;
-            let poses: Vec<Vec<f64>> = (0..=TARGETS).map(|_| commands.next_command()).collect();
-            // A fresh FD + CBT percept; the robot tells it of every commanded move.
-            let lwpr = train_lwpr(config, &l.heuristic, seed)?;
-            let pipeline = l.pipeline.fresh();
-            let notifier = pipeline.notifier(RESET_US)?;
-            let mut plant = study_plant(&c, notifier, pipeline)?;
-            let (fd_err, fd_stopped) = paired_runs(&mut plant, &lwpr, &poses, |q| q.reset())?;
-            let notifier = plant.into_robot().notifier;
-            let mut plant = study_plant(&c, notifier, l.heuristic.clone())?;
-            let (h_err, h_stopped) = paired_runs(&mut plant, &lwpr, &poses, |_| {})?;
-            for (row, (mut e, s)) in servo_rows
-                .iter_mut()
-                .zip([(fd_err, fd_stopped), (h_err, h_stopped)])
-            {
-                row.1 += s;
-                row.2 += TARGETS;
-                row.0.push((!e.is_empty()).then(|| median(&mut e)));
-            }
-        }
-        for (k, per_cam) in errors.iter_mut().enumerate() {
-            for (cam, e) in per_cam.iter_mut().enumerate() {
-                let n = e.px.len();
-                let gross = e.px.iter().filter(|&&x| x > GROSS_PX).count();
-                summary.percepts.push(PerceptRow {
-                    scene: name.to_string(),
-                    percept: NAMES[k],
-                    camera: cam,
-                    captures: n + e.refused,
-                    median_px: quantile_rank(&mut e.px, 0.5),
-                    p90_px: quantile_rank(&mut e.px, 0.9),
-                    gross,
-                    gross_pct: 100.0 * (gross + e.refused) as f64 / (n + e.refused).max(1) as f64,
-                    refused: e.refused,
-                });
-            }
-        }
+    // Scenes and seeds run at once on rayon's pool; each seed's work is independent of the
+    // others' (its own simulators, LWPR and percept copy), and the results are gathered in
+    // order, so the figures do not depend on the number of threads.
+    let studied = scenes
+        .par_iter()
+        .map(|(name, config, role)| scene_study(name, *role, config, seeds, args))
+        .collect::<Result<Vec<_>>>()?;
+    for s in studied {
         let captures = (seeds.len() * WALKS * STEPS) as f64;
         println!(
-            "pipeline {name}: time per capture of both cameras (wall, this machine, not a fixture): heuristic {:.1} ms, FD {:.1} ms, FD+CBT {:.1} ms",
-            1e3 * seconds[0] / captures,
-            1e3 * seconds[1] / captures,
-            1e3 * seconds[2] / captures
+            "pipeline {}: time per capture of both cameras (wall, this machine, not a fixture): heuristic {:.1} ms, FD {:.1} ms, FD+CBT {:.1} ms",
+            s.learning.scene,
+            1e3 * s.seconds[0] / captures,
+            1e3 * s.seconds[1] / captures,
+            1e3 * s.seconds[2] / captures
         );
-        for (percept, (seed_median_px, stopped, runs)) in
-            ["fd+cbt", "heuristic"].into_iter().zip(servo_rows)
-        {
-            let mut meds: Vec<f64> = seed_median_px.iter().flatten().copied().collect();
-            let lo = meds.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = meds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            summary.servo.push(ServoRow {
-                scene: name.to_string(),
-                percept,
-                seed_median_px,
-                median_px: median(&mut meds),
-                spread_px: [lo, hi],
-                stopped,
-                runs,
-            });
-        }
-        summary.learning.push(l.report);
+        summary.percepts.extend(s.percepts);
+        summary.servo.extend(s.servo);
+        summary.learning.push(s.learning);
     }
     if args.development {
         println!(
