@@ -324,7 +324,7 @@ pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Res
 }
 
 #[cfg(test)]
-mod staging_tests {
+mod tests {
     use super::{EvalArgs, EvalTarget, pipeline::PipelineArgs, replaces_destination, run};
 
     /// `eval pipeline --arm` writes only to a folder the user names: without `--out`, or with
