@@ -69,7 +69,7 @@ pub enum EvalTarget {
     /// Paper C: learned visual servoing of the simulated arm (LWPR, Broyden, true Jacobian).
     Servo(servo::ServoArgs),
     /// The thesis's future work: FD recognition + CBT tracking as the servo percept, on the
-    /// default and the hard scene.
+    /// default and hard scenes (developed on) and the other shipped arms (held out).
     Pipeline(pipeline::PipelineArgs),
 }
 
