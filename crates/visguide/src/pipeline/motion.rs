@@ -17,6 +17,7 @@
 //! same way, so the learned system model is the distribution of the prediction's residuals.
 
 use lwpr::{Lwpr, LwprBuilder};
+use servo_loop::ServoError;
 
 use super::error::{PipelineError, Result, check_unit_interval};
 
@@ -66,31 +67,32 @@ impl Default for MotionConfig {
 
 impl MotionConfig {
     /// Checks the settings: scales, `init_d` and `init_alpha` finite and positive, `w_gen` and
-    /// `cutoff` in `(0, 1)`.
+    /// `cutoff` in `(0, 1)` (the inverse model's checks, `servo_loop::InverseModelConfig`, whose
+    /// LWPR settings these are with inputs and outputs swapped; its `percept_scale` is this
+    /// `pixel_scale`), and `min_teacher_certainty` in `[0, 1]`. An error names the setting.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("command_scale", self.command_scale),
-            ("pixel_scale", self.pixel_scale),
-            ("init_d", self.init_d),
-            ("init_alpha", self.init_alpha),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(PipelineError::InvalidParameter {
-                    name,
-                    reason: format!("{v} must be finite and positive"),
-                });
-            }
+        servo_loop::InverseModelConfig {
+            percept_scale: self.pixel_scale,
+            command_scale: self.command_scale,
+            init_d: self.init_d,
+            init_alpha: self.init_alpha,
+            w_gen: self.w_gen,
+            update_d: true,
+            cutoff: self.cutoff,
         }
-        check_unit_interval("min_teacher_certainty", self.min_teacher_certainty)?;
-        for (name, v) in [("w_gen", self.w_gen), ("cutoff", self.cutoff)] {
-            if !(v > 0.0 && v < 1.0) {
-                return Err(PipelineError::InvalidParameter {
-                    name,
-                    reason: format!("{v} must lie in (0, 1)"),
-                });
-            }
-        }
-        Ok(())
+        .validate()
+        .map_err(|e| match e {
+            ServoError::InvalidParameter { name, reason } => PipelineError::InvalidParameter {
+                name: if name == "percept_scale" {
+                    "pixel_scale"
+                } else {
+                    name
+                },
+                reason,
+            },
+            other => PipelineError::Servo(other),
+        })?;
+        check_unit_interval("min_teacher_certainty", self.min_teacher_certainty)
     }
 }
 
@@ -284,6 +286,69 @@ mod tests {
         assert!(m.update(&[1500.0], &[[1.0, 2.0], [0.0, 0.0]]).is_err());
         assert_eq!(m.n_data(), n);
         assert_eq!(m.predict(&[1500.0, 1500.0, 1500.0]).unwrap(), before);
+    }
+
+    /// Sets one field of the settings.
+    type Setter = fn(&mut MotionConfig, f64);
+
+    /// Every setting out of its range is refused by `validate`, naming that setting (the
+    /// inverse model's check, with its `percept_scale` named `pixel_scale` here).
+    #[test]
+    fn every_bad_setting_is_named() {
+        let ok = MotionConfig::default();
+        assert!(ok.validate().is_ok());
+        let cases: [(&str, Setter, &[f64]); 7] = [
+            (
+                "command_scale",
+                |c, v| c.command_scale = v,
+                &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            ),
+            (
+                "pixel_scale",
+                |c, v| c.pixel_scale = v,
+                &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            ),
+            (
+                "init_d",
+                |c, v| c.init_d = v,
+                &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            ),
+            (
+                "init_alpha",
+                |c, v| c.init_alpha = v,
+                &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            ),
+            ("w_gen", |c, v| c.w_gen = v, &[0.0, 1.0, 2.0, f64::NAN]),
+            ("cutoff", |c, v| c.cutoff = v, &[0.0, 1.0, -0.5, f64::NAN]),
+            (
+                "min_teacher_certainty",
+                |c, v| c.min_teacher_certainty = v,
+                &[-0.1, 1.5, f64::NAN],
+            ),
+        ];
+        for (name, set, bad) in cases {
+            for &v in bad {
+                let mut c = ok;
+                set(&mut c, v);
+                match c.validate() {
+                    Err(PipelineError::InvalidParameter { name: n, .. }) => {
+                        assert_eq!(n, name, "{name} = {v}");
+                    }
+                    other => panic!("{name} = {v}: {other:?}"),
+                }
+            }
+            // A value inside the range is accepted.
+            let mut c = ok;
+            set(
+                &mut c,
+                if name == "min_teacher_certainty" {
+                    1.0
+                } else {
+                    0.5
+                },
+            );
+            assert!(c.validate().is_ok(), "{name}");
+        }
     }
 
     #[test]
