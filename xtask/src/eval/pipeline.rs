@@ -355,16 +355,13 @@ fn train_lwpr(config: &SimConfig, heuristic: &TipModel, seed: u64) -> Result<Inv
     Ok(lwpr)
 }
 
-/// Percepts side by side on walks of small moves; [heuristic, fd, fd+cbt][camera]. The FD + CBT
-/// percept is a fresh copy of the learned one (its tracks restart at every walk anyway), so
-/// seeds can run at once.
-fn percepts(
-    config: &SimConfig,
-    l: &Learned,
-    seed: u64,
-    errors: &mut [[Errors; 2]; 3],
-    seconds: &mut [f64; 3],
-) -> Result<()> {
+/// Percepts side by side on walks of small moves: the errors per [heuristic, fd, fd+cbt] and
+/// camera, and the wall seconds each percept's `locate_all` took. The FD + CBT percept is a
+/// fresh copy of the learned one (its tracks restart at every walk anyway), so seeds can run at
+/// once.
+fn percepts(config: &SimConfig, l: &Learned, seed: u64) -> Result<([[Errors; 2]; 3], [f64; 3])> {
+    let mut errors: [[Errors; 2]; 3] = Default::default();
+    let mut seconds = [0.0; 3];
     let mut c = config.clone();
     c.seed = seed;
     let mut sim = ArmSim::new(c)?;
@@ -399,7 +396,7 @@ fn percepts(
             }
         }
     }
-    Ok(())
+    Ok((errors, seconds))
 }
 
 /// The servo study's plant for `percept`: a simulator made afresh from `sim` that tells
@@ -479,9 +476,7 @@ struct SeedOutcome {
 
 /// The percepts side by side and the paired servo runs of one evaluation seed.
 fn seed_study(config: &SimConfig, l: &Learned, seed: u64) -> Result<SeedOutcome> {
-    let mut errors: [[Errors; 2]; 3] = Default::default();
-    let mut seconds = [0.0; 3];
-    percepts(config, l, seed, &mut errors, &mut seconds)?;
+    let (errors, seconds) = percepts(config, l, seed)?;
     // Paired runs: the same random poses for both percepts (module docs), each percept on a
     // simulator of its own made afresh from the seed.
     let mut c = config.clone();
