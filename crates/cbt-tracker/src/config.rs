@@ -155,6 +155,14 @@ pub enum Displacements {
     /// the coordinates too made the first-order tracker worse on the synthetic RC-car sets,
     /// L3 7.13 → 8.38 px). Stationary layout only.
     Interpolated,
+    /// As [`Displacements::Interpolated`], but a step whose previous displacement `v` lies
+    /// between the integer columns `c` and `c + 1` is counted in column `c` at `δ − (v − c)`
+    /// (its acceleration added to the column's own velocity), not at `δ`: linear interpolation
+    /// over `v` alone averages each column over the velocities of `(c − 1, c + 1)` and pulls
+    /// its mean toward where the training velocities are dense (a kernel regression's
+    /// design bias; docs/methods.md § Tracking, *Each velocity column learned at its own
+    /// velocity*). Stationary layout only.
+    Aligned,
 }
 
 impl Displacements {
@@ -434,11 +442,11 @@ impl CbtConfig {
                 reason: "a learned start density needs the stationary layout",
             });
         }
-        if self.displacements == Displacements::Interpolated && self.layout != Layout::Stationary {
+        if self.displacements != Displacements::Channels && self.layout != Layout::Stationary {
             return Err(TrackError::InvalidParameter {
                 name: "displacements",
                 value: 1.0,
-                reason: "interpolated displacement counts need the stationary layout",
+                reason: "interpolated or aligned displacement counts need the stationary layout",
             });
         }
         if self.velocity == Velocity::PerPosition && self.layout != Layout::Stationary {

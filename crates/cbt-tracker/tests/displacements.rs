@@ -1,6 +1,8 @@
 //! How the stationary system model counts displacements ([`Displacements`]): the channel
 //! products' errors-in-variables bias toward the bulk of the training velocities, its absence
-//! with interpolated coordinates, the saved form, and typed errors.
+//! with interpolated coordinates, the design bias that interpolation still has where the
+//! training velocities thin out, its absence with aligned columns, the saved form, and typed
+//! errors.
 
 use cbt_tracker::{
     CbtConfig, CbtModel, Detection, Displacements, Layout, Space, TrackError, TrainingFrame,
@@ -25,6 +27,32 @@ fn runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
             } else {
                 rng.random_range(-3.0..3.0)
             };
+            let x0 = 100.0 + rng.random_range(0.0..1.0);
+            (0..len)
+                .map(|k| {
+                    let p = [x0 + v * k as f64, 50.0];
+                    TrainingFrame {
+                        states: vec![p],
+                        detections: vec![Detection::new(p[0], p[1])],
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Constant-velocity runs along x whose speeds thin out: seven in eight at 0.5–1.5 channels a
+/// frame, the others at 1.5–3 (either direction), as along an axis few people walk.
+fn thinning_runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
+    let mut rng = cbt_tracker::sim::rng_for(seed, 0);
+    (0..n)
+        .map(|i| {
+            let speed: f64 = if i % 8 != 0 {
+                rng.random_range(0.5..1.5)
+            } else {
+                rng.random_range(1.5..3.0)
+            };
+            let v = if rng.random_bool(0.5) { speed } else { -speed };
             let x0 = 100.0 + rng.random_range(0.0..1.0);
             (0..len)
                 .map(|k| {
@@ -85,6 +113,25 @@ fn interpolated_counts_keep_the_walking_velocity() {
 }
 
 #[test]
+fn aligned_columns_keep_the_velocity_where_interpolation_is_pulled_to_the_bulk() {
+    let train = thinning_runs(400, 20, 5);
+    let space = integer_space(200);
+    let interp =
+        CbtModel::learn(space.clone(), config(Displacements::Interpolated), &train).unwrap();
+    let aligned = CbtModel::learn(space, config(Displacements::Aligned), &train).unwrap();
+    for v in [-2i64, 2] {
+        let (i, a) = (mean_step(&interp, v), mean_step(&aligned, v));
+        // Column ±2 averages the steps of speeds in (1, 3), most of them below 2.
+        assert!(
+            i.abs() < 1.85,
+            "interpolated: E[δ | v = {v}] = {i}, expected pulled toward the slower bulk"
+        );
+        // Every run keeps its velocity, so each aligned column holds its own velocity.
+        assert!((a - v as f64).abs() < 0.01, "aligned: E[δ | v = {v}] = {a}");
+    }
+}
+
+#[test]
 fn saved_form_and_checks() {
     let train = runs(6, 10, 4);
     let space = integer_space(200);
@@ -109,16 +156,27 @@ fn saved_form_and_checks() {
     assert!(text.contains("\"displacements\":\"interpolated\""));
     let back: CbtModel = serde_json::from_str(&text).unwrap();
     assert_eq!(back.stationary_system(0), m.stationary_system(0));
-    let bad = CbtConfig {
-        displacements: Displacements::Interpolated,
-        layout: Layout::Separable,
-        ..CbtConfig::default()
+    let cfg = CbtConfig {
+        displacements: Displacements::Aligned,
+        ..CbtConfig::stationary()
     };
-    assert!(matches!(
-        bad.validate(),
-        Err(TrackError::InvalidParameter {
-            name: "displacements",
-            ..
-        })
-    ));
+    let m = CbtModel::learn(integer_space(200), cfg, &train).unwrap();
+    let text = serde_json::to_string(&m).unwrap();
+    assert!(text.contains("\"displacements\":\"aligned\""));
+    let back: CbtModel = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.stationary_system(0), m.stationary_system(0));
+    for d in [Displacements::Interpolated, Displacements::Aligned] {
+        let bad = CbtConfig {
+            displacements: d,
+            layout: Layout::Separable,
+            ..CbtConfig::default()
+        };
+        assert!(matches!(
+            bad.validate(),
+            Err(TrackError::InvalidParameter {
+                name: "displacements",
+                ..
+            })
+        ));
+    }
 }

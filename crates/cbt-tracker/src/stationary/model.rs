@@ -682,7 +682,7 @@ impl StatSystem {
             Displacements::Channels => {
                 self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
             }
-            Displacements::Interpolated => {
+            Displacements::Interpolated | Displacements::Aligned => {
                 // S and S₀ from the channel products (their smear is a symmetric widening,
                 // no bias), T from the coordinates.
                 self.add_first(&now.axes[d], &prev.axes[d], prev2.is_none());
@@ -691,6 +691,7 @@ impl StatSystem {
                         &coordinates(now, d),
                         &coordinates(prev, d),
                         &coordinates(p2, d),
+                        cfg.displacements == Displacements::Aligned,
                     );
                 }
             }
@@ -700,12 +701,15 @@ impl StatSystem {
     /// Adds the second-order displacements of states given as `(channel coordinate, mass)`
     /// per element ([`Displacements::Interpolated`](crate::Displacements)): every triple of
     /// elements of three consecutive frames, with the product of their masses, at the four
-    /// nearest integer `(v, δ)` pairs by linear interpolation.
+    /// nearest integer `(v, δ)` pairs by linear interpolation. With `aligned`
+    /// ([`Displacements::Aligned`](crate::Displacements)) a triple counted in column `v` is
+    /// counted at `δ − (u − v)` (`u` its previous displacement), split linearly likewise.
     pub fn add_points_second(
         &mut self,
         now: &[(f64, f64)],
         prev: &[(f64, f64)],
         prev2: &[(f64, f64)],
+        aligned: bool,
     ) {
         let r = self.r as i64;
         let w = (2 * r + 1) as usize;
@@ -715,6 +719,27 @@ impl StatSystem {
             let f = x - lo;
             [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
         };
+        if aligned {
+            for &(un, mn) in prev {
+                for &(um, mm) in now {
+                    for &(uo, mo) in prev2 {
+                        let u = un - uo;
+                        for (v, wv) in split(u) {
+                            if v.abs() > r || wv <= 0.0 {
+                                continue;
+                            }
+                            for (d, wd) in split(um - un - (u - v as f64)) {
+                                if d.abs() <= r && wd > 0.0 {
+                                    self.c2[(v + r) as usize * w + (d + r) as usize] +=
+                                        mm * mn * mo * wd * wv;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            return;
+        }
         for &(un, mn) in prev {
             for &(um, mm) in now {
                 for (d, wd) in split(um - un) {

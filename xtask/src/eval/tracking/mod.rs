@@ -122,6 +122,8 @@ pub enum DisplacementsArg {
     Channels,
     /// `Displacements::Interpolated`.
     Interpolated,
+    /// `Displacements::Aligned`.
+    Aligned,
 }
 
 /// `--start-motion`.
@@ -304,6 +306,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         study::set_displacements(match m {
             DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
             DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
+            DisplacementsArg::Aligned => cbt_tracker::Displacements::Aligned,
         });
     }
     if let Some(m) = args.observation_smoothing {
