@@ -163,6 +163,14 @@ pub enum Displacements {
     /// design bias; docs/methods.md § Tracking, *Each velocity column learned at its own
     /// velocity*). Stationary layout only.
     Aligned,
+    /// [`Displacements::Interpolated`] or [`Displacements::Aligned`], whichever tracks the
+    /// training runs better when held out ([`CbtModel::learn`](crate::CbtModel::learn) chooses
+    /// and records the pick in the model's configuration; module
+    /// [`displacement_choice`](crate::displacement_choice)). A model that is not learned in
+    /// one batch ([`CbtModel::untrained`](crate::CbtModel::untrained), online learning) has
+    /// nothing to choose on and counts as [`Displacements::Interpolated`]. Stationary layout
+    /// only.
+    Selected,
 }
 
 impl Displacements {
@@ -446,7 +454,7 @@ impl CbtConfig {
             return Err(TrackError::InvalidParameter {
                 name: "displacements",
                 value: 1.0,
-                reason: "interpolated or aligned displacement counts need the stationary layout",
+                reason: "interpolated, aligned or selected displacement counts need the stationary layout",
             });
         }
         if self.velocity == Velocity::PerPosition && self.layout != Layout::Stationary {

@@ -120,7 +120,13 @@
 //!   channels along y at `v = 2`). [`Displacements::Aligned`] counts each step at its
 //!   column's own velocity and removes that bias; it is an option, not the default: better
 //!   at every pedestrian level on the validation scenes (hard 8 of 16, 19.30 px) but 30 %
-//!   worse on the RC-car development seeds at L4 (19.30 against 14.81 px).
+//!   worse on the RC-car development seeds at L4 (19.30 against 14.81 px), where the damped
+//!   columns hold back a velocity taken by clutter. [`Displacements::Selected`] chooses
+//!   between the two by tracking held-out training runs (module [`displacement_choice`]):
+//!   right on every RC-car level (aligned at L0–L3, up to 12 % better; interpolated at L4),
+//!   but on the pedestrians' medium level its near-tie picks went against both validation
+//!   scenes (5.25 px against 5.16), so it is an option too. Use it when the training runs
+//!   look like what will be tracked.
 //!   Broader start or system densities, a learned acceleration density, axis-pooled motion
 //!   counts, the held-out observation model and the filter's constants were tried there;
 //!   none gives CBT more than 8 of the 16 validation sequences against the baselines
@@ -221,6 +227,7 @@ mod cbt;
 mod config;
 mod data;
 mod dense;
+pub mod displacement_choice;
 mod encode;
 mod error;
 mod history;
@@ -244,6 +251,7 @@ pub use config::{
     StartMotion, SystemFallback, Velocity,
 };
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
+pub use displacement_choice::DisplacementChoice;
 pub use error::TrackError;
 pub use model::{CbtModel, LearnStats};
 pub use observation_smoothing::ObservationSmoothing;

@@ -3,8 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CbtConfig, Layout, Order, SystemFallback};
+use crate::config::{CbtConfig, Displacements, Layout, Order, SystemFallback};
 use crate::dense::{AxisObservation, AxisSystem1, AxisSystem2, JointObservation, JointSystem};
+use crate::displacement_choice;
 use crate::encode::{encode_detections, encode_states};
 use crate::history::History;
 use crate::integrity::{corrupt, len};
@@ -257,12 +258,18 @@ impl CbtModel {
     /// the grid; errors name the first that does not. With [`Smoothing::HeldOut`] the system
     /// model's `α` and `σ` are first chosen by held-out likelihood
     /// ([`crate::smoothing::select`]); the model's configuration holds the chosen values.
+    /// Likewise with [`Displacements::Selected`] the counting is first chosen by held-out
+    /// tracking ([`crate::displacement_choice::select`]) and recorded.
     pub fn learn(
         space: Space,
         config: CbtConfig,
         sequences: &[Vec<TrainingFrame>],
     ) -> Result<Self, TrackError> {
         let mut config = config;
+        if config.displacements == Displacements::Selected {
+            config.validate()?;
+            config.displacements = displacement_choice::select(&space, &config, sequences)?.pick;
+        }
         if config.smoothing == Smoothing::HeldOut {
             let pick = select(&space, &config, sequences, &SmoothingGrid::default())?;
             config.prior_weight = pick.prior_weight;

@@ -165,7 +165,11 @@ fn saved_form_and_checks() {
     assert!(text.contains("\"displacements\":\"aligned\""));
     let back: CbtModel = serde_json::from_str(&text).unwrap();
     assert_eq!(back.stationary_system(0), m.stationary_system(0));
-    for d in [Displacements::Interpolated, Displacements::Aligned] {
+    for d in [
+        Displacements::Interpolated,
+        Displacements::Aligned,
+        Displacements::Selected,
+    ] {
         let bad = CbtConfig {
             displacements: d,
             layout: Layout::Separable,

@@ -682,7 +682,9 @@ impl StatSystem {
             Displacements::Channels => {
                 self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
             }
-            Displacements::Interpolated | Displacements::Aligned => {
+            // `Selected` is resolved by `CbtModel::learn`; a model built otherwise counts as
+            // interpolated.
+            Displacements::Interpolated | Displacements::Aligned | Displacements::Selected => {
                 // S and S₀ from the channel products (their smear is a symmetric widening,
                 // no bias), T from the coordinates.
                 self.add_first(&now.axes[d], &prev.axes[d], prev2.is_none());

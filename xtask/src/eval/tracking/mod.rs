@@ -124,6 +124,8 @@ pub enum DisplacementsArg {
     Interpolated,
     /// `Displacements::Aligned`.
     Aligned,
+    /// `Displacements::Selected`.
+    Selected,
 }
 
 /// `--start-motion`.
@@ -307,6 +309,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
             DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
             DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
             DisplacementsArg::Aligned => cbt_tracker::Displacements::Aligned,
+            DisplacementsArg::Selected => cbt_tracker::Displacements::Selected,
         });
     }
     if let Some(m) = args.observation_smoothing {
