@@ -180,13 +180,17 @@ impl Displacements {
     }
 }
 
-/// How the stationary layout's second order carries the velocity in its state.
+/// How the stationary layout's second order carries the velocity in its state. Saved as
+/// `"factored"` / `"per_position"`, like every other option; files that spell them as the
+/// variants (`"Factored"`, `"PerPosition"`, written before) still read.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Velocity {
     /// One velocity distribution per axis for the whole posterior (the state factored as
     /// `q(x, y)·c_x(v_x)·c_y(v_y)`): every position hypothesis is predicted with the same
     /// velocity. The default, and what files without this field mean.
     #[default]
+    #[serde(alias = "Factored")]
     Factored,
     /// A velocity distribution per position along each axis, coupled to it: one per row of
     /// the posterior's window for the x velocity, one per column for the y velocity (the
@@ -195,6 +199,7 @@ pub enum Velocity {
     /// sharing one with the hypotheses that took clutter, as a particle filter's particles
     /// keep theirs. Costs about three predictions a step. Stationary layout, second order
     /// (the first order carries no velocity and ignores it).
+    #[serde(alias = "PerPosition")]
     PerPosition,
 }
 

@@ -69,6 +69,20 @@ fn a_saved_tracker_holds_its_velocities_and_continues_identically() {
     let mut f = CbtTracker::new(model(Velocity::Factored));
     run(&mut f, 10);
     assert!(!serde_json::to_string(&f).unwrap().contains("\"coupled\""));
+    // The option is written in snake_case like every other; files written when it was
+    // spelled as the variant still read, as the same tracker.
+    assert!(json.contains("\"velocity\":\"per_position\""));
+    let old = json.replace(
+        "\"velocity\":\"per_position\"",
+        "\"velocity\":\"PerPosition\"",
+    );
+    assert_ne!(old, json);
+    let v: CbtTracker = serde_json::from_str(&old).unwrap();
+    assert!(v == serde_json::from_str::<CbtTracker>(&json).unwrap());
+    assert_eq!(
+        serde_json::from_str::<Velocity>("\"Factored\"").unwrap(),
+        Velocity::Factored
+    );
 }
 
 #[test]

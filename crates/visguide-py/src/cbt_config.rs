@@ -15,12 +15,32 @@ use serde_json::{Map, Value};
 
 use crate::errors::{from_track, value_error};
 
-/// The fields of `c`, by name, as the crate serialises them.
+/// The fields of `c`, by name, as the crate serialises them, with the options the crate's
+/// saved form leaves out while they hold their defaults (so that files written before an
+/// option existed still read) filled in: as keywords they are always there. `input` (the
+/// periodic known input of the 1-D separable layout, an object) is not a keyword.
 fn fields(c: &CbtConfig) -> Map<String, Value> {
-    match serde_json::to_value(c).expect("a CbtConfig always serialises") {
+    let mut m = match serde_json::to_value(c).expect("a CbtConfig always serialises") {
         Value::Object(m) => m,
         _ => unreachable!("a struct serialises as an object"),
+    };
+    let value = |v: Result<Value, serde_json::Error>| v.expect("an option always serialises");
+    for (name, v) in [
+        ("smoothing", value(serde_json::to_value(c.smoothing))),
+        ("start", value(serde_json::to_value(c.start))),
+        (
+            "displacements",
+            value(serde_json::to_value(c.displacements)),
+        ),
+        (
+            "observation_smoothing",
+            value(serde_json::to_value(c.observation_smoothing)),
+        ),
+        ("velocity", value(serde_json::to_value(c.velocity))),
+    ] {
+        m.entry(name).or_insert(v);
     }
+    m
 }
 
 /// The JSON value of the keyword `name = v`.
@@ -74,11 +94,44 @@ pub fn config_from(caller: &str, kw: Option<&Bound<'_, PyDict>>) -> PyResult<Cbt
     Ok(c)
 }
 
-/// `c` as a dict of the keywords [`config_from`] takes (in the struct's field order).
+/// `c` as a dict of the keywords [`config_from`] takes, every one of them.
 pub fn config_dict<'py>(py: Python<'py>, c: &CbtConfig) -> PyResult<Bound<'py, PyDict>> {
-    let text = serde_json::to_string(c).map_err(|e| value_error(e.to_string()))?;
+    let text = serde_json::to_string(&fields(c)).map_err(|e| value_error(e.to_string()))?;
     Ok(py
         .import("json")?
         .call_method1("loads", (text,))?
         .cast_into::<PyDict>()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use cbt_tracker::{Displacements, ObservationSmoothing, Smoothing, StartMotion, Velocity};
+
+    use super::*;
+
+    /// Every field the crate serialises, even with every option away from its default, is a
+    /// keyword (a new option left out of the saved form at its default must be added to
+    /// `fields`), except `input`.
+    #[test]
+    fn every_option_is_a_keyword() {
+        let keywords = fields(&CbtConfig::default());
+        let all = CbtConfig {
+            smoothing: Smoothing::HeldOut,
+            start: StartMotion::Pooled,
+            displacements: Displacements::Aligned,
+            observation_smoothing: ObservationSmoothing::HeldOut,
+            velocity: Velocity::PerPosition,
+            ..CbtConfig::stationary()
+        };
+        let Value::Object(full) = serde_json::to_value(all).unwrap() else {
+            panic!("an object")
+        };
+        for k in full.keys() {
+            assert!(keywords.contains_key(k), "{k} is not a keyword");
+        }
+        assert_eq!(keywords.len(), full.len());
+        // The defaults read back as the default configuration.
+        let back: CbtConfig = serde_json::from_value(Value::Object(keywords)).unwrap();
+        assert_eq!(back, CbtConfig::default());
+    }
 }

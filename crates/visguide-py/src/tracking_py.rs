@@ -200,7 +200,14 @@ tracker_methods!(PyCbt, {
     /// ``"uniform"``), ``system_fallback`` (``"first_order"``, ``"constant_velocity"``),
     /// ``prior_weight`` (> 0), ``fallback_sigma`` (> 0, channels), ``observation_floor``,
     /// ``mixing``, ``prune`` and ``support`` (in [0, 1]), ``online_weight`` (> 0),
-    /// ``runner_ups``, ``obs_radius`` (1–64 channels) and ``decode_radius`` (channels).
+    /// ``runner_ups``, ``obs_radius`` (1–64 channels) and ``decode_radius`` (channels); and
+    /// for the stationary layout ``smoothing`` (``"fixed"``, ``"held_out"``), ``start``
+    /// (``"marginal"``, ``"learned"``, ``"pooled"``), ``displacements`` (``"channels"``,
+    /// ``"interpolated"``, ``"aligned"``, ``"selected"``), ``observation_smoothing``
+    /// (``"counted"``, ``"held_out"``) and ``velocity`` (``"factored"``, ``"per_position"``).
+    /// For image tracking and real motion use :meth:`stationary_config`'s settings
+    /// (``CBT.learn(seqs, w, h, spacing, **CBT.stationary_config())``, with ``spacing`` about
+    /// 0.75 of the detection noise).
     /// ``self_learning=True`` makes every :meth:`step` also learn from the tracker's own
     /// estimate (:meth:`learn_online`). ``TypeError`` for an unknown keyword, ``ValueError``
     /// for any invalid value.
@@ -255,6 +262,14 @@ tracker_methods!(PyCbt, {
     #[staticmethod]
     fn default_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         config_dict(py, &CbtConfig::default())
+    }
+
+    /// The keywords of :meth:`learn` for image tracking (the crate's
+    /// ``CbtConfig::stationary()``: the stationary layout, second order, the settings chosen
+    /// on real walkers), as a dict.
+    #[staticmethod]
+    fn stationary_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+        config_dict(py, &CbtConfig::stationary())
     }
 
     /// Adds one frame (``truths`` ``(k, 2)``, ``detections`` ``(n, 2)`` or ``(n, 3)``) to both

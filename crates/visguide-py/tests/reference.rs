@@ -365,7 +365,10 @@ fn tracking_cases() -> Value {
     .unwrap();
     // CBT beyond the default configuration; python/tests/test_tracking.py passes the same
     // keywords.
-    use cbt_tracker::{Clutter, Layout, ObservationFallback, Order, SystemFallback};
+    use cbt_tracker::{
+        Clutter, Displacements, Layout, ObservationFallback, Order, StartMotion, SystemFallback,
+        Velocity,
+    };
     let configs = [
         (
             "first_order_subtract",
@@ -404,6 +407,18 @@ fn tracking_cases() -> Value {
                 ..CbtConfig::default()
             },
             true,
+        ),
+        // The image-tracking settings (`CBT.stationary_config()` in Python).
+        ("real_motion", CbtConfig::stationary(), false),
+        (
+            "stationary_options",
+            CbtConfig {
+                start: StartMotion::Pooled,
+                displacements: Displacements::Aligned,
+                velocity: Velocity::PerPosition,
+                ..CbtConfig::stationary()
+            },
+            false,
         ),
     ];
     let mut cbt_configs = serde_json::Map::new();

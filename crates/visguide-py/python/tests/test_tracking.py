@@ -165,7 +165,22 @@ CONFIGS = {
         online_weight=0.5,
         self_learning=True,
     ),
+    # The image-tracking settings, and the stationary layout's options beside them.
+    "real_motion": CBT.stationary_config(),
+    "stationary_options": dict(
+        CBT.stationary_config(), start="pooled", displacements="aligned", velocity="per_position"
+    ),
 }
+
+# The options the crate's saved form leaves out while they hold their defaults (so that files
+# written before an option existed still read); as keywords they are always there.
+OPTIONS = dict(
+    smoothing="fixed",
+    start="marginal",
+    displacements="channels",
+    observation_smoothing="counted",
+    velocity="factored",
+)
 
 DEFAULT_CONFIG = dict(
     order="second",
@@ -183,6 +198,7 @@ DEFAULT_CONFIG = dict(
     obs_radius=10,
     support=1e-2,
     decode_radius=4,
+    **OPTIONS,
 )
 
 
@@ -205,9 +221,30 @@ def test_cbt_default_configuration(data):
     assert CBT.default_config() == DEFAULT_CONFIG
     cbt = CBT.learn(train, 320.0, 240.0)
     assert cbt.config == DEFAULT_CONFIG
-    # The keywords are the crate's serde form of CbtConfig, field for field, with their types.
-    assert json.loads(cbt.to_json())["model"]["config"] == cbt.config
+    # The keywords are the crate's serde form of CbtConfig, field for field, with their types
+    # (the options at their defaults filled in).
+    assert {**OPTIONS, **json.loads(cbt.to_json())["model"]["config"]} == cbt.config
     assert {k: type(v) for k, v in cbt.config.items()} == {k: type(v) for k, v in DEFAULT_CONFIG.items()}
+
+
+def test_cbt_stationary_configuration_is_the_crates_and_reads_back(data):
+    _, train, _ = data
+    cfg = CBT.stationary_config()
+    # The settings the crate docs give for image tracking and real motion.
+    assert (cfg["layout"], cfg["order"], cfg["start"], cfg["displacements"]) == (
+        "stationary",
+        "second",
+        "learned",
+        "interpolated",
+    )
+    assert cfg.keys() == DEFAULT_CONFIG.keys()
+    cbt = CBT.learn(train, 320.0, 240.0, 10.0, **cfg)
+    assert cbt.config == cfg
+    saved = json.loads(cbt.to_json())["model"]["config"]
+    assert saved["start"] == "learned" and saved["displacements"] == "interpolated"
+    assert {**OPTIONS, **saved} == cfg
+    back = CBT.from_json(cbt.to_json())
+    assert back == cbt and back.config == cfg
 
 
 def test_cbt_configuration_takes_numpy_scalars(data):
@@ -253,6 +290,11 @@ def test_stub_and_docstring_name_every_configuration_keyword():
         dict(obs_radius=65),
         dict(runner_ups=-1),
         dict(decode_radius=-2),
+        dict(start="anywhere"),
+        dict(displacements="sideways"),
+        dict(velocity="PerParticle"),
+        dict(smoothing="held_out"),
+        dict(displacements="aligned"),
     ],
 )
 def test_invalid_cbt_configuration_is_a_value_error(data, kw):
@@ -267,6 +309,8 @@ def test_invalid_cbt_configuration_is_a_value_error(data, kw):
         (dict(order=3), ValueError, "order"),
         (dict(runner_ups=1.5), ValueError, "runner_ups"),
         (dict(prior_weight="big"), ValueError, "prior_weight"),
+        (dict(displacements="sideways"), ValueError, "displacements"),
+        (dict(velocity="PerParticle"), ValueError, "velocity"),
         (dict(layout=None), TypeError, "layout"),
         (dict(mixing=[0.1]), TypeError, "mixing"),
         (dict(ordre="first"), TypeError, "unexpected keyword argument 'ordre'"),

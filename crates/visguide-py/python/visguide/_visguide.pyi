@@ -211,9 +211,16 @@ class CBT(_Tracker):
         obs_radius: int = 10,
         support: float = 1e-2,
         decode_radius: int = 4,
+        smoothing: str = "fixed",  # "fixed" | "held_out"
+        start: str = "marginal",  # "marginal" | "learned" | "pooled"
+        displacements: str = "channels",  # "channels" | "interpolated" | "aligned" | "selected"
+        observation_smoothing: str = "counted",  # "counted" | "held_out"
+        velocity: str = "factored",  # "factored" | "per_position"
     ) -> "CBT": ...
     @staticmethod
     def default_config() -> dict[str, Any]: ...
+    @staticmethod
+    def stationary_config() -> dict[str, Any]: ...
     @property
     def config(self) -> dict[str, Any]: ...
     def learn_online(self, truths: _Floats, detections: _Floats) -> None: ...
