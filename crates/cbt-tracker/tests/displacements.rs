@@ -16,17 +16,17 @@ fn integer_space(n: usize) -> Space {
     Space::new(vec![b.clone(), b.clone()], vec![b.clone(), b]).unwrap()
 }
 
-/// Constant-velocity runs along x: three in four nearly standing (|v| < 0.3 channels), the
-/// others walking (|v| up to 3 channels), as in real walkers' training data; detected exactly.
-fn runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
-    let mut rng = cbt_tracker::sim::rng_for(seed, 0);
+/// Constant-velocity runs along x from x ≈ 100, run `i` at `velocity(i, rng)` channels a
+/// frame; detected exactly.
+fn runs_with<R: rand::Rng>(
+    n: usize,
+    len: usize,
+    mut rng: R,
+    mut velocity: impl FnMut(usize, &mut R) -> f64,
+) -> Vec<Vec<TrainingFrame>> {
     (0..n)
         .map(|i| {
-            let v: f64 = if i % 4 != 0 {
-                rng.random_range(-0.3..0.3)
-            } else {
-                rng.random_range(-3.0..3.0)
-            };
+            let v = velocity(i, &mut rng);
             let x0 = 100.0 + rng.random_range(0.0..1.0);
             (0..len)
                 .map(|k| {
@@ -41,30 +41,29 @@ fn runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
         .collect()
 }
 
+/// Constant-velocity runs along x: three in four nearly standing (|v| < 0.3 channels), the
+/// others walking (|v| up to 3 channels), as in real walkers' training data.
+fn runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
+    runs_with(n, len, cbt_tracker::sim::rng_for(seed, 0), |i, rng| {
+        if i % 4 != 0 {
+            rng.random_range(-0.3..0.3)
+        } else {
+            rng.random_range(-3.0..3.0)
+        }
+    })
+}
+
 /// Constant-velocity runs along x whose speeds thin out: seven in eight at 0.5–1.5 channels a
 /// frame, the others at 1.5–3 (either direction), as along an axis few people walk.
 fn thinning_runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
-    let mut rng = cbt_tracker::sim::rng_for(seed, 0);
-    (0..n)
-        .map(|i| {
-            let speed: f64 = if i % 8 != 0 {
-                rng.random_range(0.5..1.5)
-            } else {
-                rng.random_range(1.5..3.0)
-            };
-            let v = if rng.random_bool(0.5) { speed } else { -speed };
-            let x0 = 100.0 + rng.random_range(0.0..1.0);
-            (0..len)
-                .map(|k| {
-                    let p = [x0 + v * k as f64, 50.0];
-                    TrainingFrame {
-                        states: vec![p],
-                        detections: vec![Detection::new(p[0], p[1])],
-                    }
-                })
-                .collect()
-        })
-        .collect()
+    runs_with(n, len, cbt_tracker::sim::rng_for(seed, 0), |i, rng| {
+        let speed: f64 = if i % 8 != 0 {
+            rng.random_range(0.5..1.5)
+        } else {
+            rng.random_range(1.5..3.0)
+        };
+        if rng.random_bool(0.5) { speed } else { -speed }
+    })
 }
 
 /// `E[δ | v]` of the learned `T` of axis 0 at the integer velocity `v`.
