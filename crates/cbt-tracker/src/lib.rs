@@ -120,8 +120,9 @@
 //!   channels along y at `v = 2`). [`Displacements::Aligned`] counts each step at its
 //!   column's own velocity and removes that bias; it is an option, not the default: better
 //!   at every pedestrian level on the validation scenes (hard 8 of 16, 19.30 px) but 30 %
-//!   worse on the RC-car development seeds at L4 (19.30 against 14.81 px), where the damped
-//!   columns hold back a velocity taken by clutter. [`Displacements::Selected`] chooses
+//!   worse on the RC-car development seeds at L4 (19.30 against 14.81 px; ten clutter
+//!   detections a frame, where the damped columns seem to hold back a velocity taken by
+//!   clutter, a reading not traced). [`Displacements::Selected`] chooses
 //!   between the two by tracking held-out training runs (module [`displacement_choice`]):
 //!   right on every RC-car level (aligned at L0–L3, up to 12 % better; interpolated at L4),
 //!   but on the pedestrians' medium level its near-tie picks went against both validation
