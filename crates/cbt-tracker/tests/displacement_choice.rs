@@ -80,3 +80,30 @@ fn one_run_has_nothing_to_choose_on_and_keeps_the_default() {
     let m = CbtModel::learn(space, config(Displacements::Selected), one).unwrap();
     assert_eq!(m.config().displacements, Displacements::Interpolated);
 }
+
+#[test]
+fn bad_training_input_is_a_typed_error_with_the_choice_too() {
+    use cbt_tracker::{Detection, TrackError};
+    let (space, runs) = rc_car(2);
+    // A non-finite detection, then a state off the grid, in a run the folds both learn from
+    // and hold out: refused as the plain learning refuses it, never a panic.
+    for (frame, bad) in [
+        (5, Detection::new(f64::NAN, 10.0)),
+        (7, Detection::new(1e6, 10.0)),
+    ] {
+        for run in 0..runs.len() {
+            let mut r = runs.clone();
+            r[run][frame].detections.push(bad);
+            let plain = CbtModel::learn(space.clone(), config(Displacements::Interpolated), &r);
+            let chosen = CbtModel::learn(space.clone(), config(Displacements::Selected), &r);
+            assert!(
+                matches!(
+                    chosen,
+                    Err(TrackError::NonFinite { .. } | TrackError::OutsideGrid { .. })
+                ),
+                "run {run}: {chosen:?}"
+            );
+            assert!(plain.is_err());
+        }
+    }
+}
