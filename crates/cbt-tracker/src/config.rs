@@ -171,6 +171,14 @@ pub enum Displacements {
     /// nothing to choose on and counts as [`Displacements::Interpolated`]. Stationary layout
     /// only.
     Selected,
+    /// Between the two: a step whose previous displacement `u` lies between the integer
+    /// columns `c` and `c + 1` is counted in column `c` at `δ − b·(u − c)`, with one slope `b`
+    /// per axis fitted on the training runs before counting (least squares of `δ` on `u − c`,
+    /// pooled within the columns; `b = 1` is [`Displacements::Aligned`], `b = 0`
+    /// [`Displacements::Interpolated`]). [`CbtModel::learn`](crate::CbtModel::learn) fits and
+    /// records the slopes; a model not learned in one batch has none and counts as
+    /// [`Displacements::Interpolated`]. Stationary layout only.
+    Fitted,
 }
 
 impl Displacements {
@@ -459,7 +467,7 @@ impl CbtConfig {
             return Err(TrackError::InvalidParameter {
                 name: "displacements",
                 value: 1.0,
-                reason: "interpolated, aligned or selected displacement counts need the stationary layout",
+                reason: "interpolated, aligned, selected or fitted displacement counts need the stationary layout",
             });
         }
         if self.velocity == Velocity::PerPosition && self.layout != Layout::Stationary {

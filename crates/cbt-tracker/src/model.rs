@@ -13,7 +13,7 @@ use crate::observation_smoothing::{
     ObservationChoice, ObservationGrid, ObservationSmoothing, select_observation,
 };
 use crate::smoothing::{Smoothing, SmoothingGrid, select};
-use crate::stationary::{StatObservation, StatSystem, check_space, motion_radius};
+use crate::stationary::{StatObservation, StatSystem, check_space, fitted_slopes, motion_radius};
 use crate::{Sequence, Space, TrackError, TrainingFrame};
 
 /// The observation model in one of the two layouts.
@@ -259,7 +259,8 @@ impl CbtModel {
     /// model's `α` and `σ` are first chosen by held-out likelihood
     /// ([`crate::smoothing::select`]); the model's configuration holds the chosen values.
     /// Likewise with [`Displacements::Selected`] the counting is first chosen by held-out
-    /// tracking ([`crate::displacement_choice::select`]) and recorded.
+    /// tracking ([`crate::displacement_choice::select`]) and recorded, and with
+    /// [`Displacements::Fitted`] its slopes are fitted on `sequences` before counting.
     pub fn learn(
         space: Space,
         config: CbtConfig,
@@ -283,6 +284,14 @@ impl CbtModel {
         } else {
             CbtModel::untrained(space, config)?
         };
+        if config.displacements == Displacements::Fitted
+            && let SystemModel::Stationary(s) = &mut model.sys
+        {
+            let slopes = fitted_slopes(&model.space, sequences)?;
+            for (s, b) in s.iter_mut().zip(slopes) {
+                s.set_slope(b);
+            }
+        }
         if config.observation_smoothing == ObservationSmoothing::HeldOut {
             let pick = select_observation(
                 &model.space,

@@ -66,6 +66,30 @@ fn thinning_runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
     })
 }
 
+/// Runs along x whose velocity halves each frame toward zero from a start of 0.5–3 channels a
+/// frame (either direction): a step keeps half the previous one, `E[δ | u] = u / 2`.
+fn damped_runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
+    let mut rng = cbt_tracker::sim::rng_for(seed, 0);
+    (0..n)
+        .map(|_| {
+            let speed: f64 = rng.random_range(0.5..3.0);
+            let mut v = if rng.random_bool(0.5) { speed } else { -speed };
+            let mut x = 100.0 + rng.random_range(0.0..1.0);
+            (0..len)
+                .map(|_| {
+                    let p = [x, 50.0];
+                    x += v;
+                    v *= 0.5;
+                    TrainingFrame {
+                        states: vec![p],
+                        detections: vec![Detection::new(p[0], p[1])],
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// `E[δ | v]` of the learned `T` of axis 0 at the integer velocity `v`.
 fn mean_step(m: &CbtModel, v: i64) -> f64 {
     let (s, t) = m.stationary_system(0).unwrap();
@@ -78,6 +102,22 @@ fn mean_step(m: &CbtModel, v: i64) -> f64 {
         .map(|(i, &p)| p * (i as i64 - r) as f64)
         .sum::<f64>()
         / mass
+}
+
+/// The standard deviation of `T[· | v]` of axis 0 (channels).
+fn sd_step(m: &CbtModel, v: i64) -> f64 {
+    let (s, t) = m.stationary_system(0).unwrap();
+    let w = s.len();
+    let r = (w / 2) as i64;
+    let col = &t[(v + r) as usize * w..][..w];
+    let mass: f64 = col.iter().sum();
+    let mean = mean_step(m, v);
+    (col.iter()
+        .enumerate()
+        .map(|(i, &p)| p * ((i as i64 - r) as f64 - mean).powi(2))
+        .sum::<f64>()
+        / mass)
+        .sqrt()
 }
 
 fn config(d: Displacements) -> CbtConfig {
@@ -131,6 +171,57 @@ fn aligned_columns_keep_the_velocity_where_interpolation_is_pulled_to_the_bulk()
 }
 
 #[test]
+fn fitted_columns_follow_the_fitted_slope() {
+    // Constant velocity: the fitted slope is 1, so the columns are the aligned ones.
+    let train = thinning_runs(400, 20, 5);
+    let fitted =
+        CbtModel::learn(integer_space(200), config(Displacements::Fitted), &train).unwrap();
+    let aligned =
+        CbtModel::learn(integer_space(200), config(Displacements::Aligned), &train).unwrap();
+    for v in [-2i64, -1, 1, 2] {
+        let (f, a) = (mean_step(&fitted, v), mean_step(&aligned, v));
+        assert!((f - a).abs() < 0.01, "fitted {f}, aligned {a} at v = {v}");
+    }
+    // Velocity halving each frame: a step keeps half the previous one. The fitted slope is
+    // about 1/2, and each step counted at `δ − (u − v)/2 ≈ v/2`: the column is nearly the
+    // point v/2 (what spread is left comes from the states' channel coordinates, first moments
+    // of cos² channel vectors, which are off by up to 0.04 channels). The aligned count
+    // (slope 1) has about the right mean here, but keeps half the spread of the velocities
+    // counted in the column.
+    let train = damped_runs(400, 8, 6);
+    let fitted =
+        CbtModel::learn(integer_space(200), config(Displacements::Fitted), &train).unwrap();
+    let aligned =
+        CbtModel::learn(integer_space(200), config(Displacements::Aligned), &train).unwrap();
+    for v in [-2i64, 2] {
+        let (f, a) = (mean_step(&fitted, v), mean_step(&aligned, v));
+        let (sf, sa) = (sd_step(&fitted, v), sd_step(&aligned, v));
+        assert!(
+            (f - v as f64 / 2.0).abs() < 0.05 && sf < 0.25,
+            "fitted: E[δ | v = {v}] = {f}, s.d. {sf}"
+        );
+        assert!(
+            sa > 1.5 * sf,
+            "aligned: E[δ | v = {v}] = {a}, s.d. {sa} against the fitted {sf}"
+        );
+    }
+    // The slopes are part of the saved model, and only a fitted model may hold them.
+    let text = serde_json::to_string(&fitted).unwrap();
+    assert!(text.contains("\"slope\""));
+    let back: CbtModel = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.stationary_system(0), fitted.stationary_system(0));
+    let relabelled = text.replace(
+        "\"displacements\":\"fitted\"",
+        "\"displacements\":\"aligned\"",
+    );
+    assert_ne!(relabelled, text);
+    assert!(matches!(
+        serde_json::from_str::<CbtModel>(&relabelled),
+        Err(e) if e.to_string().contains("slope")
+    ));
+}
+
+#[test]
 fn saved_form_and_checks() {
     let train = runs(6, 10, 4);
     let space = integer_space(200);
@@ -168,6 +259,7 @@ fn saved_form_and_checks() {
         Displacements::Interpolated,
         Displacements::Aligned,
         Displacements::Selected,
+        Displacements::Fitted,
     ] {
         let bad = CbtConfig {
             displacements: d,

@@ -203,7 +203,7 @@ tracker_methods!(PyCbt, {
     /// ``runner_ups``, ``obs_radius`` (1–64 channels) and ``decode_radius`` (channels); and
     /// for the stationary layout ``smoothing`` (``"fixed"``, ``"held_out"``), ``start``
     /// (``"marginal"``, ``"learned"``, ``"pooled"``), ``displacements`` (``"channels"``,
-    /// ``"interpolated"``, ``"aligned"``, ``"selected"``), ``observation_smoothing``
+    /// ``"interpolated"``, ``"aligned"``, ``"selected"``, ``"fitted"``), ``observation_smoothing``
     /// (``"counted"``, ``"held_out"``) and ``velocity`` (``"factored"``, ``"per_position"``).
     /// For image tracking and real motion use :meth:`stationary_config`'s settings
     /// (``CBT.learn(seqs, w, h, spacing, **CBT.stationary_config())``, with ``spacing`` about

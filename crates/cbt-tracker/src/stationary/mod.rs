@@ -16,6 +16,7 @@ mod simd;
 mod window;
 
 pub(crate) use model::{
-    StatObservation, StatSystem, check_space, coordinate_runs, motion_radius, start_density,
+    StatObservation, StatSystem, check_space, coordinate_runs, fitted_slopes, motion_radius,
+    start_density,
 };
 pub(crate) use window::{Patch, WindowState};

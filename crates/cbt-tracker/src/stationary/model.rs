@@ -456,6 +456,67 @@ pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Per axis, the slope of [`Displacements::Fitted`]: the least-squares slope of a step's
+/// displacement `δ` on its previous displacement's offset `f = u − c` from the column `c` it is
+/// counted in (the two nearest integers of `u`, linearly weighted, as
+/// [`StatSystem::add_points_second`] counts), pooled within the columns over every triple of
+/// consecutive frames with states in `sequences`:
+/// `b = Σ_c (Σm·f·δ − Σm·f·Σm·δ/Σm) / Σ_c (Σm·f² − (Σm·f)²/Σm)`. `None` for an axis without
+/// spread of the offsets to fit on.
+pub(crate) fn fitted_slopes(
+    space: &Space,
+    sequences: &[Vec<crate::TrainingFrame>],
+) -> Result<[Option<f64>; 2], TrackError> {
+    // Per axis and column: [Σm, Σm·f, Σm·f², Σm·δ, Σm·f·δ].
+    let mut moments: [std::collections::BTreeMap<i64, [f64; 5]>; 2] = Default::default();
+    for seq in sequences {
+        let (mut p1, mut p2): (Option<Encoded>, Option<Encoded>) = (None, None);
+        for f in seq {
+            let x = crate::encode::encode_states(space, &f.states, 1.0, false)?;
+            if x.is_empty() {
+                (p1, p2) = (None, None);
+                continue;
+            }
+            if let (Some(a), Some(b)) = (&p1, &p2) {
+                for (d, m) in moments.iter_mut().enumerate() {
+                    for &(un, mn) in &coordinates(a, d) {
+                        for &(um, mm) in &coordinates(&x, d) {
+                            for &(uo, mo) in &coordinates(b, d) {
+                                let (u, delta) = (un - uo, um - un);
+                                let lo = u.floor();
+                                for (c, w) in [(lo, 1.0 - (u - lo)), (lo + 1.0, u - lo)] {
+                                    if w <= 0.0 {
+                                        continue;
+                                    }
+                                    let (w, f) = (mm * mn * mo * w, u - c);
+                                    let o = m.entry(c as i64).or_default();
+                                    o[0] += w;
+                                    o[1] += w * f;
+                                    o[2] += w * f * f;
+                                    o[3] += w * delta;
+                                    o[4] += w * f * delta;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            p2 = p1.take();
+            p1 = Some(x);
+        }
+    }
+    Ok(moments.map(|m| {
+        let (mut num, mut den, mut mass) = (0.0, 0.0, 0.0);
+        for o in m.values() {
+            num += o[4] - o[1] * o[3] / o[0];
+            den += o[2] - o[1] * o[1] / o[0];
+            mass += o[0];
+        }
+        let b = num / den;
+        (den > 1e-12 * mass && b.is_finite()).then_some(b)
+    }))
+}
+
 /// Per element of an encoded set: its per-axis channel runs, each divided by its mass (unit
 /// sum; an axis without mass gives an empty run).
 pub(crate) fn coordinate_runs(e: &Encoded) -> Vec<[Vec<(usize, f64)>; 2]> {
@@ -503,6 +564,11 @@ pub(crate) struct StatSystem {
     /// The start density `S₀` (normalised `C₀`, [`StartMotion::Learned`]; empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     s0: Vec<f64>,
+    /// The slope `b` of [`Displacements::Fitted`] for this axis, fitted on the batch of
+    /// training runs ([`fitted_slopes`]); `None` otherwise (and without a batch, or without
+    /// spread to fit on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    slope: Option<f64>,
     /// Per `v`: the range `[lo, hi)` of `δ + r` outside which `T[· | v]` holds at most
     /// [`BAND_TAIL`] of its mass (derived from `t`; rebuilt after loading).
     #[serde(skip)]
@@ -576,6 +642,7 @@ impl StatSystem {
                 Vec::new()
             },
             s0: Vec::new(),
+            slope: None,
             band: Vec::new(),
             banded: Vec::new(),
         };
@@ -612,8 +679,24 @@ impl StatSystem {
                 )));
             }
         }
+        match self.slope {
+            Some(b) if !b.is_finite() => {
+                return Err(corrupt(format!("fitted slope {b} is not finite")));
+            }
+            Some(_) if cfg.displacements != Displacements::Fitted => {
+                return Err(corrupt(
+                    "a fitted slope in a model whose displacements are not fitted",
+                ));
+            }
+            _ => {}
+        }
         self.rebuild_bands();
         Ok(())
+    }
+
+    /// Sets the slope of [`Displacements::Fitted`] (before any frame is counted).
+    pub fn set_slope(&mut self, slope: Option<f64>) {
+        self.slope = slope;
     }
 
     /// Radius `r`.
@@ -682,18 +765,26 @@ impl StatSystem {
             Displacements::Channels => {
                 self.add(&now.axes[d], &prev.axes[d], prev2.map(|p| &p.axes[d][..]))
             }
-            // `Selected` is resolved by `CbtModel::learn`; a model built otherwise counts as
-            // interpolated.
-            Displacements::Interpolated | Displacements::Aligned | Displacements::Selected => {
+            // `Selected` is resolved by `CbtModel::learn`, and `Fitted`'s slope fitted there; a
+            // model built otherwise counts as interpolated.
+            Displacements::Interpolated
+            | Displacements::Aligned
+            | Displacements::Selected
+            | Displacements::Fitted => {
                 // S and S₀ from the channel products (their smear is a symmetric widening,
                 // no bias), T from the coordinates.
                 self.add_first(&now.axes[d], &prev.axes[d], prev2.is_none());
                 if let Some(p2) = prev2 {
+                    let shift = match cfg.displacements {
+                        Displacements::Aligned => Some(1.0),
+                        Displacements::Fitted => self.slope,
+                        _ => None,
+                    };
                     self.add_points_second(
                         &coordinates(now, d),
                         &coordinates(prev, d),
                         &coordinates(p2, d),
-                        cfg.displacements == Displacements::Aligned,
+                        shift,
                     );
                 }
             }
@@ -703,15 +794,16 @@ impl StatSystem {
     /// Adds the second-order displacements of states given as `(channel coordinate, mass)`
     /// per element ([`Displacements::Interpolated`](crate::Displacements)): every triple of
     /// elements of three consecutive frames, with the product of their masses, at the four
-    /// nearest integer `(v, δ)` pairs by linear interpolation. With `aligned`
-    /// ([`Displacements::Aligned`](crate::Displacements)) a triple counted in column `v` is
-    /// counted at `δ − (u − v)` (`u` its previous displacement), split linearly likewise.
+    /// nearest integer `(v, δ)` pairs by linear interpolation. With a `shift` `b`
+    /// ([`Displacements::Aligned`](crate::Displacements): 1; `Fitted`: the fitted slope) a
+    /// triple counted in column `v` is counted at `δ − b·(u − v)` (`u` its previous
+    /// displacement), split linearly likewise.
     pub fn add_points_second(
         &mut self,
         now: &[(f64, f64)],
         prev: &[(f64, f64)],
         prev2: &[(f64, f64)],
-        aligned: bool,
+        shift: Option<f64>,
     ) {
         let r = self.r as i64;
         let w = (2 * r + 1) as usize;
@@ -721,7 +813,7 @@ impl StatSystem {
             let f = x - lo;
             [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
         };
-        if aligned {
+        if let Some(b) = shift {
             for &(un, mn) in prev {
                 for &(um, mm) in now {
                     for &(uo, mo) in prev2 {
@@ -730,7 +822,7 @@ impl StatSystem {
                             if v.abs() > r || wv <= 0.0 {
                                 continue;
                             }
-                            for (d, wd) in split(um - un - (u - v as f64)) {
+                            for (d, wd) in split(um - un - b * (u - v as f64)) {
                                 if d.abs() <= r && wd > 0.0 {
                                     self.c2[(v + r) as usize * w + (d + r) as usize] +=
                                         mm * mn * mo * wd * wv;

@@ -213,7 +213,8 @@ class CBT(_Tracker):
         decode_radius: int = 4,
         smoothing: str = "fixed",  # "fixed" | "held_out"
         start: str = "marginal",  # "marginal" | "learned" | "pooled"
-        displacements: str = "channels",  # "channels" | "interpolated" | "aligned" | "selected"
+        # "channels" | "interpolated" | "aligned" | "selected" | "fitted"
+        displacements: str = "channels",
         observation_smoothing: str = "counted",  # "counted" | "held_out"
         velocity: str = "factored",  # "factored" | "per_position"
     ) -> "CBT": ...

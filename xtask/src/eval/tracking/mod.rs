@@ -126,6 +126,8 @@ pub enum DisplacementsArg {
     Aligned,
     /// `Displacements::Selected`.
     Selected,
+    /// `Displacements::Fitted`.
+    Fitted,
 }
 
 /// `--start-motion`.
@@ -310,6 +312,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
             DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
             DisplacementsArg::Aligned => cbt_tracker::Displacements::Aligned,
             DisplacementsArg::Selected => cbt_tracker::Displacements::Selected,
+            DisplacementsArg::Fitted => cbt_tracker::Displacements::Fitted,
         });
     }
     if let Some(m) = args.observation_smoothing {
