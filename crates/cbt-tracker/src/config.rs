@@ -146,8 +146,9 @@ pub enum Displacements {
     #[default]
     Channels,
     /// `T[δ | v]` counts the displacements of the states' channel coordinates (each state's
-    /// first moment of its channel vector, exact for the cos² kernel away from the grid
-    /// ends) with the same mass at the four nearest integer `(v, δ)` pairs by linear
+    /// first moment of its channel vector: away from the grid ends within 0.04 channels of
+    /// the state, the cos² kernel's decoding bias, periodic in the position and zero at channel
+    /// centres and midpoints) with the same mass at the four nearest integer `(v, δ)` pairs by linear
     /// interpolation: no shared smear between `v` and `δ` (`E[δ | v = 2] ≈ 1.9` on the same
     /// mix). Every triple of states of consecutive frames still counts
     /// (correspondence-free). `S` (and the start counts) stay channel products: their smear

@@ -30,9 +30,12 @@
 //!    A detection far from the track meets the uniform `γ/G` of the prior: that is the
 //!    lost-track recovery.
 //! 4. **Estimate**: the best mode is the highest cell's neighbourhood (`decode_radius`
-//!    channels), decoded by the first moment of the cos² channel coefficients (exact for any
-//!    density inside the window: `Σ_n x̃_n K(x − x̃_n) = 1.5·x`, `Σ_n K(x − x̃_n) = 1.5`),
-//!    certainty its posterior mass; runner-ups the next local maxima outside it.
+//!    channels), decoded by the first moment of the cos² channel coefficients
+//!    (`Σ_n K(x − x̃_n) = 1.5` for every `x`, so the coefficients' mass is the density's; their
+//!    first moment is off by up to 0.04 channels for a single point, periodic in its position,
+//!    and by far less for a spread density: 0.007 channels for a Gaussian of s.d. 0.3
+//!    channels, below 0.001 from 0.5 on), certainty its posterior mass; runner-ups the next
+//!    local maxima outside it.
 //! 5. **Velocity.** The displacement just made, given the frame: a mixture over the update's
 //!    hypotheses with their posterior masses `π` (the miss, i.e. the floor part, and each
 //!    significant detection `i`): `c_d ∝ π_miss·D_d + Σ_i π_i·(D_d ⊙ ℓ_{i,d})/|D_d ⊙ ℓ_{i,d}|`,
