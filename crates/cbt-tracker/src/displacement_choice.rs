@@ -31,7 +31,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Displacements};
-use crate::{CbtModel, CbtTracker, Space, TrackError, Tracker, TrainingFrame};
+use crate::{CbtModel, CbtTracker, Point, Space, TrackError, Tracker, TrainingFrame, metrics};
 
 /// Folds of the held-out tracking.
 const FOLDS: usize = 4;
@@ -61,17 +61,17 @@ fn scorable(run: &[TrainingFrame]) -> bool {
 fn track_rmse(model: &CbtModel, run: &[TrainingFrame]) -> Result<f64, TrackError> {
     let mut t = CbtTracker::new(model.clone());
     t.reset(run[0].states[0])?;
-    let mut sum = 0.0;
+    let mut estimates = vec![run[0].states[0]];
     for f in &run[1..] {
         let e = match t.step(&f.detections) {
             Ok(e) => e,
             Err(TrackError::OutsideGrid { .. }) => t.step(&[])?,
             Err(e) => return Err(e),
         };
-        let s = f.states[0];
-        sum += (e.position[0] - s[0]).powi(2) + (e.position[1] - s[1]).powi(2);
+        estimates.push(e.position);
     }
-    Ok((sum / (run.len() - 1) as f64).sqrt())
+    let truths: Vec<Option<Point>> = run.iter().map(|f| Some(f.states[0])).collect();
+    Ok(metrics::score(&estimates, &truths, 2, f64::INFINITY)?.rmse)
 }
 
 /// Chooses the counting of `config` (whose `displacements` is ignored) for `sequences` by

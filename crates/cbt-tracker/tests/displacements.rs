@@ -90,31 +90,32 @@ fn damped_runs(n: usize, len: usize, seed: u64) -> Vec<Vec<TrainingFrame>> {
         .collect()
 }
 
-/// `E[δ | v]` of the learned `T` of axis 0 at the integer velocity `v`.
-fn mean_step(m: &CbtModel, v: i64) -> f64 {
+/// The column `T[· | v]` of axis 0 at the integer velocity `v`: `(δ, p)` per displacement.
+fn column(m: &CbtModel, v: i64) -> Vec<(f64, f64)> {
     let (s, t) = m.stationary_system(0).unwrap();
     let w = s.len();
     let r = (w / 2) as i64;
-    let col = &t[(v + r) as usize * w..][..w];
-    let mass: f64 = col.iter().sum();
-    col.iter()
+    t[(v + r) as usize * w..][..w]
+        .iter()
         .enumerate()
-        .map(|(i, &p)| p * (i as i64 - r) as f64)
-        .sum::<f64>()
-        / mass
+        .map(|(i, &p)| ((i as i64 - r) as f64, p))
+        .collect()
+}
+
+/// `E[δ | v]` of the learned `T` of axis 0 at the integer velocity `v`.
+fn mean_step(m: &CbtModel, v: i64) -> f64 {
+    let col = column(m, v);
+    let mass: f64 = col.iter().map(|e| e.1).sum();
+    col.iter().map(|&(d, p)| p * d).sum::<f64>() / mass
 }
 
 /// The standard deviation of `T[· | v]` of axis 0 (channels).
 fn sd_step(m: &CbtModel, v: i64) -> f64 {
-    let (s, t) = m.stationary_system(0).unwrap();
-    let w = s.len();
-    let r = (w / 2) as i64;
-    let col = &t[(v + r) as usize * w..][..w];
-    let mass: f64 = col.iter().sum();
+    let col = column(m, v);
+    let mass: f64 = col.iter().map(|e| e.1).sum();
     let mean = mean_step(m, v);
     (col.iter()
-        .enumerate()
-        .map(|(i, &p)| p * ((i as i64 - r) as f64 - mean).powi(2))
+        .map(|&(d, p)| p * (d - mean).powi(2))
         .sum::<f64>()
         / mass)
         .sqrt()

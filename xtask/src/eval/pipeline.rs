@@ -1078,29 +1078,28 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let s = pool
-                .install(|| scene_study("default", Role::Developed, &config, &DEV_SEEDS, &args))
-                .unwrap();
-            (
+            pool.install(|| scene_study("default", Role::Developed, &config, &DEV_SEEDS, &args))
+                .unwrap()
+        };
+        // The rows as the fixture writes them.
+        let rows = |s: &SceneOutcome| {
+            [
                 serde_json::to_string(&s.learning).unwrap(),
                 serde_json::to_string(&s.percepts).unwrap(),
                 serde_json::to_string(&s.servo).unwrap(),
-            )
+            ]
         };
         let one = run(1);
-        let two = run(2);
         // Both seeds ran: six percept rows of every seed's captures, two servo rows of both seeds.
-        let rows: Vec<serde_json::Value> = serde_json::from_str(&one.1).unwrap();
-        assert_eq!(rows.len(), 6);
-        for r in &rows {
-            assert_eq!(r["captures"], DEV_SEEDS.len() * WALKS * STEPS);
+        assert_eq!(one.percepts.len(), 6);
+        for r in &one.percepts {
+            assert_eq!(r.captures, DEV_SEEDS.len() * WALKS * STEPS);
         }
-        let servo: Vec<serde_json::Value> = serde_json::from_str(&one.2).unwrap();
         assert!(
-            servo
+            one.servo
                 .iter()
-                .all(|r| r["seed_median_px"].as_array().unwrap().len() == DEV_SEEDS.len())
+                .all(|r| r.seed_median_px.len() == DEV_SEEDS.len())
         );
-        assert_eq!(one, two);
+        assert_eq!(rows(&one), rows(&run(2)));
     }
 }

@@ -43,10 +43,11 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{CbtConfig, Displacements, StartMotion, SystemFallback};
-use crate::encode::Encoded;
+use crate::encode::{Encoded, encode_states};
+use crate::history::History;
 use crate::integrity::{corrupt, len, nonneg, nonneg1};
 use crate::observation_smoothing::{ObservationChoice, bilinear};
-use crate::{Space, TrackError};
+use crate::{Space, TrackError, TrainingFrame};
 
 /// Width (channels) of the ring beyond the observation kernel that measures the clutter floor.
 pub(crate) const RING: usize = 4;
@@ -456,6 +457,13 @@ pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The two integers nearest `x`, each with its linear-interpolation weight.
+fn split(x: f64) -> [(i64, f64); 2] {
+    let lo = x.floor();
+    let f = x - lo;
+    [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
+}
+
 /// Per axis, the slope of [`Displacements::Fitted`]: the least-squares slope of a step's
 /// displacement `δ` on its previous displacement's offset `f = u − c` from the column `c` it is
 /// counted in (the two nearest integers of `u`, linearly weighted, as
@@ -465,31 +473,28 @@ pub(crate) fn coordinates(e: &Encoded, d: usize) -> Vec<(f64, f64)> {
 /// spread of the offsets to fit on.
 pub(crate) fn fitted_slopes(
     space: &Space,
-    sequences: &[Vec<crate::TrainingFrame>],
+    sequences: &[Vec<TrainingFrame>],
 ) -> Result<[Option<f64>; 2], TrackError> {
     // Per axis and column: [Σm, Σm·f, Σm·f², Σm·δ, Σm·f·δ].
     let mut moments: [std::collections::BTreeMap<i64, [f64; 5]>; 2] = Default::default();
     for seq in sequences {
-        let (mut p1, mut p2): (Option<Encoded>, Option<Encoded>) = (None, None);
+        // The frames chained into triples as `CbtModel::learn` chains them.
+        let mut h = History::default();
         for f in seq {
-            let x = crate::encode::encode_states(space, &f.states, 1.0, false)?;
-            if x.is_empty() {
-                (p1, p2) = (None, None);
-                continue;
-            }
-            if let (Some(a), Some(b)) = (&p1, &p2) {
+            let x = encode_states(space, &f.states, 1.0, false)?;
+            let (prev, prev2) = h.take();
+            if let (false, Some(a), Some(b)) = (x.is_empty(), &prev, &prev2) {
                 for (d, m) in moments.iter_mut().enumerate() {
                     for &(un, mn) in &coordinates(a, d) {
                         for &(um, mm) in &coordinates(&x, d) {
                             for &(uo, mo) in &coordinates(b, d) {
                                 let (u, delta) = (un - uo, um - un);
-                                let lo = u.floor();
-                                for (c, w) in [(lo, 1.0 - (u - lo)), (lo + 1.0, u - lo)] {
+                                for (c, w) in split(u) {
                                     if w <= 0.0 {
                                         continue;
                                     }
-                                    let (w, f) = (mm * mn * mo * w, u - c);
-                                    let o = m.entry(c as i64).or_default();
+                                    let (w, f) = (mm * mn * mo * w, u - c as f64);
+                                    let o = m.entry(c).or_default();
                                     o[0] += w;
                                     o[1] += w * f;
                                     o[2] += w * f * f;
@@ -501,8 +506,7 @@ pub(crate) fn fitted_slopes(
                     }
                 }
             }
-            p2 = p1.take();
-            p1 = Some(x);
+            h.push(&f.states, x, prev);
         }
     }
     Ok(moments.map(|m| {
@@ -808,11 +812,6 @@ impl StatSystem {
         let r = self.r as i64;
         let w = (2 * r + 1) as usize;
         // The two nearest integer displacements of `x` with their weights.
-        let split = |x: f64| -> [(i64, f64); 2] {
-            let lo = x.floor();
-            let f = x - lo;
-            [(lo as i64, 1.0 - f), (lo as i64 + 1, f)]
-        };
         if let Some(b) = shift {
             for &(un, mn) in prev {
                 for &(um, mm) in now {
@@ -971,7 +970,7 @@ fn gaussian(w: usize, r: usize, centre: i64, sigma: f64) -> Vec<f64> {
 /// nearest state of the previous frame, plus the kernel support and one channel of margin.
 pub(crate) fn motion_radius(
     space: &Space,
-    sequences: &[Vec<crate::TrainingFrame>],
+    sequences: &[Vec<TrainingFrame>],
     cfg: &CbtConfig,
 ) -> usize {
     let mut max = 0.0f64;
