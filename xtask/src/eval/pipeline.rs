@@ -111,6 +111,10 @@ pub struct PipelineArgs {
     /// the background (default: the library's).
     #[arg(long, requires = "development")]
     pub ratio_threshold: Option<f64>,
+    /// With `--development`: `ShapeConfig::max_scale`, size-aware matching (default: the
+    /// library's).
+    #[arg(long, requires = "development")]
+    pub max_scale: Option<f64>,
     /// With `--development`: the development seeds to run (default 101, 102; seeds of the
     /// evaluation, 3000 and above, are refused).
     #[arg(long, requires = "development", value_delimiter = ',')]
@@ -309,6 +313,9 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     }
     if let Some(views) = args.views {
         protocol.views = views;
+    }
+    if let Some(m) = args.max_scale {
+        protocol.shapes.max_scale = m;
     }
     if let Some(t) = args.ratio_threshold {
         protocol.shapes.ratio_threshold = t;

@@ -70,6 +70,11 @@ pub struct ShapeConfig {
     /// A region votes with every view whose error is at most this factor times its best
     /// view's (≥ 1; 1 votes with the best view only).
     pub view_error_factor: f64,
+    /// Size-aware matching (≥ 1; infinite: off, shape only): a view votes for a region only
+    /// when the region's linear scale against it, `s = √(area / area_j)`, lies within
+    /// `[1 / max_scale, max_scale]`, and the ratio test's background competitor is the best
+    /// background region whose scale against the region lies in the same range.
+    pub max_scale: f64,
 }
 
 impl Default for ShapeConfig {
@@ -90,6 +95,7 @@ impl Default for ShapeConfig {
             max_rotation: 0.6,
             offset_scale_px: 20.0,
             view_error_factor: 3.0,
+            max_scale: f64::INFINITY,
         }
     }
 }
@@ -117,6 +123,9 @@ impl ShapeConfig {
         }
         if !(self.view_error_factor.is_finite() && self.view_error_factor >= 1.0) {
             return bad("view_error_factor", "must be finite and ≥ 1");
+        }
+        if !(self.max_scale >= 1.0) {
+            return bad("max_scale", "must be ≥ 1 (infinite: off)");
         }
         for (name, v) in [
             ("max_rotation", self.max_rotation),
@@ -150,6 +159,11 @@ struct CameraShapes {
     views: Vec<GripperView>,
     grip: DescriptorSet,
     background: DescriptorSet,
+    /// Per background descriptor, its region's area (for the size-aware ratio test,
+    /// [`ShapeConfig::max_scale`]).
+    background_area: Vec<f64>,
+    /// `(area, descriptor index)` of the background descriptors, by ascending area.
+    background_by_area: Vec<(f64, usize)>,
 }
 
 /// One training capture of one camera: the gripper at its servoing set-point, the same pose
@@ -215,6 +229,7 @@ impl ShapeModel {
         // Per candidate view: its capture, centre and area (for the static check below).
         let mut placed: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); cameras];
         let mut background: Vec<Vec<Vec<(u32, u32)>>> = vec![Vec::new(); cameras];
+        let mut background_area: Vec<Vec<f64>> = vec![Vec::new(); cameras];
         // Per unchanged region: its capture, centre and area.
         let mut still: Vec<Vec<(usize, [f64; 2], f64)>> = vec![Vec::new(); cameras];
         let mut report = ShapeReport {
@@ -245,6 +260,7 @@ impl ShapeModel {
                 });
                 if unchanged {
                     background[p.camera].push(rest.contours[i].clone());
+                    background_area[p.camera].push(area);
                     still[p.camera].push((capture, c, area));
                     continue;
                 }
@@ -284,11 +300,20 @@ impl ShapeModel {
             views[cam].retain(|_| *k.next().expect("one flag per view"));
         }
         let mut out = Vec::with_capacity(cameras);
-        for (cam, (v, mut bg)) in views.into_iter().zip(background).enumerate() {
+        for (cam, ((v, mut bg), mut bg_area)) in views
+            .into_iter()
+            .zip(background)
+            .zip(background_area)
+            .enumerate()
+        {
             if bg.len() > config.max_background {
                 let n = bg.len();
+                let pick = |k: usize| k * n / config.max_background;
                 bg = (0..config.max_background)
-                    .map(|k| bg[k * n / config.max_background].clone())
+                    .map(|k| bg[pick(k)].clone())
+                    .collect();
+                bg_area = (0..config.max_background)
+                    .map(|k| bg_area[pick(k)])
                     .collect();
             }
             let grip = fd_match::describe_all(
@@ -306,10 +331,21 @@ impl ShapeModel {
             }
             report.views[cam] = grip.len();
             report.background[cam] = background.len();
+            let background_area: Vec<f64> = (0..background.len())
+                .map(|d| bg_area[background.source(d)])
+                .collect();
+            let mut background_by_area: Vec<(f64, usize)> = background_area
+                .iter()
+                .enumerate()
+                .map(|(d, &a)| (a, d))
+                .collect();
+            background_by_area.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             out.push(CameraShapes {
                 views: v,
                 grip,
                 background,
+                background_area,
+                background_by_area,
             });
         }
         Ok((
@@ -358,17 +394,29 @@ impl ShapeModel {
         let mut votes = Vec::new();
         let dc = descriptor_config();
         let mut corr = fd_match::Correlator::new(dc.max_frequency(), dc.samples)?;
+        let max_scale = self.config.max_scale;
+        let sized = max_scale.is_finite();
         for (k, (g, b)) in grip.iter().zip(&bg).enumerate() {
             let Some(best) = g.best else { continue };
-            let e_bg = b.best.map_or(f64::INFINITY, |c| c.error);
-            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
-            let below = ratio(best.error).partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
-            if !below || best.error > self.config.max_error {
+            if best.error > self.config.max_error {
                 continue;
             }
             let region = set.source(k);
             let c = centre(&features, region);
             let area = f64::from(features.regions[region].area);
+            let e_bg = match b.best {
+                // The best background region overall is the best of any subset holding it.
+                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
+                None => f64::INFINITY,
+                Some(_) => shapes.background_error(&mut corr, set.fd(k), area, max_scale)?,
+            };
+            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
+            // Without the size gate the best view must pass the ratio test itself; with it,
+            // the best view may be of another size, and each view is tested below.
+            let below = ratio(best.error).partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
+            if !sized && !below {
+                continue;
+            }
             // The views within the factor of the best error that pass the tests themselves.
             let limit = (self.config.view_error_factor * best.error).min(self.config.max_error);
             for j in 0..shapes.grip.len() {
@@ -389,6 +437,9 @@ impl ShapeModel {
                 }
                 let view = &shapes.views[shapes.grip.source(j)];
                 let s = (area / view.area).sqrt();
+                if !(s * max_scale >= 1.0 && s <= max_scale) {
+                    continue;
+                }
                 let (sn, cs) = (-rotation).sin_cos();
                 let [ox, oy] = view.offset;
                 let position = [
@@ -411,6 +462,43 @@ impl ShapeModel {
             }
         }
         Ok(votes)
+    }
+}
+
+impl CameraShapes {
+    /// Whether background descriptor `d`'s scale against a region of `area` pixels lies within
+    /// `[1 / max_scale, max_scale]`.
+    fn same_size(&self, d: usize, area: f64, max_scale: f64) -> bool {
+        let m2 = max_scale * max_scale;
+        let a = self.background_area[d];
+        a * m2 >= area && a <= area * m2
+    }
+
+    /// The smallest FD correlation error between `fd` (a region of `area` pixels) and the
+    /// background regions whose linear scale against it lies within `[1 / max_scale,
+    /// max_scale]` (infinite when there is none).
+    fn background_error(
+        &self,
+        corr: &mut fd_match::Correlator,
+        fd: &[fd_match::Complex64],
+        area: f64,
+        max_scale: f64,
+    ) -> Result<f64> {
+        let (lo, hi) = (area / (max_scale * max_scale), area * max_scale * max_scale);
+        let first = self.background_by_area.partition_point(|&(a, _)| a < lo);
+        let mut best = f64::INFINITY;
+        for &(a, d) in &self.background_by_area[first..] {
+            if a > hi {
+                break;
+            }
+            if !self.same_size(d, area, max_scale) {
+                continue;
+            }
+            if let Some(c) = corr.correlate_below(fd, self.background.fd(d), best)? {
+                best = best.min(c.error);
+            }
+        }
+        Ok(best)
     }
 }
 
