@@ -28,10 +28,10 @@
 //!
 //! Seeds: development seeds 101 and 102 by default (`examples/pipeline_probe.rs` and
 //! `--development`, which runs this study on them and prints it; `--dev-seeds` runs others below
-//! 3000, and 103–116 have been used too: the only seeds the settings were looked at on);
-//! evaluation seeds 3201–3205, scored once (3001–3005 were scored before the prior on the votes'
-//! position was adopted, 3101–3105 before the shape model's 80 training poses, and are not used
-//! again). Fixtures hold no timings; the time per capture is printed to stdout only.
+//! 3000, and 103–116 and 118–122 have been used too: the only seeds the settings were looked at
+//! on); evaluation seeds 3301–3305, scored once (3001–3005 were scored before the prior on the
+//! votes' position was adopted, 3101–3105 before the shape model's 80 training poses, 3201–3205
+//! before size-aware matching, and are not used again). Fixtures hold no timings; the time per capture is printed to stdout only.
 //!
 //! Scenes and seeds run at once on rayon's pool, each seed on simulators, an LWPR model and a
 //! percept copy of its own, gathered in order: the fixture is the same on any number of
@@ -63,12 +63,15 @@ use crate::stats::{median, quantile_rank};
 
 const EXPLORE: [[f64; 2]; 3] = [[1167.0, 1833.0], [1389.0, 1833.0], [1111.0, 1611.0]];
 const LEARN_SEED: u64 = 2009;
-const EVAL_SEEDS: [u64; 5] = [3201, 3202, 3203, 3204, 3205];
+const EVAL_SEEDS: [u64; 5] = [3301, 3302, 3303, 3304, 3305];
 /// Where settings are chosen (`--development`'s default); never scored for the fixtures.
 const DEV_SEEDS: [u64; 2] = [101, 102];
 /// Every development seed a setting was looked at on (the fixture names them).
-const DEV_SEEDS_USED: [u64; 16] = [
-    101, 102, 103, 104, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 115, 116,
+/// (117 is missing on purpose: it ran once on a held-out arm for a profile of the cost, and no
+/// setting was looked at on it; docs/methods.md, *FD + CBT as the servo percept*.)
+const DEV_SEEDS_USED: [u64; 21] = [
+    101, 102, 103, 104, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 115, 116, 118, 119, 120,
+    121, 122,
 ];
 const WALKS: usize = 6;
 const STEPS: usize = 8;
@@ -882,7 +885,12 @@ fn goals(s: &Summary) -> String {
           region being as close in shape (74 of 95 no-vote camera frames on the default scene, \
           63 of 77 on the hard one); most gross answers come from a track that started on a \
           wrong vote cluster and stayed there, and on the hard scene most gross answers had no \
-          vote within 5 px of the true tip (both measured with 40 training poses).\n";
+          vote within 5 px of the true tip (both measured with 40 training poses and before \
+          size-aware matching, which limits that competitor to background regions of the \
+          region's size; on development seeds 119–122 it took the refused captures from 99 to 78 \
+          on the default scene and from 23 to 27 on the hard one, and the gross answers, \
+          summed over the four rows, from 277 to 253: docs/methods.md, *Size-aware \
+          matching*).\n";
     g
 }
 

@@ -6,13 +6,15 @@
 //!    on the same capture, are stored as Fourier descriptors with their offset to the tip, per
 //!    camera ([`ShapeModel`]).
 //! 2. **Recognise** ([`ShapeModel::votes`]): MSER → contours → FDs → correlation matching
-//!    against the gripper views with a ratio test against the background's regions; each
-//!    accepted region votes for the tip once per stored view near its best match, with that
-//!    view's recovered rotation and scale ([`Vote`]; a generalised Hough transform). The
-//!    frame's mode is the FD-only percept ([`FdRecogniser`]).
+//!    against the gripper views with a ratio test against the background's regions, both
+//!    limited to regions of about the same size; each accepted region votes for the tip once
+//!    per stored view near its best match, with that view's recovered rotation and scale
+//!    ([`Vote`]; a generalised Hough transform). The frame's mode is the FD-only percept
+//!    ([`FdRecogniser`]).
 //! 3. **Track** ([`FdCbtRecogniser`]): CBT learns its observation and system models from the
 //!    votes and percepts of small random walks (unordered sets, in coordinates compensated by
-//!    the commanded moves' predicted shifts) and tracks each camera's tip through the frames; its estimate and certainty are the percept, through servo-loop's
+//!    the commanded moves' predicted shifts) and tracks each camera's tip through the frames;
+//!    its estimate and certainty are the percept, through servo-loop's
 //!    [`servo_loop::Recogniser`] seam (the servo loop is unchanged).
 //!
 //! The commanded move is a known input ([`motion`]): a forward model learned by action (LWPR

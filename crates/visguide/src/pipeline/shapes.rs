@@ -18,21 +18,32 @@
 //!
 //! **Recognition** ([`ShapeModel::votes`]): MSER → outer contours → FDs (affine arc length,
 //! 51 coefficients) → for each region the best gripper view by FD correlation (eq. 10) with
-//! its rotation φ (eq. 12), and the best background region. The ratio test (eq. 19) takes the
-//! background's best as the second-best: `r = e_grip / e_background < T_r` (the gripper's
-//! several views of one part are all near each other, so Paper A's second-best among them
-//! would refuse every true match). A region whose best match is accepted votes once per
-//! stored view `j` within `view_error_factor` of its best error (`e_j ≤ f · e_best`) that
-//! passes the same tests itself: for the tip at `c + s · R(−φ_j) o_j` (`c` the region's centre,
-//! `s = √(area / area_j)`, `R(−φ_j)` the rotation back from the view to this region), with
-//! weight `(1 − r_j / T_r) / (1 + |o_j| / d₀)`; views with `|φ_j|` above `max_rotation` are
-//! dropped (the gripper's boxy parts are nearly point-symmetric: their φ is ambiguous by π,
-//! and the stored views already cover the poses). Voting with the near-best views rather than
-//! the best one alone is a generalised Hough transform: the contour of a boxy part says little
-//! about where on the gripper it is, so the single best view's offset is often another part's
-//! or another pose's (development seed 101: the gripper regions' votes were 11–17 px off in the
-//! median, although some stored view's offset fitted within 1.5–1.7 px; docs/methods.md); the
-//! near-best views of the frame's several regions agree mostly at the tip.
+//! its rotation φ (eq. 12), and the best background region *of the region's size*. The ratio
+//! test (eq. 19) takes that background region as the second-best: `r = e_grip / e_background <
+//! T_r` (the gripper's several views of one part are all near each other, so Paper A's
+//! second-best among them would refuse every true match). A region whose best match is within
+//! `max_error` votes once per stored view `j` within `view_error_factor` of its best error
+//! (`e_j ≤ f · e_best`) that passes the tests itself: for the tip at `c + s · R(−φ_j) o_j` (`c`
+//! the region's centre, `s = √(area / area_j)`, `R(−φ_j)` the rotation back from the view to
+//! this region), with weight `(1 − r_j / T_r) / (1 + |o_j| / d₀)`; views with `|φ_j|` above
+//! `max_rotation` are dropped (the gripper's boxy parts are nearly point-symmetric: their φ is
+//! ambiguous by π, and the stored views already cover the poses), and so are views of another
+//! size, `s` outside `[1 / m, m]` with `m = max_scale` (1.25). Voting with the near-best views
+//! rather than the best one alone is a generalised Hough transform: the contour of a boxy part
+//! says little about where on the gripper it is, so the single best view's offset is often
+//! another part's or another pose's (development seed 101: the gripper regions' votes were
+//! 11–17 px off in the median, although some stored view's offset fitted within 1.5–1.7 px;
+//! docs/methods.md); the near-best views of the frame's several regions agree mostly at the tip.
+//!
+//! **Size-aware matching** ([`ShapeConfig::max_scale`]): FDs are normalised for scale, so by
+//! shape alone a small boxy background region competes with a gripper part of any size, and a
+//! view stored at one size votes for a region of any other size with its offset scaled to fit.
+//! The gripper's size in an image changes little over the workspace, so both the votes and the
+//! ratio test's competitor are limited to regions within a factor `m` in linear size (a
+//! background region "of the region's size" is one whose scale against it lies in `[1/m, m]`;
+//! an infinite `m` matches by shape only, as before). With a finite `m` the best view overall
+//! need not pass the ratio test (it may be of another size); every voting view still must.
+//! Adopted by a rule on development seeds 119–122 (docs/methods.md, *Size-aware matching*).
 
 use fd_match::{DescriptorConfig, DescriptorSet, Method, Sampling, best_two};
 use image::GrayImage;
@@ -70,10 +81,10 @@ pub struct ShapeConfig {
     /// A region votes with every view whose error is at most this factor times its best
     /// view's (≥ 1; 1 votes with the best view only).
     pub view_error_factor: f64,
-    /// Size-aware matching (≥ 1; infinite: off, shape only): a view votes for a region only
-    /// when the region's linear scale against it, `s = √(area / area_j)`, lies within
-    /// `[1 / max_scale, max_scale]`, and the ratio test's background competitor is the best
-    /// background region whose scale against the region lies in the same range.
+    /// Size-aware matching (≥ 1; default 1.25; infinite: by shape only): a view votes for a
+    /// region only when the region's linear scale against it, `s = √(area / area_j)`, lies
+    /// within `[1 / max_scale, max_scale]`, and the ratio test's background competitor is the
+    /// best background region whose scale against the region lies in the same range.
     pub max_scale: f64,
 }
 
@@ -95,7 +106,7 @@ impl Default for ShapeConfig {
             max_rotation: 0.6,
             offset_scale_px: 20.0,
             view_error_factor: 3.0,
-            max_scale: f64::INFINITY,
+            max_scale: 1.25,
         }
     }
 }
@@ -124,7 +135,7 @@ impl ShapeConfig {
         if !(self.view_error_factor.is_finite() && self.view_error_factor >= 1.0) {
             return bad("view_error_factor", "must be finite and ≥ 1");
         }
-        if !(self.max_scale >= 1.0) {
+        if self.max_scale.is_nan() || self.max_scale < 1.0 {
             return bad("max_scale", "must be ≥ 1 (infinite: off)");
         }
         for (name, v) in [
@@ -396,30 +407,40 @@ impl ShapeModel {
         let mut corr = fd_match::Correlator::new(dc.max_frequency(), dc.samples)?;
         let max_scale = self.config.max_scale;
         let sized = max_scale.is_finite();
+        let less = |r: f64| r.partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
+        // Per region: the views that may vote, `(view, error, rotation, scale)`.
+        let mut candidates: Vec<(usize, f64, f64, f64)> = Vec::new();
         for (k, (g, b)) in grip.iter().zip(&bg).enumerate() {
             let Some(best) = g.best else { continue };
             if best.error > self.config.max_error {
                 continue;
             }
+            // Shape only: the best view must pass the ratio test itself (with the size gate
+            // it may be of another size, and each view is tested alone).
+            let e_bg_overall = b.best.map_or(f64::INFINITY, |c| c.error);
+            let ratio_overall = |e: f64| {
+                if e_bg_overall > 0.0 {
+                    e / e_bg_overall
+                } else {
+                    f64::INFINITY
+                }
+            };
+            if !sized && !less(ratio_overall(best.error)) {
+                continue;
+            }
             let region = set.source(k);
             let c = centre(&features, region);
             let area = f64::from(features.regions[region].area);
-            let e_bg = match b.best {
-                // The best background region overall is the best of any subset holding it.
-                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
-                None => f64::INFINITY,
-                Some(_) => shapes.background_error(&mut corr, set.fd(k), area, max_scale)?,
-            };
-            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
-            // Without the size gate the best view must pass the ratio test itself; with it,
-            // the best view may be of another size, and each view is tested below.
-            let below = ratio(best.error).partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
-            if !sized && !below {
-                continue;
-            }
-            // The views within the factor of the best error that pass the tests themselves.
+            // The views of the region's size within the factor of the best error, with a
+            // rotation within the limit (the size is checked first: it needs no correlation).
             let limit = (self.config.view_error_factor * best.error).min(self.config.max_error);
+            candidates.clear();
             for j in 0..shapes.grip.len() {
+                let view = &shapes.views[shapes.grip.source(j)];
+                let s = (area / view.area).sqrt();
+                if !(s * max_scale >= 1.0 && s <= max_scale) {
+                    continue;
+                }
                 let (error, rotation) = if j == best.index {
                     let Some(al) = best.alignment else { continue };
                     (best.error, al.rotation)
@@ -429,19 +450,39 @@ impl ShapeModel {
                         _ => continue,
                     }
                 };
-                let r = ratio(error);
-                if r.partial_cmp(&t_r) != Some(std::cmp::Ordering::Less)
-                    || rotation.abs() > self.config.max_rotation
+                if rotation.abs() <= self.config.max_rotation {
+                    candidates.push((j, error, rotation, s));
+                }
+            }
+            let Some(e_min) = candidates.iter().map(|v| v.1).reduce(f64::min) else {
+                continue;
+            };
+            let e_bg = match b.best {
+                // The best background region overall is the best of any subset holding it.
+                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
+                None => f64::INFINITY,
+                // The best is of another size and the second of this one: the second is the
+                // best of the rest.
+                Some(_)
+                    if b.second
+                        .is_some_and(|c| shapes.same_size(c.index, area, max_scale)) =>
                 {
+                    b.second.map_or(f64::INFINITY, |c| c.error)
+                }
+                // A background region at or below `e_min / T_r` fails every candidate: the
+                // search may stop there.
+                Some(_) => {
+                    shapes.background_error(&mut corr, set.fd(k), area, max_scale, e_min / t_r)?
+                }
+            };
+            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
+            for &(j, error, rotation, s) in &candidates {
+                let r = ratio(error);
+                if !less(r) {
                     continue;
                 }
-                let view = &shapes.views[shapes.grip.source(j)];
-                let s = (area / view.area).sqrt();
-                if !(s * max_scale >= 1.0 && s <= max_scale) {
-                    continue;
-                }
+                let [ox, oy] = shapes.views[shapes.grip.source(j)].offset;
                 let (sn, cs) = (-rotation).sin_cos();
-                let [ox, oy] = view.offset;
                 let position = [
                     c[0] + s * (cs * ox - sn * oy),
                     c[1] + s * (sn * ox + cs * oy),
@@ -476,13 +517,15 @@ impl CameraShapes {
 
     /// The smallest FD correlation error between `fd` (a region of `area` pixels) and the
     /// background regions whose linear scale against it lies within `[1 / max_scale,
-    /// max_scale]` (infinite when there is none).
+    /// max_scale]` (infinite when there is none); or, as soon as one is found at or below
+    /// `floor`, that one's error (the caller needs no more then).
     fn background_error(
         &self,
         corr: &mut fd_match::Correlator,
         fd: &[fd_match::Complex64],
         area: f64,
         max_scale: f64,
+        floor: f64,
     ) -> Result<f64> {
         let (lo, hi) = (area / (max_scale * max_scale), area * max_scale * max_scale);
         let first = self.background_by_area.partition_point(|&(a, _)| a < lo);
@@ -496,6 +539,9 @@ impl CameraShapes {
             }
             if let Some(c) = corr.correlate_below(fd, self.background.fd(d), best)? {
                 best = best.min(c.error);
+                if best <= floor {
+                    break;
+                }
             }
         }
         Ok(best)
@@ -510,15 +556,25 @@ mod tests {
     /// An asymmetric bright "L" (local frame: a 40 × 10 bar and a 10 × 24 foot) rotated by
     /// `angle` about `centre`, a bright static square, on a dark background; 4 × 4 supersampled.
     fn scene(centre: [f64; 2], angle: f64, with_l: bool) -> GrayImage {
-        let (s, c) = angle.sin_cos();
-        let inside_l = |x: f64, y: f64| {
-            let (dx, dy) = (x - centre[0], y - centre[1]);
+        scene_with([240, 200], with_l.then_some((centre, angle, 1.0)), None)
+    }
+
+    /// As [`scene`], on a `size` image: the L `(centre, angle, scale)` if any, and a static
+    /// upright L `(centre, scale)` if any, beside the square.
+    fn scene_with(
+        size: [u32; 2],
+        l: Option<([f64; 2], f64, f64)>,
+        static_l: Option<([f64; 2], f64)>,
+    ) -> GrayImage {
+        let inside = |x: f64, y: f64, centre: [f64; 2], angle: f64, scale: f64| {
+            let (s, c) = angle.sin_cos();
+            let (dx, dy) = ((x - centre[0]) / scale, (y - centre[1]) / scale);
             let (u, v) = (c * dx + s * dy, -s * dx + c * dy);
             ((-20.0..20.0).contains(&u) && (-5.0..5.0).contains(&v))
                 || ((10.0..20.0).contains(&u) && (5.0..24.0).contains(&v))
         };
         let square = |x: f64, y: f64| (20.0..44.0).contains(&x) && (150.0..174.0).contains(&y);
-        GrayImage::from_fn(240, 200, |x, y| {
+        GrayImage::from_fn(size[0], size[1], |x, y| {
             let mut hits = 0;
             for i in 0..4 {
                 for j in 0..4 {
@@ -526,7 +582,9 @@ mod tests {
                         f64::from(x) + (f64::from(i) + 0.5) / 4.0 - 0.5,
                         f64::from(y) + (f64::from(j) + 0.5) / 4.0 - 0.5,
                     );
-                    if (with_l && inside_l(px, py)) || square(px, py) {
+                    let on_l = l.is_some_and(|(c, a, k)| inside(px, py, c, a, k));
+                    let on_static = static_l.is_some_and(|(c, k)| inside(px, py, c, 0.0, k));
+                    if on_l || on_static || square(px, py) {
                         hits += 1;
                     }
                 }
@@ -640,6 +698,141 @@ mod tests {
         assert!(single >= 1 && multi > single, "{single} vs {multi} votes");
     }
 
+    /// The shape model of one L at scale 1 (pose `([100, 80], 0.2)`), learned with
+    /// `max_scale`, on `size` images with `static_l` in the background.
+    fn sized_model(
+        max_scale: f64,
+        size: [u32; 2],
+        static_l: Option<([f64; 2], f64)>,
+    ) -> ShapeModel {
+        let config = ShapeConfig {
+            mser: MserParams {
+                min_area: 30,
+                max_area: 6000,
+                ..MserParams::default()
+            },
+            max_rotation: std::f64::consts::PI,
+            max_scale,
+            ..ShapeConfig::default()
+        };
+        let (c0, a0) = ([100.0, 80.0], 0.2);
+        let rest = scene_with(size, Some((c0, a0, 1.0)), static_l);
+        let moved = scene_with(size, None, static_l);
+        let pair = ActionPair {
+            camera: 0,
+            rest: &rest,
+            moved: &moved,
+            tip: Some(tip(c0, a0)),
+        };
+        ShapeModel::learn(&config, 1, &[pair]).unwrap().0
+    }
+
+    #[test]
+    fn with_max_scale_a_view_votes_only_for_regions_of_about_its_size() {
+        let (c1, a1) = ([120.0, 95.0], 0.5);
+        for (scale, max_scale, votes_expected) in [
+            (1.1, 1.25, true),
+            (1.6, 1.25, false),
+            (1.6, f64::INFINITY, true),
+            (0.7, 1.25, false),
+        ] {
+            let model = sized_model(max_scale, [240, 200], None);
+            let query = scene_with([240, 200], Some((c1, a1, scale)), None);
+            let votes = model.votes(0, &query).unwrap();
+            assert_eq!(
+                !votes.is_empty(),
+                votes_expected,
+                "L at scale {scale}, max_scale {max_scale}: {votes:?}"
+            );
+            if let Some(m) = super::super::vote::mode(&votes, 2.0).unwrap() {
+                // The tip of the scaled L: its local tip offset scaled about the centre.
+                let t0 = tip([0.0, 0.0], a1);
+                let t = [c1[0] + scale * t0[0], c1[1] + scale * t0[1]];
+                let err = (m.position[0] - t[0]).hypot(m.position[1] - t[1]);
+                assert!(
+                    err < 2.0,
+                    "scale {scale}: tip error {err:.2} px ({votes:?})"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn with_max_scale_the_ratio_test_competes_only_with_background_of_the_regions_size() {
+        // A static L twice the gripper's size in the background: shape alone cannot tell
+        // them apart (ratio near 1, the gripper refused); by size they differ.
+        let size = [320, 260];
+        let static_l = Some(([250.0, 190.0], 2.0));
+        let (c1, a1) = ([120.0, 95.0], 0.5);
+        let query = scene_with(size, Some((c1, a1, 1.0)), static_l);
+        let shape_only = sized_model(f64::INFINITY, size, static_l);
+        assert!(
+            shape_only.votes(0, &query).unwrap().is_empty(),
+            "the big static L should make the ratio test refuse the gripper"
+        );
+        let sized = sized_model(1.25, size, static_l);
+        let votes = sized.votes(0, &query).unwrap();
+        let best = super::super::vote::mode(&votes, 2.0)
+            .unwrap()
+            .expect("with the size gate the gripper votes");
+        let t = tip(c1, a1);
+        let err = (best.position[0] - t[0]).hypot(best.position[1] - t[1]);
+        assert!(err < 1.5, "tip error {err:.2} px ({votes:?})");
+        // The static L itself does not vote: it is background, of its own size.
+        let alone = scene_with(size, None, static_l);
+        assert!(sized.votes(0, &alone).unwrap().is_empty());
+    }
+
+    #[test]
+    fn the_sized_background_error_is_the_brute_force_minimum_over_regions_of_that_size() {
+        let size = [320, 260];
+        let static_l = Some(([250.0, 190.0], 2.0));
+        let model = sized_model(1.25, size, static_l);
+        let shapes = &model.cameras[0];
+        assert!(shapes.background.len() >= 2, "{}", shapes.background.len());
+        let query = scene_with(size, Some(([120.0, 95.0], 0.5, 1.0)), static_l);
+        let features = detect(&query, &model.config.mser).unwrap();
+        let set = fd_match::describe_all(descriptor_config(), &features.contours)
+            .unwrap()
+            .set;
+        let dc = descriptor_config();
+        let mut corr = fd_match::Correlator::new(dc.max_frequency(), dc.samples).unwrap();
+        let mut compared = 0;
+        for k in 0..set.len() {
+            let area = f64::from(features.regions[set.source(k)].area);
+            for max_scale in [1.1, 1.25, 2.0, 4.0] {
+                let fast = shapes
+                    .background_error(&mut corr, set.fd(k), area, max_scale, -1.0)
+                    .unwrap();
+                let brute = (0..shapes.background.len())
+                    .filter(|&d| shapes.same_size(d, area, max_scale))
+                    .map(|d| {
+                        corr.correlate(set.fd(k), shapes.background.fd(d))
+                            .unwrap()
+                            .error
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert_eq!(fast, brute, "region {k}, max_scale {max_scale}");
+                // With a floor the search may stop early, but on the same side of it.
+                for floor in [0.5 * brute, brute, 1.5 * brute] {
+                    let early = shapes
+                        .background_error(&mut corr, set.fd(k), area, max_scale, floor)
+                        .unwrap();
+                    assert!(
+                        early >= brute,
+                        "region {k}: {early} below the minimum {brute}"
+                    );
+                    assert_eq!(early <= floor, brute <= floor, "region {k}, floor {floor}");
+                }
+                compared += usize::from(brute.is_finite());
+            }
+        }
+        assert!(
+            compared > 0,
+            "no region had a background region of its size"
+        );
+    }
+
     #[test]
     fn nothing_changed_is_not_enough_data_and_bad_settings_are_refused() {
         let img = scene([100.0, 80.0], 0.0, true);
@@ -661,6 +854,17 @@ mod tests {
             ShapeModel::learn(&bad, 1, &[pair]),
             Err(PipelineError::InvalidParameter {
                 name: "ratio_threshold",
+                ..
+            })
+        ));
+        let small = ShapeConfig {
+            max_scale: 0.9,
+            ..ShapeConfig::default()
+        };
+        assert!(matches!(
+            ShapeModel::learn(&small, 1, &[pair]),
+            Err(PipelineError::InvalidParameter {
+                name: "max_scale",
                 ..
             })
         ));
