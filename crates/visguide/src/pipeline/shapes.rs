@@ -415,25 +415,43 @@ impl ShapeModel {
             if best.error > self.config.max_error {
                 continue;
             }
-            // Shape only: the best view must pass the ratio test itself (with the size gate
-            // it may be of another size, and each view is tested alone).
-            let e_bg_overall = b.best.map_or(f64::INFINITY, |c| c.error);
-            let ratio_overall = |e: f64| {
-                if e_bg_overall > 0.0 {
-                    e / e_bg_overall
-                } else {
-                    f64::INFINITY
-                }
-            };
-            if !sized && !less(ratio_overall(best.error)) {
-                continue;
-            }
             let region = set.source(k);
             let c = centre(&features, region);
             let area = f64::from(features.regions[region].area);
+            // Every view's error is at least the best one's, so a background error at or
+            // below `e_best / T_r` fails them all: the region does not vote, and the sized
+            // search may stop there.
+            let e_bg = match b.best {
+                // The best background region overall is the best of any subset holding it.
+                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
+                None => f64::INFINITY,
+                // The best is of another size and the second of this one: the second is the
+                // best of the rest.
+                Some(_)
+                    if b.second
+                        .is_some_and(|c| shapes.same_size(c.index, area, max_scale)) =>
+                {
+                    b.second.map_or(f64::INFINITY, |c| c.error)
+                }
+                Some(_) => shapes.background_error(
+                    &mut corr,
+                    set.fd(k),
+                    area,
+                    max_scale,
+                    best.error / t_r,
+                )?,
+            };
+            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
+            if !less(ratio(best.error)) {
+                continue;
+            }
             // The views of the region's size within the factor of the best error, with a
-            // rotation within the limit (the size is checked first: it needs no correlation).
-            let limit = (self.config.view_error_factor * best.error).min(self.config.max_error);
+            // rotation within the limit (the size is checked first: it needs no correlation);
+            // a view above `T_r · e_bg` fails the ratio test, so the correlations stop there
+            // (with a margin for rounding: the test below decides).
+            let limit = (self.config.view_error_factor * best.error)
+                .min(self.config.max_error)
+                .min(t_r * e_bg * (1.0 + 1e-9));
             candidates.clear();
             for j in 0..shapes.grip.len() {
                 let view = &shapes.views[shapes.grip.source(j)];
@@ -454,28 +472,6 @@ impl ShapeModel {
                     candidates.push((j, error, rotation, s));
                 }
             }
-            let Some(e_min) = candidates.iter().map(|v| v.1).reduce(f64::min) else {
-                continue;
-            };
-            let e_bg = match b.best {
-                // The best background region overall is the best of any subset holding it.
-                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
-                None => f64::INFINITY,
-                // The best is of another size and the second of this one: the second is the
-                // best of the rest.
-                Some(_)
-                    if b.second
-                        .is_some_and(|c| shapes.same_size(c.index, area, max_scale)) =>
-                {
-                    b.second.map_or(f64::INFINITY, |c| c.error)
-                }
-                // A background region at or below `e_min / T_r` fails every candidate: the
-                // search may stop there.
-                Some(_) => {
-                    shapes.background_error(&mut corr, set.fd(k), area, max_scale, e_min / t_r)?
-                }
-            };
-            let ratio = |e: f64| if e_bg > 0.0 { e / e_bg } else { f64::INFINITY };
             for &(j, error, rotation, s) in &candidates {
                 let r = ratio(error);
                 if !less(r) {
