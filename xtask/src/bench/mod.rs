@@ -28,6 +28,11 @@ pub struct BenchArgs {
     /// Folder holding benchmark data (e.g. `oxford-affine/`); default: `$VISGUIDE_DATA`.
     #[arg(long, env = "VISGUIDE_DATA")]
     pub data: Option<std::path::PathBuf>,
+    /// `bench tracking` only: CBT's system model counts its displacements this way
+    /// (`cbt_tracker::Displacements`) instead of `CbtConfig::stationary`'s, to time a candidate
+    /// setting as `eval tracking --displacements` scores it.
+    #[arg(long, value_enum)]
+    pub displacements: Option<crate::eval::tracking::DisplacementsArg>,
 }
 
 impl BenchArgs {
@@ -98,6 +103,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .iter()
         .find(|b| b.name == name)
         .ok_or_else(|| format!("unknown bench `{name}`; run `cargo xtask bench` for the list"))?;
+    if args.displacements.is_some() && bench.name != "tracking" {
+        return Err(format!("--displacements is for `bench tracking`, not `bench {name}`").into());
+    }
     let rows = (bench.run)(args)?;
     report::publish(
         &workspace_root().join("target/bench"),

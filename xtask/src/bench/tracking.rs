@@ -33,6 +33,10 @@ fn stats(sets: &[SetResult], name: &str) -> (f64, f64) {
 
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
+    if let Some(d) = args.displacements {
+        crate::eval::tracking::study::set_displacements(d.displacements());
+        eprintln!("bench tracking: CBT's displacements {d:?} (a candidate, not the default)");
+    }
     let specs = synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4])?;
     let pb = ProgressBar::new(specs.iter().map(|s| s.test.len() as u64).sum());
     let mut image = Vec::new();

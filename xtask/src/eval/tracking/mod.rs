@@ -130,6 +130,19 @@ pub enum DisplacementsArg {
     Fitted,
 }
 
+impl DisplacementsArg {
+    /// The library's value.
+    pub fn displacements(self) -> cbt_tracker::Displacements {
+        match self {
+            DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
+            DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
+            DisplacementsArg::Aligned => cbt_tracker::Displacements::Aligned,
+            DisplacementsArg::Selected => cbt_tracker::Displacements::Selected,
+            DisplacementsArg::Fitted => cbt_tracker::Displacements::Fitted,
+        }
+    }
+}
+
 /// `--start-motion`.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StartArg {
@@ -307,13 +320,7 @@ pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
         if !(args.validation_only || args.rc_car_development) {
             return Err("--displacements needs --validation-only or --rc-car-development".into());
         }
-        study::set_displacements(match m {
-            DisplacementsArg::Channels => cbt_tracker::Displacements::Channels,
-            DisplacementsArg::Interpolated => cbt_tracker::Displacements::Interpolated,
-            DisplacementsArg::Aligned => cbt_tracker::Displacements::Aligned,
-            DisplacementsArg::Selected => cbt_tracker::Displacements::Selected,
-            DisplacementsArg::Fitted => cbt_tracker::Displacements::Fitted,
-        });
+        study::set_displacements(m.displacements());
     }
     if let Some(m) = args.observation_smoothing {
         if !(args.validation_only || args.rc_car_development) {
