@@ -114,3 +114,22 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         &rows,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::tracking::DisplacementsArg;
+
+    #[test]
+    fn displacements_are_refused_by_every_bench_but_tracking() {
+        for b in BENCHES.iter().filter(|b| b.name != "tracking") {
+            let args = BenchArgs {
+                name: Some(b.name.into()),
+                data: None,
+                displacements: Some(DisplacementsArg::Fitted),
+            };
+            let err = run(&args).expect_err(b.name).to_string();
+            assert!(err.contains("--displacements"), "{}: {err}", b.name);
+        }
+    }
+}
