@@ -30,7 +30,8 @@ pub struct BenchArgs {
     pub data: Option<std::path::PathBuf>,
     /// `bench tracking` only: CBT's system model counts its displacements this way
     /// (`cbt_tracker::Displacements`) instead of `CbtConfig::stationary`'s, to time a candidate
-    /// setting as `eval tracking --displacements` scores it.
+    /// setting that `eval tracking --displacements` scores on development data; the bench then
+    /// reports its time rows only (its accuracy rows are on the test sets).
     #[arg(long, value_enum)]
     pub displacements: Option<crate::eval::tracking::DisplacementsArg>,
 }

@@ -31,7 +31,8 @@
 //! 3000, and 103–116 and 118–122 have been used too: the only seeds the settings were looked at
 //! on); evaluation seeds 3301–3305, scored once (3001–3005 were scored before the prior on the
 //! votes' position was adopted, 3101–3105 before the shape model's 80 training poses, 3201–3205
-//! before size-aware matching, and are not used again). Fixtures hold no timings; the time per capture is printed to stdout only.
+//! before size-aware matching, and are not used again). Fixtures hold no timings; the time per
+//! capture is printed to stdout only.
 //!
 //! Scenes and seeds run at once on rayon's pool, each seed on simulators, an LWPR model and a
 //! percept copy of its own, gathered in order: the fixture is the same on any number of
