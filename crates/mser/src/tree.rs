@@ -147,6 +147,11 @@
 //! was timed; each adds the dependence through memory that came with the measured 5 % loss
 //! above.
 //!
+//! The build, too: the release profile with one codegen unit and fat LTO (`bench mser`, two runs
+//! each alternating with the default profile, 2026-12-06): every image within ±3 %, in no
+//! consistent direction (the flood is one function of this crate, so neither setting gives the
+//! compiler anything it lacked).
+//!
 //! Where a detection's time goes (callgrind instructions, both polarities, one detection, default
 //! parameters; leuven img6 83.2 M, graf img1 86.1 M; before the unchecked upward scan and the
 //! AVX2 moments of module `stats`, 87.4 M and 95.9 M): the open/raise/merge events with the
