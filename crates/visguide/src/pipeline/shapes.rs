@@ -173,8 +173,8 @@ struct CameraShapes {
     /// Per background descriptor, its region's area (for the size-aware ratio test,
     /// [`ShapeConfig::max_scale`]).
     background_area: Vec<f64>,
-    /// `(area, descriptor index)` of the background descriptors, by ascending area.
-    background_by_area: Vec<(f64, usize)>,
+    /// The background descriptors' indices by ascending area (ties by index).
+    background_by_area: Vec<usize>,
 }
 
 /// One training capture of one camera: the gripper at its servoing set-point, the same pose
@@ -240,7 +240,6 @@ impl ShapeModel {
         // Per candidate view: its capture, centre and area (for the static check below).
         let mut placed: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); cameras];
         let mut background: Vec<Vec<Vec<(u32, u32)>>> = vec![Vec::new(); cameras];
-        let mut background_area: Vec<Vec<f64>> = vec![Vec::new(); cameras];
         // Per unchanged region: its capture, centre and area.
         let mut still: Vec<Vec<(usize, [f64; 2], f64)>> = vec![Vec::new(); cameras];
         let mut report = ShapeReport {
@@ -271,7 +270,6 @@ impl ShapeModel {
                 });
                 if unchanged {
                     background[p.camera].push(rest.contours[i].clone());
-                    background_area[p.camera].push(area);
                     still[p.camera].push((capture, c, area));
                     continue;
                 }
@@ -311,28 +309,26 @@ impl ShapeModel {
             views[cam].retain(|_| *k.next().expect("one flag per view"));
         }
         let mut out = Vec::with_capacity(cameras);
-        for (cam, ((v, mut bg), mut bg_area)) in views
-            .into_iter()
-            .zip(background)
-            .zip(background_area)
-            .enumerate()
-        {
-            if bg.len() > config.max_background {
-                let n = bg.len();
-                let pick = |k: usize| k * n / config.max_background;
-                bg = (0..config.max_background)
-                    .map(|k| bg[pick(k)].clone())
-                    .collect();
-                bg_area = (0..config.max_background)
-                    .map(|k| bg_area[pick(k)])
-                    .collect();
-            }
+        for (cam, (v, bg)) in views.into_iter().zip(&background).enumerate() {
+            // The background regions kept: all, or evenly subsampled to `max_background`.
+            let n = bg.len();
+            let kept: Vec<usize> = if n > config.max_background {
+                (0..config.max_background)
+                    .map(|k| k * n / config.max_background)
+                    .collect()
+            } else {
+                (0..n).collect()
+            };
             let grip = fd_match::describe_all(
                 descriptor_config(),
                 &v.iter().map(|g| g.contour.as_slice()).collect::<Vec<_>>(),
             )?
             .set;
-            let background = fd_match::describe_all(descriptor_config(), &bg)?.set;
+            let background = fd_match::describe_all(
+                descriptor_config(),
+                &kept.iter().map(|&i| bg[i].as_slice()).collect::<Vec<_>>(),
+            )?
+            .set;
             if grip.is_empty() || background.is_empty() {
                 return Err(PipelineError::NotEnoughData(format!(
                     "camera {cam}: {} gripper views, {} background regions",
@@ -343,14 +339,14 @@ impl ShapeModel {
             report.views[cam] = grip.len();
             report.background[cam] = background.len();
             let background_area: Vec<f64> = (0..background.len())
-                .map(|d| bg_area[background.source(d)])
+                .map(|d| still[cam][kept[background.source(d)]].2)
                 .collect();
-            let mut background_by_area: Vec<(f64, usize)> = background_area
-                .iter()
-                .enumerate()
-                .map(|(d, &a)| (a, d))
-                .collect();
-            background_by_area.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let mut background_by_area: Vec<usize> = (0..background.len()).collect();
+            background_by_area.sort_by(|&a, &b| {
+                background_area[a]
+                    .total_cmp(&background_area[b])
+                    .then(a.cmp(&b))
+            });
             out.push(CameraShapes {
                 views: v,
                 grip,
@@ -421,19 +417,15 @@ impl ShapeModel {
             // Every view's error is at least the best one's, so a background error at or
             // below `e_best / T_r` fails them all: the region does not vote, and the sized
             // search may stop there.
-            let e_bg = match b.best {
+            let same_size = |c: &fd_match::Candidate| shapes.same_size(c.index, area, max_scale);
+            let e_bg = match (b.best, b.second) {
+                (None, _) => f64::INFINITY,
                 // The best background region overall is the best of any subset holding it.
-                Some(c) if !sized || shapes.same_size(c.index, area, max_scale) => c.error,
-                None => f64::INFINITY,
+                (Some(c), _) if !sized || same_size(&c) => c.error,
                 // The best is of another size and the second of this one: the second is the
                 // best of the rest.
-                Some(_)
-                    if b.second
-                        .is_some_and(|c| shapes.same_size(c.index, area, max_scale)) =>
-                {
-                    b.second.map_or(f64::INFINITY, |c| c.error)
-                }
-                Some(_) => shapes.background_error(
+                (Some(_), Some(c)) if same_size(&c) => c.error,
+                _ => shapes.background_error(
                     &mut corr,
                     set.fd(k),
                     area,
@@ -524,10 +516,12 @@ impl CameraShapes {
         floor: f64,
     ) -> Result<f64> {
         let (lo, hi) = (area / (max_scale * max_scale), area * max_scale * max_scale);
-        let first = self.background_by_area.partition_point(|&(a, _)| a < lo);
+        let first = self
+            .background_by_area
+            .partition_point(|&d| self.background_area[d] < lo);
         let mut best = f64::INFINITY;
-        for &(a, d) in &self.background_by_area[first..] {
-            if a > hi {
+        for &d in &self.background_by_area[first..] {
+            if self.background_area[d] > hi {
                 break;
             }
             if !self.same_size(d, area, max_scale) {
@@ -842,39 +836,35 @@ mod tests {
             ShapeModel::learn(&ShapeConfig::default(), 1, &[pair]),
             Err(PipelineError::NotEnoughData(_))
         ));
-        let bad = ShapeConfig {
-            ratio_threshold: 0.0,
-            ..ShapeConfig::default()
-        };
-        assert!(matches!(
-            ShapeModel::learn(&bad, 1, &[pair]),
-            Err(PipelineError::InvalidParameter {
-                name: "ratio_threshold",
-                ..
-            })
-        ));
-        let small = ShapeConfig {
-            max_scale: 0.9,
-            ..ShapeConfig::default()
-        };
-        assert!(matches!(
-            ShapeModel::learn(&small, 1, &[pair]),
-            Err(PipelineError::InvalidParameter {
-                name: "max_scale",
-                ..
-            })
-        ));
-        let narrow = ShapeConfig {
-            view_error_factor: 0.5,
-            ..ShapeConfig::default()
-        };
-        assert!(matches!(
-            ShapeModel::learn(&narrow, 1, &[pair]),
-            Err(PipelineError::InvalidParameter {
-                name: "view_error_factor",
-                ..
-            })
-        ));
+        let d = ShapeConfig::default;
+        for (bad, name) in [
+            (
+                ShapeConfig {
+                    ratio_threshold: 0.0,
+                    ..d()
+                },
+                "ratio_threshold",
+            ),
+            (
+                ShapeConfig {
+                    max_scale: 0.9,
+                    ..d()
+                },
+                "max_scale",
+            ),
+            (
+                ShapeConfig {
+                    view_error_factor: 0.5,
+                    ..d()
+                },
+                "view_error_factor",
+            ),
+        ] {
+            match ShapeModel::learn(&bad, 1, &[pair]) {
+                Err(PipelineError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
         let far = ActionPair { camera: 3, ..pair };
         assert!(matches!(
             ShapeModel::learn(&ShapeConfig::default(), 1, &[far]),
