@@ -267,6 +267,18 @@ struct Scratch {
     /// (`≥ CROP × max` before normalising), or empty when not known: the peak scan's
     /// candidates (`≥ MIN_SHARE × max`) lie within them.
     post_ext: Vec<(u32, u32)>,
+    /// The velocity step's work buffers (`carry_velocity`).
+    vel: VelWork,
+}
+
+/// Work buffers of the velocity step: the observation kernel's marginals per axis and the
+/// per-hypothesis `β`, `ℓ` and the correlation's padded copy.
+#[derive(Debug, Clone, Default)]
+struct VelWork {
+    am: [Vec<f64>; 2],
+    beta: Vec<f64>,
+    c: Vec<f64>,
+    rev: Vec<f64>,
 }
 
 impl Drop for Scratch {
@@ -1164,15 +1176,19 @@ impl WindowState {
         let ra = obs.kernel_radius();
         let kw = 2 * ra + 1;
         let a = obs.kernel();
+        let mut work = std::mem::take(&mut self.scratch.vel);
+        let VelWork { am, beta, c, rev } = &mut work;
         // The kernel's marginals A_x[δx] (sum over δy) and A_y[δy].
-        let mut am = [vec![0.0; kw], vec![0.0; kw]];
+        for m in am.iter_mut() {
+            m.clear();
+            m.resize(kw, 0.0);
+        }
         for (i, row) in a.chunks_exact(kw).enumerate() {
             for (j, &v) in row.iter().enumerate() {
                 am[0][i] += v;
                 am[1][j] += v;
             }
         }
-        let (mut beta, mut c, mut rev) = (Vec::new(), Vec::new(), Vec::new());
         for d in 0..2 {
             let r = sys[d].radius() as i64;
             let w = (2 * r + 1) as usize;
@@ -1202,7 +1218,7 @@ impl WindowState {
                 let d_hi = k.hi() + o - b0;
                 c.clear();
                 c.resize(n, 0.0);
-                correlate(&mut c, m, &beta, d_hi, &mut rev);
+                correlate(c, m, beta, d_hi, rev);
                 c.reverse();
                 let mut s = 0.0;
                 for (dst, &kv) in c.iter_mut().zip(&k.v) {
@@ -1233,6 +1249,7 @@ impl WindowState {
             }
             self.vel[d] = next;
         }
+        self.scratch.vel = work;
     }
 
     /// Best mode and runner-ups (step 4 of the module doc).
