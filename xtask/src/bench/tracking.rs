@@ -41,7 +41,7 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
         eprintln!(
             "bench tracking: CBT's displacements {d:?} (a candidate, not the default): time rows \
              only; its accuracy on these test sets is not shown (score a candidate with `eval \
-             tracking --validation-only` or `--rc-car-development`)"
+             tracking --validation-only --out DIR` or `--rc-car-development`)"
         );
     }
     let specs = synthetic_sets(TEST_PER_LEVEL, 150, &[0, 1, 2, 3, 4])?;

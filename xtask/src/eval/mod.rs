@@ -51,7 +51,7 @@ pub struct EvalArgs {
 }
 
 /// The evaluation targets.
-#[derive(Subcommand, Clone)]
+#[derive(Subcommand, Clone, Debug)]
 pub enum EvalTarget {
     /// The thesis's channel-coding worked example (eq. 2.3-2.9) and Figure 2.1.
     ChanRepr,
@@ -119,6 +119,9 @@ impl EvalTarget {
     fn needs_own_out(&self) -> Option<&'static str> {
         match self {
             EvalTarget::Pipeline(args) => pipeline::needs_own_out(args),
+            EvalTarget::Servo(args) => servo::needs_own_out(args),
+            EvalTarget::Tracking(args) => tracking::needs_own_out(args),
+            EvalTarget::PaperA(args) => paper_a::needs_own_out(args),
             _ => None,
         }
     }
@@ -344,6 +347,73 @@ mod tests {
         for (check, out) in [(false, None), (true, None), (true, Some("somewhere"))] {
             let e = run(&args(check, out)).unwrap_err().to_string();
             assert!(e.contains("name a folder with --out"), "{e}");
+        }
+    }
+
+    /// Every target run on something other than its fixtures' study (the user's arm file,
+    /// sequences, seed or setting) needs a folder of its own: refused before anything runs
+    /// without `--out` or with `--check`; the fixtures' own runs and the modes that only print
+    /// are not refused.
+    #[test]
+    fn own_studies_need_an_output_folder_of_their_own() {
+        use super::{paper_a::PaperAArgs, servo::ServoArgs, tracking::TrackingArgs};
+        let servo = |f: fn(&mut ServoArgs)| {
+            let mut a = ServoArgs::default();
+            f(&mut a);
+            EvalTarget::Servo(a)
+        };
+        let tracking = |f: fn(&mut TrackingArgs)| {
+            let mut a = TrackingArgs::default();
+            f(&mut a);
+            EvalTarget::Tracking(a)
+        };
+        let paper_a = |f: fn(&mut PaperAArgs)| {
+            let mut a = PaperAArgs::default();
+            f(&mut a);
+            EvalTarget::PaperA(a)
+        };
+        let own = [
+            servo(|a| a.arm = Some("my-arm.json".into())),
+            servo(|a| a.seed = 7),
+            servo(|a| a.percept = super::servo::PerceptMode::Simulated),
+            servo(|a| a.face_gate = Some(2.0)),
+            servo(|a| a.no_seeds = true),
+            tracking(|a| {
+                a.train = Some("train".into());
+                a.test = Some("test".into());
+            }),
+            tracking(|a| a.validation_only = true),
+            paper_a(|a| a.sequences = vec!["bikes".into()]),
+            paper_a(|a| a.mser.delta = Some(5)),
+            paper_a(|a| a.no_sensitivity = true),
+        ];
+        for t in &own {
+            assert!(t.needs_own_out().is_some(), "{t:?}");
+            for (check, out) in [(false, None), (true, None), (true, Some("somewhere"))] {
+                let args = EvalArgs {
+                    check,
+                    data: None,
+                    out: out.map(Into::into),
+                    target: Some(t.clone()),
+                };
+                let e = run(&args).unwrap_err().to_string();
+                assert!(e.contains("name a folder with --out"), "{t:?}: {e}");
+            }
+        }
+        let fixtures = [
+            servo(|_| {}),
+            servo(|a| a.development = true),
+            servo(|a| a.diagnose_recognition = true),
+            tracking(|_| {}),
+            tracking(|a| a.rc_car_development = true),
+            paper_a(|_| {}),
+            paper_a(|a| {
+                a.sequences = ["leuven", "boat", "graf"].map(String::from).to_vec();
+                a.matches_dir = Some("pictures".into());
+            }),
+        ];
+        for t in &fixtures {
+            assert!(t.needs_own_out().is_none(), "{t:?}");
         }
     }
 

@@ -95,6 +95,18 @@ fn sequence_dir(data: &Path, name: &str) -> Option<PathBuf> {
         .find(|d| d.is_dir())
 }
 
+/// Why the study must be written to a folder the user names, if it must: other sequences
+/// than Paper A's three, another MSER setting or no sensitivity table make a study other than
+/// `fixtures/paper-a`'s, which it would replace (and `--check` fail).
+pub fn needs_own_out(args: &PaperAArgs) -> Option<&'static str> {
+    let other_sequences = !args.sequences.is_empty() && args.sequences != PAPER_SEQUENCES;
+    let other_setting = args.mser.settings() != visguide::args::MserArgs::default().settings();
+    (other_sequences || other_setting || args.no_sensitivity).then_some(
+        "eval paper-a with --sequences, an MSER setting or --no-sensitivity writes a study of \
+         its own: name a folder with --out (fixtures/paper-a holds Paper A's), and no --check",
+    )
+}
+
 /// Why the real-data study cannot run with `data`, if it cannot: no data folder, or (without
 /// `--sequences`) one lacking Paper A's three sequences.
 pub fn missing_data(data: Option<&Path>, args: &PaperAArgs) -> Option<String> {

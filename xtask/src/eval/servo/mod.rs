@@ -200,6 +200,33 @@ impl ServoArgs {
     }
 }
 
+/// Why the study must be written to a folder the user names, if it must: any option that
+/// changes what is studied (another arm file, seed, percept or setting) makes a study other
+/// than `fixtures/paper-c`'s, which it would replace (and `--check` fail). Development runs
+/// and the recognition diagnosis write nothing.
+pub fn needs_own_out(args: &ServoArgs) -> Option<&'static str> {
+    if args.development || args.diagnose_recognition {
+        return None;
+    }
+    let d = ServoArgs::default();
+    let own = args.arm.is_some()
+        || args.seed != d.seed
+        || args.percept != d.percept
+        || args.no_seeds
+        || args.cross_camera_choice
+        || args.face_gate.is_some()
+        || args.spread_scale.is_some()
+        || args.cap_training.is_some()
+        || args.motion_factor.is_some()
+        || args.recovery_step.is_some()
+        || args.recovery_tries.is_some()
+        || args.jacobian_at.is_some();
+    own.then_some(
+        "eval servo with --arm, --seed, --percept or a setting writes a study of its own: name \
+         a folder with --out (fixtures/paper-c holds the default study), and no --check",
+    )
+}
+
 /// Where the servo percept comes from.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -305,6 +305,17 @@ struct SetFile<'a> {
 }
 
 /// Runs the target.
+/// Why the study must be written to a folder the user names, if it must: the user's own
+/// sequences (`--train`/`--test`) or the validation scenes alone make a study other than
+/// `fixtures/paper-b`'s or `fixtures/paper-b-pedestrians`'s, which it would replace (and
+/// `--check` fail). `--rc-car-development` prints and writes nothing.
+pub fn needs_own_out(args: &TrackingArgs) -> Option<&'static str> {
+    (args.train.is_some() || args.validation_only).then_some(
+        "eval tracking --train/--test or --validation-only writes a study of its own: name a \
+         folder with --out (fixtures/paper-b holds the shipped study), and no --check",
+    )
+}
+
 pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
     if let Some(m) = args.start_motion {
         if !(args.validation_only || args.rc_car_development) {
