@@ -39,7 +39,7 @@
 //! threads. The printed time per capture is each call's wall time while the others run; the
 //! one-core cost figures of docs/performance.md are runs with `RAYON_NUM_THREADS=1`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use arm_sim::{ArmSim, SimConfig};
@@ -125,7 +125,9 @@ pub struct PipelineArgs {
     pub dev_seeds: Option<Vec<u64>>,
     /// Run the study on this arm file instead of the shipped scenes (repeatable; each named by
     /// its file stem; a JSON file with every `arm-sim` parameter, as `eval servo --arm`). Needs
-    /// `--out` (the fixtures hold the shipped scenes) and cannot be `--check`ed.
+    /// `--out` (the fixtures hold the shipped scenes) and cannot be `--check`ed. With
+    /// `--development`, the shipped held-out arms (`worn-arm`, `second-rig`) are refused, under
+    /// any file name.
     #[arg(long = "arm", value_name = "FILE")]
     pub arms: Vec<PathBuf>,
 }
@@ -181,6 +183,9 @@ fn scenes(args: &PipelineArgs) -> Result<Vec<(String, SimConfig, Role)>> {
             }
             let config = SimConfig::read_file(path)
                 .map_err(|e| format!("arm file {}: {e}", path.display()))?;
+            if args.development {
+                refuse_held_out(path, &config)?;
+            }
             out.push((name, config, Role::UserArm));
         }
         return Ok(out);
@@ -199,6 +204,25 @@ fn scenes(args: &PipelineArgs) -> Result<Vec<(String, SimConfig, Role)>> {
         }
     }
     Ok(out)
+}
+
+/// A development run chooses settings, so it may not look at the shipped arms held out from
+/// the pipeline's development: an arm file with one's configuration, under any name, is
+/// refused. (The fixtures' study scores them; `eval --check pipeline` reruns it unchanged.)
+fn refuse_held_out(path: &Path, config: &SimConfig) -> Result<()> {
+    for (name, shipped) in super::servo::shipped_arms() {
+        if let Some(shipped) = shipped
+            && SimConfig::read_file(&shipped)? == *config
+        {
+            return Err(format!(
+                "arm file {}: the shipped arm `{name}` is held out from the pipeline's \
+                 development; a --development run may not use it",
+                path.display()
+            )
+            .into());
+        }
+    }
+    Ok(())
 }
 
 fn space() -> ControlSpace {
@@ -952,6 +976,37 @@ mod tests {
             percepts,
             servo,
         }
+    }
+
+    /// A development run refuses the held-out shipped arms, under their own name or a copy's,
+    /// and accepts an arm file of the user's (here: the hard scene's, which is developed on).
+    #[test]
+    fn development_runs_refuse_the_held_out_arms() {
+        let dir = std::env::temp_dir().join(format!("visguide-held-out-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let copy = dir.join("my-arm.json");
+        let arms = crate::workspace_root().join("crates/arm-sim/arms");
+        std::fs::copy(arms.join("second-rig.json"), &copy).unwrap();
+        let run = |arm: PathBuf, development: bool| {
+            scenes(&PipelineArgs {
+                arms: vec![arm],
+                development,
+                ..PipelineArgs::default()
+            })
+        };
+        for arm in [
+            arms.join("worn-arm.json"),
+            arms.join("second-rig.json"),
+            copy,
+        ] {
+            let e = run(arm.clone(), true).unwrap_err().to_string();
+            assert!(e.contains("held out"), "{}: {e}", arm.display());
+            // Outside development (written with --out) the study may score them.
+            assert_eq!(run(arm, false).unwrap()[0].2, Role::UserArm);
+        }
+        let mine = run(arms.join("hard-scene.json"), true).unwrap();
+        assert_eq!(mine.len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// An arm other than the hard scene is judged with the default scene's servo limit, and
