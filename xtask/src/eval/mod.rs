@@ -417,6 +417,53 @@ mod tests {
         }
     }
 
+    /// The same rule on command lines as clap parses them: the fixtures' own command lines
+    /// (clap's defaults, which the `Default`s above must equal) are not refused.
+    #[test]
+    fn own_studies_on_the_command_line() {
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            eval: EvalArgs,
+        }
+        let needs = |line: &str| {
+            let parsed = <Line as clap::Parser>::try_parse_from(
+                std::iter::once("eval").chain(line.split_whitespace()),
+            )
+            .unwrap_or_else(|e| panic!("{line}: {e}"));
+            parsed
+                .eval
+                .target
+                .and_then(|t| t.needs_own_out().map(str::to_owned))
+        };
+        for line in [
+            "servo",
+            "servo --seed 2009",
+            "servo --development",
+            "tracking",
+            "tracking --rc-car-development",
+            "paper-a",
+            "paper-a --preset larsson2009 --sequences leuven,boat,graf",
+            "pipeline",
+            "pipeline --development",
+        ] {
+            assert_eq!(needs(line), None, "{line}");
+        }
+        for line in [
+            "servo --arm mine.json",
+            "servo --seed 7",
+            "servo --percept simulated",
+            "tracking --train a --test b",
+            "tracking --validation-only",
+            "paper-a --delta 5",
+            "paper-a --preset opencv",
+            "paper-a --sequences bikes",
+            "pipeline --arm mine.json",
+        ] {
+            assert!(needs(line).is_some(), "{line}");
+        }
+    }
+
     #[test]
     fn a_target_that_wrote_nothing_leaves_its_folder_unless_checked() {
         // The target's own folder: replaced when written, kept when empty, compared by --check.
