@@ -304,7 +304,6 @@ struct SetFile<'a> {
     aggregate: Vec<study::Aggregate>,
 }
 
-/// Runs the target.
 /// Why the study must be written to a folder the user names, if it must: the user's own
 /// sequences (`--train`/`--test`) or the validation scenes alone make a study other than
 /// `fixtures/paper-b`'s or `fixtures/paper-b-pedestrians`'s, which it would replace (and
@@ -316,6 +315,7 @@ pub fn needs_own_out(args: &TrackingArgs) -> Option<&'static str> {
     )
 }
 
+/// Runs the target.
 pub fn run(ctx: &EvalContext, args: &TrackingArgs) -> Result<()> {
     if let Some(m) = args.start_motion {
         if !(args.validation_only || args.rc_car_development) {
