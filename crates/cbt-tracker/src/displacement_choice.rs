@@ -63,11 +63,7 @@ fn track_rmse(model: &CbtModel, run: &[TrainingFrame]) -> Result<f64, TrackError
     t.reset(run[0].states[0])?;
     let mut estimates = vec![run[0].states[0]];
     for f in &run[1..] {
-        let e = match t.step(&f.detections) {
-            Ok(e) => e,
-            Err(TrackError::OutsideGrid { .. }) => t.step(&[])?,
-            Err(e) => return Err(e),
-        };
+        let (e, _) = crate::tracker::step_on_grid(&mut t, &f.detections)?;
         estimates.push(e.position);
     }
     let truths: Vec<Option<Point>> = run.iter().map(|f| Some(f.states[0])).collect();

@@ -212,6 +212,10 @@
 //! [`KalmanTracker::set_state`] and [`KalmanTracker::correct`] (finite values), which leave the
 //! filter unchanged on an error.
 //!
+//! A detection off the grid the models were learned on is refused by [`Tracker::step`]
+//! ([`TrackError::OutsideGrid`], the tracker unchanged); [`step_on_grid`] steps on the frame's
+//! other detections instead and counts those left out, for data whose clutter may fall anywhere.
+//!
 //! ```
 //! use cbt_tracker::{sim, CbtConfig, CbtModel, CbtTracker, Space, Tracker};
 //! let level = sim::Level::preset(1);
@@ -263,4 +267,4 @@ pub use model::{CbtModel, LearnStats};
 pub use observation_smoothing::ObservationSmoothing;
 pub use smoothing::Smoothing;
 pub use space::{DEFAULT_KERNEL, Scales, Space, axis};
-pub use tracker::{Estimate, Hypothesis, Tracker};
+pub use tracker::{Estimate, Hypothesis, Tracker, step_on_grid};

@@ -52,3 +52,37 @@ pub trait Tracker {
     /// The current estimate.
     fn estimate(&self) -> Estimate;
 }
+
+/// One step of `tracker` on the detections that lie on its grid: a detection it refuses as
+/// off its grid ([`TrackError::OutsideGrid`]) is left out and the step taken again on the rest
+/// (a refused step leaves the tracker unchanged, so this is the step on the detections it can
+/// use). Returns the estimate and how many detections were left out, so that the caller can
+/// say so. A frame whose detections all lie off the grid is a step without detections; every
+/// other error is returned as it is.
+pub fn step_on_grid(
+    tracker: &mut dyn Tracker,
+    detections: &[Detection],
+) -> Result<(Estimate, usize), TrackError> {
+    let mut kept: Option<Vec<Detection>> = None;
+    loop {
+        let now = kept.as_deref().unwrap_or(detections);
+        match tracker.step(now) {
+            Ok(e) => return Ok((e, detections.len() - now.len())),
+            Err(e) => {
+                let &TrackError::OutsideGrid { x, y, .. } = &e else {
+                    return Err(e);
+                };
+                let rest: Vec<Detection> = now
+                    .iter()
+                    .filter(|d| !(d.pos[0] == x && d.pos[1] == y))
+                    .copied()
+                    .collect();
+                // Not one of the detections (e.g. the tracker's own state): the error stands.
+                if rest.len() == now.len() {
+                    return Err(e);
+                }
+                kept = Some(rest);
+            }
+        }
+    }
+}

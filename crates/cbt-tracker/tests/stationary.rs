@@ -195,6 +195,59 @@ fn posterior_window_is_a_normalised_density_and_bad_frames_change_nothing() {
     assert_eq!(t, before);
 }
 
+/// `step_on_grid` leaves out exactly the detections off the grid (the others are used: the
+/// step equals one on them alone), counts them, steps without detections when none is left,
+/// and returns any other error with the tracker unchanged; for both layouts.
+#[test]
+fn a_frame_keeps_its_detections_on_the_grid_when_others_are_off_it() {
+    for layout in [Layout::Stationary, Layout::Separable] {
+        let (model, test) = trained(
+            2,
+            CbtConfig {
+                layout,
+                ..CbtConfig::default()
+            },
+        );
+        let s = &test[0];
+        let mut t = CbtTracker::new(model);
+        t.reset(s.frames[0].truth.unwrap()).unwrap();
+        let mut dropped_total = 0;
+        for (k, f) in s.frames[1..30].iter().enumerate() {
+            // Off-grid detections mixed in on every other frame (one or two, anywhere).
+            let mut dets = f.detections.clone();
+            let off = [Detection::new(-5000.0, 3.0), Detection::new(10.0, 1e6)];
+            let n_off = k % 3;
+            for (i, d) in off[..n_off.min(2)].iter().enumerate() {
+                dets.insert(i * dets.len() / 2, *d);
+            }
+            let mut reference = t.clone();
+            let expected = reference.step(&f.detections).unwrap();
+            let (e, dropped) = cbt_tracker::step_on_grid(&mut t, &dets).unwrap();
+            assert_eq!(dropped, n_off.min(2), "{layout:?} frame {k}");
+            assert_eq!(e, expected, "{layout:?} frame {k}");
+            assert_eq!(t, reference, "{layout:?} frame {k}");
+            dropped_total += dropped;
+        }
+        assert!(dropped_total >= 20);
+        // Every detection off the grid: a step without detections.
+        let mut reference = t.clone();
+        let expected = reference.step(&[]).unwrap();
+        let off = [Detection::new(-5000.0, 3.0), Detection::new(-4000.0, 3.0)];
+        assert_eq!(
+            cbt_tracker::step_on_grid(&mut t, &off).unwrap(),
+            (expected, 2)
+        );
+        // Any other bad input is still an error, and changes nothing.
+        let before = t.clone();
+        let bad = [Detection::new(-5000.0, 3.0), Detection::new(f64::NAN, 3.0)];
+        assert!(matches!(
+            cbt_tracker::step_on_grid(&mut t, &bad),
+            Err(TrackError::NonFinite { .. })
+        ));
+        assert_eq!(t, before);
+    }
+}
+
 #[test]
 fn recovers_a_lost_track_by_uniform_mixing() {
     let (model, test) = trained(0, stationary());

@@ -549,6 +549,29 @@ fn track_one_step_equals_learn_then_run() {
         err += (r[2].parse::<f64>().unwrap() - t[0]).hypot(r[3].parse::<f64>().unwrap() - t[1]);
     }
     assert!(err / 120.0 < 6.0, "CBT mean error {}", err / 120.0);
+    // Detections outside the model's extent are left out of their frames, and said so; the
+    // frames' other detections still count (they used to be dropped with the whole frame):
+    // the same sequence with one far detection added to every other frame tracks as before.
+    let mut far = test.clone();
+    for f in far.frames.iter_mut().skip(1).step_by(2) {
+        f.detections
+            .push(cbt_tracker::Detection::new(-5000.0, 40.0));
+    }
+    let far_dir = dir.join("far");
+    std::fs::create_dir_all(&far_dir).unwrap();
+    let far_seq = cbt_tracker::csv::write(&far_dir, &far).unwrap();
+    let far_out = dir.join("far.csv");
+    let o = ok(&["track", "run", s(&model), s(&far_seq), "--out", s(&far_out)]);
+    let note = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        note.contains("60 detections outside the model's extent"),
+        "{note}"
+    );
+    let cbt_rows = |text: &str| text.lines().take(121).map(String::from).collect::<Vec<_>>();
+    assert_eq!(
+        cbt_rows(&std::fs::read_to_string(&far_out).unwrap()),
+        cbt_rows(&b)
+    );
     // A model file edited to be inconsistent is refused on loading, naming the file and the
     // field (an extent off or across the model's grid, a negative clutter rate: these used
     // to load, and ran or failed later with an error naming neither).

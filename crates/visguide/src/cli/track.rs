@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker, ParticleFilter,
-    PfModel, Point, Scales, Sequence, Space, TrackError, Tracker, axis, csv, mot, sim,
+    PfModel, Point, Scales, Sequence, Space, Tracker, axis, csv, mot, sim, step_on_grid,
 };
 use clap::{Args, Subcommand, ValueEnum};
 use visguide::models::{CBT_FORMAT, MODEL_VERSION, TrackModelFile};
@@ -294,23 +294,21 @@ fn learn(dir: &Path, input: &InputOptions) -> CliResult<(TrackModelFile, usize)>
     Ok((file, simulated))
 }
 
-fn run_one(
-    t: &mut dyn Tracker,
-    s: &Sequence,
-    start: Point,
-) -> CliResult<Vec<(Point, Option<f64>)>> {
+/// One estimate per frame: the position and the certainty (CBT only).
+type Estimates = Vec<(Point, Option<f64>)>;
+
+/// The estimates of one tracker on one sequence, and how many detections lay outside the
+/// model's grid (left out of their frames; the frames' other detections are used).
+fn run_one(t: &mut dyn Tracker, s: &Sequence, start: Point) -> CliResult<(Estimates, usize)> {
     t.reset(start)?;
     let mut out = vec![(start, None)];
+    let mut left_out = 0;
     for f in &s.frames[1..] {
-        let e = match t.step(&f.detections) {
-            Ok(e) => e,
-            // Detections off the grid count as an empty frame.
-            Err(TrackError::OutsideGrid { .. }) => t.step(&[])?,
-            Err(e) => return Err(e.into()),
-        };
+        let (e, n) = step_on_grid(t, &f.detections)?;
+        left_out += n;
         out.push((e.position, e.certainty));
     }
-    Ok(out)
+    Ok((out, left_out))
 }
 
 /// The labelled targets of one sequence file.
@@ -364,18 +362,18 @@ fn track(
     };
     let per_target = if o.baselines { 3 } else { 1 };
     let bar = ui.bar((per_target * seqs.len()) as u64, "tracking");
-    // (target, sequence, tracker name, estimates)
+    // (target, tracker name, estimates, detections left out)
     let mut runs = Vec::new();
     for (k, s) in seqs.iter().enumerate() {
         // Fresh trackers per target (the particle filter's draws restart from its seed).
         for mut t in make()? {
-            let est = run_one(t.as_mut(), s, starts[k]).map_err(|e| {
+            let (est, left_out) = run_one(t.as_mut(), s, starts[k]).map_err(|e| {
                 let label = labels[k]
                     .as_ref()
                     .map_or(String::new(), |l| format!(" {l}:"));
                 format!("{}:{label} {}: {e}", seq.display(), t.name())
             })?;
-            runs.push((k, t.name(), est));
+            runs.push((k, t.name(), est, left_out));
             bar.inc(1);
         }
     }
@@ -388,7 +386,7 @@ fn track(
         };
         let prefix = if labelled { "target," } else { "" };
         writeln!(w, "{prefix}frame,tracker,x,y,certainty").map_err(io)?;
-        for (k, name, est) in &runs {
+        for (k, name, est, _) in &runs {
             let label = labels[*k]
                 .as_ref()
                 .map_or(String::new(), |l| format!("{l},"));
@@ -408,7 +406,17 @@ fn track(
     // Notes only after success: a failed run prints one line, its error.
     input.say_simulated(simulated, "tracked sequences", ui);
     // Mean error against the truth, where the sequence has it.
-    for (k, name, est) in &runs {
+    for (k, name, est, left_out) in &runs {
+        let label = labels[*k]
+            .as_ref()
+            .map_or(String::new(), |l| format!("{l} "));
+        if *left_out > 0 {
+            let [x0, x1, y0, y1] = m.extent;
+            ui.say(format!(
+                "{label}{name}: {left_out} detections outside the model's extent \
+                 [{x0:.1}, {x1:.1}] × [{y0:.1}, {y1:.1}] were left out of their frames"
+            ));
+        }
         let errs: Vec<f64> = seqs[*k]
             .frames
             .iter()
@@ -416,9 +424,6 @@ fn track(
             .filter_map(|(f, (p, _))| f.truth.map(|t| (t[0] - p[0]).hypot(t[1] - p[1])))
             .collect();
         if !errs.is_empty() {
-            let label = labels[*k]
-                .as_ref()
-                .map_or(String::new(), |l| format!("{l} "));
             ui.say(format!(
                 "{label}{name}: {} frames, mean error to the truth {:.2}",
                 est.len(),

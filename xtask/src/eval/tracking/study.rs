@@ -7,7 +7,7 @@ use cbt_tracker::metrics::{Score, score};
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, KalmanParams, KalmanTracker,
     LearnedParticleFilter, ObservationFallback, Order, ParticleFilter, PeriodicInput, PfModel,
-    Point, Scales, Sequence, Space, TrackError, Tracker, axis,
+    Point, Scales, Sequence, Space, Tracker, axis,
 };
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -79,7 +79,8 @@ pub struct Run {
     /// Random trackers: the RMSE of each seed (empty for deterministic trackers).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub seed_rmse: Vec<f64>,
-    /// Frames whose detections the tracker rejected (off its grid) and treated as empty.
+    /// Frames with detections the tracker refused as off its grid (those were left out, the
+    /// frame's others used).
     pub rejected_frames: usize,
     /// The estimates (frame 0 = the given start; random trackers: the first seed's); not
     /// serialised.
@@ -397,14 +398,9 @@ pub fn run_one(t: &mut dyn Tracker, s: &Sequence, dims: usize, radius: f64) -> R
     let t0 = Instant::now();
     let c0 = crate::bench::thread_seconds().unwrap_or(0.0);
     for f in &frames[1..] {
-        let e = match t.step(&f.detections) {
-            Ok(e) => e,
-            Err(TrackError::OutsideGrid { .. }) => {
-                rejected += 1;
-                t.step(&[])?
-            }
-            Err(e) => return Err(format!("sequence {}: {e}", s.name).into()),
-        };
+        let (e, left_out) = cbt_tracker::step_on_grid(t, &f.detections)
+            .map_err(|e| format!("sequence {}: {e}", s.name))?;
+        rejected += usize::from(left_out > 0);
         est.push(e.position);
     }
     let seconds = t0.elapsed().as_secs_f64();

@@ -78,7 +78,8 @@ pub fn render(sets: &[SetResult], protocol: &str) -> String {
         if rejected > 0 {
             let _ = writeln!(
                 s,
-                "Frames whose detections fell off a CBT grid (treated as empty): {rejected}."
+                "Frames with detections off a CBT grid (those left out, the frame's others used): \
+                 {rejected}."
             );
         }
         let _ = writeln!(s);
