@@ -330,30 +330,11 @@ pub fn write_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Res
 mod tests {
     use super::{EvalArgs, EvalTarget, pipeline::PipelineArgs, replaces_destination, run};
 
-    /// `eval pipeline --arm` writes only to a folder the user names: without `--out`, or with
-    /// `--check`, it is refused before anything runs (it would replace or fail the fixtures of
-    /// the shipped scenes).
-    #[test]
-    fn pipeline_arm_files_need_an_output_folder_of_their_own() {
-        let args = |check: bool, out: Option<&str>| EvalArgs {
-            check,
-            data: None,
-            out: out.map(Into::into),
-            target: Some(EvalTarget::Pipeline(PipelineArgs {
-                arms: vec!["no-such-arm.json".into()],
-                ..PipelineArgs::default()
-            })),
-        };
-        for (check, out) in [(false, None), (true, None), (true, Some("somewhere"))] {
-            let e = run(&args(check, out)).unwrap_err().to_string();
-            assert!(e.contains("name a folder with --out"), "{e}");
-        }
-    }
-
     /// Every target run on something other than its fixtures' study (the user's arm file,
-    /// sequences, seed or setting) needs a folder of its own: refused before anything runs
-    /// without `--out` or with `--check`; the fixtures' own runs and the modes that only print
-    /// are not refused.
+    /// sequences, seed or setting; `eval pipeline --arm` first) needs a folder of its own:
+    /// refused before anything runs without `--out` or with `--check` (it would replace or
+    /// fail the fixtures); the fixtures' own runs and the modes that only print are not
+    /// refused.
     #[test]
     fn own_studies_need_an_output_folder_of_their_own() {
         use super::{paper_a::PaperAArgs, servo::ServoArgs, tracking::TrackingArgs};
@@ -386,6 +367,10 @@ mod tests {
             paper_a(|a| a.sequences = vec!["bikes".into()]),
             paper_a(|a| a.mser.delta = Some(5)),
             paper_a(|a| a.no_sensitivity = true),
+            EvalTarget::Pipeline(PipelineArgs {
+                arms: vec!["no-such-arm.json".into()],
+                ..PipelineArgs::default()
+            }),
         ];
         for t in &own {
             assert!(t.needs_own_out().is_some(), "{t:?}");
@@ -410,6 +395,12 @@ mod tests {
             paper_a(|a| {
                 a.sequences = ["leuven", "boat", "graf"].map(String::from).to_vec();
                 a.matches_dir = Some("pictures".into());
+            }),
+            EvalTarget::Pipeline(PipelineArgs::default()),
+            EvalTarget::Pipeline(PipelineArgs {
+                arms: vec!["mine.json".into()],
+                development: true,
+                ..PipelineArgs::default()
             }),
         ];
         for t in &fixtures {

@@ -54,7 +54,7 @@ use plant::{SimPlant, SimRobot, Truth, ideal_image_jacobian, truth};
 use servo_loop::recognition::tip_model::{MEASURED_FACE_GATE, MEASURED_SPREAD_SCALE};
 
 /// Options of `cargo xtask eval servo`.
-#[derive(Args, Clone, Debug)]
+#[derive(Args, Clone, Debug, PartialEq)]
 pub struct ServoArgs {
     /// Seed of the learner's random moves, the targets and the detection noise.
     #[arg(long, default_value_t = 2009)]
@@ -203,25 +203,20 @@ impl ServoArgs {
 /// Why the study must be written to a folder the user names, if it must: any option that
 /// changes what is studied (another arm file, seed, percept or setting) makes a study other
 /// than `fixtures/paper-c`'s, which it would replace (and `--check` fail). Development runs
-/// and the recognition diagnosis write nothing.
+/// and the recognition diagnosis write nothing. Every option counts but those of the modes
+/// that write nothing, so a setting added later is covered without being listed here.
 pub fn needs_own_out(args: &ServoArgs) -> Option<&'static str> {
     if args.development || args.diagnose_recognition {
         return None;
     }
-    let d = ServoArgs::default();
-    let own = args.arm.is_some()
-        || args.seed != d.seed
-        || args.percept != d.percept
-        || args.no_seeds
-        || args.cross_camera_choice
-        || args.face_gate.is_some()
-        || args.spread_scale.is_some()
-        || args.cap_training.is_some()
-        || args.motion_factor.is_some()
-        || args.recovery_step.is_some()
-        || args.recovery_tries.is_some()
-        || args.jacobian_at.is_some();
-    own.then_some(
+    // The development-only options (clap requires `--development` for them) do not count.
+    let study = ServoArgs {
+        dev_seeds: Vec::new(),
+        only_arms: Vec::new(),
+        dev_arms: Vec::new(),
+        ..args.clone()
+    };
+    (study != ServoArgs::default()).then_some(
         "eval servo with --arm, --seed, --percept or a setting writes a study of its own: name \
          a folder with --out (fixtures/paper-c holds the default study), and no --check",
     )
