@@ -41,8 +41,13 @@ impl Features {
 
 /// Detects the MSERs of `img` with `params` and extracts frames and contours.
 pub fn detect(img: &GrayImage, params: &MserParams) -> Result<Features> {
-    let view = GrayView::from_image(img)?;
-    let regions = mser::detect(&view, params)?;
+    detect_view(&GrayView::from_image(img)?, params)
+}
+
+/// [`detect`] on a view (e.g. a window of a larger image: the regions' coordinates are the
+/// view's).
+pub fn detect_view(view: &GrayView, params: &MserParams) -> Result<Features> {
+    let regions = mser::detect(view, params)?;
     let mut out = Features {
         frames: Vec::with_capacity(regions.len()),
         contours: Vec::with_capacity(regions.len()),
@@ -52,7 +57,7 @@ pub fn detect(img: &GrayImage, params: &MserParams) -> Result<Features> {
         let (u, v) = r.centroid();
         out.frames
             .push(from_covariance(u, v, r.moments.area_covariance())?);
-        out.contours.push(r.contour(&view)?);
+        out.contours.push(r.contour(view)?);
     }
     out.regions = regions;
     Ok(out)

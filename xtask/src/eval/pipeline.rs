@@ -119,6 +119,14 @@ pub struct PipelineArgs {
     /// library's).
     #[arg(long, requires = "development")]
     pub max_scale: Option<f64>,
+    /// With `--development`: look for the gripper only in the window around the forward
+    /// model's predicted tip (`PerceptConfig::search_window`).
+    #[arg(long, requires = "development")]
+    pub search_window: bool,
+    /// With `--search-window`: a track answering beyond the prior's floor distance from the
+    /// predicted tip starts again (`PerceptConfig::window_restarts`).
+    #[arg(long, requires = "search_window")]
+    pub window_restarts: bool,
     /// With `--development`: the development seeds to run (default 101, 102; seeds of the
     /// evaluation, 3000 and above, are refused).
     #[arg(long, requires = "development", value_delimiter = ',')]
@@ -338,6 +346,10 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     }
     if args.no_position_prior {
         protocol.percept.position_prior = false;
+    }
+    if args.search_window {
+        protocol.percept.search_window = true;
+        protocol.percept.window_restarts = args.window_restarts;
     }
     if let Some(views) = args.views {
         protocol.views = views;

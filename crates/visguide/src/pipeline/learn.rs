@@ -16,6 +16,8 @@ use super::track::{
     FdCbtRecogniser, FdRecogniser, PerceptConfig, Walk, compensated, learn_tracker,
 };
 use super::vote::Vote;
+use super::window::search_window;
+use mser::BoundingBox;
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand_distr::{Distribution, StandardUniform};
@@ -267,11 +269,13 @@ pub fn learn_by_action<R: Robot>(
                 let teacher = tips.as_ref().map(|t| t[cam].position);
                 let truth = teacher.filter(|_| taught);
                 report.track_frames += usize::from(truth.is_some());
+                let (votes, boxes) = shapes.votes_with_boxes(cam, &images[cam], None)?;
                 walk.push(RawFrame {
                     camera: cam,
                     truth,
                     teacher: teacher.filter(|_| accepted),
-                    votes: shapes.votes(cam, &images[cam])?,
+                    votes,
+                    boxes,
                     offset: offsets[cam],
                     predicted: predicted.as_ref().map(|p| p[cam]),
                 });
@@ -304,6 +308,14 @@ pub fn learn_by_action<R: Robot>(
             walk.into_iter()
                 .map(|mut f| {
                     if let (Some(prior), Some(p)) = (&prior, f.predicted) {
+                        // The votes of the regions the search window would have found.
+                        if protocol.percept.search_window
+                            && let Some(w) = search_window(&shapes, prior, f.camera, p, size)
+                        {
+                            let mut b = f.boxes.iter();
+                            f.votes
+                                .retain(|_| w.keeps(b.next().expect("one box per vote")));
+                        }
                         prior.weigh(f.camera, p, &mut f.votes)?;
                     }
                     let shifted = |p: [f64; 2]| compensated(p, f.offset, size);
@@ -353,6 +365,8 @@ struct RawFrame {
     /// the forward model ([`MotionConfig::min_teacher_certainty`]).
     teacher: Option<[f64; 2]>,
     votes: Vec<Vote>,
+    /// Per vote, its region's bounding box (for the search window, [`super::window`]).
+    boxes: Vec<BoundingBox>,
     offset: [f64; 2],
     predicted: Option<[f64; 2]>,
 }

@@ -34,6 +34,7 @@ pub mod prior;
 pub mod shapes;
 pub mod track;
 pub mod vote;
+pub mod window;
 
 pub use error::PipelineError;
 pub use learn::{ActionProtocol, LearnReport, MIN_PRIOR_FRAMES, learn_by_action};
@@ -45,3 +46,4 @@ pub use track::{
     learn_tracker,
 };
 pub use vote::{Mode, Vote, mode};
+pub use window::{SearchWindow, search_window};

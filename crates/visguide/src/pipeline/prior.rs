@@ -107,6 +107,13 @@ impl PositionPrior {
             .is_some_and(|s| WIDTH_FACTOR * s <= MAX_WIDTH_PX)
     }
 
+    /// The distance from the prediction beyond which camera `cam`'s factor is the floor `ε`:
+    /// `kσ_c √(2 ln(1/ε))` (px; `None` where the prior does not [apply](Self::applies)).
+    pub fn support_px(&self, cam: usize) -> Option<f64> {
+        self.applies(cam)
+            .then(|| WIDTH_FACTOR * self.sigma[cam] * (2.0 * (1.0 / FLOOR).ln()).sqrt())
+    }
+
     /// The factor `max(ε, exp(−d² / 2(kσ_c)²))` for a vote at `position` when the forward model
     /// predicts the tip of camera `cam` at `predicted` (the camera must be covered; 1 where the
     /// prior does not [apply](Self::applies)).

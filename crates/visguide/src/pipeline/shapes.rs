@@ -47,12 +47,13 @@
 
 use fd_match::{DescriptorConfig, DescriptorSet, Method, Sampling, best_two};
 use image::GrayImage;
-use mser::{MserParams, Polarities};
+use mser::{BoundingBox, GrayView, MserParams, Polarities};
 use serde::{Deserialize, Serialize};
 
 use super::error::{PipelineError, Result};
 use super::vote::Vote;
-use crate::features::{Features, detect};
+use super::window::SearchWindow;
+use crate::features::{Features, detect, detect_view};
 
 /// Settings of the shape model.
 #[derive(Debug, Clone, PartialEq)]
@@ -175,6 +176,8 @@ struct CameraShapes {
     background_area: Vec<f64>,
     /// The background descriptors' indices by ascending area (ties by index).
     background_by_area: Vec<usize>,
+    /// The farthest contour pixel of any stored view from its training tip (px).
+    reach: f64,
 }
 
 /// One training capture of one camera: the gripper at its servoing set-point, the same pose
@@ -288,6 +291,7 @@ impl ShapeModel {
         }
         // A "changed" region that other captures (the arm elsewhere) show unchanged at the same
         // place is part of the scene that flickered (noise, lighting), not the gripper.
+        let mut reach = vec![0.0_f64; cameras];
         for cam in 0..cameras {
             let keep: Vec<bool> = views[cam]
                 .iter()
@@ -305,6 +309,18 @@ impl ShapeModel {
                 })
                 .collect();
             report.static_dropped[cam] = keep.iter().filter(|&&k| !k).count();
+            for ((v, &(_, c)), _) in views[cam]
+                .iter()
+                .zip(&placed[cam])
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+            {
+                let tip = [c[0] + v.offset[0], c[1] + v.offset[1]];
+                for &(x, y) in &v.contour {
+                    reach[cam] =
+                        reach[cam].max((f64::from(x) - tip[0]).hypot(f64::from(y) - tip[1]));
+                }
+            }
             let mut k = keep.iter();
             views[cam].retain(|_| *k.next().expect("one flag per view"));
         }
@@ -353,6 +369,7 @@ impl ShapeModel {
                 background,
                 background_area,
                 background_by_area,
+                reach: reach[cam],
             });
         }
         Ok((
@@ -379,9 +396,39 @@ impl ShapeModel {
         self.cameras.get(cam).map_or(&[], |c| &c.views)
     }
 
+    /// The farthest contour pixel of any stored view of camera `cam` from its training tip
+    /// (px; `None` for an unknown camera): a region seen again as one of the views, at scale
+    /// `s` against it, lies within `s` times this of the tip it votes for.
+    pub fn reach(&self, cam: usize) -> Option<f64> {
+        self.cameras.get(cam).map(|c| c.reach)
+    }
+
     /// The tip votes of one image of camera `cam` (module docs), each inside the image; an
     /// empty list when nothing matched.
     pub fn votes(&self, cam: usize, img: &GrayImage) -> Result<Vec<Vote>> {
+        Ok(self.votes_with_boxes(cam, img, None)?.0)
+    }
+
+    /// The votes of the regions found in `window` of the image alone ([`super::window`]: MSER
+    /// runs on the window; a region touching one of its edges inside the image is dropped);
+    /// with `None`, [`votes`](Self::votes). The votes' positions are the image's.
+    pub fn votes_in(
+        &self,
+        cam: usize,
+        img: &GrayImage,
+        window: Option<&SearchWindow>,
+    ) -> Result<Vec<Vote>> {
+        Ok(self.votes_with_boxes(cam, img, window)?.0)
+    }
+
+    /// The votes of [`votes_in`](Self::votes_in) and, per vote, its region's bounding box in
+    /// the image's coordinates.
+    pub(crate) fn votes_with_boxes(
+        &self,
+        cam: usize,
+        img: &GrayImage,
+        window: Option<&SearchWindow>,
+    ) -> Result<(Vec<Vote>, Vec<BoundingBox>)> {
         let shapes = self
             .cameras
             .get(cam)
@@ -389,10 +436,57 @@ impl ShapeModel {
                 name: "camera",
                 reason: format!("camera {cam} of {}", self.cameras.len()),
             })?;
-        let features = detect(img, &self.config.mser)?;
-        let set = fd_match::describe_all(descriptor_config(), &features.contours)?.set;
+        if let Some(win) = window
+            && win.size != [img.width(), img.height()]
+        {
+            return Err(PipelineError::InvalidParameter {
+                name: "window",
+                reason: format!(
+                    "a window of a {}×{} image, the image is {}×{}",
+                    win.size[0],
+                    win.size[1],
+                    img.width(),
+                    img.height()
+                ),
+            });
+        }
+        let (mut features, origin) = match window.filter(|w| !w.is_whole()) {
+            None => (detect(img, &self.config.mser)?, [0, 0]),
+            Some(win) => {
+                let (w, [ew, eh]) = (img.width() as usize, win.extent());
+                let start = win.y0 as usize * w + win.x0 as usize;
+                let view = GrayView::new(&img.as_raw()[start..], ew as usize, eh as usize, w)
+                    .map_err(|e| PipelineError::InvalidParameter {
+                        name: "window",
+                        reason: e.to_string(),
+                    })?;
+                (detect_view(&view, &self.config.mser)?, [win.x0, win.y0])
+            }
+        };
+        // Back to the image's coordinates (the contours stay the window's: the descriptors
+        // do not depend on position).
+        for (f, r) in features.frames.iter_mut().zip(&mut features.regions) {
+            f.u += f64::from(origin[0]);
+            f.v += f64::from(origin[1]);
+            r.bbox.x_min += origin[0];
+            r.bbox.x_max += origin[0];
+            r.bbox.y_min += origin[1];
+            r.bbox.y_max += origin[1];
+        }
+        let used: Vec<usize> = (0..features.len())
+            .filter(|&i| window.is_none_or(|w| w.keeps(&features.regions[i].bbox)))
+            .collect();
+        let set = fd_match::describe_all(
+            descriptor_config(),
+            &used
+                .iter()
+                .map(|&i| features.contours[i].as_slice())
+                .collect::<Vec<_>>(),
+        )?
+        .set;
+        let mut boxes = Vec::new();
         if set.is_empty() {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), boxes));
         }
         let grip = best_two(&set, &shapes.grip, Method::FdCorr)?;
         let bg = best_two(&set, &shapes.background, Method::FdCorr)?;
@@ -411,7 +505,7 @@ impl ShapeModel {
             if best.error > self.config.max_error {
                 continue;
             }
-            let region = set.source(k);
+            let region = used[set.source(k)];
             let c = centre(&features, region);
             let area = f64::from(features.regions[region].area);
             // Every view's error is at least the best one's, so a background error at or
@@ -488,9 +582,10 @@ impl ShapeModel {
                     rotation,
                     region: k,
                 });
+                boxes.push(features.regions[region].bbox);
             }
         }
-        Ok(votes)
+        Ok((votes, boxes))
     }
 }
 

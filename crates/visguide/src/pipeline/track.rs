@@ -37,6 +37,7 @@ use super::motion::MotionModel;
 use super::prior::PositionPrior;
 use super::shapes::ShapeModel;
 use super::vote::{Vote, mode};
+use super::window::{SearchWindow, search_window};
 
 /// Settings of the percepts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,6 +51,13 @@ pub struct PerceptConfig {
     /// With a forward model, weigh the FD + CBT percept's votes (and its training walks') by
     /// their agreement with the forward model's predicted tip ([`super::prior`]).
     pub position_prior: bool,
+    /// Where the prior applies, look for the gripper's regions only in the window around the
+    /// predicted tip outside which every vote would weigh the prior's floor
+    /// ([`super::window`]), in tracking and in the training walks alike.
+    pub search_window: bool,
+    /// With the search window: a track whose answer lies farther from the predicted tip than
+    /// the prior's floor distance `D_c` is started again (it sees no vote there).
+    pub window_restarts: bool,
 }
 
 impl PerceptConfig {
@@ -75,6 +83,8 @@ impl Default for PerceptConfig {
             start_certainty: 0.3,
             lost_certainty: 0.05,
             position_prior: true,
+            search_window: false,
+            window_restarts: false,
         }
     }
 }
@@ -295,9 +305,14 @@ fn percept_error(e: PipelineError) -> ServoError {
     }
 }
 
-fn votes_of(shapes: &ShapeModel, cam: usize, img: &GrayImage) -> servo_loop::Result<Vec<Vote>> {
+fn votes_of(
+    shapes: &ShapeModel,
+    cam: usize,
+    img: &GrayImage,
+    window: Option<&SearchWindow>,
+) -> servo_loop::Result<Vec<Vote>> {
     shapes
-        .votes(cam, img)
+        .votes_in(cam, img, window)
         .map_err(|e| ServoError::InvalidParameter {
             name: "image",
             reason: e.to_string(),
@@ -328,7 +343,7 @@ impl Recogniser for FdRecogniser {
             .iter()
             .enumerate()
             .map(|(cam, img)| {
-                let votes = votes_of(&self.shapes, cam, img)?;
+                let votes = votes_of(&self.shapes, cam, img, None)?;
                 let m = mode(&votes, self.config.mode_sigma_px)
                     .map_err(percept_error)?
                     .ok_or(failed(cam, 0.0, 0.0))?;
@@ -475,12 +490,15 @@ impl FdCbtRecogniser {
         })
     }
 
-    /// One camera's step: start (or restart) from the vote mode, or track.
+    /// One camera's step: start (or restart) from the vote mode, or track. With a search
+    /// window, `bound` is the predicted tip and the distance `D_c` beyond which the prior has
+    /// its floor: a track answering farther away is started again (it sees no vote there).
     fn step(
         &self,
         cam: usize,
         votes: &[Vote],
         track: &mut Option<Track>,
+        bound: Option<([f64; 2], f64)>,
     ) -> servo_loop::Result<Localisation> {
         let cfg = &self.fd.config;
         let tracker_error = |e: cbt_tracker::TrackError| ServoError::InvalidParameter {
@@ -520,11 +538,14 @@ impl FdCbtRecogniser {
             .collect();
         let e = t.tracker.step(&seen).map_err(tracker_error)?;
         let certainty = e.certainty.unwrap_or(0.0).clamp(0.0, 1.0);
-        if certainty < cfg.lost_certainty {
+        let position = [e.position[0] + t.offset[0], e.position[1] + t.offset[1]];
+        let outside =
+            bound.is_some_and(|(p, d)| (position[0] - p[0]).hypot(position[1] - p[1]) > d);
+        if certainty < cfg.lost_certainty || outside {
             return start(track);
         }
         Ok(Localisation {
-            position: [e.position[0] + t.offset[0], e.position[1] + t.offset[1]],
+            position,
             certainty,
         })
     }
@@ -539,10 +560,27 @@ impl Recogniser for FdCbtRecogniser {
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
         check_images(images, &self.fd.shapes, self.fd.size)?;
+        let predicted = lock(&self.state).predicted.clone();
+        // Per camera, its search window and the bound on its track's answer (module docs).
+        let windows: Vec<Option<(SearchWindow, ([f64; 2], f64))>> = (0..images.len())
+            .map(|cam| match (&self.prior, &predicted) {
+                (Some(prior), Some(p)) if self.fd.config.search_window => {
+                    let w = search_window(&self.fd.shapes, prior, cam, p[cam], self.fd.size)?;
+                    let d = if self.fd.config.window_restarts {
+                        prior.support_px(cam)?
+                    } else {
+                        f64::INFINITY
+                    };
+                    Some((w, (p[cam], d)))
+                }
+                _ => None,
+            })
+            .collect();
         let mut votes: Vec<Vec<Vote>> = images
             .iter()
+            .zip(&windows)
             .enumerate()
-            .map(|(cam, img)| votes_of(&self.fd.shapes, cam, img))
+            .map(|(cam, (img, w))| votes_of(&self.fd.shapes, cam, img, w.as_ref().map(|w| &w.0)))
             .collect::<servo_loop::Result<_>>()?;
         let mut state = lock(&self.state);
         if let (Some(prior), Some(predicted)) = (&self.prior, &state.predicted) {
@@ -554,7 +592,7 @@ impl Recogniser for FdCbtRecogniser {
         let steps: Vec<_> = votes
             .iter()
             .enumerate()
-            .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam]))
+            .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam], windows[cam].map(|w| w.1)))
             .collect();
         steps.into_iter().collect()
     }
