@@ -8,8 +8,8 @@ use servo_loop::{
 };
 use visguide::SimRobot;
 use visguide::pipeline::{
-    ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, PositionPrior,
-    learn_by_action, mode,
+    ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, PositionPrior, Vote,
+    learn_by_action, mode, search_window,
 };
 
 use servo_loop::stats::quantile_rank;
@@ -253,7 +253,10 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
 
 /// The prior on the votes' position: learned on the default arm it applies on a camera,
 /// the notifier sets its centre to the forward model's prediction at the command, and a fresh
-/// track starts at the mode of the votes weighed by it (computed here by hand).
+/// track starts at the mode of the votes weighed by it (computed here by hand). Where it
+/// applies, the votes are those of the search window around that prediction: each is a vote of
+/// the whole image too, and no vote of the whole image that the prior weighs above its floor is
+/// missing from them.
 #[test]
 fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
     let guard = shared();
@@ -266,7 +269,7 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
     let sigma = pipeline.fd.config.mode_sigma_px;
     let robot = &mut own_arm(606);
     let mut commands = RandomCommands::new(&EXPLORE, 707).unwrap();
-    let (mut checked, mut moved_mode) = (0, 0);
+    let (mut checked, mut moved_mode, mut windowed, mut kept) = (0, 0, 0, 0);
     for _ in 0..16 {
         let y = space().full_command(&commands.next_command()).unwrap();
         robot.0.command(&y).unwrap();
@@ -284,8 +287,29 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
         };
         checked += 1;
         for cam in 0..2 {
-            let mut votes = pipeline.fd.shapes.votes(cam, &images[cam]).unwrap();
-            let plain = mode(&votes, sigma).unwrap().expect("votes");
+            let shapes = &pipeline.fd.shapes;
+            let whole = shapes.votes(cam, &images[cam]).unwrap();
+            let plain = mode(&whole, sigma).unwrap().expect("votes");
+            let window = search_window(shapes, &prior, cam, centre[cam], pipeline.fd.size);
+            assert_eq!(window.is_some(), prior.applies(cam), "camera {cam}");
+            windowed += usize::from(window.is_some_and(|w| !w.is_whole()));
+            let mut votes = shapes.votes_in(cam, &images[cam], window.as_ref()).unwrap();
+            let same = |a: &Vote, b: &Vote| {
+                dist(a.position, b.position) < 1e-9 && (a.weight - b.weight).abs() < 1e-9
+            };
+            assert!(
+                votes.iter().all(|v| whole.iter().any(|w| same(v, w))),
+                "camera {cam}: a vote of the window is not one of the whole image's"
+            );
+            for w in &whole {
+                let above =
+                    prior.factor(cam, centre[cam], w.position) > visguide::pipeline::prior::FLOOR;
+                assert!(
+                    !above || votes.iter().any(|v| same(v, w)),
+                    "camera {cam}: the window lost a vote above the prior's floor: {w:?}"
+                );
+                kept += usize::from(above);
+            }
             prior.weigh(cam, centre[cam], &mut votes).unwrap();
             let weighed = mode(&votes, sigma).unwrap().expect("votes");
             assert_eq!(got[cam].position, weighed.position, "camera {cam}");
@@ -294,9 +318,15 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
         }
     }
     eprintln!(
-        "prior: {checked} frames checked, mode moved by the prior on {moved_mode} camera frames"
+        "prior: {checked} frames checked, mode moved by the prior on {moved_mode} camera frames, \
+         {windowed} searched in a window, {kept} votes above the floor kept"
     );
     assert!(checked >= 4, "{checked} frames answered");
+    assert!(
+        windowed >= checked,
+        "the window applied on {windowed} camera frames"
+    );
+    assert!(kept >= 1, "no vote above the prior's floor");
     assert!(moved_mode >= 1, "the prior never moved a mode");
     // A prior needs a forward model and the shape model's camera count.
     let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone());

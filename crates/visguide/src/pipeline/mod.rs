@@ -25,7 +25,10 @@
 //! a prior on where the tip can be ([`prior`]): on a camera where the forward model is sharp
 //! enough, each vote's weight falls with its distance to the prediction, so that the clusters a
 //! gripper part voting with another part's offset makes, a part's length from the tip, lose to
-//! the cluster at the tip (in tracking and in the training walks alike).
+//! the cluster at the tip (in tracking and in the training walks alike). There MSER and the FD
+//! stage also run only in the window around the prediction outside which every vote would weigh
+//! the prior's floor ([`window`]; on by default, [`PerceptConfig::search_window`]): less work,
+//! and the answers change only in frames that votes of that floor weight decided.
 
 pub mod error;
 pub mod learn;

@@ -739,6 +739,87 @@ mod tests {
     }
 
     #[test]
+    fn a_window_finds_the_votes_of_the_regions_inside_it_and_its_reach_covers_them() {
+        let config = ShapeConfig {
+            mser: MserParams {
+                min_area: 30,
+                max_area: 3000,
+                ..MserParams::default()
+            },
+            max_rotation: std::f64::consts::PI,
+            ..ShapeConfig::default()
+        };
+        let (c0, a0) = ([100.0, 80.0], 0.2);
+        let (rest, moved) = (scene(c0, a0, true), scene(c0, a0, false));
+        let pair = ActionPair {
+            camera: 0,
+            rest: &rest,
+            moved: &moved,
+            tip: Some(tip(c0, a0)),
+        };
+        let (model, _) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        // The reach: the farthest pixel of the L from its tip (the bar's far end, about 45 px;
+        // contour pixel centres lie half a pixel inside the L's outline).
+        let reach = model.reach(0).unwrap();
+        assert!((40.0..46.0).contains(&reach), "reach {reach:.2}");
+        assert_eq!(model.reach(1), None);
+
+        let size = [400, 300];
+        let (c1, a1) = ([260.0, 170.0], 0.7);
+        let query = scene_with(size, Some((c1, a1, 1.0)), None);
+        type Key = ([f64; 2], f64, f64, f64);
+        let key = |v: &Vote| -> Key { (v.position, v.weight, v.error, v.rotation) };
+        // Equal up to rounding: the contours are the window's, shifted, and the descriptors'
+        // FFTs round differently in the last bits.
+        let same = |a: &[Key], b: &[Key]| {
+            let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + y.abs());
+            a.len() == b.len()
+                && a.iter().zip(b).all(|(x, y)| {
+                    close(x.0[0], y.0[0])
+                        && close(x.0[1], y.0[1])
+                        && close(x.1, y.1)
+                        && close(x.2, y.2)
+                        && close(x.3, y.3)
+                })
+        };
+        let whole: Vec<_> = model.votes(0, &query).unwrap().iter().map(key).collect();
+        assert!(!whole.is_empty());
+        let t = tip(c1, a1);
+        // A window holding the L gives the same votes (the regions' indices aside).
+        let around = SearchWindow::around(t, reach + 5.0, size).unwrap();
+        assert!(!around.is_whole());
+        let (votes, boxes) = model.votes_with_boxes(0, &query, Some(&around)).unwrap();
+        let found: Vec<Key> = votes.iter().map(key).collect();
+        assert!(same(&found, &whole), "{found:?} vs {whole:?}");
+        // Each vote's region box is the image's, inside the window.
+        assert_eq!(boxes.len(), votes.len());
+        assert!(boxes.iter().all(|b| around.keeps(b)), "{boxes:?}");
+        let (_, whole_boxes) = model.votes_with_boxes(0, &query, None).unwrap();
+        assert_eq!(boxes, whole_boxes);
+        // The whole image as a window is the whole image.
+        let all = SearchWindow::around([200.0, 150.0], 500.0, size).unwrap();
+        let w: Vec<_> = model
+            .votes_in(0, &query, Some(&all))
+            .unwrap()
+            .iter()
+            .map(key)
+            .collect();
+        assert_eq!(w, whole, "the whole image is searched as without a window");
+        // A window that cuts the L (its tip end inside, the bar's far end outside) and one
+        // away from it: no vote.
+        let cut = SearchWindow::around(t, 0.5 * reach, size).unwrap();
+        assert!(model.votes_in(0, &query, Some(&cut)).unwrap().is_empty());
+        let away = SearchWindow::around([60.0, 60.0], 40.0, size).unwrap();
+        assert!(model.votes_in(0, &query, Some(&away)).unwrap().is_empty());
+        // A window of another image size is refused.
+        let other = SearchWindow::around(t, reach, [640, 480]).unwrap();
+        assert!(matches!(
+            model.votes_in(0, &query, Some(&other)),
+            Err(PipelineError::InvalidParameter { name: "window", .. })
+        ));
+    }
+
+    #[test]
     fn a_region_votes_with_every_near_best_view_and_all_agree() {
         let config = |view_error_factor| ShapeConfig {
             mser: MserParams {

@@ -55,9 +55,6 @@ pub struct PerceptConfig {
     /// predicted tip outside which every vote would weigh the prior's floor
     /// ([`super::window`]), in tracking and in the training walks alike.
     pub search_window: bool,
-    /// With the search window: a track whose answer lies farther from the predicted tip than
-    /// the prior's floor distance `D_c` is started again (it sees no vote there).
-    pub window_restarts: bool,
 }
 
 impl PerceptConfig {
@@ -83,8 +80,7 @@ impl Default for PerceptConfig {
             start_certainty: 0.3,
             lost_certainty: 0.05,
             position_prior: true,
-            search_window: false,
-            window_restarts: false,
+            search_window: true,
         }
     }
 }
@@ -490,15 +486,12 @@ impl FdCbtRecogniser {
         })
     }
 
-    /// One camera's step: start (or restart) from the vote mode, or track. With a search
-    /// window, `bound` is the predicted tip and the distance `D_c` beyond which the prior has
-    /// its floor: a track answering farther away is started again (it sees no vote there).
+    /// One camera's step: start (or restart) from the vote mode, or track.
     fn step(
         &self,
         cam: usize,
         votes: &[Vote],
         track: &mut Option<Track>,
-        bound: Option<([f64; 2], f64)>,
     ) -> servo_loop::Result<Localisation> {
         let cfg = &self.fd.config;
         let tracker_error = |e: cbt_tracker::TrackError| ServoError::InvalidParameter {
@@ -538,14 +531,11 @@ impl FdCbtRecogniser {
             .collect();
         let e = t.tracker.step(&seen).map_err(tracker_error)?;
         let certainty = e.certainty.unwrap_or(0.0).clamp(0.0, 1.0);
-        let position = [e.position[0] + t.offset[0], e.position[1] + t.offset[1]];
-        let outside =
-            bound.is_some_and(|(p, d)| (position[0] - p[0]).hypot(position[1] - p[1]) > d);
-        if certainty < cfg.lost_certainty || outside {
+        if certainty < cfg.lost_certainty {
             return start(track);
         }
         Ok(Localisation {
-            position,
+            position: [e.position[0] + t.offset[0], e.position[1] + t.offset[1]],
             certainty,
         })
     }
@@ -560,39 +550,32 @@ impl Recogniser for FdCbtRecogniser {
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
         check_images(images, &self.fd.shapes, self.fd.size)?;
+        // The prediction at the last command: the prior's centre and the search windows'.
         let predicted = lock(&self.state).predicted.clone();
-        // Per camera, its search window and the bound on its track's answer (module docs).
-        let windows: Vec<Option<(SearchWindow, ([f64; 2], f64))>> = (0..images.len())
-            .map(|cam| match (&self.prior, &predicted) {
-                (Some(prior), Some(p)) if self.fd.config.search_window => {
-                    let w = search_window(&self.fd.shapes, prior, cam, p[cam], self.fd.size)?;
-                    let d = if self.fd.config.window_restarts {
-                        prior.support_px(cam)?
-                    } else {
-                        f64::INFINITY
-                    };
-                    Some((w, (p[cam], d)))
-                }
-                _ => None,
-            })
-            .collect();
         let mut votes: Vec<Vec<Vote>> = images
             .iter()
-            .zip(&windows)
             .enumerate()
-            .map(|(cam, (img, w))| votes_of(&self.fd.shapes, cam, img, w.as_ref().map(|w| &w.0)))
+            .map(|(cam, img)| {
+                let window = match (&self.prior, &predicted) {
+                    (Some(prior), Some(p)) if self.fd.config.search_window => {
+                        search_window(&self.fd.shapes, prior, cam, p[cam], self.fd.size)
+                    }
+                    _ => None,
+                };
+                votes_of(&self.fd.shapes, cam, img, window.as_ref())
+            })
             .collect::<servo_loop::Result<_>>()?;
-        let mut state = lock(&self.state);
-        if let (Some(prior), Some(predicted)) = (&self.prior, &state.predicted) {
+        if let (Some(prior), Some(predicted)) = (&self.prior, &predicted) {
             for (cam, v) in votes.iter_mut().enumerate() {
                 prior.weigh(cam, predicted[cam], v).map_err(percept_error)?;
             }
         }
+        let mut state = lock(&self.state);
         // Every camera's track takes the frame, also when another camera's percept fails.
         let steps: Vec<_> = votes
             .iter()
             .enumerate()
-            .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam], windows[cam].map(|w| w.1)))
+            .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam]))
             .collect();
         steps.into_iter().collect()
     }
