@@ -130,7 +130,10 @@ fn regions_every_format_matches_the_library() {
         let out = dir.join(format!("ox{threads}"));
         let o = ok(&["regions", "--threads", threads, "--out", s(&out), s(&imgs)]);
         let err = String::from_utf8(o.stderr).unwrap();
-        let pool = format!("({threads} threads in the pool, ");
+        let pool = match threads {
+            "1" => String::from("(1 thread in the pool, "),
+            n => format!("({n} threads in the pool, "),
+        };
         let at = err
             .find(&pool)
             .unwrap_or_else(|| panic!("{pool} not in {err}"));

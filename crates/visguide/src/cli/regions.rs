@@ -150,13 +150,17 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
     for (tmp, target) in &staged {
         std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
     }
+    let threads = |n: usize| match n {
+        1 => String::from("1 thread"),
+        n => format!("{n} threads"),
+    };
     ui.say(format!(
-        "{} regions in {} images → {} ({} threads in the pool, {} threads processed images)",
+        "{} regions in {} images → {} ({} in the pool, {} processed images)",
         total,
         images.len(),
         a.out.display(),
-        rayon::current_num_threads(),
-        workers.load(Ordering::Relaxed).count_ones()
+        threads(rayon::current_num_threads()),
+        threads(workers.load(Ordering::Relaxed).count_ones() as usize)
     ));
     Ok(())
 }
