@@ -112,10 +112,25 @@ macro_rules! tracker_methods {
             /// One frame: predicts, then updates with ``detections`` (``(n, 2)``, or ``(n, 3)``
             /// with weights; empty for none). Returns ``(x, y, certainty)`` (certainty ``None``
             /// for trackers without one). ``ValueError`` (state unchanged) for NaN or negative
-            /// weights.
+            /// weights, or a detection off CBT's grid (:meth:`step_on_grid` leaves those out).
             fn step(&mut self, detections: &Bound<'_, PyAny>) -> PyResult<Est> {
                 let d = rows("detections", detections, 3)?;
                 self.t.step(&d).map(|e| est(&e)).map_err(from_track)
+            }
+
+            /// As :meth:`step`, but a detection off the tracker's grid (outside the extent
+            /// its model covers; only CBT has one) is left out instead of refusing the frame,
+            /// and the frame's other detections are used. Returns ``(x, y, certainty,
+            /// left_out)``, ``left_out`` the number of detections left out. ``ValueError``
+            /// (state unchanged) for NaN or negative weights, as :meth:`step`.
+            fn step_on_grid(
+                &mut self,
+                detections: &Bound<'_, PyAny>,
+            ) -> PyResult<(f64, f64, Option<f64>, usize)> {
+                let d = rows("detections", detections, 3)?;
+                let (e, left_out) =
+                    cbt_tracker::step_on_grid(&mut self.t, &d).map_err(from_track)?;
+                Ok((e.position[0], e.position[1], e.certainty, left_out))
             }
 
             /// Resets to ``start`` and steps through ``frames`` (one detection array per frame)

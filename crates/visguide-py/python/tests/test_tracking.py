@@ -101,6 +101,35 @@ def test_cbt_round_trips(data):
     assert [c.step(d) for _, d in test[1:6]] == [cbt.step(d) for _, d in test[1:6]]
 
 
+def test_step_on_grid_leaves_out_only_the_detections_off_the_grid(data):
+    _, train, test = data
+    a = CBT.learn(train, 320.0, 240.0, spacing=10.0)
+    b = CBT.from_json(a.to_json())
+    start = tuple(test[0][0][0])
+    a.reset(start)
+    b.reset(start)
+    far = np.array([[1000.0, 1000.0, 1.0]])
+    for _, d in test[1:8]:
+        before = a.to_json()
+        with pytest.raises(ValueError):
+            a.step(np.vstack([d, far]))
+        assert a.to_json() == before
+        x, y, c, left_out = a.step_on_grid(np.vstack([d, far]))
+        assert left_out == 1
+        assert (x, y, c) == b.step(d)
+    # A frame with nothing on the grid is a step without detections.
+    assert a.step_on_grid(far) == (*b.step(np.zeros((0, 3))), 1)
+    before = a.to_json()
+    with pytest.raises(ValueError):
+        a.step_on_grid(np.array([[np.nan, 1.0]]))
+    assert a.to_json() == before
+    # Trackers without a grid leave nothing out.
+    k, k2 = make_kalman(), make_kalman()
+    k.reset(start)
+    k2.reset(start)
+    assert k.step_on_grid(far) == (*k2.step(far), 0)
+
+
 def test_bad_input(data, tmp_path):
     _, train, test = data
     k = make_kalman()

@@ -10,8 +10,9 @@
 - :class:`ParticleFilter` -- SIR particle filter with a clutter-aware likelihood (seeded).
 
 All three share ``reset((x, y))``, ``step(detections) -> (x, y, certainty)``,
-``run(start, frames) -> (T, 3) array`` (without the GIL), ``estimate()``, ``to_json`` /
-``from_json``, ``save`` / ``load`` and pickling.
+``step_on_grid(detections) -> (x, y, certainty, left_out)`` (detections off CBT's grid are left
+out and counted instead of refusing the frame), ``run(start, frames) -> (T, 3) array`` (without
+the GIL), ``estimate()``, ``to_json`` / ``from_json``, ``save`` / ``load`` and pickling.
 """
 
 from ._visguide import CBT, Kalman, ParticleFilter
