@@ -125,6 +125,10 @@ pub struct PipelineArgs {
     /// around the forward model's predicted tip (`PerceptConfig::search_window`).
     #[arg(long, requires = "development")]
     pub no_search_window: bool,
+    /// With `--development`: the search window's reach is the stored views' typical one
+    /// (`PerceptConfig::typical_reach`).
+    #[arg(long, requires = "development")]
+    pub typical_reach: bool,
     /// With `--development`: the development seeds to run (default 101, 102; seeds of the
     /// evaluation, 3000 and above, are refused).
     #[arg(long, requires = "development", value_delimiter = ',')]
@@ -352,6 +356,9 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     if args.no_search_window {
         protocol.percept.search_window = false;
     }
+    if args.typical_reach {
+        protocol.percept.typical_reach = true;
+    }
     if let Some(views) = args.views {
         protocol.views = views;
     }
@@ -370,7 +377,11 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     let window_half_px = match pipeline.prior() {
         Some(p) if protocol.percept.search_window => (0..p.num_cameras())
             .map(|c| {
-                let reach = shapes.reach(c)? * shapes.config().max_scale;
+                let reach = if protocol.percept.typical_reach {
+                    shapes.typical_reach(c)?
+                } else {
+                    shapes.reach(c)?
+                } * shapes.config().max_scale;
                 p.support_px(c).map(|d| reach + d).filter(|h| h.is_finite())
             })
             .collect(),
