@@ -290,14 +290,7 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
             let shapes = &pipeline.fd.shapes;
             let whole = shapes.votes(cam, &images[cam]).unwrap();
             let plain = mode(&whole, sigma).unwrap().expect("votes");
-            let window = search_window(
-                shapes,
-                &prior,
-                cam,
-                centre[cam],
-                pipeline.fd.size,
-                pipeline.fd.config.typical_reach,
-            );
+            let window = search_window(shapes, &prior, cam, centre[cam], pipeline.fd.size);
             assert_eq!(window.is_some(), prior.applies(cam), "camera {cam}");
             windowed += usize::from(window.is_some_and(|w| !w.is_whole()));
             let mut votes = shapes.votes_in(cam, &images[cam], window.as_ref()).unwrap();

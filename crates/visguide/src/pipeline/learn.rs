@@ -310,14 +310,7 @@ pub fn learn_by_action<R: Robot>(
                     if let (Some(prior), Some(p)) = (&prior, f.predicted) {
                         // The votes of the regions the search window would have found.
                         if protocol.percept.search_window
-                            && let Some(w) = search_window(
-                                &shapes,
-                                prior,
-                                f.camera,
-                                p,
-                                size,
-                                protocol.percept.typical_reach,
-                            )
+                            && let Some(w) = search_window(&shapes, prior, f.camera, p, size)
                         {
                             let mut b = f.boxes.iter();
                             f.votes

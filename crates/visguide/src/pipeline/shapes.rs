@@ -178,8 +178,6 @@ struct CameraShapes {
     background_by_area: Vec<usize>,
     /// The farthest contour pixel of any stored view from its training tip (px).
     reach: f64,
-    /// The same over the views whose own reach is not an outlier (Tukey's upper fence).
-    typical_reach: f64,
 }
 
 /// One training capture of one camera: the gripper at its servoing set-point, the same pose
@@ -215,23 +213,6 @@ pub struct ShapeReport {
 pub struct ShapeModel {
     config: ShapeConfig,
     cameras: Vec<CameraShapes>,
-}
-
-/// The largest of `reaches` at or below Tukey's upper fence (0 for none).
-fn typical(reaches: &[f64]) -> f64 {
-    if reaches.is_empty() {
-        return 0.0;
-    }
-    let (q1, q3) = (
-        servo_loop::stats::quantile_linear(reaches, 0.25),
-        servo_loop::stats::quantile_linear(reaches, 0.75),
-    );
-    let fence = q3 + 1.5 * (q3 - q1);
-    reaches
-        .iter()
-        .copied()
-        .filter(|&r| r <= fence)
-        .fold(0.0, f64::max)
 }
 
 fn descriptor_config() -> DescriptorConfig {
@@ -310,7 +291,7 @@ impl ShapeModel {
         }
         // A "changed" region that other captures (the arm elsewhere) show unchanged at the same
         // place is part of the scene that flickered (noise, lighting), not the gripper.
-        let mut reaches: Vec<Vec<f64>> = vec![Vec::new(); cameras];
+        let mut reach = vec![0.0_f64; cameras];
         for cam in 0..cameras {
             let keep: Vec<bool> = views[cam]
                 .iter()
@@ -335,9 +316,10 @@ impl ShapeModel {
                 .filter(|(_, k)| **k)
             {
                 let tip = [c[0] + v.offset[0], c[1] + v.offset[1]];
-                reaches[cam].push(v.contour.iter().fold(0.0_f64, |r, &(x, y)| {
-                    r.max((f64::from(x) - tip[0]).hypot(f64::from(y) - tip[1]))
-                }));
+                for &(x, y) in &v.contour {
+                    reach[cam] =
+                        reach[cam].max((f64::from(x) - tip[0]).hypot(f64::from(y) - tip[1]));
+                }
             }
             let mut k = keep.iter();
             views[cam].retain(|_| *k.next().expect("one flag per view"));
@@ -387,8 +369,7 @@ impl ShapeModel {
                 background,
                 background_area,
                 background_by_area,
-                reach: reaches[cam].iter().copied().fold(0.0, f64::max),
-                typical_reach: typical(&reaches[cam]),
+                reach: reach[cam],
             });
         }
         Ok((
@@ -420,12 +401,6 @@ impl ShapeModel {
     /// `s` against it, lies within `s` times this of the tip it votes for.
     pub fn reach(&self, cam: usize) -> Option<f64> {
         self.cameras.get(cam).map(|c| c.reach)
-    }
-
-    /// As [`reach`](Self::reach), over the stored views whose own reach lies at or below
-    /// Tukey's upper fence `q₃ + 1.5 (q₃ − q₁)` of the camera's views' reaches.
-    pub fn typical_reach(&self, cam: usize) -> Option<f64> {
-        self.cameras.get(cam).map(|c| c.typical_reach)
     }
 
     /// The tip votes of one image of camera `cam` (module docs), each inside the image; an

@@ -55,9 +55,6 @@ pub struct PerceptConfig {
     /// predicted tip outside which every vote would weigh the prior's floor
     /// ([`super::window`]), in tracking and in the training walks alike.
     pub search_window: bool,
-    /// With the search window: its reach `R_c` is the views' typical reach
-    /// ([`ShapeModel::typical_reach`], outliers left out), not the farthest.
-    pub typical_reach: bool,
 }
 
 impl PerceptConfig {
@@ -84,7 +81,6 @@ impl Default for PerceptConfig {
             lost_certainty: 0.05,
             position_prior: true,
             search_window: true,
-            typical_reach: false,
         }
     }
 }
@@ -561,14 +557,9 @@ impl Recogniser for FdCbtRecogniser {
             .enumerate()
             .map(|(cam, img)| {
                 let window = match (&self.prior, &predicted) {
-                    (Some(prior), Some(p)) if self.fd.config.search_window => search_window(
-                        &self.fd.shapes,
-                        prior,
-                        cam,
-                        p[cam],
-                        self.fd.size,
-                        self.fd.config.typical_reach,
-                    ),
+                    (Some(prior), Some(p)) if self.fd.config.search_window => {
+                        search_window(&self.fd.shapes, prior, cam, p[cam], self.fd.size)
+                    }
                     _ => None,
                 };
                 votes_of(&self.fd.shapes, cam, img, window.as_ref())

@@ -40,14 +40,8 @@ pub fn search_window(
     cam: usize,
     predicted: [f64; 2],
     size: [u32; 2],
-    typical: bool,
 ) -> Option<SearchWindow> {
-    let reach = if typical {
-        shapes.typical_reach(cam)?
-    } else {
-        shapes.reach(cam)?
-    };
-    let half = shapes.config().max_scale * reach + prior.support_px(cam)?;
+    let half = shapes.config().max_scale * shapes.reach(cam)? + prior.support_px(cam)?;
     SearchWindow::around(predicted, half, size)
 }
 
