@@ -44,6 +44,12 @@
 //! an infinite `m` matches by shape only, as before). With a finite `m` the best view overall
 //! need not pass the ratio test (it may be of another size); every voting view still must.
 //! Adopted by a rule on development seeds 119–122 (docs/methods.md, *Size-aware matching*).
+//!
+//! **In a window** ([`ShapeModel::votes_in`]): the same on the regions MSER finds in a window of
+//! the image ([`super::window`]), dropping those that touch one of its edges inside the image;
+//! the votes are in the image's coordinates. [`ShapeModel::reach`], the farthest contour pixel
+//! of any stored view from its training tip, bounds how far from the tip it votes for a region
+//! seen again as one of the views lies.
 
 use fd_match::{DescriptorConfig, DescriptorSet, Method, Sampling, best_two};
 use image::GrayImage;

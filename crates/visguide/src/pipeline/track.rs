@@ -22,7 +22,8 @@
 //! restarts the tracks from the votes. With a prior on the votes' position
 //! ([`FdCbtRecogniser::with_prior`], [`super::prior`]), the notifier also keeps the forward
 //! model's prediction at the last command, and every frame's votes are weighed by it before the
-//! tracker (or a track start) sees them.
+//! tracker (or a track start) sees them; with [`PerceptConfig::search_window`] (the default)
+//! they are the votes of the window around that prediction alone ([`super::window`]).
 
 use std::sync::{Arc, Mutex};
 
