@@ -65,6 +65,15 @@ fn learned(config: SimConfig) -> Learned {
         Some(report.motion_pairs as u64)
     );
     assert!(report.shapes.views.iter().all(|&v| v >= 20), "{report:?}");
+    // Where the prior applies, the walks keep only the votes the search window would find.
+    if pipeline
+        .prior()
+        .is_some_and(|p| (0..2).any(|c| p.applies(c)))
+    {
+        assert!(report.window_left_out > 0, "{report:?}");
+    } else {
+        assert_eq!(report.window_left_out, 0, "{report:?}");
+    }
     (robot, heuristic, pipeline)
 }
 

@@ -83,6 +83,9 @@ pub struct LearnReport {
     /// forward model or with the prior off). With fewer than [`MIN_PRIOR_FRAMES`] on a camera
     /// the percept has no prior ([`FdCbtRecogniser::prior`] is `None`).
     pub prior_frames: Vec<usize>,
+    /// Walk votes left out because their regions lie outside the search window of their frame
+    /// ([`PerceptConfig::search_window`]; 0 with it off or without a prior).
+    pub window_left_out: usize,
 }
 
 /// Fewest walk frames per camera the prior's error scale is measured on (with fewer, the
@@ -313,8 +316,10 @@ pub fn learn_by_action<R: Robot>(
                             && let Some(w) = search_window(&shapes, prior, f.camera, p, size)
                         {
                             let mut b = f.boxes.iter();
+                            let before = f.votes.len();
                             f.votes
                                 .retain(|_| w.keeps(b.next().expect("one box per vote")));
+                            report.window_left_out += before - f.votes.len();
                         }
                         prior.weigh(f.camera, p, &mut f.votes)?;
                     }
