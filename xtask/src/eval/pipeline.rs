@@ -366,13 +366,9 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     let prior_applied = pipeline.prior().map_or(Vec::new(), |p| {
         (0..p.num_cameras()).map(|c| p.applies(c)).collect()
     });
-    let shapes = &pipeline.fd.shapes;
     let window_half_px = match pipeline.prior() {
         Some(p) if protocol.percept.search_window => (0..p.num_cameras())
-            .map(|c| {
-                let reach = shapes.reach(c)? * shapes.config().max_scale;
-                p.support_px(c).map(|d| reach + d).filter(|h| h.is_finite())
-            })
+            .map(|c| visguide::pipeline::window::half_width(&pipeline.fd.shapes, p, c))
             .collect(),
         _ => Vec::new(),
     };

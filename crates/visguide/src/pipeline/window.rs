@@ -4,11 +4,13 @@
 //! The prior multiplies a vote's weight by `max(ε, exp(−d² / 2(kσ_c)²))`, `d` its distance to
 //! the predicted tip `g(y)`; beyond `D_c = kσ_c √(2 ln(1/ε))` (7.4 σ_c) every vote has the floor
 //! weight `ε`. A region that votes for a tip at `x` lies, when it is one of the stored views
-//! seen again, within `s · R` of `x`: `R` the model's reach ([`super::ShapeModel::reach`], the
-//! farthest contour pixel of any stored view from its training tip) and `s ≤ m` the region's
-//! scale against that view (size-aware matching, [`super::ShapeConfig::max_scale`]). So every
-//! region whose votes can weigh more than the floor lies within `m R + D_c` of `g(y)`: the
-//! window is that square, clipped to the image, and MSER runs on it alone.
+//! seen again, within `s · R_c` of `x`: `R_c` the camera's reach
+//! ([`super::ShapeModel::reach`], the farthest contour pixel of any stored view from its training
+//! tip) and `s ≤ m` the region's scale against that view (size-aware matching,
+//! [`super::ShapeConfig::max_scale`]). So every such region whose votes can weigh more than the
+//! floor lies within `m R_c + D_c` of `g(y)`: the window is that square, clipped to the image, and
+//! MSER runs on it alone. (A region that matches a view only loosely can reach a little
+//! farther; the arm test finds no vote above the floor lost.)
 //!
 //! A region found in the window is kept only when its bounding box touches none of the
 //! window's edges that lie inside the image: a component that reaches such an edge may go on
@@ -20,9 +22,9 @@
 //! of the whole image ([`SearchWindow::keeps`]), so the tracker learns from the votes it will
 //! see.
 //!
-//! What it changes: the votes the prior had weighed down to the floor are gone, so a frame
-//! whose every vote lies far from the prediction has no vote at all (it used to be decided by
-//! those floor-weighted votes alone). What it saves: MSER, contours and descriptors of the rest
+//! What it changes: the votes of the regions outside the window, which the prior weighed down to
+//! its floor, are gone, so a frame whose every vote lies far from the prediction has no vote at
+//! all (it used to be decided by those floor-weighted votes alone). What it saves: MSER, contours and descriptors of the rest
 //! of the image, the percept's largest costs (docs/performance.md, *visguide pipeline*).
 //! Adopted as the default by a rule on development seeds 125–128 (docs/methods.md, *A window
 //! the training walks share*): on the default scene a third of the cost, the same servo. Where
@@ -34,10 +36,17 @@ use mser::BoundingBox;
 use super::prior::PositionPrior;
 use super::shapes::ShapeModel;
 
-/// The window of camera `cam` when the forward model predicts its tip at `predicted` (module
-/// docs): half-width `m R + D_c` around it, on an image of `size`. `None` (search the whole
-/// image) where the prior does not apply to the camera, the shape model matches by shape only
-/// (`m` infinite), the camera is unknown, or the prediction is not finite.
+/// The half-width `m R_c + D_c` (px) of camera `cam`'s window (module docs); `None` (search
+/// the whole image) where the prior does not apply to the camera, the shape model matches by
+/// shape only (`m` infinite) or the camera is unknown.
+pub fn half_width(shapes: &ShapeModel, prior: &PositionPrior, cam: usize) -> Option<f64> {
+    Some(shapes.config().max_scale * shapes.reach(cam)? + prior.support_px(cam)?)
+        .filter(|h| h.is_finite())
+}
+
+/// The window of camera `cam` when the forward model predicts its tip at `predicted`: the
+/// square of [`half_width`] around it, on an image of `size`. `None` (search the whole image)
+/// where there is no half-width or the prediction is not finite.
 pub fn search_window(
     shapes: &ShapeModel,
     prior: &PositionPrior,
@@ -45,8 +54,7 @@ pub fn search_window(
     predicted: [f64; 2],
     size: [u32; 2],
 ) -> Option<SearchWindow> {
-    let half = shapes.config().max_scale * shapes.reach(cam)? + prior.support_px(cam)?;
-    SearchWindow::around(predicted, half, size)
+    SearchWindow::around(predicted, half_width(shapes, prior, cam)?, size)
 }
 
 /// A window of an image of `size` pixels: columns `x0..x1`, rows `y0..y1` (half-open).
