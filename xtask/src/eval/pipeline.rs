@@ -820,29 +820,30 @@ fn seeds_counted(r: &ServoRow) -> String {
     }
 }
 
+/// Per scene with any, `scene: cell 0, cell 1, …` of its cameras' cells.
+fn per_camera(s: &Summary, cells: impl Fn(&SceneLearning) -> Vec<String>) -> Vec<String> {
+    s.learning
+        .iter()
+        .filter_map(|l| {
+            let cams = cells(l);
+            (!cams.is_empty()).then(|| format!("{}: {}", l.scene, cams.join(", ")))
+        })
+        .collect()
+}
+
 /// What the prior on the votes' position did per scene.
 fn prior_sentence(s: &Summary) -> String {
-    let scenes: Vec<String> = s
-        .learning
-        .iter()
-        .filter(|l| !l.prior_sigma_px.is_empty())
-        .map(|l| {
-            let cams: Vec<String> = l
-                .prior_sigma_px
-                .iter()
-                .zip(&l.prior_applied)
-                .enumerate()
-                .map(|(c, (sigma, on))| {
-                    format!(
-                        "camera {c} σ {} px{}",
-                        fmt(*sigma),
-                        if *on { "" } else { " (not applied)" }
-                    )
-                })
-                .collect();
-            format!("{}: {}", l.scene, cams.join(", "))
-        })
-        .collect();
+    let scenes = per_camera(s, |l| {
+        l.prior_sigma_px
+            .iter()
+            .zip(&l.prior_applied)
+            .enumerate()
+            .map(|(c, (sigma, on))| {
+                let off = if *on { "" } else { " (not applied)" };
+                format!("camera {c} σ {} px{off}", fmt(*sigma))
+            })
+            .collect()
+    });
     if scenes.is_empty() {
         return String::from("No prior on the votes' position.");
     }
@@ -857,23 +858,16 @@ fn prior_sentence(s: &Summary) -> String {
 
 /// Where the FD + CBT percept searched, per scene (empty without a search window).
 fn window_sentence(s: &Summary) -> String {
-    let scenes: Vec<String> = s
-        .learning
-        .iter()
-        .filter(|l| !l.window_half_px.is_empty())
-        .map(|l| {
-            let cams: Vec<String> = l
-                .window_half_px
-                .iter()
-                .enumerate()
-                .map(|(c, h)| match h {
-                    Some(h) => format!("camera {c} {} px", fmt(*h)),
-                    None => format!("camera {c} the whole image"),
-                })
-                .collect();
-            format!("{}: {}", l.scene, cams.join(", "))
-        })
-        .collect();
+    let scenes = per_camera(s, |l| {
+        l.window_half_px
+            .iter()
+            .enumerate()
+            .map(|(c, h)| match h {
+                Some(h) => format!("camera {c} {} px", fmt(*h)),
+                None => format!("camera {c} the whole image"),
+            })
+            .collect()
+    });
     if scenes.is_empty() {
         return String::new();
     }
@@ -1028,6 +1022,33 @@ mod tests {
             percepts,
             servo,
         }
+    }
+
+    /// The fixture's sentences on the prior and the search window name each scene's cameras
+    /// (scenes without either are left out, and without any the window sentence is empty).
+    #[test]
+    fn the_prior_and_window_sentences_name_every_camera() {
+        let mut s = summary(Vec::new(), Vec::new());
+        assert_eq!(prior_sentence(&s), "No prior on the votes' position.");
+        assert_eq!(window_sentence(&s), "");
+        s.learning[0].prior_sigma_px = vec![5.364, 20.0];
+        s.learning[0].prior_applied = vec![true, false];
+        s.learning[0].window_half_px = vec![Some(210.847), None];
+        let prior = prior_sentence(&s);
+        assert!(
+            prior.starts_with(
+                "The votes are weighed by their agreement with the forward model's predicted \
+                 tip, on a camera whose learned error scale σ makes the prior at most 20 px wide \
+                 (`visguide::pipeline::prior`): default: camera 0 σ 5.36 px, camera 1 σ 20.00 px \
+                 (not applied). Where the prior applies,"
+            ),
+            "{prior}"
+        );
+        assert!(
+            prior.ends_with(": default: camera 0 210.85 px, camera 1 the whole image."),
+            "{prior}"
+        );
+        assert!(!prior.contains("hard"), "{prior}");
     }
 
     /// A development run refuses the held-out shipped arms, under their own name or a copy's,

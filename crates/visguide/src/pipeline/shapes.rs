@@ -691,8 +691,12 @@ mod tests {
         [centre[0] + c * u - s * v, centre[1] + s * u + c * v]
     }
 
-    #[test]
-    fn a_rotated_shifted_view_votes_for_the_rotated_tip() {
+    /// The training pose of [`one_l_model`]'s L.
+    const L0: ([f64; 2], f64) = ([100.0, 80.0], 0.2);
+
+    /// The shape model of one L at pose [`L0`] (small regions, any rotation), its report and
+    /// the training image with the L.
+    fn one_l_model() -> (ShapeModel, ShapeReport, GrayImage) {
         let config = ShapeConfig {
             mser: MserParams {
                 min_area: 30,
@@ -702,9 +706,8 @@ mod tests {
             max_rotation: std::f64::consts::PI,
             ..ShapeConfig::default()
         };
-        let (c0, a0) = ([100.0, 80.0], 0.2);
-        let rest = scene(c0, a0, true);
-        let moved = scene(c0, a0, false);
+        let (c0, a0) = L0;
+        let (rest, moved) = (scene(c0, a0, true), scene(c0, a0, false));
         let pair = ActionPair {
             camera: 0,
             rest: &rest,
@@ -712,6 +715,13 @@ mod tests {
             tip: Some(tip(c0, a0)),
         };
         let (model, report) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        (model, report, rest)
+    }
+
+    #[test]
+    fn a_rotated_shifted_view_votes_for_the_rotated_tip() {
+        let (c0, a0) = L0;
+        let (model, report, rest) = one_l_model();
         assert!(
             report.views[0] >= 1 && report.background[0] >= 1,
             "{report:?}"
@@ -746,24 +756,7 @@ mod tests {
 
     #[test]
     fn a_window_finds_the_votes_of_the_regions_inside_it_and_its_reach_covers_them() {
-        let config = ShapeConfig {
-            mser: MserParams {
-                min_area: 30,
-                max_area: 3000,
-                ..MserParams::default()
-            },
-            max_rotation: std::f64::consts::PI,
-            ..ShapeConfig::default()
-        };
-        let (c0, a0) = ([100.0, 80.0], 0.2);
-        let (rest, moved) = (scene(c0, a0, true), scene(c0, a0, false));
-        let pair = ActionPair {
-            camera: 0,
-            rest: &rest,
-            moved: &moved,
-            tip: Some(tip(c0, a0)),
-        };
-        let (model, _) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        let (model, _, _) = one_l_model();
         // The reach: the farthest pixel of the L from its tip (the bar's far end, about 45 px;
         // contour pixel centres lie half a pixel inside the L's outline).
         let reach = model.reach(0).unwrap();
