@@ -101,6 +101,39 @@ impl Moments {
         Ok(m)
     }
 
+    /// The moments of the same pixels moved by `(dx, dy)`: `Σ(x+dx) = Σx + n·dx`,
+    /// `Σ(x+dx)² = Σx² + 2dx·Σx + n·dx²`, `Σ(x+dx)(y+dy) = Σxy + dy·Σx + dx·Σy + n·dx·dy`.
+    /// Errors ([`MserError::InvalidParameter`] `offset`): sums that overflow `u64`.
+    pub fn translated(&self, dx: u32, dy: u32) -> Result<Self> {
+        let (dx, dy) = (u64::from(dx), u64::from(dy));
+        let m = self;
+        let next = (|| {
+            let mul = u64::checked_mul;
+            Some(Moments {
+                n: m.n,
+                sx: m.sx.checked_add(mul(m.n, dx)?)?,
+                sy: m.sy.checked_add(mul(m.n, dy)?)?,
+                sxx: m
+                    .sxx
+                    .checked_add(mul(mul(2, dx)?, m.sx)?)?
+                    .checked_add(mul(m.n, mul(dx, dx)?)?)?,
+                sxy: m
+                    .sxy
+                    .checked_add(mul(dy, m.sx)?)?
+                    .checked_add(mul(dx, m.sy)?)?
+                    .checked_add(mul(m.n, mul(dx, dy)?)?)?,
+                syy: m
+                    .syy
+                    .checked_add(mul(mul(2, dy)?, m.sy)?)?
+                    .checked_add(mul(m.n, mul(dy, dy)?)?)?,
+            })
+        })();
+        next.ok_or_else(|| MserError::InvalidParameter {
+            name: "offset",
+            reason: format!("moments moved by ({dx}, {dy}) overflow u64"),
+        })
+    }
+
     /// Centroid `(x̄, ȳ)` (first moments over the area).
     pub fn centroid(&self) -> (f64, f64) {
         let n = self.n as f64;
@@ -213,6 +246,31 @@ pub struct Region {
 }
 
 impl Region {
+    /// The region as found in a window of a larger image whose top-left pixel is `(dx, dy)`
+    /// there, in the larger image's coordinates: seed, bounding box and moments moved (level,
+    /// area and stability unchanged). Its pixels and contour are then those of the larger image
+    /// ([`pixels`](Self::pixels) and [`contour`](Self::contour) on it).
+    /// Errors ([`MserError::InvalidParameter`] `offset`): coordinates or moments that overflow.
+    pub fn translated(&self, dx: u32, dy: u32) -> Result<Region> {
+        let overflow = || MserError::InvalidParameter {
+            name: "offset",
+            reason: format!("a region moved by ({dx}, {dy}) leaves the u32 coordinates"),
+        };
+        let x = |v: u32| v.checked_add(dx).ok_or_else(overflow);
+        let y = |v: u32| v.checked_add(dy).ok_or_else(overflow);
+        Ok(Region {
+            seed: (x(self.seed.0)?, y(self.seed.1)?),
+            bbox: BoundingBox {
+                x_min: x(self.bbox.x_min)?,
+                y_min: y(self.bbox.y_min)?,
+                x_max: x(self.bbox.x_max)?,
+                y_max: y(self.bbox.y_max)?,
+            },
+            moments: self.moments.translated(dx, dy)?,
+            ..self.clone()
+        })
+    }
+
     /// Centroid `(x̄, ȳ)`.
     pub fn centroid(&self) -> (f64, f64) {
         self.moments.centroid()

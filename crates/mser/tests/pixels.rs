@@ -81,3 +81,71 @@ fn parallel_pixel_lists_equal_sequential() {
         }
     }
 }
+
+/// `Region::translated`: a region found in a window of a larger image and moved by the
+/// window's corner is the larger image's region there: the same pixels (flooded on the larger
+/// image), contour and moments, for every region that does not touch the window's edges; a
+/// move past the `u32` coordinates is an error.
+#[test]
+fn a_region_found_in_a_window_moved_to_the_image_is_the_images_region() {
+    // Discs of several sizes and grey levels on a mid-grey ground, some cut by the window.
+    let (w, h) = (90usize, 70usize);
+    let px: Vec<u8> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let (cx, cy) = (x / 12 * 12 + 6, y / 12 * 12 + 6);
+            let k = (x / 12 + 7 * (y / 12)) as u8;
+            let r2 = 6 + i64::from(k % 4) * 6;
+            if (x - cx).pow(2) + (y - cy).pow(2) <= r2 {
+                if k.is_multiple_of(2) {
+                    40 + 10 * (k % 5)
+                } else {
+                    200 + 10 * (k % 5)
+                }
+            } else {
+                128
+            }
+        })
+        .collect();
+    let full = GrayView::packed(&px, w, h).unwrap();
+    let (x0, y0, ww, wh) = (17usize, 11usize, 60usize, 45usize);
+    let window = GrayView::new(&px[y0 * w + x0..], ww, wh, w).unwrap();
+    let p = MserParams {
+        min_area: 5,
+        max_area: 300,
+        min_diversity: 0.0,
+        polarities: Polarities::Both,
+        ..MserParams::default()
+    };
+    let mut checked = 0;
+    for r in mser::detect(&window, &p).unwrap() {
+        let b = r.bbox;
+        if b.x_min == 0 || b.y_min == 0 || b.x_max + 1 == ww as u32 || b.y_max + 1 == wh as u32 {
+            continue;
+        }
+        let moved = r.translated(x0 as u32, y0 as u32).unwrap();
+        let shift = |v: Vec<(u32, u32)>| -> Vec<(u32, u32)> {
+            v.into_iter()
+                .map(|(x, y)| (x + x0 as u32, y + y0 as u32))
+                .collect()
+        };
+        let pixels = moved.pixels(&full).unwrap();
+        assert_eq!(pixels, sorted(&shift(r.pixels(&window).unwrap())), "{r:?}");
+        assert_eq!(
+            moved.contour(&full).unwrap(),
+            shift(r.contour(&window).unwrap())
+        );
+        assert_eq!(moved.moments, mser::Moments::of_pixels(&pixels).unwrap());
+        assert_eq!(
+            (moved.level, moved.area, moved.variation, moved.polarity),
+            (r.level, r.area, r.variation, r.polarity)
+        );
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked} regions inside the window");
+    let r = mser::detect(&window, &p).unwrap().remove(0);
+    assert!(matches!(
+        r.translated(u32::MAX, 0),
+        Err(mser::MserError::InvalidParameter { name: "offset", .. })
+    ));
+}

@@ -189,24 +189,6 @@ fn points<'py>(py: Python<'py>, pts: &[(u32, u32)], off: u32) -> PyResult<Py<PyA
     Ok(arr.unbind())
 }
 
-/// `r` detected on the image without its outer pixel ring, in full-image coordinates.
-fn shifted(r: &mser::Region) -> mser::Region {
-    let mut r = r.clone();
-    let m = &mut r.moments;
-    // Σ(x+1)² = Σx² + 2Σx + n, Σ(x+1)(y+1) = Σxy + Σx + Σy + n.
-    m.sxx += 2 * m.sx + m.n;
-    m.syy += 2 * m.sy + m.n;
-    m.sxy += m.sx + m.sy + m.n;
-    m.sx += m.n;
-    m.sy += m.n;
-    r.seed = (r.seed.0 + 1, r.seed.1 + 1);
-    r.bbox.x_min += 1;
-    r.bbox.y_min += 1;
-    r.bbox.x_max += 1;
-    r.bbox.y_max += 1;
-    r
-}
-
 /// The parameters: `preset`, then the keyword arguments that name a parameter (`caller` names
 /// the function in the `TypeError` for any other keyword).
 pub(crate) fn params_from(
@@ -325,7 +307,13 @@ pub fn detect(
         .into_iter()
         .map(|(r, pix, con)| {
             Ok(PyRegion {
-                r: if off == 1 { shifted(&r) } else { r },
+                // Detected on the image without its outer pixel ring: in full-image
+                // coordinates.
+                r: if off == 0 {
+                    r
+                } else {
+                    r.translated(off, off).map_err(from_mser)?
+                },
                 pixels: pix.map(|v| points(py, &v, off)).transpose()?,
                 contour: con.map(|v| points(py, &v, off)).transpose()?,
             })

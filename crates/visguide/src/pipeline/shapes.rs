@@ -471,13 +471,14 @@ impl ShapeModel {
         };
         // Back to the image's coordinates (the contours stay the window's: the descriptors
         // do not depend on position).
-        for (f, r) in features.frames.iter_mut().zip(&mut features.regions) {
-            f.u += f64::from(origin[0]);
-            f.v += f64::from(origin[1]);
-            r.bbox.x_min += origin[0];
-            r.bbox.x_max += origin[0];
-            r.bbox.y_min += origin[1];
-            r.bbox.y_max += origin[1];
+        if origin != [0, 0] {
+            for (f, r) in features.frames.iter_mut().zip(&mut features.regions) {
+                f.u += f64::from(origin[0]);
+                f.v += f64::from(origin[1]);
+                *r = r
+                    .translated(origin[0], origin[1])
+                    .map_err(crate::VisguideError::from)?;
+            }
         }
         let used: Vec<usize> = (0..features.len())
             .filter(|&i| window.is_none_or(|w| w.keeps(&features.regions[i].bbox)))
