@@ -65,6 +65,36 @@ impl<'a> GrayView<'a> {
         Self::packed(img.as_raw(), img.width() as usize, img.height() as usize)
     }
 
+    /// The window of `width × height` pixels whose top-left pixel is `(x0, y0)` here, as a view
+    /// of the same buffer (no copy): its pixel `(x, y)` is this view's `(x0 + x, y0 + y)`. A
+    /// region detected on it is moved back with [`Region::translated`](crate::Region::translated).
+    ///
+    /// ```
+    /// let pixels = [0u8, 1, 2, 3, 4, 5, 6, 7, 8];
+    /// let img = mser::GrayView::packed(&pixels, 3, 3).unwrap();
+    /// let w = img.window(1, 1, 2, 2).unwrap();
+    /// assert_eq!((w.get(0, 0), w.get(1, 1)), (4, 8));
+    /// assert!(img.window(2, 0, 2, 1).is_err()); // reaches past the right edge
+    /// ```
+    ///
+    /// Errors: an empty window ([`MserError::EmptyImage`]) or one that does not lie inside this
+    /// view ([`MserError::InvalidParameter`] `window`).
+    pub fn window(&self, x0: usize, y0: usize, width: usize, height: usize) -> Result<Self> {
+        let inside = x0.checked_add(width).is_some_and(|x1| x1 <= self.width)
+            && y0.checked_add(height).is_some_and(|y1| y1 <= self.height);
+        if width > 0 && height > 0 && !inside {
+            return Err(MserError::InvalidParameter {
+                name: "window",
+                reason: format!(
+                    "{width}×{height} at ({x0}, {y0}) does not lie in a {}×{} image",
+                    self.width, self.height
+                ),
+            });
+        }
+        let start = if inside { y0 * self.stride + x0 } else { 0 };
+        Self::new(&self.data[start..], width, height, self.stride)
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> usize {
         self.width

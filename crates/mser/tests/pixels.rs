@@ -109,7 +109,8 @@ fn a_region_found_in_a_window_moved_to_the_image_is_the_images_region() {
         .collect();
     let full = GrayView::packed(&px, w, h).unwrap();
     let (x0, y0, ww, wh) = (17usize, 11usize, 60usize, 45usize);
-    let window = GrayView::new(&px[y0 * w + x0..], ww, wh, w).unwrap();
+    let window = full.window(x0, y0, ww, wh).unwrap();
+    assert_eq!(window.get(3, 2), full.get(x0 + 3, y0 + 2));
     let p = MserParams {
         min_area: 5,
         max_area: 300,

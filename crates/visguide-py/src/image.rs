@@ -49,12 +49,4 @@ impl Pixels<'_> {
             Pixels::Copied(v) => mser::GrayView::packed(v, w, h),
         }
     }
-
-    /// The bytes from the first pixel on.
-    pub fn data(&self) -> &[u8] {
-        match self {
-            Pixels::Borrowed { data, .. } => data,
-            Pixels::Copied(v) => v,
-        }
-    }
 }

@@ -278,10 +278,7 @@ pub fn detect(
         if w < 3 || h < 3 {
             return Ok(Vec::new());
         }
-        let stride = full.stride();
-        let inner = mser::GrayView::new(&px.data()[stride + 1..], w - 2, h - 2, stride)
-            .map_err(from_mser)?;
-        (inner, 1)
+        (full.window(1, 1, w - 2, h - 2).map_err(from_mser)?, 1)
     } else {
         (full, 0)
     };

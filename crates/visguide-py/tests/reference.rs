@@ -101,7 +101,7 @@ fn mser_cases(px: &[u8]) -> Value {
         );
     }
     // The image without its outer ring (what OpenCV 4.x floods), pixels in full-image coordinates.
-    let inner = mser::GrayView::new(&px[W + 1..], W - 2, H - 2, W).unwrap();
+    let inner = img.window(1, 1, W - 2, H - 2).unwrap();
     let rs = mser::detect(&inner, &small).unwrap();
     let sets: Vec<Value> = rs
         .iter()

@@ -459,9 +459,11 @@ impl ShapeModel {
         let (mut features, origin) = match window.filter(|w| !w.is_whole()) {
             None => (detect(img, &self.config.mser)?, [0, 0]),
             Some(win) => {
-                let (w, [ew, eh]) = (img.width() as usize, win.extent());
-                let start = win.y0 as usize * w + win.x0 as usize;
-                let view = GrayView::new(&img.as_raw()[start..], ew as usize, eh as usize, w)
+                let [ew, eh] = win.extent();
+                let view = GrayView::from_image(img)
+                    .and_then(|v| {
+                        v.window(win.x0 as usize, win.y0 as usize, ew as usize, eh as usize)
+                    })
                     .map_err(|e| PipelineError::InvalidParameter {
                         name: "window",
                         reason: e.to_string(),
