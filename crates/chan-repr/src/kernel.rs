@@ -61,6 +61,14 @@ impl Kernel {
                 reason: "π/a must be an integer for exact local decoding",
             });
         }
+        // `as u32` saturates: a tiny `a` would silently become `m = u32::MAX`.
+        if rounded > f64::from(u32::MAX) {
+            return Err(ChanError::InvalidParameter {
+                name: "a",
+                value: a,
+                reason: "π/a is too large for a channel window (at most u32::MAX)",
+            });
+        }
         let kernel = Kernel::Cos2 { m: rounded as u32 };
         kernel.validate()?;
         Ok(kernel)

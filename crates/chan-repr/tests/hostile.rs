@@ -149,3 +149,22 @@ fn histogram_totals_must_match_their_coefficients() {
     let json = serde_json::to_string(&h).unwrap().replace("2.5", "9.5");
     assert!(serde_json::from_str::<chan_repr::SoftHistogram>(&json).is_err());
 }
+
+#[test]
+fn cos2_from_a_refuses_windows_beyond_u32() {
+    // π/a = 2³² (or 3e300 for a = 1e-300) used to saturate silently to m = u32::MAX.
+    for a in [std::f64::consts::PI / 4_294_967_296.0, 1e-300] {
+        assert!(
+            matches!(
+                Kernel::cos2_from_a(a),
+                Err(ChanError::InvalidParameter { name: "a", .. })
+            ),
+            "a = {a}: {:?}",
+            Kernel::cos2_from_a(a)
+        );
+    }
+    assert_eq!(
+        Kernel::cos2_from_a(std::f64::consts::PI / 4_294_967_295.0),
+        Ok(Kernel::Cos2 { m: u32::MAX })
+    );
+}
