@@ -35,6 +35,18 @@ pub enum TrackError {
         /// Why it is invalid.
         reason: &'static str,
     },
+    /// A grid on which the layout's dense tables would not fit in memory
+    /// ([`crate::MAX_MODEL_VALUES`]; module `footprint`).
+    #[error(
+        "the {layout:?} layout would hold about {values:.2e} numbers on this grid (at most \
+         2^28, 2 GiB): choose a coarser spacing, a smaller extent or the stationary layout"
+    )]
+    ModelTooLarge {
+        /// The layout asked for.
+        layout: crate::Layout,
+        /// Its estimated number of `f64`-sized values.
+        values: f64,
+    },
     /// A NaN or infinite coordinate or weight.
     #[error("non-finite {what}: {value}")]
     NonFinite {
@@ -86,7 +98,7 @@ pub enum TrackError {
     Io {
         /// The file or folder.
         path: PathBuf,
-        /// The operating system's message.
+        /// The operating system's message, or why the path was refused.
         reason: String,
     },
 }

@@ -73,6 +73,10 @@
 //!   the cells the training data touched; their size and a step's cost grow with those cells
 //!   and the posterior's support, so keep the grid small.
 //!
+//! Learning refuses a dense layout whose tables would exceed [`MAX_MODEL_VALUES`] (2²⁸
+//! numbers, 2 GiB) with [`TrackError::ModelTooLarge`], before allocating them: the separable
+//! second order reaches it at about 500 channels per axis.
+//!
 //! ## Which settings
 //! - **Image tracking**: [`CbtConfig::stationary`] (second order, constant-velocity
 //!   fallback for thinly trained velocity columns, `α = 10`) on a grid of spacing
@@ -240,6 +244,7 @@ mod dense;
 pub mod displacement_choice;
 mod encode;
 mod error;
+mod footprint;
 mod history;
 mod input;
 mod integrity;
@@ -263,6 +268,7 @@ pub use config::{
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use displacement_choice::DisplacementChoice;
 pub use error::TrackError;
+pub use footprint::MAX_MODEL_VALUES;
 pub use model::{CbtModel, LearnStats};
 pub use observation_smoothing::ObservationSmoothing;
 pub use smoothing::Smoothing;

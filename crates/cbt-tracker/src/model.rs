@@ -202,6 +202,7 @@ impl CbtModel {
         r: usize,
     ) -> Result<Self, TrackError> {
         config.validate()?;
+        crate::footprint::check(&space, &config)?;
         let dims = space.dims();
         let (obs, sys) = match config.layout {
             Layout::Separable => {
@@ -267,6 +268,8 @@ impl CbtModel {
         sequences: &[Vec<TrainingFrame>],
     ) -> Result<Self, TrackError> {
         let mut config = config;
+        // Before the selections below, which build models of this size too.
+        crate::footprint::check(&space, &config)?;
         if config.displacements == Displacements::Selected {
             config.validate()?;
             config.displacements = displacement_choice::select(&space, &config, sequences)?.pick;

@@ -217,9 +217,12 @@ pub struct Scales {
 
 impl Scales {
     /// Estimates the scales from training sequences with ground truth.
-    /// `extent` must be finite and positive.
+    /// `extent` must be finite and positive, and every truth and detection coordinate finite
+    /// ([`TrackError::NonFinite`]); scales that overflow are
+    /// [`TrackError::InvalidParameter`] errors.
     pub fn estimate(train: &[Sequence], extent: f64) -> Result<Scales, TrackError> {
         positive("extent", extent)?;
+        crate::data::check_sequences(train)?;
         let mut acc = Vec::new();
         let mut res = Vec::new();
         for s in train {
@@ -257,6 +260,9 @@ impl Scales {
             res.sort_by(f64::total_cmp);
             1.4826 * res[res.len() / 2]
         };
+        // Finite coordinates can still overflow (a jump of 1e300 squares to ∞).
+        non_negative("accel", accel)?;
+        non_negative("noise", noise)?;
         Ok(Scales { accel, noise })
     }
 

@@ -69,12 +69,18 @@ pub fn step_on_grid(
         match tracker.step(now) {
             Ok(e) => return Ok((e, detections.len() - now.len())),
             Err(e) => {
-                let &TrackError::OutsideGrid { x, y, .. } = &e else {
+                let &TrackError::OutsideGrid {
+                    x, y, lo_y, hi_y, ..
+                } = &e
+                else {
                     return Err(e);
                 };
+                // In 1-D the error reports y = 0 and a second axis [0, 0] (a real axis has
+                // hi > lo), whatever the detection's unused y: match on x alone there.
+                let one_d = lo_y == 0.0 && hi_y == 0.0 && y == 0.0;
                 let rest: Vec<Detection> = now
                     .iter()
-                    .filter(|d| !(d.pos[0] == x && d.pos[1] == y))
+                    .filter(|d| !(d.pos[0] == x && (one_d || d.pos[1] == y)))
                     .copied()
                     .collect();
                 // Not one of the detections (e.g. the tracker's own state): the error stands.

@@ -208,6 +208,15 @@ fn negative_and_non_finite_numbers_are_errors() {
     let mut v = to_value(&pf);
     v["weights"].as_array_mut().unwrap().pop();
     assert!(corrupt::<ParticleFilter>(&v).contains("weights"));
+    // Weights that do not sum to 1 (all zero gave a step without detections the estimate
+    // (0, 0)).
+    for w in [0.0, 0.5] {
+        let mut v = to_value(&pf);
+        for x in v["weights"].as_array_mut().unwrap() {
+            *x = Value::from(w);
+        }
+        assert!(corrupt::<ParticleFilter>(&v).contains("sum to"));
+    }
     let mut v = to_value(&pf);
     v["particles"] = Value::Array(Vec::new());
     assert!(corrupt::<ParticleFilter>(&v).contains("particles"));
@@ -224,6 +233,10 @@ fn negative_and_non_finite_numbers_are_errors() {
     let mut v = to_value(&kf);
     v["params"]["meas_sigma"] = Value::from(-2.0);
     assert!(corrupt::<KalmanTracker>(&v).contains("meas_sigma"));
+    // A negative variance, which `set_state` refuses, used to be accepted on reading.
+    let mut v = to_value(&kf);
+    v["p"][5] = Value::from(-4.0);
+    assert!(corrupt::<KalmanTracker>(&v).contains("covariance diagonal"));
 }
 
 #[test]

@@ -2,9 +2,9 @@
 
 use cbt_tracker::sim::{Level, Scenario, generate};
 use cbt_tracker::{
-    Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker,
-    LearnedParticleFilter, MAX_PARTICLES, Order, ParticleFilter, PfModel, Scales, Space,
-    TrackError, Tracker, TrainingFrame,
+    Calibration, CbtConfig, CbtModel, CbtTracker, Detection, KalmanParams, KalmanTracker, Layout,
+    LearnedParticleFilter, MAX_MODEL_VALUES, MAX_PARTICLES, Order, ParticleFilter, PfModel, Scales,
+    Space, TrackError, Tracker, TrainingFrame,
 };
 use chan_repr::{ChanError, ChannelBasis, Kernel};
 
@@ -489,4 +489,123 @@ fn kalman_refuses_non_finite_state_and_measurements() {
         .unwrap();
     kf.correct(Vector2::new(1.5, 2.0)).unwrap();
     assert!(kf.state().iter().all(|v| v.is_finite()));
+}
+
+/// A one-dimensional tracker (the second coordinate of a detection unused) on a sine track.
+fn one_d_tracker() -> CbtTracker {
+    let b = cbt_tracker::axis(0.0, 100.0, 5.0, cbt_tracker::DEFAULT_KERNEL).unwrap();
+    let space = Space::new(vec![b.clone()], vec![b]).unwrap();
+    let frames: Vec<TrainingFrame> = (0..200)
+        .map(|k| {
+            let x = 50.0 + 30.0 * (k as f64 * 0.1).sin();
+            TrainingFrame {
+                states: vec![[x, 0.0]],
+                detections: vec![Detection::new(x + 0.5, 0.0)],
+            }
+        })
+        .collect();
+    let cfg = CbtConfig {
+        order: Order::First,
+        ..CbtConfig::default()
+    };
+    CbtTracker::new(CbtModel::learn(space, cfg, &[frames]).unwrap())
+}
+
+#[test]
+fn step_on_grid_drops_off_grid_detections_in_one_dimension_whatever_their_y() {
+    // The 1-D error reports y = 0, so a detection off the grid whose unused y was not 0 (or
+    // NaN) was not recognised, and the whole frame failed with `OutsideGrid`.
+    let mut t = one_d_tracker();
+    t.reset([50.0, 0.0]).unwrap();
+    for y in [7.0, -1.0, f64::NAN, 0.0] {
+        let mut reference = t.clone();
+        let expected = reference.step(&[Detection::new(52.0, y)]).unwrap();
+        let dets = [
+            Detection::new(1000.0, y),
+            Detection::new(52.0, y),
+            Detection::new(-3.0, 0.0),
+        ];
+        let (e, dropped) = cbt_tracker::step_on_grid(&mut t, &dets).unwrap();
+        assert_eq!((e, dropped), (expected, 2), "y = {y}");
+        assert_eq!(t, reference, "y = {y}");
+    }
+}
+
+#[test]
+fn training_statistics_refuse_non_finite_or_overflowing_data() {
+    // A NaN truth made Calibration's accel_sigma silently 1e-6 (NaN.max(1e-6)) and Scales'
+    // accel NaN; an infinite or huge one gave accel_sigma = ∞, which `validate` refuses.
+    let (_, train) = setup();
+    let mut edited = train.clone();
+    edited[0].frames[10].truth = Some([f64::NAN, 3.0]);
+    assert!(matches!(
+        Calibration::estimate(&edited, 32.0),
+        Err(TrackError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        Scales::estimate(&edited, 320.0),
+        Err(TrackError::NonFinite { .. })
+    ));
+    let mut edited = train.clone();
+    edited[1].frames[3]
+        .detections
+        .push(Detection::new(5.0, f64::INFINITY));
+    assert!(matches!(
+        Calibration::estimate(&edited, 32.0),
+        Err(TrackError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        Scales::estimate(&edited, 320.0),
+        Err(TrackError::NonFinite { .. })
+    ));
+    let mut edited = train.clone();
+    edited[0].frames[10].truth = Some([1e300, 3.0]);
+    assert!(matches!(
+        Calibration::estimate(&edited, 32.0),
+        Err(TrackError::InvalidParameter {
+            name: "accel_sigma",
+            ..
+        })
+    ));
+    assert!(matches!(
+        Scales::estimate(&edited, 320.0),
+        Err(TrackError::InvalidParameter { name: "accel", .. })
+    ));
+    Calibration::estimate(&train, 32.0)
+        .unwrap()
+        .validate()
+        .unwrap();
+}
+
+#[test]
+fn a_grid_too_fine_for_the_layout_is_an_error_not_an_abort() {
+    // 10⁵ channels per axis: the separable layout's observation matrix alone would be 10¹⁰
+    // numbers, an allocation that aborted the process (as a Python `CBT.learn` did).
+    let space = Space::image(1e5, 1e5, 1.0).unwrap();
+    let frame = TrainingFrame {
+        states: vec![[10.0, 10.0]],
+        detections: vec![Detection::new(10.5, 9.5)],
+    };
+    let seqs = vec![vec![frame.clone(), frame]];
+    for layout in [Layout::Separable, Layout::SparseJoint] {
+        let cfg = CbtConfig {
+            layout,
+            ..CbtConfig::default()
+        };
+        for r in [
+            CbtModel::learn(space.clone(), cfg, &seqs).map(|_| ()),
+            CbtModel::untrained(space.clone(), cfg).map(|_| ()),
+        ] {
+            match r {
+                Err(TrackError::ModelTooLarge { layout: l, values }) => {
+                    assert_eq!(l, layout);
+                    assert!(values > MAX_MODEL_VALUES, "{values}");
+                }
+                other => panic!("{layout:?}: {other:?}"),
+            }
+        }
+    }
+    // The message says what to do.
+    let e = CbtModel::untrained(space, CbtConfig::default()).unwrap_err();
+    assert!(e.to_string().contains("coarser spacing"), "{e}");
 }

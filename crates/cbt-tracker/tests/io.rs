@@ -310,3 +310,56 @@ fn a_failed_write_leaves_no_partial_file() {
     assert_eq!(std::fs::read(&first).unwrap(), before);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A sequence `read` would refuse is refused by `write`, before anything is written; a frame
+/// number past `u64::MAX` used to overflow in `to_string` (a panic, or frame 0 in release).
+#[test]
+fn unreadable_sequences_are_not_written() {
+    let dir = temp_dir("unreadable");
+    let one = |first_frame: u64, truth: [f64; 2], n: usize| Sequence {
+        name: "bad".into(),
+        first_frame,
+        frames: vec![
+            Frame {
+                truth: Some(truth),
+                detections: Vec::new(),
+            };
+            n
+        ],
+    };
+    for (s, what) in [
+        (one(0, [f64::NAN, 1.0], 2), "NonFinite"),
+        (one(0, [1.0, f64::INFINITY], 2), "NonFinite"),
+        (one(u64::MAX, [1.0, 2.0], 2), "InvalidParameter"),
+        (
+            one(0, [1.0, 2.0], csv::MAX_SPAN as usize + 1),
+            "InvalidParameter",
+        ),
+    ] {
+        let e = csv::write(&dir, &s).unwrap_err();
+        assert!(format!("{e:?}").starts_with(what), "{e:?}");
+        assert!(!dir.join("bad.csv").exists());
+    }
+    // The text of an overflowing sequence names the true frame numbers, which reading refuses.
+    let text = csv::to_string(&one(u64::MAX, [1.0, 2.0], 2));
+    assert!(text.ends_with("18446744073709551615,truth,1,2\n18446744073709551616,truth,1,2\n"));
+    assert!(matches!(
+        csv::parse(&text, "bad", Path::new("bad.csv")),
+        Err(TrackError::Csv { line: 3, .. })
+    ));
+    // The last frame number u64::MAX itself is fine.
+    let s = one(u64::MAX - 1, [1.0, 2.0], 2);
+    assert_eq!(csv::read(&csv::write(&dir, &s).unwrap()).unwrap(), s);
+    // A name is a file stem in `dir`: one that would land elsewhere (or nowhere) is refused.
+    let inner = dir.join("inner");
+    for name in ["../escaped", "a/b", "a\\b", "", ".", ".."] {
+        let s = Sequence {
+            name: name.into(),
+            ..one(0, [1.0, 2.0], 2)
+        };
+        let e = csv::write(&inner, &s).unwrap_err();
+        assert!(matches!(e, TrackError::Io { .. }), "{name:?}: {e:?}");
+    }
+    assert!(!inner.exists() && !dir.join("escaped.csv").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -135,6 +135,8 @@ macro_rules! tracker_methods {
 
             /// Resets to ``start`` and steps through ``frames`` (one detection array per frame)
             /// without the GIL. Returns ``(T, 3)``: x, y, certainty (NaN if none).
+            /// ``ValueError`` (state unchanged: neither reset nor part-run) for a frame that
+            /// :meth:`step` refuses.
             fn run<'py>(
                 &mut self,
                 py: Python<'py>,
@@ -143,7 +145,11 @@ macro_rules! tracker_methods {
             ) -> PyResult<Bound<'py, PyArray2<f64>>> {
                 let start = point("start", start)?;
                 let frames = frames_of(frames)?;
-                let out = run_all(py, &mut self.t, start, &frames)?;
+                // On a copy, kept only when every frame was accepted: a refused frame used to
+                // leave the tracker reset and stepped up to it.
+                let mut t = self.t.clone();
+                let out = run_all(py, &mut t, start, &frames)?;
+                self.t = t;
                 Ok(Array2::from_shape_vec((frames.len(), 3), out)
                     .expect("3 values per frame")
                     .into_pyarray(py))

@@ -66,9 +66,12 @@ impl Calibration {
 
     /// Estimates the statistics from sequences with truth; `max_residual` bounds the
     /// residuals taken as the target's (e.g. a tenth of the image size).
-    /// `max_residual` must be finite and positive.
+    /// `max_residual` must be finite and positive, and every truth and detection coordinate
+    /// finite ([`TrackError::NonFinite`]); statistics that overflow are
+    /// [`TrackError::InvalidParameter`] errors.
     pub fn estimate(train: &[Sequence], max_residual: f64) -> Result<Calibration, TrackError> {
         positive("max_residual", max_residual)?;
+        crate::data::check_sequences(train)?;
         let mut acc2 = Vec::new();
         let mut res = Vec::new();
         for s in train {
@@ -127,11 +130,14 @@ impl Calibration {
             }
         }
         let frames = frames.max(1) as f64;
-        Ok(Calibration {
+        let c = Calibration {
             accel_sigma,
             meas_sigma,
             p_detect: (hits as f64 / frames).clamp(0.01, 0.999),
             clutter_rate: others as f64 / frames,
-        })
+        };
+        // Finite coordinates can still overflow (a jump of 1e300 squares to ∞).
+        c.validate()?;
+        Ok(c)
     }
 }

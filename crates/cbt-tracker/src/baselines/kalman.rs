@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::calibrate::Calibration;
 use crate::data::check_finite;
 use crate::error::{non_negative, positive};
-use crate::integrity::finite;
+use crate::integrity::{finite, nonneg};
 use crate::tracker::{Estimate, Tracker};
 use crate::{Detection, Point, TrackError};
 
@@ -56,8 +56,8 @@ impl KalmanParams {
 /// `K = P⁻ Hᵀ S⁻¹`, `x = x⁻ + K ν`, `P = P⁻ − K H P⁻` (the form of OpenCV's
 /// `KalmanFilter::correct`). No gated detection: `x = x⁻`, `P = P⁻`.
 ///
-/// A filter read back with serde is validated (parameters, finite state and matrices):
-/// [`TrackError::Corrupt`] otherwise.
+/// A filter read back with serde is validated (parameters, finite state and matrices, no
+/// negative variance on the covariance's diagonal): [`TrackError::Corrupt`] otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "KalmanRaw")]
 pub struct KalmanTracker {
@@ -89,6 +89,8 @@ impl TryFrom<KalmanRaw> for KalmanTracker {
         k.params.validate()?;
         finite("Kalman state", k.x.as_slice())?;
         finite("Kalman covariance", k.p.as_slice())?;
+        // As `set_state` refuses: a negative variance poisons every later step.
+        nonneg("Kalman covariance diagonal", k.p.diagonal().as_slice())?;
         finite("Kalman transition", k.f.as_slice())?;
         finite("Kalman process noise", k.q.as_slice())?;
         finite("Kalman measurement matrix", k.h.as_slice())?;

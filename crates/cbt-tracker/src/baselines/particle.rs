@@ -100,7 +100,8 @@ impl PfModel {
 /// continues the same random sequence).
 ///
 /// A filter read back with serde is validated (model parameters, at least one particle, as
-/// many weights as particles, finite values): [`TrackError::Corrupt`] otherwise.
+/// many weights as particles, finite values, weights summing to 1): [`TrackError::Corrupt`]
+/// otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "ParticleFilterRaw")]
 pub struct ParticleFilter {
@@ -126,6 +127,9 @@ struct ParticleFilterRaw {
     estimate: Point,
 }
 
+/// How far from 1 the weights of a deserialised filter may sum (rounding of `n · 1/n`).
+const WEIGHT_SUM_SLACK: f64 = 1e-6;
+
 impl TryFrom<ParticleFilterRaw> for ParticleFilter {
     type Error = TrackError;
 
@@ -137,6 +141,13 @@ impl TryFrom<ParticleFilterRaw> for ParticleFilter {
         len("particle weights", r.weights.len(), r.particles.len())?;
         len("particle log-weights", r.logw.len(), r.particles.len())?;
         nonneg("particle weights", &r.weights)?;
+        // Every step and reset leaves the weights normalised (1/n each); the estimate of a
+        // step without detections is their weighted mean as they are, so weights that do not
+        // sum to 1 (all zero, say) would give a silently wrong position.
+        let sum: f64 = r.weights.iter().sum();
+        if (sum - 1.0).abs() > WEIGHT_SUM_SLACK {
+            return Err(corrupt(format!("particle weights sum to {sum}, not 1")));
+        }
         finite("particles", r.particles.as_flattened())?;
         finite("estimate", &r.estimate)?;
         // Log-weights are scratch (rewritten before every use); −∞ is a valid value.

@@ -46,7 +46,9 @@ pub fn to_string(s: &Sequence) -> String {
     let mut out = String::from(HEADER);
     out.push('\n');
     for (k, f) in s.frames.iter().enumerate() {
-        let k = s.first_frame + k as u64;
+        // Widened: a frame number past u64::MAX is written as it is (and refused on reading)
+        // rather than overflowing.
+        let k = u128::from(s.first_frame) + k as u128;
         if let Some(t) = f.truth {
             out.push_str(&format!("{k},truth,{},{}\n", t[0], t[1]));
         }
@@ -250,9 +252,14 @@ pub(crate) fn files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>, TrackError> {
 
 /// Writes a sequence to `dir/<name>.csv`, atomically: the text goes to a temporary file beside
 /// it (named by process id and a per-process counter), flushed and renamed over the target, so a
-/// failed write leaves no partial file and an existing file unchanged.
+/// failed write leaves no partial file and an existing file unchanged. A sequence [`read`]
+/// would refuse (a non-finite coordinate, frame numbers beyond `u64` or spanning more than
+/// [`MAX_SPAN`] frames), or a name that is not a plain file name (`../x`, `a/b`), is an error
+/// before anything is written.
 pub fn write(dir: &Path, s: &Sequence) -> Result<PathBuf, TrackError> {
     static NEXT: AtomicU64 = AtomicU64::new(0);
+    check_name(dir, &s.name)?;
+    check_readable(s)?;
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     let path = dir.join(format!("{}.csv", s.name));
     let k = NEXT.fetch_add(1, Ordering::Relaxed);
@@ -272,6 +279,45 @@ pub fn write(dir: &Path, s: &Sequence) -> Result<PathBuf, TrackError> {
         return Err(io(&path, e));
     }
     Ok(path)
+}
+
+/// The sequence's name is its file's stem in `dir`: one plain file name (not empty, `.` or
+/// `..`, no folder separator), so that the file lands in `dir` and nowhere else.
+fn check_name(dir: &Path, name: &str) -> Result<(), TrackError> {
+    let plain =
+        !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', '\0']);
+    if plain {
+        return Ok(());
+    }
+    Err(TrackError::Io {
+        path: dir.join(format!("{name}.csv")),
+        reason: format!(
+            "the sequence name {name:?} is not a plain file name (not empty, `.` or `..`, no \
+             folder separator)"
+        ),
+    })
+}
+
+/// Checks that [`read`] would give `s` back (up to detection weights, which are not stored):
+/// finite coordinates ([`TrackError::NonFinite`]) and frame numbers that are `u64` and span at
+/// most [`MAX_SPAN`] frames ([`TrackError::InvalidParameter`]).
+fn check_readable(s: &Sequence) -> Result<(), TrackError> {
+    let n = s.frames.len() as u64;
+    if n > MAX_SPAN {
+        return Err(TrackError::InvalidParameter {
+            name: "frames",
+            value: n as f64,
+            reason: "a sequence file spans at most MAX_SPAN (1,000,000) frames",
+        });
+    }
+    if n > 0 && s.first_frame.checked_add(n - 1).is_none() {
+        return Err(TrackError::InvalidParameter {
+            name: "first_frame",
+            value: s.first_frame as f64,
+            reason: "the last frame number exceeds u64::MAX",
+        });
+    }
+    crate::data::check_sequences(std::slice::from_ref(s))
 }
 
 fn io(path: &Path, e: std::io::Error) -> TrackError {

@@ -11,4 +11,4 @@ mod sequence;
 pub mod sim;
 
 pub use sequence::{Detection, Frame, Point, Sequence, TrainingFrame};
-pub(crate) use sequence::{check_finite, check_point};
+pub(crate) use sequence::{check_finite, check_point, check_sequences};

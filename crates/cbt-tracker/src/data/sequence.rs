@@ -48,6 +48,21 @@ pub(crate) fn check_point(what: &'static str, p: &Point, dims: usize) -> Result<
     check_finite(what, &p[..dims])
 }
 
+/// Checks that every truth and detection coordinate (both axes) of `train` is finite: the
+/// training statistics ([`crate::Calibration::estimate`], [`crate::Scales::estimate`]) would
+/// otherwise turn a NaN into a silently wrong scale.
+pub(crate) fn check_sequences(train: &[Sequence]) -> Result<(), TrackError> {
+    for f in train.iter().flat_map(|s| &s.frames) {
+        if let Some(t) = &f.truth {
+            check_point("truth coordinate", t, 2)?;
+        }
+        for d in &f.detections {
+            check_point("detection coordinate", &d.pos, 2)?;
+        }
+    }
+    Ok(())
+}
+
 /// Checks every value is finite: [`TrackError::NonFinite`] with the first that is not.
 pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<(), TrackError> {
     match v.iter().find(|v| !v.is_finite()) {

@@ -62,6 +62,27 @@ def test_run_equals_step_by_step(data, make):
     assert a == b
 
 
+@pytest.mark.parametrize("make", [make_kalman, make_pf, None])
+def test_a_refused_run_keeps_the_state(data, make):
+    """``run`` with a frame that ``step`` refuses (NaN, a negative weight, off CBT's grid)
+    raises and leaves the tracker as it was: it used to be left reset to ``start`` and stepped
+    up to the bad frame."""
+    _, train, test = data
+    t = make() if make else CBT.learn(train, 320.0, 240.0, spacing=10.0)
+    t.reset(tuple(test[0][0][0]))
+    for _, d in test[1:5]:
+        t.step(d)
+    before = t.to_json()
+    good = [d for _, d in test[5:15]]
+    for bad in [np.array([[np.nan, 1.0]]), np.array([[1.0, 2.0, -1.0]])] + ([np.array([[1e6, 1.0]])] if make is None else []):
+        with pytest.raises(ValueError):
+            t.run(tuple(test[0][0][0]), good + [bad] + good)
+        assert t.to_json() == before
+    # A run that succeeds still leaves the tracker where the run ended.
+    out = t.run(tuple(test[0][0][0]), good)
+    assert t.estimate()[:2] == tuple(out[-1, :2])
+
+
 def test_two_column_detections_have_weight_one(data):
     _, _, test = data
     a, b = make_kalman(), make_kalman()
@@ -151,6 +172,10 @@ def test_bad_input(data, tmp_path):
         CBT.learn([], 320.0, 240.0)
     with pytest.raises(ValueError):
         CBT.learn(train, -1.0, 240.0)
+    # A grid too fine for the (default, separable) layout: a ValueError, where the model's
+    # 10^10-number allocation used to abort the interpreter.
+    with pytest.raises(ValueError, match="coarser spacing"):
+        CBT.learn(train, 1e5, 1e5, 1.0)
     with pytest.raises(ValueError):
         Kalman.from_json('{"not": "a tracker"}')
     with pytest.raises(OSError):
