@@ -80,9 +80,14 @@ impl<'a> GrayView<'a> {
     /// Errors: an empty window ([`MserError::EmptyImage`]) or one that does not lie inside this
     /// view ([`MserError::InvalidParameter`] `window`).
     pub fn window(&self, x0: usize, y0: usize, width: usize, height: usize) -> Result<Self> {
+        // Checked first: an empty window may start one past the last column or row, where no
+        // pixel (and maybe no byte of the buffer) is.
+        if width == 0 || height == 0 {
+            return Err(MserError::EmptyImage { width, height });
+        }
         let inside = x0.checked_add(width).is_some_and(|x1| x1 <= self.width)
             && y0.checked_add(height).is_some_and(|y1| y1 <= self.height);
-        if width > 0 && height > 0 && !inside {
+        if !inside {
             return Err(MserError::InvalidParameter {
                 name: "window",
                 reason: format!(
@@ -91,8 +96,12 @@ impl<'a> GrayView<'a> {
                 ),
             });
         }
-        let start = if inside { y0 * self.stride + x0 } else { 0 };
-        Self::new(&self.data[start..], width, height, self.stride)
+        Self::new(
+            &self.data[y0 * self.stride + x0..],
+            width,
+            height,
+            self.stride,
+        )
     }
 
     /// Width in pixels.

@@ -62,9 +62,9 @@ impl Variations {
 /// `L` of the symmetric variation the walk down the largest children (ties: first pixel in
 /// raster order) while their level is at least `g − Δ`.
 ///
-/// Errors: parameters [`MserParams::validate`] refuses, a seed outside the image, or a region
-/// that is not the component at its level through its seed (area mismatch), or the whole image
-/// (which has no parent).
+/// Errors: parameters [`MserParams::validate`] refuses, a seed outside the image or whose pixel
+/// does not pass the region's level, a region that is not the component at its level through
+/// its seed (area mismatch), or the whole image (which has no parent).
 pub fn variations_by_thresholds(
     img: &GrayView,
     r: &Region,
@@ -97,6 +97,16 @@ pub fn variations_by_thresholds(
     };
     let seed = sy * w + sx;
     let g = r.level ^ flip;
+    // The fill takes its seed unconditionally, so a seed above the level would grow a set
+    // that is no component at all (and could still have the region's area).
+    if px[seed] > g {
+        return Err(bad(format!(
+            "seed {:?} has grey value {}, which does not pass the level {}",
+            r.seed,
+            img.get(sx, sy),
+            r.level
+        )));
+    }
     let area = t.component(seed, g).len();
     if area != r.area as usize {
         return Err(bad(format!(

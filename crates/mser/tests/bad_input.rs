@@ -310,6 +310,69 @@ fn variations_by_thresholds_refuses_invalid_parameters() {
     }
 }
 
+/// `variations_by_thresholds` refuses a region whose seed pixel does not pass its level (it
+/// used to flood from that seed anyway and report the variations of a set that is no extremal
+/// region, whenever the set happened to have the region's area).
+#[test]
+fn variations_by_thresholds_refuses_a_seed_above_the_level() {
+    let px = dark_square(20, 20);
+    let img = GrayView::packed(&px, 20, 20).unwrap();
+    let (p, mut r) = square_region(&img);
+    // The square's pixels are 10, so at level 9 none passes; a fill that took the seed anyway
+    // found the seed alone (its neighbours are 10 and 200), the 1 pixel claimed here.
+    r.level = 9;
+    r.area = 1;
+    let err = mser::variations_by_thresholds(&img, &r, &p).unwrap_err();
+    assert!(
+        matches!(&err, MserError::InvalidParameter { name: "region", reason } if reason.contains("does not pass")),
+        "{err:?}"
+    );
+    // Bright polarity: a dark seed never passes a bright level.
+    r.polarity = mser::Polarity::Bright;
+    r.level = 200;
+    assert!(matches!(
+        mser::variations_by_thresholds(&img, &r, &p),
+        Err(MserError::InvalidParameter { name: "region", .. })
+    ));
+}
+
+/// `GrayView::window` of zero pixels is an `EmptyImage` wherever it starts; at the far corner
+/// (one past the last column and row) it used to slice the buffer past its end and panic.
+#[test]
+fn empty_windows_at_the_far_edge_are_errors() {
+    let px: Vec<u8> = (0..12).collect();
+    for (img, stride) in [
+        (GrayView::packed(&px, 4, 3).unwrap(), 4),
+        (GrayView::new(&px, 3, 3, 4).unwrap(), 4),
+    ] {
+        let (w, h) = (img.width(), img.height());
+        for (x0, y0, ww, wh) in [
+            (w, h, 0, 0),
+            (w, h, 0, 1),
+            (w, h, 1, 0),
+            (0, h, 1, 0),
+            (w, 0, 0, 1),
+        ] {
+            assert!(
+                matches!(
+                    img.window(x0, y0, ww, wh),
+                    Err(MserError::EmptyImage { .. })
+                ),
+                "stride {stride}: {ww}×{wh} at ({x0}, {y0})"
+            );
+        }
+        // One pixel past the edge is outside; the last pixel is a window.
+        assert!(matches!(
+            img.window(w, h - 1, 1, 1),
+            Err(MserError::InvalidParameter { name: "window", .. })
+        ));
+        assert_eq!(
+            img.window(w - 1, h - 1, 1, 1).unwrap().get(0, 0),
+            img.get(w - 1, h - 1)
+        );
+    }
+}
+
 /// `Moments::of_pixels` refuses sums beyond `u64` (it used to panic with an overflow in a
 /// debug build and wrap silently in a release build).
 #[test]
