@@ -81,7 +81,9 @@
 //! (module `contour`). Sizes are bounded before anything is allocated ([`MAX_SAMPLES`],
 //! [`MAX_DENSE_SAMPLES`], also when a [`DescriptorConfig`] is deserialised); descriptors pushed
 //! into a set must be finite and of unit norm, and pair errors of vectors of different lengths
-//! are an [`FdError::LengthMismatch`], never a number.
+//! are an [`FdError::LengthMismatch`], never a number; sets searched against each other must
+//! share one [`DescriptorConfig`] ([`FdError::IncompatibleSets`] otherwise: descriptors of
+//! another sampling have the same length but are not comparable).
 #![deny(missing_docs)]
 
 mod afd;

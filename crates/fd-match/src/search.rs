@@ -119,11 +119,20 @@ pub struct SearchStats {
     pub evaluated: u64,
 }
 
+/// Two sets are compared only when made with the same configuration (as
+/// [`DescriptorSet::append`] requires): descriptors of another sampling, smoothing or dense
+/// resampling have the same length but are not comparable, and their errors would be silently
+/// wrong.
 fn check(a: &DescriptorSet, b: &DescriptorSet) -> Result<(), FdError> {
     let (ca, cb) = (a.config(), b.config());
     if ca.coefficients != cb.coefficients || ca.samples != cb.samples {
         return Err(FdError::IncompatibleSets {
             reason: "different numbers of coefficients or samples",
+        });
+    }
+    if ca != cb {
+        return Err(FdError::IncompatibleSets {
+            reason: "different sampling, smoothing or dense resampling",
         });
     }
     Ok(())

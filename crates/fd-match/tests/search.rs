@@ -216,6 +216,19 @@ fn incompatible_sets_are_rejected() {
         best_two(&a, &other, Method::FdCorr),
         Err(FdError::IncompatibleSets { .. })
     ));
+    // Same lengths, another sampling: not comparable either.
+    let canonical = describe_all(
+        DescriptorConfig::with_sampling(Sampling::Canonical),
+        &[star(1, 100, 10.0)],
+    )
+    .unwrap()
+    .set;
+    for m in [Method::FdCorr, Method::AbsFdSsd] {
+        assert!(matches!(
+            best_two(&a, &canonical, m),
+            Err(FdError::IncompatibleSets { .. })
+        ));
+    }
     assert!(matches!(
         a.select(&[a.len()]),
         Err(FdError::IndexOutOfRange { .. })

@@ -183,9 +183,10 @@ pub fn describe(
 
 /// Symmetric matching of two descriptor sets (eq. 19): pairs ``(i, j)`` where ``j`` is the best
 /// target of ``i`` and ``i`` the best of ``j``, kept when the larger of the two error ratios
-/// ``e_min / e_sec`` is below ``ratio`` (``None``: keep all). Returns a dict of equal-length
-/// arrays in ascending ``query``: ``query`` / ``target`` (descriptor indices), ``query_contour``
-/// / ``target_contour`` (contour indices), ``error``, ``ratio``, and for ``"fd_corr"``
+/// ``e_min / e_sec`` is below ``ratio`` (a positive number; ``None``: keep all); ``a`` and ``b``
+/// must be made with the same settings. Returns a dict of equal-length arrays in ascending
+/// ``query``: ``query`` / ``target`` (descriptor indices), ``query_contour`` /
+/// ``target_contour`` (contour indices), ``error``, ``ratio``, and for ``"fd_corr"``
 /// ``rotation`` (radians, A to B) and ``shift`` (start-point shift in samples); NaN for the
 /// other methods.
 #[pyfunction]
@@ -198,10 +199,14 @@ pub fn match_sets<'py>(
     ratio: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = parse_method(method)?;
+    // As `match_images` (and the crate's `MatchSettings`): a threshold of 0 or below would
+    // silently keep no match.
     if let Some(r) = ratio
-        && r.is_nan()
+        && (r.is_nan() || r <= 0.0)
     {
-        return Err(value_error("ratio is NaN"));
+        return Err(value_error(format!(
+            "ratio {r} is not a positive number (None keeps every match)"
+        )));
     }
     let (sa, sb) = (&a.set, &b.set);
     let all = py

@@ -105,6 +105,11 @@ def test_bad_contours_are_rejected_not_raised():
         lambda: fd.describe([], samples=10, coefficients=51),
         lambda: fd.match(fd.describe([]), fd.describe([]), method="sad"),
         lambda: fd.match(fd.describe([]), fd.describe([]), ratio=float("nan")),
+        lambda: fd.match(fd.describe([]), fd.describe([]), ratio=0.0),
+        lambda: fd.match(fd.describe([]), fd.describe([]), ratio=-1.0),
+        lambda: fd.match(
+            fd.describe([], sampling="canonical"), fd.describe([], sampling="affine")
+        ),
         lambda: fd.describe([]).select([3]),
         lambda: fd.describe([]).min_errors("nope"),
     ],
