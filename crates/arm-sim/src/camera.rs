@@ -40,25 +40,31 @@ pub struct Camera {
 
 impl Camera {
     /// Builds camera `index` from its configuration. Fails with
-    /// [`ArmSimError::CameraBehindScene`] if the camera is below the table top or the arm base is
-    /// not in front of it.
+    /// [`ArmSimError::InvalidConfig`] for impossible values (as [`CameraConfig::validate`]:
+    /// image size, focal lengths, principal point, a lens that does not fold over inside the
+    /// image, roll and pose not finite), and with [`ArmSimError::CameraBehindScene`] if the
+    /// camera is below the table top or the arm base is not in front of it.
     pub fn new(cfg: &CameraConfig, index: usize) -> Result<Self> {
+        // Without this a zero, negative or NaN focal length, a NaN roll or distortion gave a
+        // camera whose every projection was NaN, infinite or the principal point.
+        cfg.validate_values(index)?;
         let centre = Vector3::from(cfg.position_mm);
         let target = Vector3::from(cfg.look_at_mm);
         let behind = |reason: &str| ArmSimError::CameraBehindScene {
             camera: index,
             reason: reason.to_string(),
         };
-        if centre.iter().chain(target.iter()).any(|v| !v.is_finite()) {
-            return Err(ArmSimError::InvalidConfig {
-                key: format!("cameras[{index}].position_mm"),
-                reason: "not finite".into(),
-            });
-        }
         if centre.z <= 0.0 {
             return Err(behind("the camera is not above the table top (z <= 0)"));
         }
         let axis = target - centre;
+        if !axis.norm().is_finite() {
+            // Finite coordinates whose difference overflows: the rotation would be NaN.
+            return Err(ArmSimError::InvalidConfig {
+                key: format!("cameras[{index}].position_mm"),
+                reason: "too far from look_at_mm (the optical axis overflows)".into(),
+            });
+        }
         if axis.norm() < NEAR_MM {
             return Err(ArmSimError::InvalidConfig {
                 key: format!("cameras[{index}].look_at_mm"),
@@ -91,7 +97,8 @@ impl Camera {
             rotation,
             centre,
         };
-        if cam.to_camera(&Vector3::zeros()).z < 10.0 * NEAR_MM {
+        let base_depth = cam.to_camera(&Vector3::zeros()).z;
+        if base_depth.is_nan() || base_depth < 10.0 * NEAR_MM {
             return Err(behind("the arm base (world origin) is behind the camera"));
         }
         Ok(cam)

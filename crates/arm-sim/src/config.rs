@@ -24,6 +24,13 @@ pub const SERVO_NAMES: [&str; NUM_SERVOS] = [
     "gripper",
 ];
 
+/// Largest accepted arm dimension (mm): link lengths, finger sizes and radii (10 m; sizes near
+/// `f64::MAX` overflow the kinematics).
+pub const MAX_ARM_SIZE_MM: f64 = 10_000.0;
+/// Largest accepted gravity sag (degrees) of a pitch joint with the arm stretched out
+/// horizontally, the pose of the largest torques (the default arm: under 2°).
+pub const MAX_SAG_DEG: f64 = 45.0;
+
 /// The whole simulator configuration. `SimConfig::default()` is the realistic low-cost arm;
 /// [`SimConfig::ideal`] the same arm and cameras with every non-ideality switched off.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -543,6 +550,26 @@ impl SimConfig {
     /// Checks every value; the error names the first impossible key.
     pub fn validate(&self) -> Result<()> {
         let a = &self.arm;
+        for (key, v) in [
+            ("arm.base_height_mm", a.base_height_mm),
+            ("arm.upper_arm_mm", a.upper_arm_mm),
+            ("arm.forearm_mm", a.forearm_mm),
+            ("arm.hand_mm", a.hand_mm),
+            ("arm.finger_length_mm", a.finger_length_mm),
+            ("arm.finger_pad_mm", a.finger_pad_mm),
+            ("arm.max_opening_mm", a.max_opening_mm),
+            ("arm.link_radius_mm[0]", a.link_radius_mm[0]),
+            ("arm.link_radius_mm[1]", a.link_radius_mm[1]),
+            ("arm.servo_radius_mm", a.servo_radius_mm),
+        ] {
+            // Sizes near f64::MAX overflowed the kinematics to a NaN pose.
+            if v > MAX_ARM_SIZE_MM {
+                return invalid(
+                    key,
+                    &format!("unrealistically large (> {MAX_ARM_SIZE_MM} mm)"),
+                );
+            }
+        }
         positive("arm.base_height_mm", a.base_height_mm)?;
         positive("arm.upper_arm_mm", a.upper_arm_mm)?;
         positive("arm.forearm_mm", a.forearm_mm)?;
@@ -612,6 +639,24 @@ impl SimConfig {
         for (i, m) in self.sag.masses_kg.iter().enumerate() {
             non_negative(&format!("sag.masses_kg[{i}]"), *m)?;
         }
+        // The sag is bounded by the torques of the arm stretched out horizontally (every lever
+        // at its longest). Masses in grams instead of kilograms sagged joints by thousands of
+        // degrees, far beyond any joint limit and beyond the small-sag model of `apply_sag`.
+        let stretched = [0.0, 90.0, 0.0, 0.0, 0.0, 0.0];
+        let worst = crate::kinematics::gravity_torques(&self.arm, &self.sag, &stretched);
+        for (j, (&c, tau)) in self.sag.compliance_deg_per_nm.iter().zip(worst).enumerate() {
+            let sag = c * tau;
+            if c > 0.0 && (sag.is_nan() || sag.abs() > MAX_SAG_DEG) {
+                return invalid(
+                    "sag.masses_kg",
+                    &format!(
+                        "with compliance_deg_per_nm[{j}] = {c} joint {} would sag {sag:.3e}° \
+                         at full horizontal reach (more than {MAX_SAG_DEG}°; masses in kg?)",
+                        j + 1
+                    ),
+                );
+            }
+        }
         if self.cameras.is_empty() || self.cameras.len() > 2 {
             return invalid("cameras", "need one or two cameras");
         }
@@ -625,6 +670,12 @@ impl SimConfig {
 impl CameraConfig {
     /// Checks the camera's values (`index` names it in errors) and that it sees the scene.
     pub fn validate(&self, index: usize) -> Result<()> {
+        crate::camera::Camera::new(self, index).map(|_| ())
+    }
+
+    /// Checks the camera's own values (image size, intrinsics, an invertible lens over the
+    /// image, finite pose), not yet where it looks: [`crate::Camera::new`] runs this first.
+    pub(crate) fn validate_values(&self, index: usize) -> Result<()> {
         let key = |k: &str| format!("cameras[{index}].{k}");
         if !(16..=8192).contains(&self.width) {
             return invalid(&key("width"), "need 16..=8192 pixels");
@@ -678,7 +729,7 @@ impl CameraConfig {
                 return invalid(&key("fx"), "field of view too wide");
             }
         }
-        crate::camera::Camera::new(self, index).map(|_| ())
+        Ok(())
     }
 }
 

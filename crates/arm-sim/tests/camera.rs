@@ -144,3 +144,41 @@ fn finger_middle_pixels_project_the_finger_ends_middle_into_every_camera() {
         }
     }
 }
+
+/// `Camera::new` is public: a configuration that never went through `SimConfig::validate` (built
+/// by hand or deserialised) with degenerate intrinsics or a pose too large to subtract used to
+/// give a camera whose projections were NaN, infinite or always the principal point.
+#[test]
+fn degenerate_camera_parameters_are_refused_by_camera_new() {
+    let base = || CameraConfig::looking_at([500.0, 0.0, 300.0], [0.0, 0.0, 0.0]);
+    type Spoil = fn(&mut CameraConfig);
+    let cases: [(&str, Spoil); 11] = [
+        ("cameras[0].fx", |c| c.fx = 0.0),
+        ("cameras[0].fx", |c| c.fx = f64::NAN),
+        ("cameras[0].fy", |c| c.fy = -1.0),
+        ("cameras[0].cx", |c| c.cx = f64::INFINITY),
+        ("cameras[0].k1", |c| c.k1 = f64::NAN),
+        ("cameras[0].k1", |c| c.k1 = -5.0),
+        ("cameras[0].roll_deg", |c| c.roll_deg = f64::NAN),
+        ("cameras[0].width", |c| c.width = 0),
+        ("cameras[0].position_mm", |c| c.position_mm[0] = f64::NAN),
+        // Finite, but the optical axis overflows: look_at − position is infinite.
+        ("cameras[0].position_mm", |c| {
+            c.position_mm = [1e308, 1e308, 1e308];
+            c.look_at_mm = [-1e308, -1e308, -1e308];
+        }),
+        ("cameras[0].position_mm", |c| {
+            c.position_mm = [1.5e308, 0.0, 1.0];
+            c.look_at_mm = [-1.5e308, 0.0, 0.0];
+        }),
+    ];
+    for (key, spoil) in cases {
+        let mut cfg = base();
+        spoil(&mut cfg);
+        match Camera::new(&cfg, 0) {
+            Err(ArmSimError::InvalidConfig { key: k, .. }) => assert_eq!(k, key, "{cfg:?}"),
+            other => panic!("{cfg:?}: expected InvalidConfig for {key}, got {other:?}"),
+        }
+        assert!(cfg.validate(0).is_err());
+    }
+}

@@ -152,3 +152,52 @@ fn write_file_replaces_the_file_whole() {
     ));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Arm files with nonsense sizes used to load and then give NaN or absurd joint angles: masses
+/// given in grams instead of kilograms sagged the shoulder by millions of degrees, and links of
+/// 1e308 mm overflowed the kinematics to a NaN pose (a NaN tip, images of nothing).
+#[test]
+fn absurd_arm_sizes_and_sag_are_refused() {
+    let check = |f: &dyn Fn(&mut SimConfig), key: &str| {
+        let mut c = SimConfig::default();
+        f(&mut c);
+        let text = c.to_json();
+        assert_eq!(key_of(c.validate().unwrap_err()), key);
+        assert_eq!(key_of(SimConfig::from_json(&text).unwrap_err()), key);
+        assert!(ArmSim::new(c).is_err());
+    };
+    // Grams for kilograms.
+    check(
+        &|c| c.sag.masses_kg = [35.0, 30.0, 55.0, 60.0, 50.0],
+        "sag.masses_kg",
+    );
+    check(&|c| c.sag.masses_kg = [1e300; 5], "sag.masses_kg");
+    check(&|c| c.sag.masses_kg[4] = 1e308, "sag.masses_kg");
+    // At the compliance limit, ten times the default masses sag more than 45° at full reach.
+    check(
+        &|c| {
+            c.sag.compliance_deg_per_nm = [100.0; 3];
+            c.sag.masses_kg = c.sag.masses_kg.map(|m| 10.0 * m);
+        },
+        "sag.masses_kg",
+    );
+    check(&|c| c.arm.base_height_mm = 1e308, "arm.base_height_mm");
+    check(
+        &|c| {
+            c.arm.upper_arm_mm = 1e308;
+            c.arm.forearm_mm = 1e308;
+        },
+        "arm.upper_arm_mm",
+    );
+    check(&|c| c.arm.max_opening_mm = 1e308, "arm.max_opening_mm");
+    check(&|c| c.arm.servo_radius_mm = 1e308, "arm.servo_radius_mm");
+    // Heavy but rigid: the masses do not matter.
+    let mut c = SimConfig::default();
+    c.sag.compliance_deg_per_nm = [0.0; 3];
+    c.sag.masses_kg = [1e6; 5];
+    c.validate().unwrap();
+    // The shipped arms (worn: twice the default compliance) stay valid.
+    let mut c = SimConfig::default();
+    c.sag.compliance_deg_per_nm = [8.0, 10.0, 12.0];
+    c.validate().unwrap();
+}
