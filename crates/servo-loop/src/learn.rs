@@ -55,7 +55,8 @@ impl RandomCommands {
     /// Commands uniform in `explore`, from `seed`.
     pub fn new(explore: &[[f64; 2]], seed: u64) -> Result<Self> {
         for (j, &[lo, hi]) in explore.iter().enumerate() {
-            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            // The width must be finite too: finite ends such as ±1e308 drew infinite commands.
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi && (hi - lo).is_finite()) {
                 return Err(ServoError::InvalidParameter {
                     name: "explore",
                     reason: format!("range {j} = [{lo}, {hi}] is not a finite interval"),

@@ -447,7 +447,8 @@ pub fn servo_lwpr<P: Plant + ?Sized>(
 
 /// Servoing with a given forward image Jacobian `J_img(y) = ∂x/∂y` (`n × m`), stepping
 /// `y ← y − λ J_img(y)⁺ (x − x_w)` (least squares; the pseudo-inverse drops singular values
-/// below `1e-9 σ_max`). Starts by executing `y0`.
+/// below `1e-9 σ_max`). Starts by executing `y0`. A Jacobian that is not finite or not
+/// `n × m` (percept × command dimension) stops the run with a typed error.
 pub fn servo_image_jacobian<P, F>(
     plant: &mut P,
     y0: &[f64],
@@ -470,7 +471,7 @@ where
     while !r.run.converged && r.budget_left() {
         let y = r.last_command();
         let dy = match image_jacobian(y.as_slice())
-            .and_then(|j| least_squares_step(&j, &r.deviation(&x)))
+            .and_then(|j| least_squares_step(&j, &r.deviation(&x), y.len()))
         {
             Ok(dy) => dy,
             Err(e) => return Err(r.abort(e)),
@@ -567,7 +568,7 @@ pub fn servo_broyden<P: Plant + ?Sized>(
     let mut x_prev = x.clone();
     let mut y_prev = y.clone();
     while !r.run.converged && r.budget_left() {
-        let dy = match least_squares_step(&b, &r.deviation(&x)) {
+        let dy = match least_squares_step(&b, &r.deviation(&x), m) {
             Ok(dy) => dy,
             Err(e) => return Err(r.abort(e)),
         };
@@ -590,7 +591,7 @@ pub fn servo_broyden<P: Plant + ?Sized>(
 }
 
 /// `J⁺ d` by SVD (the minimum-norm least-squares solution).
-fn least_squares_step(j: &DMatrix<f64>, d: &DVector<f64>) -> Result<DVector<f64>> {
+fn least_squares_step(j: &DMatrix<f64>, d: &DVector<f64>, commands: usize) -> Result<DVector<f64>> {
     if j.iter().any(|v| !v.is_finite()) {
         return Err(ServoError::NonFinite {
             what: "image Jacobian",
@@ -602,6 +603,21 @@ fn least_squares_step(j: &DMatrix<f64>, d: &DVector<f64>) -> Result<DVector<f64>
             what: "image Jacobian rows",
             expected: d.len(),
             got: j.nrows(),
+        });
+    }
+    // A step of another length than the command used to panic subtracting it from the
+    // command, and an empty matrix inside the SVD.
+    if j.ncols() != commands {
+        return Err(ServoError::DimensionMismatch {
+            what: "image Jacobian columns",
+            expected: commands,
+            got: j.ncols(),
+        });
+    }
+    if j.is_empty() {
+        return Err(ServoError::InvalidParameter {
+            name: "image Jacobian",
+            reason: "empty (no percept or no command dimension)".into(),
         });
     }
     let svd = j.clone().svd(true, true);

@@ -18,10 +18,10 @@ pub fn median(xs: &mut [f64]) -> f64 {
 
 /// Nearest-rank quantile from below: the value of rank `⌊q·n⌋` (0-based, at most `n − 1`) in
 /// the order of [`f64::total_cmp`], so `q = 0.5` is the upper median of an even-sized sample;
-/// NaN for an empty sample. `q` in `[0, 1]`. Reorders `xs` (a selection, linear time, not a
-/// sort).
+/// NaN for an empty sample or a `q` outside `[0, 1]` (or NaN). Reorders `xs` (a selection,
+/// linear time, not a sort).
 pub fn quantile_rank(xs: &mut [f64], q: f64) -> f64 {
-    if xs.is_empty() {
+    if xs.is_empty() || !(0.0..=1.0).contains(&q) {
         return f64::NAN;
     }
     let k = ((xs.len() as f64 * q) as usize).min(xs.len() - 1);
@@ -29,8 +29,13 @@ pub fn quantile_rank(xs: &mut [f64], q: f64) -> f64 {
 }
 
 /// Linearly interpolated quantile (the `R-7` / NumPy default): position `q·(n − 1)` in the
-/// sorted non-NaN values; NaN when there are none. `q` in `[0, 1]`.
+/// sorted non-NaN values; NaN when there are none or when `q` lies outside `[0, 1]` (or is
+/// NaN).
 pub fn quantile_linear(xs: &[f64], q: f64) -> f64 {
+    if !(0.0..=1.0).contains(&q) {
+        // A `q` above 1 indexed past the end of the sample (a panic).
+        return f64::NAN;
+    }
     let mut s: Vec<f64> = xs.iter().copied().filter(|x| !x.is_nan()).collect();
     if s.is_empty() {
         return f64::NAN;
@@ -77,6 +82,19 @@ mod tests {
             (quantile_rank(&mut v, 0.5), quantile_rank(&mut v, 0.9)),
             (3.5, 8.0)
         );
+    }
+
+    #[test]
+    fn quantiles_outside_the_unit_interval_are_nan_not_a_panic() {
+        let xs = [4.0, 1.0, 3.0, 2.0];
+        for q in [1.5, 2.0, -0.5, f64::NAN, f64::INFINITY] {
+            assert!(quantile_linear(&xs, q).is_nan(), "linear, q = {q}");
+            assert!(quantile_rank(&mut xs.clone(), q).is_nan(), "rank, q = {q}");
+        }
+        // The ends of the interval are valid.
+        assert_eq!(quantile_linear(&xs, 1.0), 4.0);
+        assert_eq!(quantile_rank(&mut xs.clone(), 1.0), 4.0);
+        assert_eq!(quantile_rank(&mut xs.clone(), 0.0), 1.0);
     }
 
     #[test]

@@ -272,3 +272,49 @@ fn full_command_refuses_set_points_that_do_not_fit_the_control_space() {
         })
     ));
 }
+
+/// A forward image Jacobian with another number of columns than the plant's commands (or none)
+/// used to panic inside nalgebra (a dimension mismatch subtracting the step from the command,
+/// or an SVD of an empty matrix); it is a typed error, after only the first guess was executed.
+#[test]
+fn image_jacobians_of_the_wrong_shape_are_a_typed_error() {
+    use nalgebra::DMatrix;
+    use servo_loop::{ServoConfig, servo_image_jacobian};
+    for (rows, cols) in [(2, 3), (2, 1), (2, 0), (0, 0), (3, 2)] {
+        let mut plant = Line {
+            y: vec![0.5, 0.5],
+            bounds: None,
+        };
+        let abort = servo_image_jacobian(
+            &mut plant,
+            &[0.5, 0.5],
+            &[150.0, 150.0],
+            &ServoConfig::default(),
+            |_| Ok(DMatrix::from_element(rows, cols, 100.0)),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(abort.error, ServoError::DimensionMismatch { .. }),
+            "{rows}×{cols}: {}",
+            abort.error
+        );
+        assert_eq!(abort.run.steps.len(), 1, "{rows}×{cols}");
+        assert_eq!(plant.y, vec![0.5, 0.5]);
+    }
+}
+
+/// An exploration range of finite ends whose width overflows used to be accepted and drew
+/// infinite commands.
+#[test]
+fn exploration_ranges_whose_width_overflows_are_refused() {
+    use servo_loop::RandomCommands;
+    assert!(matches!(
+        RandomCommands::new(&[[0.0, 1.0], [-1e308, 1e308]], 1),
+        Err(ServoError::InvalidParameter {
+            name: "explore",
+            ..
+        })
+    ));
+    let mut r = RandomCommands::new(&[[-1e307, 1e307]], 1).unwrap();
+    assert!(r.next_command().iter().all(|v| v.is_finite()));
+}
