@@ -25,6 +25,17 @@ pub fn from_lwpr(e: lwpr::LwprError) -> PyErr {
     }
 }
 
+/// An LWPR error reading or writing the file `path`, as [`from_lwpr`] with the file named
+/// first (the crate's I/O errors do not name it: "i/o error: No such file or directory" left
+/// a caller of several files guessing which one).
+pub fn from_lwpr_file(path: &std::path::Path, e: lwpr::LwprError) -> PyErr {
+    let msg = format!("{}: {e}", path.display());
+    match e {
+        lwpr::LwprError::Io(_) => PyOSError::new_err(msg),
+        _ => PyValueError::new_err(msg),
+    }
+}
+
 /// A Fourier-descriptor error (always bad input).
 pub fn from_fd(e: fd_match::FdError) -> PyErr {
     PyValueError::new_err(e.to_string())

@@ -6,7 +6,7 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyAr
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyTuple, PyType};
 
-use crate::errors::{from_lwpr, value_error};
+use crate::errors::{from_lwpr, from_lwpr_file, value_error};
 
 /// Locally Weighted Projection Regression (Vijayakumar et al. 2005), trained online.
 ///
@@ -106,7 +106,7 @@ impl PyLwpr {
                 return Err(value_error("LWPR(filename) takes no n_out"));
             }
             return Ok(PyLwpr {
-                model: Lwpr::load(path).map_err(from_lwpr)?,
+                model: Lwpr::load(&path).map_err(|e| from_lwpr_file(&path, e))?,
             });
         }
         let n_in: usize = n_in.extract()?;
@@ -275,7 +275,7 @@ impl PyLwpr {
     /// Writes the model: the crate's binary form if ``path`` ends in ``.bin``, JSON otherwise.
     /// ``OSError`` if the file cannot be written.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        self.model.save(path).map_err(from_lwpr)
+        self.model.save(&path).map_err(|e| from_lwpr_file(&path, e))
     }
 
     /// Reads a model written by :meth:`save` (``OSError`` for a missing file, ``ValueError``
@@ -283,7 +283,7 @@ impl PyLwpr {
     #[classmethod]
     fn load(_cls: &Bound<'_, PyType>, path: std::path::PathBuf) -> PyResult<Self> {
         Ok(PyLwpr {
-            model: Lwpr::load(path).map_err(from_lwpr)?,
+            model: Lwpr::load(&path).map_err(|e| from_lwpr_file(&path, e))?,
         })
     }
 
@@ -294,7 +294,9 @@ impl PyLwpr {
     /// behind).
     #[pyo3(name = "write_XML")]
     fn write_xml(&self, filename: std::path::PathBuf) -> PyResult<()> {
-        self.model.save_xml(filename).map_err(from_lwpr)
+        self.model
+            .save_xml(&filename)
+            .map_err(|e| from_lwpr_file(&filename, e))
     }
 
     /// Reads an XML model file: one written by :meth:`write_XML` or by the reference library
@@ -305,7 +307,7 @@ impl PyLwpr {
     #[pyo3(name = "read_XML")]
     fn read_xml(_cls: &Bound<'_, PyType>, filename: std::path::PathBuf) -> PyResult<Self> {
         Ok(PyLwpr {
-            model: Lwpr::load_xml(filename).map_err(from_lwpr)?,
+            model: Lwpr::load_xml(&filename).map_err(|e| from_lwpr_file(&filename, e))?,
         })
     }
 

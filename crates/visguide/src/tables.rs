@@ -1,7 +1,8 @@
 //! Numeric CSV tables (the `lwpr` subcommands' input): comma-separated finite numbers, one
 //! sample per line, every row as wide as the first; an optional first line of column names
 //! (recognised by a field that is not a number); blank lines and lines starting with `#` are
-//! ignored. Every malformed row is an error naming the file, the line and what was expected.
+//! ignored; a UTF-8 byte order mark (as spreadsheet programs write) and CRLF line ends are
+//! accepted. Every malformed row is an error naming the file, the line and what was expected.
 
 use std::path::Path;
 
@@ -28,6 +29,9 @@ pub fn parse(text: &str, path: &Path) -> Result<Table> {
     let mut columns: Option<Vec<String>> = None;
     let mut rows = Vec::new();
     let mut lines = Vec::new();
+    // A byte order mark is not part of the first field: left in, it made a first row of
+    // numbers look like a header (`\u{feff}1` is no number), silently dropping that sample.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (k, raw) in text.lines().enumerate() {
         let no = k + 1;
         let l = raw.trim();
@@ -118,6 +122,20 @@ mod tests {
         assert_eq!(t.lines, vec![4, 5]);
         let n = parse("1,2\n3,4\n", Path::new("d.csv")).unwrap();
         assert_eq!(n.columns, vec!["c1", "c2"]);
+    }
+
+    /// A UTF-8 byte order mark does not turn the first row of numbers into a header (it used
+    /// to: `\u{feff}1` is no number, so a headerless table silently lost its first sample),
+    /// nor end up in the first column's name.
+    #[test]
+    fn a_byte_order_mark_is_not_part_of_the_first_field() {
+        let p = Path::new("d.csv");
+        let t = parse("\u{feff}1,2\r\n3,4\r\n", p).unwrap();
+        assert_eq!(t.columns, vec!["c1", "c2"]);
+        assert_eq!(t.rows, vec![vec![1.0, 2.0], vec![3.0, 4.0]]);
+        assert_eq!(t.lines, vec![1, 2]);
+        let h = parse("\u{feff}x,y\n1,2\n", p).unwrap();
+        assert_eq!(h.columns, vec!["x", "y"]);
     }
 
     #[test]

@@ -982,6 +982,43 @@ fn bad_input_fails_cleanly_without_partial_output() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A run with several output files that fails on one of them leaves none: `regions` with a
+/// directory where one image's region file goes (it used to rename the other images' files
+/// into place and leave a staging file behind), `match` with a picture in a missing folder (it
+/// used to write `--out` first) or with `--picture` the same file as `--out` (the picture
+/// silently replaced the matches, exit code 0).
+#[test]
+fn a_failed_output_leaves_no_other_output() {
+    let dir = temp("outputs");
+    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
+    scene(&identity(), 120, 90, 3).save(&a).unwrap();
+    scene(&identity(), 120, 90, 4).save(&b).unwrap();
+    let out = dir.join("out");
+    std::fs::create_dir_all(out.join("b.mser")).unwrap();
+    fails(&["regions", "--out", s(&out), s(&a), s(&b)], "b.mser");
+    let left: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, vec!["b.mser"], "left behind: {left:?}");
+    let m = out.join("m.json");
+    let pic = dir.join("missing").join("pair.png");
+    fails(
+        &["match", s(&a), s(&b), "--out", s(&m), "--picture", s(&pic)],
+        "pair.png",
+    );
+    assert!(!m.exists(), "--out written although --picture failed");
+    let same = out.join("sub").join("..").join("m.json");
+    std::fs::create_dir_all(out.join("sub")).unwrap();
+    fails(
+        &["match", s(&a), s(&b), "--out", s(&m), "--picture", s(&same)],
+        "same file",
+    );
+    assert!(!m.exists());
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 2);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `--threads` outside 1..=1024 is a usage error (exit 2, one line) before any work: a huge
 /// count used to try to start that many threads (100,000 hung for over a minute).
 #[test]

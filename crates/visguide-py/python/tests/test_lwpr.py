@@ -329,6 +329,25 @@ def test_reference_library_xml_file_predicts_like_the_rust_crate(reference):
     assert LWPR(str(REFERENCE_XML)) == model
 
 
+def test_file_errors_name_the_file(tmp_path):
+    """Every model-file error names its file (the crate's I/O errors did not: "i/o error: No
+    such file or directory" for whichever of several files was missing)."""
+    missing = tmp_path / "missing-model.bin"
+    bad = tmp_path / "corrupt-model.json"
+    bad.write_text("{not json")
+    nowhere = tmp_path / "no" / "dir" / "out-model.xml"
+    for call, name, error in [
+        (lambda: LWPR.load(missing), missing.name, OSError),
+        (lambda: LWPR(str(missing)), missing.name, OSError),
+        (lambda: LWPR.read_XML(missing), missing.name, OSError),
+        (lambda: LWPR.load(bad), bad.name, ValueError),
+        (lambda: trained().save(nowhere), nowhere.name, OSError),
+        (lambda: trained().write_XML(nowhere), nowhere.name, OSError),
+    ]:
+        with pytest.raises(error, match=name):
+            call()
+
+
 def test_xml_errors(tmp_path):
     model = trained()
     text = model.to_xml()

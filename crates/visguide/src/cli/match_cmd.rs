@@ -1,13 +1,13 @@
 //! `visguide match`: Fourier-descriptor matches of two images, with geometry and a score.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use fd_match::{Method, Sampling};
 use serde::Serialize;
 use visguide::geometry::RansacConfig;
-use visguide::output::atomic::{save_png, write_atomic};
+use visguide::output::atomic::{encode_png, same_target, write_all_atomic, write_bytes};
 use visguide::output::draw;
 use visguide::scoring::{PairScore, score_matches};
 use visguide::{Combination, Homography, MatchSettings, PairMatches, load_gray, match_images};
@@ -276,6 +276,17 @@ fn opt(v: Option<impl ToString>) -> String {
 
 /// Runs the subcommand.
 pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
+    // Refused before any work: the picture would silently replace the matches.
+    if let (Some(out), Some(pic)) = (&a.out, &a.picture)
+        && same_target(out, pic)
+    {
+        return Err(format!(
+            "--out {} and --picture {} are the same file; give them different names",
+            out.display(),
+            pic.display()
+        )
+        .into());
+    }
     let known = match &a.homography {
         Some(p) => {
             if p.is_dir() {
@@ -365,31 +376,49 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
         }
         Ok(())
     };
+    // The picture is drawn before anything is written, and it and the output file are
+    // written as one: a picture that cannot be saved leaves no output file either.
+    let picture = a
+        .picture
+        .as_ref()
+        .map(|pic| -> CliResult<(&Path, Vec<u8>)> {
+            let pairs: Vec<_> = out
+                .matches
+                .iter()
+                .map(|r| {
+                    let good = r.correct.or(r.inlier).unwrap_or(true);
+                    (
+                        pair.features1.frames[r.i],
+                        pair.features2.frames[r.j],
+                        if good { draw::GREEN } else { draw::RED },
+                    )
+                })
+                .collect();
+            // Wrong matches first, so correct ones are drawn on top.
+            let mut pairs = pairs;
+            pairs.sort_by_key(|p| p.2 == draw::GREEN);
+            let png = encode_png(pic, &draw::matches(&img1, &img2, &pairs, 1600))?;
+            Ok((pic.as_path(), png))
+        })
+        .transpose()?;
     match &a.out {
-        Some(p) => write_atomic(p, fill)?,
+        Some(p) => {
+            let mut text = Vec::new();
+            fill(&mut text)?;
+            let mut files = vec![(p.as_path(), text.as_slice())];
+            if let Some((pic, png)) = &picture {
+                files.push((pic, png.as_slice()));
+            }
+            write_all_atomic(&files)?;
+        }
         None => {
+            if let Some((pic, png)) = &picture {
+                write_bytes(pic, png)?;
+            }
             let stdout = std::io::stdout();
             let mut lock = stdout.lock();
             fill(&mut lock)?;
         }
-    }
-    if let Some(pic) = &a.picture {
-        let pairs: Vec<_> = out
-            .matches
-            .iter()
-            .map(|r| {
-                let good = r.correct.or(r.inlier).unwrap_or(true);
-                (
-                    pair.features1.frames[r.i],
-                    pair.features2.frames[r.j],
-                    if good { draw::GREEN } else { draw::RED },
-                )
-            })
-            .collect();
-        // Wrong matches first, so correct ones are drawn on top.
-        let mut pairs = pairs;
-        pairs.sort_by_key(|p| p.2 == draw::GREEN);
-        save_png(pic, &draw::matches(&img1, &img2, &pairs, 1600))?;
     }
     let h = out
         .homography

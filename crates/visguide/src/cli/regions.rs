@@ -99,8 +99,23 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         .into());
     }
     ensure_dir(&a.out)?;
-    let settings = a.mser.settings();
     let format: Format = a.format.into();
+    // An output name taken by a directory is refused before any work: its rename would fail
+    // only after the other images' files were already in place.
+    for path in &images {
+        let mut targets = vec![output_for(
+            &a.out,
+            path,
+            &format!(".{}", format.extension()),
+        )];
+        if a.draw {
+            targets.push(output_for(&a.out, path, "-regions.png"));
+        }
+        if let Some(t) = targets.iter().find(|t| t.is_dir()) {
+            return Err(format!("{}: is a directory, expected a file name", t.display()).into());
+        }
+    }
+    let settings = a.mser.settings();
     let bar = ui.bar(images.len() as u64, "regions");
     let failed = AtomicBool::new(false);
     // Which threads processed an image.
@@ -147,8 +162,14 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         }
         return Err(e);
     }
-    for (tmp, target) in &staged {
-        std::fs::rename(tmp, target).map_err(|e| format!("{}: {e}", target.display()))?;
+    for (k, (tmp, target)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, target) {
+            // No staging file outlives the run.
+            for (rest, _) in &staged[k..] {
+                let _ = std::fs::remove_file(rest);
+            }
+            return Err(format!("{}: {e}", target.display()).into());
+        }
     }
     let threads = |n: usize| match n {
         1 => String::from("1 thread"),

@@ -10,7 +10,9 @@ use nalgebra::{Matrix2, Matrix3};
 
 use crate::error::VisguideError;
 
-/// A plane projective transformation, kept exactly as read (no normalisation).
+/// A plane projective transformation, kept exactly as read (no normalisation), except that a
+/// matrix whose largest entry is beyond 2^±[`SCALE_EXP_LIMIT`] is scaled by a power of two (see
+/// [`Homography::from_row_major`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Homography {
     m: Matrix3<f64>,
@@ -19,6 +21,19 @@ pub struct Homography {
 /// Relative size of `|det H|` (against the product of the row norms) below which H counts as
 /// singular.
 const SINGULAR_EPS: f64 = 1e-12;
+
+/// Largest binary exponent of the largest entry kept as read. H and cH are the same map, but a
+/// matrix with entries like 1e150 overflows (its determinant is `inf − inf`, its inverse NaN,
+/// so scoring against it silently found no correct match) and one with entries like 1e-150
+/// underflows (refused as singular); such a matrix is scaled by a power of two, which changes
+/// no mantissa, so every mapped point is what the matrix as read gives.
+const SCALE_EXP_LIMIT: i32 = 64;
+
+/// `x · 2^k` for |k| up to about 2100, exact unless the result under- or overflows (in two
+/// steps, as 2^k alone overflows for |k| > 1023).
+fn times_pow2(x: f64, k: i32) -> f64 {
+    x * 2f64.powi(k / 2) * 2f64.powi(k - k / 2)
+}
 
 /// Homogeneous weights with `|w|` below this (relative to the row norm) map to infinity.
 const HORIZON_EPS: f64 = 1e-12;
@@ -54,7 +69,16 @@ impl Homography {
                 reason: "need nine finite entries".into(),
             });
         }
-        let m = Matrix3::from_row_slice(v);
+        let largest = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let exp = if largest > 0.0 {
+            largest.log2().floor() as i32
+        } else {
+            0
+        };
+        let mut m = Matrix3::from_row_slice(v);
+        if exp.abs() > SCALE_EXP_LIMIT {
+            m.apply(|x| *x = times_pow2(*x, -exp));
+        }
         let scale: f64 = (0..3).map(|r| m.row(r).norm()).product();
         if scale == 0.0 || m.determinant().abs() <= SINGULAR_EPS * scale {
             return Err(VisguideError::Homography {
@@ -183,6 +207,38 @@ mod tests {
 
     const SAMPLE: &str =
         "   8.5e-01   2.1E-01  9.9\n  -2.1e-01   8.6e-01  1.3e+02\n 2.0e-06   1.2e-06   1.0\n";
+
+    /// A matrix with huge or tiny entries is the same map as the one with ordinary entries: it
+    /// used to overflow (entries around 1e150: a NaN inverse, infinite corner errors, so
+    /// scoring silently found nothing) or underflow (around 1e-150: refused as singular).
+    #[test]
+    fn scaled_matrices_are_the_same_map() {
+        let h = Homography::parse(SAMPLE).unwrap();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * (1.0 + a.abs().max(b.abs()));
+        for k in [1e150, -1e150, 1e-150, 1e300, 1e-300, 1e-310] {
+            let v: Vec<f64> = h.to_row_major().iter().map(|x| x * k).collect();
+            let g = Homography::from_row_major(&v).unwrap_or_else(|e| panic!("{k}: {e}"));
+            for (x, y) in [(0.0, 0.0), (123.0, 456.0), (800.0, 600.0)] {
+                let (p, q) = (h.map(x, y).unwrap(), g.map(x, y).unwrap());
+                assert!(close(p.0, q.0) && close(p.1, q.1), "{k}: {p:?} vs {q:?}");
+                let (jh, jg) = (h.jacobian(x, y).unwrap(), g.jacobian(x, y).unwrap());
+                assert!(jh.iter().zip(jg.iter()).all(|(a, b)| close(*a, *b)), "{k}");
+                let (p, q) = (
+                    h.inverse().map(x, y).unwrap(),
+                    g.inverse().map(x, y).unwrap(),
+                );
+                assert!(close(p.0, q.0) && close(p.1, q.1), "{k}: {p:?} vs {q:?}");
+            }
+            assert!(g.corner_error(&h, 800, 600) < 1e-6, "{k}");
+        }
+        // Ordinary matrices are kept exactly as read.
+        let v = [1e10, 2.0, 3.0, 4.0, 5e-10, 6.0, 7.0, 8.0, 9.0];
+        assert_eq!(Homography::from_row_major(&v).unwrap().to_row_major(), v);
+        assert!(
+            Homography::from_row_major(&[1e-300, 0.0, 0.0, 0.0, 1e-300, 0.0, 0.0, 0.0, 0.0])
+                .is_err()
+        );
+    }
 
     #[test]
     fn parses_mixed_float_notation() {

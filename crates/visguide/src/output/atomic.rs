@@ -67,20 +67,95 @@ pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
     result.map_err(io(path))
 }
 
+/// Whether two output paths name the same file: equal file names in the same folder (the
+/// folders compared after resolving `.`, `..` and links when they exist, so `out.json` and
+/// `./out.json` are one file).
+pub fn same_target(a: &Path, b: &Path) -> bool {
+    if a == b {
+        return true;
+    }
+    let folder = |p: &Path| {
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::canonicalize(&dir).unwrap_or(dir)
+    };
+    a.file_name() == b.file_name() && folder(a) == folder(b)
+}
+
+/// Writes several files as one: each is written and flushed under a temporary name beside its
+/// target, and the temporaries are renamed over the targets only once every one was written,
+/// so a file that cannot be written (a missing folder, a directory in the way) leaves none of
+/// them. Two entries naming the same file are an error before anything is written (the second
+/// would silently replace the first).
+pub fn write_all_atomic(files: &[(&Path, &[u8])]) -> Result<()> {
+    for (k, (a, _)) in files.iter().enumerate() {
+        if let Some((b, _)) = files[..k].iter().find(|(b, _)| same_target(a, b)) {
+            return Err(VisguideError::Io {
+                path: a.to_path_buf(),
+                source: std::io::Error::other(format!(
+                    "the same file as {}: two outputs cannot share a path",
+                    b.display()
+                )),
+            });
+        }
+        if a.is_dir() {
+            return Err(VisguideError::Io {
+                path: a.to_path_buf(),
+                source: std::io::Error::other("is a directory, expected a file name"),
+            });
+        }
+    }
+    let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
+    let remove = |staged: &[(PathBuf, &Path)]| {
+        for (tmp, _) in staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+    };
+    for (target, bytes) in files {
+        let tmp = temp_path(target);
+        if let Err(e) = write_synced(&tmp, bytes) {
+            remove(&staged);
+            // The error names the target, not the temporary file.
+            return Err(match e {
+                VisguideError::Io { source, .. } => VisguideError::Io {
+                    path: target.to_path_buf(),
+                    source,
+                },
+                other => other,
+            });
+        }
+        staged.push((tmp, target));
+    }
+    for (k, (tmp, target)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, target) {
+            remove(&staged[k..]);
+            return Err(io(*target)(e));
+        }
+    }
+    Ok(())
+}
+
 /// Writes bytes atomically.
 pub fn write_bytes(target: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(target, |w| w.write_all(bytes).map_err(io(target)))
 }
 
-/// Saves a PNG atomically.
-pub fn save_png(target: &Path, img: &image::RgbImage) -> Result<()> {
+/// The bytes of a PNG file of `img`; `target` names the file in errors.
+pub fn encode_png(target: &Path, img: &image::RgbImage) -> Result<Vec<u8>> {
     let mut buf = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut buf), image::ImageFormat::Png)
         .map_err(|e| VisguideError::Image {
             path: target.to_path_buf(),
             reason: e.to_string(),
         })?;
-    write_bytes(target, &buf)
+    Ok(buf)
+}
+
+/// Saves a PNG atomically.
+pub fn save_png(target: &Path, img: &image::RgbImage) -> Result<()> {
+    write_bytes(target, &encode_png(target, img)?)
 }
 
 #[cfg(test)]
@@ -105,6 +180,33 @@ mod tests {
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         assert!(write_bytes(&dir, b"x").is_err());
         assert!(write_bytes(&dir.join("missing/out.txt"), b"x").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Several files written as one: all or nothing. A target in a missing folder, a
+    /// directory in the way or the same path twice (also spelt differently) leaves no file and
+    /// no temporary one, and the files that were there keep their contents.
+    #[test]
+    fn files_written_together_are_all_or_nothing() {
+        let dir = std::env::temp_dir().join(format!("visguide-atomic-all-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let (a, b) = (dir.join("a.json"), dir.join("b.png"));
+        write_bytes(&a, b"old").unwrap();
+        let count = || std::fs::read_dir(&dir).unwrap().count();
+        let missing = dir.join("missing/b.png");
+        let dotted = dir.join("sub/../a.json");
+        for second in [missing.as_path(), dir.join("sub").as_path(), &a, &dotted] {
+            let e = write_all_atomic(&[(&a, b"new"), (second, b"png")]).unwrap_err();
+            assert!(matches!(e, VisguideError::Io { .. }), "{e}");
+            assert_eq!(std::fs::read(&a).unwrap(), b"old");
+            assert_eq!(count(), 2, "{}", second.display());
+        }
+        let e = write_all_atomic(&[(&a, b"new"), (&dotted, b"png")]).unwrap_err();
+        assert!(e.to_string().contains("the same file"), "{e}");
+        write_all_atomic(&[(&a, b"new"), (&b, b"png")]).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"new");
+        assert_eq!(std::fs::read(&b).unwrap(), b"png");
+        assert_eq!(count(), 3);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
