@@ -29,12 +29,16 @@ pub fn parse(text: &str, path: &Path) -> Result<Table> {
     let mut columns: Option<Vec<String>> = None;
     let mut rows = Vec::new();
     let mut lines = Vec::new();
-    // A byte order mark is not part of the first field: left in, it made a first row of
-    // numbers look like a header (`\u{feff}1` is no number), silently dropping that sample.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (k, raw) in text.lines().enumerate() {
         let no = k + 1;
-        let l = raw.trim();
+        let mut l = raw.trim();
+        if columns.is_none() && rows.is_empty() {
+            // Byte order marks before the first field are not part of it: left in, one made a
+            // first row of numbers look like a header (`\u{feff}1` is no number), silently
+            // dropping that sample, and a header name starting with one would not read back
+            // as written.
+            l = l.trim_start_matches(|c: char| c == '\u{feff}' || c.is_whitespace());
+        }
         if l.is_empty() || l.starts_with('#') {
             continue;
         }
@@ -136,6 +140,18 @@ mod tests {
         assert_eq!(t.lines, vec![1, 2]);
         let h = parse("\u{feff}x,y\n1,2\n", p).unwrap();
         assert_eq!(h.columns, vec!["x", "y"]);
+        // Several marks, or one after blanks (found by the `visguide_table` fuzz target: a
+        // header name `\u{feff}1` was written back and read as a row).
+        for text in [
+            "\u{feff}\u{feff}1\n1\n2",
+            " \u{feff}1\n1\n2",
+            "\u{feff}\n1\n1\n2",
+            " \u{feff} \u{feff}1\n1\n2",
+        ] {
+            let t = parse(text, p).unwrap();
+            assert_eq!(t.columns, vec!["c1"], "{text:?}");
+            assert_eq!(t.rows, vec![vec![1.0], vec![1.0], vec![2.0]], "{text:?}");
+        }
     }
 
     #[test]
