@@ -110,7 +110,8 @@ fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> Pipeli
 /// Errors before the robot moves: a control space or exploration ranges that do not fit the
 /// robot ([`ControlSpace::check_explore`]), no gripper servo, a protocol out of range (counts,
 /// `step_us` not finite and non-negative, [`ShapeConfig::validate`],
-/// [`PerceptConfig::validate`](super::track::PerceptConfig::validate)). Later: robot errors, a
+/// [`PerceptConfig::validate`](super::track::PerceptConfig::validate)), a heuristic percept
+/// without cameras or with cameras of different image sizes. Later: robot errors, a
 /// capture with fewer images than the heuristic's cameras, too little training data.
 pub fn learn_by_action<R: Robot>(
     robot: &mut R,
@@ -145,6 +146,25 @@ pub fn learn_by_action<R: Robot>(
     protocol.motion.validate()?;
     let cams = heuristic.num_cameras();
     let size = Recogniser::image_size(heuristic, 0);
+    // The percept takes one image size for every camera ([`FdRecogniser::size`]): a heuristic
+    // whose cameras differ used to be learned from, giving a percept that refused every
+    // capture of the other cameras.
+    if cams == 0 {
+        return Err(PipelineError::InvalidParameter {
+            name: "heuristic",
+            reason: "the heuristic percept has no camera".into(),
+        });
+    }
+    if let Some(cam) = (1..cams).find(|&c| Recogniser::image_size(heuristic, c) != size) {
+        let other = Recogniser::image_size(heuristic, cam);
+        return Err(PipelineError::InvalidParameter {
+            name: "heuristic",
+            reason: format!(
+                "camera {cam} sees {}×{} px, camera 0 {}×{}: the percept needs one image size",
+                other[0], other[1], size[0], size[1]
+            ),
+        });
+    }
     let mut report = LearnReport::default();
     let mut commands = RandomCommands::new(explore, protocol.seed)?;
     // Views: rest and moved captures per pose.

@@ -107,7 +107,8 @@ pub struct MotionModel {
 
 impl MotionModel {
     /// An empty model reading the servos `controlled` of a full command, for `cameras`
-    /// cameras.
+    /// cameras. Errors: an invalid configuration, no servo or camera, or more than LWPR takes
+    /// (two outputs per camera).
     pub fn new(controlled: &[usize], cameras: usize, config: &MotionConfig) -> Result<Self> {
         config.validate()?;
         if controlled.is_empty() || cameras == 0 {
@@ -116,7 +117,15 @@ impl MotionModel {
                 reason: "needs at least one controlled servo and one camera".into(),
             });
         }
-        let (n_in, n_out) = (controlled.len(), 2 * cameras);
+        // Two outputs per camera: a camera count whose double overflows is refused here (it
+        // used to panic in the multiplication).
+        let n_out = cameras
+            .checked_mul(2)
+            .ok_or_else(|| PipelineError::InvalidParameter {
+                name: "cameras",
+                reason: format!("{cameras} cameras: too many outputs"),
+            })?;
+        let n_in = controlled.len();
         lwpr::check_sizes(n_in, n_out)?;
         let lwpr = LwprBuilder::new(n_in, n_out)
             .norm_in(&vec![config.command_scale; n_in])
@@ -383,5 +392,20 @@ mod tests {
         }
         assert!(MotionModel::new(&[], 1, &MotionConfig::default()).is_err());
         assert!(MotionModel::new(&[0], 0, &MotionConfig::default()).is_err());
+    }
+
+    /// A camera count whose two outputs per camera overflow is a typed error (it used to panic
+    /// on the multiplication); one LWPR refuses as too large is its error.
+    #[test]
+    fn a_huge_camera_count_is_refused_not_a_panic() {
+        let d = MotionConfig::default();
+        assert!(matches!(
+            MotionModel::new(&[0], usize::MAX / 2 + 1, &d),
+            Err(PipelineError::InvalidParameter {
+                name: "cameras",
+                ..
+            })
+        ));
+        assert!(MotionModel::new(&[0], usize::MAX / 2, &d).is_err());
     }
 }

@@ -231,8 +231,10 @@ fn centre(f: &Features, i: usize) -> [f64; 2] {
 
 impl ShapeModel {
     /// Learns the model from action pairs of `cameras` cameras (see the module docs).
-    /// Errors: an invalid configuration, a camera index out of range, or a camera left
-    /// without any gripper view or background region.
+    /// Errors: an invalid configuration, a camera index out of range, a pair whose `rest` and
+    /// `moved` differ in size ([`PipelineError::InvalidParameter`]), fewer pairs than cameras,
+    /// or a camera left without any gripper view or background region
+    /// ([`PipelineError::NotEnoughData`]).
     pub fn learn(
         config: &ShapeConfig,
         cameras: usize,
@@ -243,6 +245,32 @@ impl ShapeModel {
             return Err(PipelineError::InvalidParameter {
                 name: "cameras",
                 reason: "need at least one".into(),
+            });
+        }
+        // Every camera needs a pair (else it has no view): checked before anything is sized by
+        // `cameras` (a huge count used to panic allocating the per-camera lists).
+        if cameras > pairs.len() {
+            return Err(PipelineError::NotEnoughData(format!(
+                "{cameras} cameras, {} action pairs",
+                pairs.len()
+            )));
+        }
+        // A pair's captures are compared pixel by pixel: of another size, every region would
+        // look changed (they used to be learned as gripper views).
+        if let Some((k, p)) = pairs
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.rest.dimensions() != p.moved.dimensions())
+        {
+            return Err(PipelineError::InvalidParameter {
+                name: "pairs",
+                reason: format!(
+                    "pair {k}: rest is {}×{} px, moved {}×{}",
+                    p.rest.width(),
+                    p.rest.height(),
+                    p.moved.width(),
+                    p.moved.height()
+                ),
             });
         }
         let mut views: Vec<Vec<GripperView>> = vec![Vec::new(); cameras];
@@ -417,7 +445,9 @@ impl ShapeModel {
 
     /// The votes of the regions found in `window` of the image alone ([`super::window`]: MSER
     /// runs on the window; a region touching one of its edges inside the image is dropped);
-    /// with `None`, [`votes`](Self::votes). The votes' positions are the image's.
+    /// with `None`, [`votes`](Self::votes). The votes' positions are the image's. Errors
+    /// ([`PipelineError::InvalidParameter`]): an unknown camera, a window of another image
+    /// size, or one that is not a non-empty part of the image.
     pub fn votes_in(
         &self,
         cam: usize,
@@ -453,6 +483,22 @@ impl ShapeModel {
                     win.size[1],
                     img.width(),
                     img.height()
+                ),
+            });
+        }
+        // The window's fields are public: one inverted, empty or reaching past the image is
+        // refused here (an inverted one used to panic computing its extent).
+        if let Some(win) = window
+            && !(win.x0 < win.x1
+                && win.x1 <= win.size[0]
+                && win.y0 < win.y1
+                && win.y1 <= win.size[1])
+        {
+            return Err(PipelineError::InvalidParameter {
+                name: "window",
+                reason: format!(
+                    "columns {}..{} and rows {}..{} are not a non-empty part of a {}×{} image",
+                    win.x0, win.x1, win.y0, win.y1, win.size[0], win.size[1]
                 ),
             });
         }
@@ -819,6 +865,30 @@ mod tests {
             model.votes_in(0, &query, Some(&other)),
             Err(PipelineError::InvalidParameter { name: "window", .. })
         ));
+        // So are windows that are not a non-empty part of the image (the fields are public;
+        // an inverted one used to panic).
+        for (x0, y0, x1, y1) in [
+            (60, 60, 50, 90),
+            (60, 90, 80, 60),
+            (60, 60, 60, 90),
+            (300, 60, 420, 90),
+            (0, 0, 401, 300),
+        ] {
+            let bad = SearchWindow {
+                x0,
+                y0,
+                x1,
+                y1,
+                size,
+            };
+            assert!(
+                matches!(
+                    model.votes_in(0, &query, Some(&bad)),
+                    Err(PipelineError::InvalidParameter { name: "window", .. })
+                ),
+                "{bad:?}"
+            );
+        }
     }
 
     #[test]
@@ -1001,6 +1071,32 @@ mod tests {
         );
     }
 
+    /// A pair whose moved capture is of another size than its rest capture is refused: its
+    /// regions cannot be compared (every region of `rest` used to count as changed, so the
+    /// L's surroundings were learned as gripper views).
+    #[test]
+    fn a_pair_of_captures_of_different_sizes_is_refused() {
+        let (c0, a0) = L0;
+        let rest = scene(c0, a0, true);
+        let moved = scene_with([200, 160], None, None);
+        let pair = ActionPair {
+            camera: 0,
+            rest: &rest,
+            moved: &moved,
+            tip: Some(tip(c0, a0)),
+        };
+        match ShapeModel::learn(&ShapeConfig::default(), 1, &[pair]) {
+            Err(PipelineError::InvalidParameter { name, reason }) => {
+                assert_eq!(name, "pairs");
+                assert!(
+                    reason.contains("240×200") && reason.contains("200×160"),
+                    "{reason}"
+                );
+            }
+            other => panic!("{:?}", other.map(|(_, r)| r)),
+        }
+    }
+
     #[test]
     fn nothing_changed_is_not_enough_data_and_bad_settings_are_refused() {
         let img = scene([100.0, 80.0], 0.0, true);
@@ -1042,6 +1138,14 @@ mod tests {
                 Err(PipelineError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
                 other => panic!("{name}: {other:?}"),
             }
+        }
+        // More cameras than pairs: some camera has no view (a huge count used to panic
+        // allocating the per-camera lists).
+        for cameras in [2, usize::MAX] {
+            assert!(matches!(
+                ShapeModel::learn(&ShapeConfig::default(), cameras, &[pair]),
+                Err(PipelineError::NotEnoughData(_))
+            ));
         }
         let far = ActionPair { camera: 3, ..pair };
         assert!(matches!(

@@ -335,6 +335,8 @@ impl Recogniser for FdRecogniser {
         self.size
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
+        // The settings are public fields: checked here, as the percept's input.
+        self.config.validate().map_err(percept_error)?;
         check_images(images, &self.shapes, self.size)?;
         images
             .iter()
@@ -550,6 +552,10 @@ impl Recogniser for FdCbtRecogniser {
         self.fd.image_size(cam)
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
+        // Before any track moves: settings out of range (public fields) used to restart or
+        // keep tracks silently (a NaN certainty threshold), or forget a track and then fail
+        // (a NaN kernel width on a restart), while the other cameras' tracks advanced.
+        self.fd.config.validate().map_err(percept_error)?;
         check_images(images, &self.fd.shapes, self.fd.size)?;
         // The prediction at the last command: the prior's centre and the search windows'.
         let predicted = lock(&self.state).predicted.clone();
@@ -579,5 +585,102 @@ impl Recogniser for FdCbtRecogniser {
             .map(|(cam, v)| self.step(cam, v, &mut state.tracks[cam]))
             .collect();
         steps.into_iter().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::shapes::{ActionPair, ShapeConfig};
+    use image::Luma;
+    use mser::MserParams;
+
+    const SIZE: [u32; 2] = [240, 200];
+
+    /// A bright L (a 40 × 10 bar and a 10 × 19 foot, its tip at `c + (15, 24)`), if `with_l`,
+    /// and a bright static square, on a dark background.
+    fn scene(c: [f64; 2], with_l: bool) -> GrayImage {
+        GrayImage::from_fn(SIZE[0], SIZE[1], |x, y| {
+            let (dx, dy) = (f64::from(x) - c[0], f64::from(y) - c[1]);
+            let on_l = with_l
+                && ((dx.abs() < 20.0 && dy.abs() < 5.0)
+                    || ((10.0..20.0).contains(&dx) && (5.0..24.0).contains(&dy)));
+            let square = (20..44).contains(&x) && (150..174).contains(&y);
+            Luma([if on_l || square { 220 } else { 40 }])
+        })
+    }
+
+    /// The FD + CBT percept of one camera that sees the L (shape model learned on one action
+    /// pair, tracker on a synthetic walk of the tip with one vote at it per frame).
+    fn percept() -> FdCbtRecogniser {
+        let config = ShapeConfig {
+            mser: MserParams {
+                min_area: 30,
+                max_area: 3000,
+                ..MserParams::default()
+            },
+            max_rotation: std::f64::consts::PI,
+            ..ShapeConfig::default()
+        };
+        let c = [100.0, 80.0];
+        let (rest, moved) = (scene(c, true), scene(c, false));
+        let pair = ActionPair {
+            camera: 0,
+            rest: &rest,
+            moved: &moved,
+            tip: Some([c[0] + 15.0, c[1] + 24.0]),
+        };
+        let (shapes, _) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        let walk: Walk = (0..30)
+            .map(|k| {
+                let t = [110.0 + f64::from(k % 7), 100.0 + f64::from(k % 5)];
+                let vote = Vote {
+                    position: [t[0] + 0.3 * f64::from(k % 3), t[1] - 0.2 * f64::from(k % 2)],
+                    weight: 0.8,
+                    error: 0.05,
+                    rotation: 0.0,
+                    region: 0,
+                };
+                (Some(t), vec![vote])
+            })
+            .collect();
+        let model = learn_tracker(SIZE, &[walk]).unwrap();
+        let fd = FdRecogniser {
+            shapes,
+            size: SIZE,
+            config: PerceptConfig::default(),
+        };
+        FdCbtRecogniser::new(fd, model)
+    }
+
+    /// Settings out of range (the percept's fields are public) are refused before any track
+    /// moves: a kernel width of NaN with a loss threshold above 1 used to forget the running
+    /// track and then fail, and a NaN start threshold started a track on any vote mode.
+    #[test]
+    fn bad_settings_are_refused_and_leave_the_tracks_as_they_were() {
+        let mut p = percept();
+        let frame = [scene([105.0, 82.0], true)];
+        p.locate_all(&frame).unwrap();
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])]);
+        p.fd.config.mode_sigma_px = f64::NAN;
+        p.fd.config.lost_certainty = 2.0;
+        assert!(matches!(
+            p.locate_all(&frame),
+            Err(ServoError::InvalidParameter {
+                name: "percept",
+                ..
+            })
+        ));
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])], "the track was kept");
+
+        let mut fresh = p.fresh();
+        fresh.fd.config = PerceptConfig {
+            start_certainty: f64::NAN,
+            ..PerceptConfig::default()
+        };
+        assert!(fresh.locate_all(&frame).is_err());
+        assert_eq!(fresh.offsets(), vec![None]);
+        // The FD-only percept checks its settings too.
+        assert!(fresh.fd.locate_all(&frame).is_err());
     }
 }

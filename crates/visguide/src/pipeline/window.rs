@@ -98,9 +98,12 @@ impl SearchWindow {
         })
     }
 
-    /// Width and height of the window.
+    /// Width and height of the window (0 along an inverted axis: the fields are public).
     pub fn extent(&self) -> [u32; 2] {
-        [self.x1 - self.x0, self.y1 - self.y0]
+        [
+            self.x1.saturating_sub(self.x0),
+            self.y1.saturating_sub(self.y0),
+        ]
     }
 
     /// Whether the window is the whole image.
@@ -150,6 +153,15 @@ mod tests {
             SearchWindow::around([10.0, 10.0], f64::INFINITY, [640, 480]),
             None
         );
+        // An inverted window (built by hand) is empty, not a panic.
+        let inverted = SearchWindow {
+            x0: 30,
+            y0: 20,
+            x1: 10,
+            y1: 40,
+            size: [640, 480],
+        };
+        assert_eq!(inverted.extent(), [0, 20]);
     }
 
     #[test]
