@@ -689,13 +689,13 @@ impl CameraShapes {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use image::Luma;
 
     /// An asymmetric bright "L" (local frame: a 40 × 10 bar and a 10 × 24 foot) rotated by
     /// `angle` about `centre`, a bright static square, on a dark background; 4 × 4 supersampled.
-    fn scene(centre: [f64; 2], angle: f64, with_l: bool) -> GrayImage {
+    pub(crate) fn scene(centre: [f64; 2], angle: f64, with_l: bool) -> GrayImage {
         scene_with([240, 200], with_l.then_some((centre, angle, 1.0)), None)
     }
 
@@ -734,18 +734,18 @@ mod tests {
     }
 
     /// The tip in the L's local frame: the far end of its foot.
-    fn tip(centre: [f64; 2], angle: f64) -> [f64; 2] {
+    pub(crate) fn tip(centre: [f64; 2], angle: f64) -> [f64; 2] {
         let (s, c) = angle.sin_cos();
         let (u, v) = (15.0, 24.0);
         [centre[0] + c * u - s * v, centre[1] + s * u + c * v]
     }
 
     /// The training pose of [`one_l_model`]'s L.
-    const L0: ([f64; 2], f64) = ([100.0, 80.0], 0.2);
+    pub(crate) const L0: ([f64; 2], f64) = ([100.0, 80.0], 0.2);
 
     /// The shape model of one L at pose [`L0`] (small regions, any rotation), its report and
     /// the training image with the L.
-    fn one_l_model() -> (ShapeModel, ShapeReport, GrayImage) {
+    pub(crate) fn one_l_model() -> (ShapeModel, ShapeReport, GrayImage) {
         let config = ShapeConfig {
             mser: MserParams {
                 min_area: 30,

@@ -591,49 +591,21 @@ impl Recogniser for FdCbtRecogniser {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pipeline::shapes::{ActionPair, ShapeConfig};
-    use image::Luma;
-    use mser::MserParams;
+    use crate::pipeline::shapes::tests::{L0, one_l_model, scene, tip};
 
-    const SIZE: [u32; 2] = [240, 200];
-
-    /// A bright L (a 40 × 10 bar and a 10 × 19 foot, its tip at `c + (15, 24)`), if `with_l`,
-    /// and a bright static square, on a dark background.
-    fn scene(c: [f64; 2], with_l: bool) -> GrayImage {
-        GrayImage::from_fn(SIZE[0], SIZE[1], |x, y| {
-            let (dx, dy) = (f64::from(x) - c[0], f64::from(y) - c[1]);
-            let on_l = with_l
-                && ((dx.abs() < 20.0 && dy.abs() < 5.0)
-                    || ((10.0..20.0).contains(&dx) && (5.0..24.0).contains(&dy)));
-            let square = (20..44).contains(&x) && (150..174).contains(&y);
-            Luma([if on_l || square { 220 } else { 40 }])
-        })
-    }
-
-    /// The FD + CBT percept of one camera that sees the L (shape model learned on one action
-    /// pair, tracker on a synthetic walk of the tip with one vote at it per frame).
+    /// The FD + CBT percept of one camera that sees the shape tests' L (its one-view shape
+    /// model; the tracker learned on a synthetic walk around the tip, one vote near it per
+    /// frame).
     fn percept() -> FdCbtRecogniser {
-        let config = ShapeConfig {
-            mser: MserParams {
-                min_area: 30,
-                max_area: 3000,
-                ..MserParams::default()
-            },
-            max_rotation: std::f64::consts::PI,
-            ..ShapeConfig::default()
-        };
-        let c = [100.0, 80.0];
-        let (rest, moved) = (scene(c, true), scene(c, false));
-        let pair = ActionPair {
-            camera: 0,
-            rest: &rest,
-            moved: &moved,
-            tip: Some([c[0] + 15.0, c[1] + 24.0]),
-        };
-        let (shapes, _) = ShapeModel::learn(&config, 1, &[pair]).unwrap();
+        let (shapes, _, rest) = one_l_model();
+        let size = [rest.width(), rest.height()];
+        let t0 = tip(L0.0, L0.1);
         let walk: Walk = (0..30)
             .map(|k| {
-                let t = [110.0 + f64::from(k % 7), 100.0 + f64::from(k % 5)];
+                let t = [
+                    t0[0] - 5.0 + f64::from(k % 7),
+                    t0[1] - 4.0 + f64::from(k % 5),
+                ];
                 let vote = Vote {
                     position: [t[0] + 0.3 * f64::from(k % 3), t[1] - 0.2 * f64::from(k % 2)],
                     weight: 0.8,
@@ -644,10 +616,10 @@ mod tests {
                 (Some(t), vec![vote])
             })
             .collect();
-        let model = learn_tracker(SIZE, &[walk]).unwrap();
+        let model = learn_tracker(size, &[walk]).unwrap();
         let fd = FdRecogniser {
             shapes,
-            size: SIZE,
+            size,
             config: PerceptConfig::default(),
         };
         FdCbtRecogniser::new(fd, model)
@@ -659,7 +631,7 @@ mod tests {
     #[test]
     fn bad_settings_are_refused_and_leave_the_tracks_as_they_were() {
         let mut p = percept();
-        let frame = [scene([105.0, 82.0], true)];
+        let frame = [scene([L0.0[0] + 5.0, L0.0[1] + 2.0], L0.1, true)];
         p.locate_all(&frame).unwrap();
         assert_eq!(p.offsets(), vec![Some([0.0, 0.0])]);
         p.fd.config.mode_sigma_px = f64::NAN;
