@@ -15,7 +15,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
-use visguide::output::atomic::{save_png, write_synced};
+use visguide::output::atomic::{
+    check_file_target, remove_staged, rename_staged, save_png, write_synced,
+};
 use visguide::output::draw;
 use visguide::output::regions::{Format, write};
 use visguide::{Features, GrayReader};
@@ -111,8 +113,8 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         if a.draw {
             targets.push(output_for(&a.out, path, "-regions.png"));
         }
-        if let Some(t) = targets.iter().find(|t| t.is_dir()) {
-            return Err(format!("{}: is a directory, expected a file name", t.display()).into());
+        for t in &targets {
+            check_file_target(t)?;
         }
     }
     let settings = a.mser.settings();
@@ -157,20 +159,11 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         }
     }
     if let Some(e) = first_error {
-        for (tmp, _) in &staged {
-            let _ = std::fs::remove_file(tmp);
-        }
+        remove_staged(&staged);
         return Err(e);
     }
-    for (k, (tmp, target)) in staged.iter().enumerate() {
-        if let Err(e) = std::fs::rename(tmp, target) {
-            // No staging file outlives the run.
-            for (rest, _) in &staged[k..] {
-                let _ = std::fs::remove_file(rest);
-            }
-            return Err(format!("{}: {e}", target.display()).into());
-        }
-    }
+    // No staging file outlives the run.
+    rename_staged(&staged)?;
     let threads = |n: usize| match n {
         1 => String::from("1 thread"),
         n => format!("{n} threads"),

@@ -21,17 +21,44 @@ fn temp_path(target: &Path) -> PathBuf {
     target.with_file_name(format!(".{name}.partial-{}-{k}", std::process::id()))
 }
 
-/// Writes `target` with `fill`, atomically.
-pub fn write_atomic<F>(target: &Path, fill: F) -> Result<()>
-where
-    F: FnOnce(&mut dyn Write) -> Result<()>,
-{
+/// Refuses an output path that names an existing directory (its rename would fail only after
+/// the work, or after other outputs were already in place).
+pub fn check_file_target(target: &Path) -> Result<()> {
     if target.is_dir() {
         return Err(VisguideError::Io {
             path: target.to_path_buf(),
             source: std::io::Error::other("is a directory, expected a file name"),
         });
     }
+    Ok(())
+}
+
+/// Removes staging files `(staging name, target)` that will not be renamed.
+pub fn remove_staged<T>(staged: &[(PathBuf, T)]) {
+    for (tmp, _) in staged {
+        let _ = std::fs::remove_file(tmp);
+    }
+}
+
+/// Renames every staging file over its target, in order. If a rename fails, the staging files
+/// not yet renamed are removed (no staging file outlives the call) and the error names that
+/// target; the files renamed before it stay in place.
+pub fn rename_staged<T: AsRef<Path>>(staged: &[(PathBuf, T)]) -> Result<()> {
+    for (k, (tmp, target)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, target) {
+            remove_staged(&staged[k..]);
+            return Err(io(target.as_ref())(e));
+        }
+    }
+    Ok(())
+}
+
+/// Writes `target` with `fill`, atomically.
+pub fn write_atomic<F>(target: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> Result<()>,
+{
+    check_file_target(target)?;
     let tmp = temp_path(target);
     let result = (|| {
         let file = std::fs::File::create(&tmp).map_err(io(target))?;
@@ -100,23 +127,13 @@ pub fn write_all_atomic(files: &[(&Path, &[u8])]) -> Result<()> {
                 )),
             });
         }
-        if a.is_dir() {
-            return Err(VisguideError::Io {
-                path: a.to_path_buf(),
-                source: std::io::Error::other("is a directory, expected a file name"),
-            });
-        }
+        check_file_target(a)?;
     }
     let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
-    let remove = |staged: &[(PathBuf, &Path)]| {
-        for (tmp, _) in staged {
-            let _ = std::fs::remove_file(tmp);
-        }
-    };
     for (target, bytes) in files {
         let tmp = temp_path(target);
         if let Err(e) = write_synced(&tmp, bytes) {
-            remove(&staged);
+            remove_staged(&staged);
             // The error names the target, not the temporary file.
             return Err(match e {
                 VisguideError::Io { source, .. } => VisguideError::Io {
@@ -128,13 +145,7 @@ pub fn write_all_atomic(files: &[(&Path, &[u8])]) -> Result<()> {
         }
         staged.push((tmp, target));
     }
-    for (k, (tmp, target)) in staged.iter().enumerate() {
-        if let Err(e) = std::fs::rename(tmp, target) {
-            remove(&staged[k..]);
-            return Err(io(*target)(e));
-        }
-    }
-    Ok(())
+    rename_staged(&staged)
 }
 
 /// Writes bytes atomically.
