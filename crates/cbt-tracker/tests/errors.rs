@@ -536,28 +536,22 @@ fn training_statistics_refuse_non_finite_or_overflowing_data() {
     // A NaN truth made Calibration's accel_sigma silently 1e-6 (NaN.max(1e-6)) and Scales'
     // accel NaN; an infinite or huge one gave accel_sigma = ∞, which `validate` refuses.
     let (_, train) = setup();
-    let mut edited = train.clone();
-    edited[0].frames[10].truth = Some([f64::NAN, 3.0]);
-    assert!(matches!(
-        Calibration::estimate(&edited, 32.0),
-        Err(TrackError::NonFinite { .. })
-    ));
-    assert!(matches!(
-        Scales::estimate(&edited, 320.0),
-        Err(TrackError::NonFinite { .. })
-    ));
-    let mut edited = train.clone();
-    edited[1].frames[3]
+    let mut nan_truth = train.clone();
+    nan_truth[0].frames[10].truth = Some([f64::NAN, 3.0]);
+    let mut infinite_detection = train.clone();
+    infinite_detection[1].frames[3]
         .detections
         .push(Detection::new(5.0, f64::INFINITY));
-    assert!(matches!(
-        Calibration::estimate(&edited, 32.0),
-        Err(TrackError::NonFinite { .. })
-    ));
-    assert!(matches!(
-        Scales::estimate(&edited, 320.0),
-        Err(TrackError::NonFinite { .. })
-    ));
+    for edited in [nan_truth, infinite_detection] {
+        assert!(matches!(
+            Calibration::estimate(&edited, 32.0),
+            Err(TrackError::NonFinite { .. })
+        ));
+        assert!(matches!(
+            Scales::estimate(&edited, 320.0),
+            Err(TrackError::NonFinite { .. })
+        ));
+    }
     let mut edited = train.clone();
     edited[0].frames[10].truth = Some([1e300, 3.0]);
     assert!(matches!(

@@ -2,13 +2,13 @@
 //! refused before the robot moves.
 
 use arm_sim::{ArmSim, SimConfig};
-use servo_loop::{SilhouetteConfig, learn_recognition};
+use servo_loop::SilhouetteConfig;
 use visguide::SimRobot;
 use visguide::pipeline::{ActionProtocol, PipelineError, learn_by_action};
 
 #[path = "common/arm.rs"]
 mod arm;
-use arm::{EXPLORE, space};
+use arm::{EXPLORE, heuristic, space};
 
 /// A heuristic percept whose cameras see images of different sizes (the second camera at half
 /// the resolution) is refused before the robot moves: the FD + CBT percept takes one image size
@@ -25,15 +25,7 @@ fn a_heuristic_with_cameras_of_different_sizes_is_refused_before_the_robot_moves
     cam.cx /= 2.0;
     cam.cy /= 2.0;
     let mut robot = SimRobot::new(ArmSim::new(config).unwrap());
-    let (heuristic, _) = learn_recognition(
-        &mut robot,
-        &space(),
-        &EXPLORE,
-        8,
-        11,
-        &SilhouetteConfig::default(),
-    )
-    .unwrap();
+    let heuristic = heuristic(&mut robot, &SilhouetteConfig::default());
     let sent = robot.commands();
     let protocol = ActionProtocol {
         views: 4,

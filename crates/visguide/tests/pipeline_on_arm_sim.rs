@@ -3,9 +3,7 @@
 //! the learner never saw; errors against the simulator's true tip. Also the typed errors.
 
 use arm_sim::{ArmSim, SimConfig};
-use servo_loop::{
-    RandomCommands, Recogniser, ServoError, SilhouetteConfig, TipModel, learn_recognition,
-};
+use servo_loop::{RandomCommands, Recogniser, ServoError, SilhouetteConfig, TipModel};
 use visguide::SimRobot;
 use visguide::pipeline::{
     ActionProtocol, FdCbtRecogniser, MotionConfig, MotionModel, PipelineError, PositionPrior, Vote,
@@ -16,7 +14,7 @@ use servo_loop::stats::quantile_rank;
 
 #[path = "common/arm.rs"]
 mod arm;
-use arm::{EXPLORE, space};
+use arm::{EXPLORE, heuristic, space};
 
 type Learned = (SimRobot, TipModel, FdCbtRecogniser);
 
@@ -36,18 +34,13 @@ fn shared() -> std::sync::MutexGuard<'static, Learned> {
 /// The heuristic percept and the pipeline, learned on `config`'s arm.
 fn learned(config: SimConfig) -> Learned {
     let mut robot = SimRobot::new(ArmSim::new(config).unwrap());
-    let (heuristic, _) = learn_recognition(
+    let heuristic = heuristic(
         &mut robot,
-        &space(),
-        &EXPLORE,
-        8,
-        11,
         &SilhouetteConfig {
             correction_poses: 120,
             ..SilhouetteConfig::default()
         },
-    )
-    .unwrap();
+    );
     let mut protocol = ActionProtocol {
         views: 24,
         walks: 4,
