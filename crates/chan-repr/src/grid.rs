@@ -118,7 +118,7 @@ impl ChannelGrid {
 
     /// Bounds on the sum of all channel values of one value of weight 1 encoded anywhere in
     /// the grid's representable range: the product of the bases'
-    /// [`Kernel::unit_mass_bounds`] (the encoding is their outer product).
+    /// [`Kernel::unit_mass_bounds`](crate::Kernel::unit_mass_bounds) (the encoding is their outer product).
     pub fn unit_mass_bounds(&self) -> (f64, f64) {
         self.bases.iter().fold((1.0, 1.0), |(lo, hi), b| {
             let (l, h) = b.kernel().unit_mass_bounds();

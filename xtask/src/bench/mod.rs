@@ -1,5 +1,5 @@
 //! `cargo xtask bench NAME`: one module per measured crate; each returns rows of
-//! [`BenchRow`](crate::report::BenchRow) measured against its peer in the same run.
+//! [`BenchRow`] measured against its peer in the same run.
 //!
 //! Adding a bench: a module here with `run(&BenchArgs) -> Result<Vec<BenchRow>>` and one entry
 //! in [`BENCHES`].

@@ -49,7 +49,7 @@ pub enum DataAction {
 /// Arguments of `cargo xtask data fetch`.
 #[derive(Args, Clone, Debug)]
 pub struct FetchArgs {
-    /// Data folder; sequences go to DIR/oxford-affine/<seq>/. Default: $VISGUIDE_DATA, else
+    /// Data folder; sequences go to `DIR/oxford-affine/<seq>/`. Default: $VISGUIDE_DATA, else
     /// target/visguide-data.
     #[arg(long, value_name = "DIR")]
     pub dir: Option<PathBuf>,

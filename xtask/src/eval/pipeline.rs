@@ -523,7 +523,7 @@ fn paired_runs<Q: Recogniser>(
 
 /// One evaluation seed's part of a scene's study.
 struct SeedOutcome {
-    /// [heuristic, fd, fd+cbt][camera].
+    /// Indexed `[percept][camera]`, the percepts in the order heuristic, FD, FD + CBT.
     errors: [[Errors; 2]; 3],
     /// Wall seconds spent in each percept's `locate_all`.
     seconds: [f64; 3],

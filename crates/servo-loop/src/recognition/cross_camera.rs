@@ -20,7 +20,7 @@
 //! consistency `exp(−½ (d/s)²)` then caps each camera's certainty, as for a single candidate:
 //! when no candidate pair is consistent, the percept stays doubted and a
 //! [`PerceptPolicy`](crate::PerceptPolicy) re-captures and then refuses it
-//! ([`ServoError::PerceptRefused`](crate::ServoError::PerceptRefused), counted by the plant).
+//! ([`ServoError::PerceptRefused`], counted by the plant).
 //!
 //! **An opt-in** ([`SilhouetteConfig::cross_camera_choice`](crate::SilhouetteConfig::cross_camera_choice)).
 //! On `arm-sim`'s development seeds 1001–1005 it lowered the 90th percentile of the accepted

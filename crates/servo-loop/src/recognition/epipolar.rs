@@ -22,7 +22,7 @@
 //! first order for mild polynomial distortion; `F` is the special case whose entries touch only
 //! `(x, y, 1)`). `G` is the smallest eigenvector of the 36 × 36 normal equations on the pairs
 //! within [`LIFTED_START`] px of the RANSAC `F` (gross errors gone), refitted on the pairs within
-//! [`RANSAC_THRESHOLD`] px of `G` itself; it is kept only when it fits at least as many pairs as
+//! `RANSAC_THRESHOLD` (3) px of `G` itself; it is kept only when it fits at least as many pairs as
 //! `F`. Its first-order (Sampson) distance is `|r| / ‖∇r‖` with
 //! `r = λ(b)ᵀ G λ(a)` and the gradient over both views' pixel coordinates; the consistency
 //! below then uses it, and `σ` is its robust scale; it needs [`MIN_LIFTED`] pairs. (On

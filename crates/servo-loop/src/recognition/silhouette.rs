@@ -1,7 +1,7 @@
 //! The gripper tip from the arm's silhouette against a learned static scene.
 //!
 //! **Learning (action precedes perception).** The robot makes random moves and, at each pose,
-//! closes and opens its gripper ([`TrainingView`](crate::TrainingView)). From these frames every camera learns:
+//! closes and opens its gripper ([`TrainingView`](super::TrainingView)). From these frames every camera learns:
 //! 1. *the static scene* `B`: the per-pixel median of the frames after normalising each
 //!    frame's lighting (below); the arm is elsewhere in most frames, so the median is the
 //!    table, the clutter and the arm's fixed base;

@@ -35,13 +35,13 @@ pub enum TipRule {
     /// moved towards the end-face tip by at most half a pixel (opt-in: by up to `k σ` where the
     /// correction's local spread `σ` says it is unsure ([`SilhouetteConfig::face_gate`](crate::SilhouetteConfig::face_gate);
     /// `tip_correction`)): as smooth as the far end, nearly as accurate as the end face. Locates all cameras together
-    /// ([`TipModel::locate_all`]; the far ends of all cameras describe the pose) and needs
-    /// [`TipModel::learn_correction`].
+    /// ([`TipModel::locate_all`](super::TipModel::locate_all); the far ends of all cameras describe the pose) and needs
+    /// [`TipModel::learn_correction`](super::TipModel::learn_correction).
     #[default]
     Learned,
 }
 
-/// One camera's measurements of the gripper's far end ([`TipModel::estimate_end`]).
+/// One camera's measurements of the gripper's far end ([`TipModel::estimate_end`](super::TipModel::estimate_end)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EndEstimate {
     /// The far end of the silhouette (the `FarEnd` tip; pixels).

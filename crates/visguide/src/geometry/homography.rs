@@ -11,7 +11,7 @@ use nalgebra::{Matrix2, Matrix3};
 use crate::error::VisguideError;
 
 /// A plane projective transformation, kept exactly as read (no normalisation), except that a
-/// matrix whose largest entry is beyond 2^±[`SCALE_EXP_LIMIT`] is scaled by a power of two (see
+/// matrix whose largest entry is beyond 2^±64 is scaled by a power of two (see
 /// [`Homography::from_row_major`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Homography {

@@ -4,12 +4,12 @@
 //! still produces a (clearly labelled) result. A plain `cargo xtask eval` without data skips
 //! `paper-a`, leaving its committed fixtures alone, and runs `paper-a-synthetic`.
 //!
-//! Pipeline per sequence ([`evaluate`]): MSER regions of every image (crate `mser`), their moment
-//! ellipses for the ground truth ([`features`]) and outer contours for the Fourier descriptors
+//! Pipeline per sequence ([`evaluate()`]): MSER regions of every image (crate `mser`), their moment
+//! ellipses for the ground truth ([`visguide::features`]) and outer contours for the Fourier descriptors
 //! (crate `fd-match`, both samplings); per pair img1–imgK the ground truth of the overlap
-//! criterion in descriptor mode ([`overlap`], [`ground_truth`]); symmetric matches of the eight
-//! combinations ([`combination`]) with and without preselection, scored and swept over the ratio
-//! threshold ([`pr_sweep`]); then JSON, SVG figures ([`plots`]), match pictures ([`pictures`]),
+//! criterion in descriptor mode ([`visguide::scoring::overlap`], [`visguide::scoring::pair_truth`]); symmetric matches of the eight
+//! combinations ([`visguide::combination`]) with and without preselection, scored and swept over the ratio
+//! threshold ([`visguide::scoring::sweep`]); then JSON, SVG figures ([`plots`]), match pictures ([`pictures`]),
 //! a delta × diversity sensitivity table ([`sensitivity`]) and `summary.md` ([`summary`]).
 //!
 //! # The MSER setting, chosen from the paper's words before any result was seen
