@@ -18,8 +18,12 @@ pub const GAUSSIAN_MIN_SIGMA: f64 = 0.5;
 ///   windows of `m` channels. The thesis's example uses `m = 3` (`a = π/3`).
 /// - [`Kernel::BSpline2`]: the quadratic B-spline, support `|d| < 3/2`, three active channels.
 /// - [`Kernel::Gaussian`]: `exp(−d²/(2σ²))`, truncated to exactly 0 beyond `4σ`.
+///
+/// Deserialisation applies [`Kernel::validate`]: a kernel it refuses (e.g. `{"cos2":{"m":0}}`)
+/// is a deserialisation error carrying the [`ChanError`] message, never a kernel that encodes
+/// zeros.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "snake_case", try_from = "KernelSpec")]
 pub enum Kernel {
     /// Windowed cos² with `a = π/m`; `m ≥ 3` channels per decoding window.
     Cos2 {
@@ -33,6 +37,29 @@ pub enum Kernel {
         /// Standard deviation in channel spacings.
         sigma: f64,
     },
+}
+
+/// The serialised form of a [`Kernel`] (the same shape), checked by [`Kernel::validate`] on
+/// deserialisation.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum KernelSpec {
+    Cos2 { m: u32 },
+    BSpline2,
+    Gaussian { sigma: f64 },
+}
+
+impl TryFrom<KernelSpec> for Kernel {
+    type Error = ChanError;
+    fn try_from(s: KernelSpec) -> Result<Self, ChanError> {
+        let kernel = match s {
+            KernelSpec::Cos2 { m } => Kernel::Cos2 { m },
+            KernelSpec::BSpline2 => Kernel::BSpline2,
+            KernelSpec::Gaussian { sigma } => Kernel::Gaussian { sigma },
+        };
+        kernel.validate()?;
+        Ok(kernel)
+    }
 }
 
 impl Kernel {
@@ -466,6 +493,49 @@ mod tests {
                 let got = k.decode_window(&c).unwrap().unwrap();
                 assert!((got - x).abs() < 1e-12, "{k:?}: {x} decoded as {got}");
             }
+        }
+    }
+
+    #[test]
+    fn serde_round_trips_valid_kernels_unchanged() {
+        for (k, json) in [
+            (Kernel::Cos2 { m: 3 }, r#"{"cos2":{"m":3}}"#),
+            (Kernel::Cos2 { m: 7 }, r#"{"cos2":{"m":7}}"#),
+            (Kernel::BSpline2, r#""b_spline2""#),
+            (
+                Kernel::Gaussian { sigma: 0.5 },
+                r#"{"gaussian":{"sigma":0.5}}"#,
+            ),
+            (
+                Kernel::Gaussian { sigma: 1.3 },
+                r#"{"gaussian":{"sigma":1.3}}"#,
+            ),
+        ] {
+            assert_eq!(serde_json::to_string(&k).unwrap(), json);
+            assert_eq!(serde_json::from_str::<Kernel>(json).unwrap(), k);
+        }
+    }
+
+    #[test]
+    fn serde_refuses_kernels_that_validate_refuses() {
+        for bad in [
+            r#"{"cos2":{"m":0}}"#,
+            r#"{"cos2":{"m":2}}"#,
+            r#"{"gaussian":{"sigma":0.49}}"#,
+            r#"{"gaussian":{"sigma":-1.0}}"#,
+            r#"{"gaussian":{"sigma":0.0}}"#,
+        ] {
+            let err = serde_json::from_str::<Kernel>(bad)
+                .expect_err(bad)
+                .to_string();
+            assert!(err.contains("kernel too narrow"), "{bad}: {err}");
+        }
+        // The message names the rule (the same text as `validate`).
+        let err = serde_json::from_str::<Kernel>(r#"{"cos2":{"m":0}}"#).unwrap_err();
+        assert!(err.to_string().contains("m = 0"), "{err}");
+        // Malformed input is still a (serde) error, as before.
+        for bad in [r#"{"cos2":{"m":-3}}"#, r#""cos2""#, r#"{"bspline":{}}"#] {
+            assert!(serde_json::from_str::<Kernel>(bad).is_err(), "{bad}");
         }
     }
 
