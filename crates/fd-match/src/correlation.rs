@@ -43,14 +43,52 @@ use crate::descriptor::{MAX_SAMPLES, fd_frequency};
 use crate::error::FdError;
 
 /// The rigid part of a correlation match: `c₂(l) ≈ e^{iφ} c₁(l − Δl)` after normalisation.
+///
+/// Deserialisation checks the ranges the correlator produces: a rotation outside `[−π, π]`
+/// or a shift outside `[0, MAX_SAMPLES)` (or either not finite) is an error
+/// ([`FdError::InvalidParameter`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "AlignmentSpec")]
 pub struct Alignment {
-    /// `φ` in `(−π, π]`: rotation (radians, counter-clockwise in a y-up frame) taking the first
-    /// contour to the second (eq. 12).
+    /// `φ` in `(−π, π]` (`arg` of the correlation peak; `−π` itself when its imaginary part is
+    /// `−0`): rotation (radians, counter-clockwise in a y-up frame) taking the first contour to
+    /// the second (eq. 12).
     pub rotation: f64,
     /// `Δl` in `[0, L)`: start-point shift in samples of the resampled contour (eq. 11),
     /// sub-sample accurate.
     pub shift: f64,
+}
+
+/// The serialised form of an [`Alignment`], range-checked on deserialisation.
+#[derive(Deserialize)]
+struct AlignmentSpec {
+    rotation: f64,
+    shift: f64,
+}
+
+impl TryFrom<AlignmentSpec> for Alignment {
+    type Error = FdError;
+    fn try_from(s: AlignmentSpec) -> Result<Self, FdError> {
+        // NaN fails both range tests.
+        if !(-PI..=PI).contains(&s.rotation) {
+            return Err(FdError::InvalidParameter {
+                name: "rotation",
+                value: s.rotation,
+                reason: "an alignment's rotation lies in [-π, π]",
+            });
+        }
+        if !(0.0..MAX_SAMPLES as f64).contains(&s.shift) {
+            return Err(FdError::InvalidParameter {
+                name: "shift",
+                value: s.shift,
+                reason: "an alignment's shift lies in [0, MAX_SAMPLES) samples",
+            });
+        }
+        Ok(Alignment {
+            rotation: s.rotation,
+            shift: s.shift,
+        })
+    }
 }
 
 /// Result of [`Correlator::correlate`].

@@ -6,7 +6,7 @@ use crate::correlation::Alignment;
 use crate::descriptor::DescriptorSet;
 use crate::error::FdError;
 use crate::method::Method;
-use crate::search::{BestTwo, best_two};
+use crate::search::{BestTwo, best_two, check_pair_error};
 
 /// Paper A's ratio threshold `T_r` (about 90 % correct matches for FD Corr).
 pub const DEFAULT_RATIO_THRESHOLD: f64 = 0.5;
@@ -44,7 +44,12 @@ pub fn preselect(min_errors: &[f64], t_err: f64) -> Result<Vec<usize>, FdError> 
 }
 
 /// A mutual best match between descriptor `query` of set A and `target` of set B.
+///
+/// Deserialisation checks what [`mutual_matches`] produces from search results
+/// ([`FdError::InvalidParameter`] otherwise): an error finite and `≥ 0`, a ratio in `[0, 1]`
+/// (the best error over the second best), and the alignment's ranges ([`Alignment`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "MatchSpec")]
 pub struct Match {
     /// Index in set A (use [`DescriptorSet::source`] for the contour index).
     pub query: usize,
@@ -56,6 +61,38 @@ pub struct Match {
     pub ratio: f64,
     /// Rotation and shift from A's contour to B's ([`Method::FdCorr`] only).
     pub alignment: Option<Alignment>,
+}
+
+/// The serialised form of a [`Match`], checked on deserialisation.
+#[derive(Deserialize)]
+struct MatchSpec {
+    query: usize,
+    target: usize,
+    error: f64,
+    ratio: f64,
+    alignment: Option<Alignment>,
+}
+
+impl TryFrom<MatchSpec> for Match {
+    type Error = FdError;
+    fn try_from(s: MatchSpec) -> Result<Self, FdError> {
+        check_pair_error(s.error)?;
+        // NaN fails the range test.
+        if !(0.0..=1.0).contains(&s.ratio) {
+            return Err(FdError::InvalidParameter {
+                name: "ratio",
+                value: s.ratio,
+                reason: "an error ratio e_min / e_sec lies in [0, 1]",
+            });
+        }
+        Ok(Match {
+            query: s.query,
+            target: s.target,
+            error: s.error,
+            ratio: s.ratio,
+            alignment: s.alignment,
+        })
+    }
 }
 
 impl Match {

@@ -47,8 +47,25 @@ use crate::method::{Method, PairError};
 
 use crate::bound::{BoundTable, bound_slack};
 
+/// Checks a pair error as every method produces it: finite and `≥ 0` (squared distances and
+/// `2 − 2·peak` clamped at 0). The one home of that rule for deserialised results.
+pub(crate) fn check_pair_error(value: f64) -> Result<(), FdError> {
+    if !(value.is_finite() && value >= 0.0) {
+        return Err(FdError::InvalidParameter {
+            name: "error",
+            value,
+            reason: "a pair error is finite and >= 0",
+        });
+    }
+    Ok(())
+}
+
 /// A target and its error against a query.
+///
+/// Deserialisation checks that the error is finite and `≥ 0` (and the alignment's ranges,
+/// [`Alignment`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CandidateSpec")]
 pub struct Candidate {
     /// Index of the target in the target set.
     pub index: usize,
@@ -56,6 +73,26 @@ pub struct Candidate {
     pub error: f64,
     /// Rotation and start-point shift from query to target ([`Method::FdCorr`] only).
     pub alignment: Option<Alignment>,
+}
+
+/// The serialised form of a [`Candidate`], checked on deserialisation.
+#[derive(Deserialize)]
+struct CandidateSpec {
+    index: usize,
+    error: f64,
+    alignment: Option<Alignment>,
+}
+
+impl TryFrom<CandidateSpec> for Candidate {
+    type Error = FdError;
+    fn try_from(s: CandidateSpec) -> Result<Self, FdError> {
+        check_pair_error(s.error)?;
+        Ok(Candidate {
+            index: s.index,
+            error: s.error,
+            alignment: s.alignment,
+        })
+    }
 }
 
 impl Candidate {
@@ -67,12 +104,61 @@ impl Candidate {
 }
 
 /// The best and second-best targets of one query (`e_min`, `e_sec` of eq. 19).
+///
+/// Deserialisation checks what the search guarantees ([`FdError::InvalidParameter`]
+/// `second` otherwise): a second only with a best, two different targets, the best strictly
+/// first in the search's order (smaller error, ties by smaller index), and both from one
+/// method (both with an alignment or both without); each candidate is checked as a
+/// [`Candidate`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "BestTwoSpec")]
 pub struct BestTwo {
     /// Smallest error (None if there are no targets).
     pub best: Option<Candidate>,
     /// Second smallest error (None if there are fewer than two targets).
     pub second: Option<Candidate>,
+}
+
+/// The serialised form of a [`BestTwo`], checked on deserialisation.
+#[derive(Deserialize)]
+struct BestTwoSpec {
+    best: Option<Candidate>,
+    second: Option<Candidate>,
+}
+
+impl TryFrom<BestTwoSpec> for BestTwo {
+    type Error = FdError;
+    fn try_from(s: BestTwoSpec) -> Result<Self, FdError> {
+        if let Some(second) = s.second {
+            let refuse = |reason| FdError::InvalidParameter {
+                name: "second",
+                value: second.error,
+                reason,
+            };
+            let Some(best) = s.best else {
+                return Err(refuse("a second-best candidate needs a best one"));
+            };
+            if best.index == second.index {
+                return Err(refuse(
+                    "the best and second-best candidates are the same target",
+                ));
+            }
+            if !best.beats(&second) {
+                return Err(refuse(
+                    "the second-best candidate beats the best (smaller error, ties by smaller index)",
+                ));
+            }
+            if best.alignment.is_some() != second.alignment.is_some() {
+                return Err(refuse(
+                    "only one of the best and second-best candidates has an alignment",
+                ));
+            }
+        }
+        Ok(BestTwo {
+            best: s.best,
+            second: s.second,
+        })
+    }
 }
 
 impl BestTwo {
@@ -111,12 +197,39 @@ impl BestTwo {
 }
 
 /// Work counters of a search.
+///
+/// Deserialisation checks `evaluated ≤ pairs` ([`FdError::InvalidParameter`] otherwise).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "SearchStatsSpec")]
 pub struct SearchStats {
     /// Query–target pairs considered (`queries × targets`, minus self pairs).
     pub pairs: u64,
     /// Pairs whose error was actually evaluated (the rest were pruned by the bound).
     pub evaluated: u64,
+}
+
+/// The serialised form of [`SearchStats`], checked on deserialisation.
+#[derive(Deserialize)]
+struct SearchStatsSpec {
+    pairs: u64,
+    evaluated: u64,
+}
+
+impl TryFrom<SearchStatsSpec> for SearchStats {
+    type Error = FdError;
+    fn try_from(s: SearchStatsSpec) -> Result<Self, FdError> {
+        if s.evaluated > s.pairs {
+            return Err(FdError::InvalidParameter {
+                name: "evaluated",
+                value: s.evaluated as f64,
+                reason: "more pairs evaluated than considered",
+            });
+        }
+        Ok(SearchStats {
+            pairs: s.pairs,
+            evaluated: s.evaluated,
+        })
+    }
 }
 
 /// Two sets are compared only when made with the same configuration (as
