@@ -25,7 +25,9 @@ impl Polarity {
     }
 }
 
-/// An axis-aligned bounding box with inclusive pixel bounds.
+/// An axis-aligned bounding box with inclusive pixel bounds: columns `x_min..=x_max`, rows
+/// `y_min..=y_max`. The detector's boxes have `x_min ≤ x_max` and `y_min ≤ y_max`; a
+/// hand-built box with `x_max < x_min` (or `y_max < y_min`) is inverted and holds no pixel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct BoundingBox {
     /// Leftmost column.
@@ -39,15 +41,32 @@ pub struct BoundingBox {
 }
 
 impl BoundingBox {
-    /// Width in pixels.
-    pub fn width(&self) -> u32 {
-        self.x_max - self.x_min + 1
+    /// Width in pixels: the number of columns in `x_min..=x_max`, `x_max − x_min + 1`. In `u64`
+    /// because the full `u32` range has 2³² columns; 0 for an inverted box (`x_max < x_min`).
+    ///
+    /// ```
+    /// use mser::BoundingBox;
+    /// let b = BoundingBox { x_min: 2, y_min: 1, x_max: 7, y_max: 3 };
+    /// assert_eq!((b.width(), b.height()), (6, 3));
+    /// let all = BoundingBox { x_min: 0, y_min: 0, x_max: u32::MAX, y_max: u32::MAX };
+    /// assert_eq!(all.width(), 1 << 32);
+    /// let inverted = BoundingBox { x_min: 8, ..b }; // x_max = 7 < x_min
+    /// assert_eq!(inverted.width(), 0);
+    /// ```
+    pub fn width(&self) -> u64 {
+        inclusive_len(self.x_min, self.x_max)
     }
 
-    /// Height in pixels.
-    pub fn height(&self) -> u32 {
-        self.y_max - self.y_min + 1
+    /// Height in pixels: the number of rows in `y_min..=y_max`, `y_max − y_min + 1`. In `u64`
+    /// because the full `u32` range has 2³² rows; 0 for an inverted box (`y_max < y_min`).
+    pub fn height(&self) -> u64 {
+        inclusive_len(self.y_min, self.y_max)
     }
+}
+
+/// The number of integers in `lo..=hi` (0 when `hi < lo`); at most 2³², so no overflow.
+fn inclusive_len(lo: u32, hi: u32) -> u64 {
+    (u64::from(hi) + 1).saturating_sub(u64::from(lo))
 }
 
 /// Raw moments of a pixel set, summed exactly in integers over the pixel centres `(x, y)`.

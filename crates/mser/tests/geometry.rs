@@ -32,6 +32,7 @@ fn rectangle_ellipse_has_the_uniform_ellipse_moments() {
         (r.bbox.x_min, r.bbox.y_min, r.bbox.x_max, r.bbox.y_max),
         (2, 1, 7, 3)
     );
+    assert_eq!((r.bbox.width(), r.bbox.height()), (6, 3));
     let e = r.ellipse().unwrap();
     assert!((e.u - 4.5).abs() < 1e-12 && (e.v - 2.0).abs() < 1e-12);
     assert!((e.a - 3.0 / 36.0).abs() < 1e-12, "{e:?}");
@@ -109,4 +110,27 @@ fn contour_skips_a_pixel_without_outside_4_neighbour_and_ignores_holes() {
     assert_eq!(c[0], (1, 1));
     assert_eq!(c[1], (1, 2)); // heading down first: counter-clockwise on screen
     assert!(c.iter().all(|&(x, y)| x == 1 || x == 5 || y == 1 || y == 5));
+}
+
+#[test]
+fn bounding_box_sizes_neither_overflow_nor_underflow() {
+    use mser::BoundingBox;
+    let bb = |x_min, y_min, x_max, y_max| BoundingBox {
+        x_min,
+        y_min,
+        x_max,
+        y_max,
+    };
+    // The whole u32 plane: 2³² columns and rows (this overflowed u32: a panic in debug builds, 0
+    // in release builds).
+    let full = bb(0, 0, u32::MAX, u32::MAX);
+    assert_eq!(full.width(), 1 << 32);
+    assert_eq!(full.height(), 1 << 32);
+    let single = bb(u32::MAX, 7, u32::MAX, 7);
+    assert_eq!((single.width(), single.height()), (1, 1));
+    // An inverted box holds no column or row (it underflowed).
+    let inverted = bb(5, 9, 4, 2);
+    assert_eq!((inverted.width(), inverted.height()), (0, 0));
+    let inverted = bb(u32::MAX, u32::MAX, 0, 0);
+    assert_eq!((inverted.width(), inverted.height()), (0, 0));
 }
