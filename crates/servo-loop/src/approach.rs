@@ -58,18 +58,54 @@ impl ApproachDirection {
     }
 }
 
+/// Smallest non-zero [`Approach::resolution`] accepted (command units): finer than any
+/// servo controller (1 µs on the SSC-32, 0.1° or a 12-bit step elsewhere), and coarse
+/// enough that commands up to `2⁵²·10⁻⁹ ≈ 4.5·10⁶` units are rounded to exact multiples.
+/// A subnormal resolution such as `1e-320` divided every command to infinity.
+pub const MIN_RESOLUTION: f64 = 1e-9;
+
+/// Largest [`Approach::resolution`] accepted (command units): far coarser than any controller,
+/// and small enough that a rounded command never leaves the finite numbers.
+pub const MAX_RESOLUTION: f64 = 1e9;
+
 /// Settings of the unidirectional approach (module doc).
+///
+/// Deserialisation applies [`Approach::validate`] (and refuses unknown fields).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "ApproachSpec")]
 pub struct Approach {
     /// Distance of the pre-position from the set-point (command units); must exceed the servos'
     /// deadband + backlash expressed in command units.
     pub overshoot: f64,
     /// Direction of every final approach.
     pub direction: ApproachDirection,
-    /// Set-point resolution of the controller (command units; 0 = continuous): executed
-    /// set-points are rounded to multiples of it.
+    /// Set-point resolution of the controller (command units): 0 = continuous, otherwise
+    /// between [`MIN_RESOLUTION`] and [`MAX_RESOLUTION`] (inclusive). Executed set-points are
+    /// rounded to multiples of it ([`Approach::round`]).
     pub resolution: f64,
+}
+
+/// The serialised form of an [`Approach`], checked by [`Approach::validate`] on
+/// deserialisation.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ApproachSpec {
+    overshoot: f64,
+    direction: ApproachDirection,
+    resolution: f64,
+}
+
+impl TryFrom<ApproachSpec> for Approach {
+    type Error = ServoError;
+    fn try_from(s: ApproachSpec) -> Result<Self> {
+        let a = Approach {
+            overshoot: s.overshoot,
+            direction: s.direction,
+            resolution: s.resolution,
+        };
+        a.validate()?;
+        Ok(a)
+    }
 }
 
 impl Approach {
@@ -83,7 +119,9 @@ impl Approach {
         }
     }
 
-    /// Checks `overshoot > 0` and `resolution ≥ 0` (both finite).
+    /// Checks `overshoot > 0` (finite) and `resolution` either 0 or between
+    /// [`MIN_RESOLUTION`] and [`MAX_RESOLUTION`] inclusive (NaN and ±∞ refused):
+    /// [`ServoError::InvalidParameter`] otherwise.
     pub fn validate(&self) -> Result<()> {
         if !(self.overshoot.is_finite() && self.overshoot > 0.0) {
             return Err(ServoError::invalid(
@@ -91,20 +129,38 @@ impl Approach {
                 &format!("must be finite and positive, got {}", self.overshoot),
             ));
         }
-        if !(self.resolution.is_finite() && self.resolution >= 0.0) {
+        // NaN fails both tests.
+        let r = self.resolution;
+        if !(r == 0.0 || (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&r)) {
             return Err(ServoError::invalid(
                 "resolution",
-                &format!("must be finite and ≥ 0, got {}", self.resolution),
+                &format!(
+                    "must be 0 (continuous) or in [{MIN_RESOLUTION:e}, {MAX_RESOLUTION:e}], got {r:e}"
+                ),
             ));
         }
         Ok(())
     }
 
-    /// `y` rounded to the controller's resolution.
+    /// `y` rounded to the controller's resolution: each set-point to the nearest multiple of
+    /// it (halves away from zero), unchanged with resolution 0. A command so large against the
+    /// resolution that the division or the product overflows is returned as it is: it is
+    /// already a multiple to `f64` precision (the multiples are denser than the `f64` numbers
+    /// there), so a finite command never becomes infinite. Expects a
+    /// [validated](Self::validate) approach (a hand-built one with a non-positive or NaN
+    /// resolution leaves `y` unchanged).
     pub fn round(&self, y: &[f64]) -> Vec<f64> {
-        if self.resolution > 0.0 {
+        let r = self.resolution;
+        if r > 0.0 {
             y.iter()
-                .map(|v| (v / self.resolution).round() * self.resolution)
+                .map(|&v| {
+                    let q = (v / r).round() * r;
+                    if q.is_finite() || !v.is_finite() {
+                        q
+                    } else {
+                        v
+                    }
+                })
                 .collect()
         } else {
             y.to_vec()

@@ -355,6 +355,11 @@ fn invalid_approach_is_a_typed_error() {
             resolution: f64::NAN,
             ..Approach::hobby_servo()
         },
+        // Divides every command to infinity.
+        Approach {
+            resolution: 1e-320,
+            ..Approach::hobby_servo()
+        },
     ] {
         let mut arm = HobbyArm::new(true);
         let err = servo_image_jacobian(
@@ -368,4 +373,105 @@ fn invalid_approach_is_a_typed_error() {
         assert!(matches!(err.error, ServoError::InvalidParameter { .. }));
         assert_eq!(arm.acts, 0);
     }
+}
+
+#[test]
+fn resolutions_outside_the_documented_bounds_are_refused() {
+    let with = |resolution| Approach {
+        resolution,
+        ..Approach::hobby_servo()
+    };
+    for ok in [0.0, 1e-9, 1e-3, 1.0, 20.0, 1e9] {
+        with(ok).validate().unwrap();
+    }
+    for bad in [
+        f64::NAN,
+        f64::INFINITY,
+        -1.0,
+        -1e-9,
+        1e-320,
+        f64::MIN_POSITIVE,
+        1e-10,
+        1e10,
+        f64::MAX,
+    ] {
+        assert!(
+            matches!(
+                with(bad).validate(),
+                Err(ServoError::InvalidParameter {
+                    name: "resolution",
+                    ..
+                })
+            ),
+            "resolution {bad}"
+        );
+    }
+}
+
+#[test]
+fn rounding_never_overflows_and_is_unchanged_on_ordinary_commands() {
+    // Ordinary commands: the nearest multiple, as always (halves away from zero).
+    let hobby = Approach::hobby_servo();
+    assert_eq!(
+        hobby.round(&[1499.6, 1500.4, -0.5, 2.5, 0.0]),
+        [1500.0, 1500.0, -1.0, 3.0, 0.0]
+    );
+    let fine = Approach {
+        resolution: 0.25,
+        ..hobby.clone()
+    };
+    assert_eq!(fine.round(&[1.1, 1.2, -7.9]), [1.0, 1.25, -8.0]);
+    // Commands so large against the resolution that `v / resolution` (or the product)
+    // overflows were rounded to ±∞; they are already multiples to f64 precision.
+    let smallest = Approach {
+        resolution: 1e-9,
+        ..hobby.clone()
+    };
+    assert_eq!(smallest.round(&[1e300, -1e300]), [1e300, -1e300]);
+    assert_eq!(hobby.round(&[f64::MAX, f64::MIN]), [f64::MAX, f64::MIN]);
+    // Even a hand-built resolution that validation refuses never makes a command infinite.
+    let tiny = Approach {
+        resolution: 1e-320,
+        ..hobby.clone()
+    };
+    assert_eq!(tiny.round(&[1500.0, -3.0]), [1500.0, -3.0]);
+}
+
+#[test]
+fn deserialised_approaches_are_validated() {
+    let good = r#"{"overshoot":20.0,"direction":"up","resolution":1.0}"#;
+    let a: Approach = serde_json::from_str(good).unwrap();
+    assert_eq!(a, Approach::hobby_servo());
+    assert_eq!(serde_json::to_string(&a).unwrap(), good);
+    let continuous = r#"{"overshoot":5.0,"direction":"down","resolution":0.0}"#;
+    assert!(serde_json::from_str::<Approach>(continuous).is_ok());
+    for (bad, what) in [
+        (
+            r#"{"overshoot":20.0,"direction":"up","resolution":1e-320}"#,
+            "resolution",
+        ),
+        (
+            r#"{"overshoot":20.0,"direction":"up","resolution":-1.0}"#,
+            "resolution",
+        ),
+        (
+            r#"{"overshoot":0.0,"direction":"up","resolution":1.0}"#,
+            "overshoot",
+        ),
+        (
+            r#"{"overshoot":20.0,"direction":"up","resolution":1.0,"extra":1}"#,
+            "extra",
+        ),
+    ] {
+        let err = serde_json::from_str::<Approach>(bad)
+            .expect_err(bad)
+            .to_string();
+        assert!(err.contains(what), "{bad}: {err}");
+    }
+    // Also inside the configurations that embed it.
+    let servo = r#"{"max_iterations":8,"tolerance":0.05,"damping":1.0,"jacobian_at":"current",
+        "refine_online":true,"range":"stop",
+        "approach":{"overshoot":20.0,"direction":"up","resolution":1e-320}}"#;
+    let err = serde_json::from_str::<ServoConfig>(servo).unwrap_err();
+    assert!(err.to_string().contains("resolution"), "{err}");
 }
