@@ -213,7 +213,7 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
     // Through the notifier: a large move keeps the running tracks, shifted by the prediction;
     // without a forward model it forgets them.
     let fresh = pipeline.fresh();
-    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone());
+    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone()).unwrap();
     for (recogniser, keeps) in [(&fresh, true), (&plain, false)] {
         let mut notifier = recogniser.notifier(30.0).unwrap();
         let mut started = false;
@@ -221,7 +221,7 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
         for _ in 0..20 {
             from = space().full_command(&commands.next_command()).unwrap();
             robot.0.command(&from).unwrap();
-            notifier.commanded(&from);
+            notifier.commanded(&from).unwrap();
             let _ = recogniser.locate_all(&robot.0.capture());
             if recogniser.offsets().iter().any(Option::is_some) {
                 started = true;
@@ -234,7 +234,7 @@ fn commanded_moves_shift_the_tracks_by_the_learned_prediction() {
         let mut to = from.clone();
         to[0] += 80.0;
         robot.0.command(&to).unwrap();
-        notifier.commanded(&to);
+        notifier.commanded(&to).unwrap();
         let after = recogniser.offsets();
         if keeps {
             let d = motion.shift(&from, &to).unwrap().expect("inside the model");
@@ -279,7 +279,7 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
         let percept = pipeline.fresh();
         assert!(percept.predicted().is_none());
         let mut notifier = percept.notifier(30.0).unwrap();
-        notifier.commanded(&y);
+        notifier.commanded(&y).unwrap();
         let Some(centre) = percept.predicted() else {
             continue;
         };
@@ -331,7 +331,7 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
     assert!(kept >= 1, "no vote above the prior's floor");
     assert!(moved_mode >= 1, "the prior never moved a mode");
     // A prior needs a forward model and the shape model's camera count.
-    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone());
+    let plain = FdCbtRecogniser::new(pipeline.fd.clone(), pipeline.model().clone()).unwrap();
     assert!(matches!(
         plain.with_prior(prior.clone()),
         Err(PipelineError::InvalidParameter { name: "prior", .. })

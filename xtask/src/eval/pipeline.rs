@@ -436,7 +436,7 @@ fn percepts(config: &SimConfig, l: &Learned, seed: u64) -> Result<([[Errors; 2];
             }
             let full = space().full_command(&y)?;
             sim.command(&full)?;
-            notifier.commanded(&full);
+            notifier.commanded(&full)?;
             let images = sim.capture();
             let t = sim.inspect().finger_middle_pixels()?;
             let recognisers: [&dyn Recogniser; 3] = [&l.heuristic, &pipeline.fd, &pipeline];

@@ -112,7 +112,9 @@ fn robot_err<E: std::fmt::Display>(during: &'static str) -> impl Fn(E) -> Pipeli
 /// `step_us` not finite and non-negative, [`ShapeConfig::validate`],
 /// [`PerceptConfig::validate`](super::track::PerceptConfig::validate)), a heuristic percept
 /// without cameras or with cameras of different image sizes. Later: robot errors, a
-/// capture with fewer images than the heuristic's cameras, too little training data.
+/// capture with fewer images than the heuristic's cameras, captures of one camera of
+/// different sizes or of another size than the heuristic's ([`ShapeModel::learn`],
+/// [`FdCbtRecogniser::new`]), too little training data.
 pub fn learn_by_action<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
@@ -268,7 +270,7 @@ pub fn learn_by_action<R: Robot>(
                 match (previous, &predicted) {
                     (Some(a), Some(b)) => offsets
                         .iter_mut()
-                        .zip(MotionModel::difference(a, b))
+                        .zip(MotionModel::difference(a, b)?)
                         .for_each(|(o, d)| {
                             o[0] += d[0];
                             o[1] += d[1];
@@ -363,7 +365,7 @@ pub fn learn_by_action<R: Robot>(
         size,
         config: protocol.percept,
     };
-    let recogniser = FdCbtRecogniser::new(fd, model);
+    let recogniser = FdCbtRecogniser::new(fd, model)?;
     let recogniser = match motion {
         Some(m) => recogniser.with_motion(m)?,
         None => recogniser,

@@ -45,8 +45,8 @@ pub use motion::{MotionConfig, MotionModel};
 pub use prior::PositionPrior;
 pub use shapes::{ActionPair, GripperView, ShapeConfig, ShapeModel, ShapeReport};
 pub use track::{
-    FdCbtRecogniser, FdRecogniser, MoveNotifier, Notifying, PerceptConfig, Walk, detections,
-    learn_tracker,
+    FdCbtRecogniser, FdRecogniser, MoveNotifier, Notifying, NotifyingError, PerceptConfig, Walk,
+    detections, learn_tracker,
 };
 pub use vote::{Mode, Vote, mode};
 pub use window::{SearchWindow, search_window};

@@ -202,17 +202,32 @@ impl MotionModel {
         let (Some(a), Some(b)) = (self.predict(from)?, self.predict(to)?) else {
             return Ok(None);
         };
-        Ok(Some(Self::difference(&a, &b)))
+        Ok(Some(Self::difference(&a, &b)?))
     }
 
     /// The shift between two predictions of every camera, `to − from` (what [`Self::shift`]
     /// returns for the commands they were predicted at, for a caller that keeps the last
     /// prediction instead of predicting it again).
-    pub fn difference(from: &[[f64; 2]], to: &[[f64; 2]]) -> Vec<[f64; 2]> {
-        from.iter()
+    ///
+    /// Errors ([`PipelineError::InvalidParameter`], `predictions`): `from` and `to` of
+    /// different lengths (predictions of different camera counts; the shift used to be cut to
+    /// the shorter one silently).
+    pub fn difference(from: &[[f64; 2]], to: &[[f64; 2]]) -> Result<Vec<[f64; 2]>> {
+        if from.len() != to.len() {
+            return Err(PipelineError::InvalidParameter {
+                name: "predictions",
+                reason: format!(
+                    "from {} cameras to {}: one prediction per camera in both expected",
+                    from.len(),
+                    to.len()
+                ),
+            });
+        }
+        Ok(from
+            .iter()
             .zip(to)
             .map(|(a, b)| [b[0] - a[0], b[1] - a[1]])
-            .collect()
+            .collect())
     }
 }
 
@@ -392,6 +407,27 @@ mod tests {
         }
         assert!(MotionModel::new(&[], 1, &MotionConfig::default()).is_err());
         assert!(MotionModel::new(&[0], 0, &MotionConfig::default()).is_err());
+    }
+
+    /// The shift between predictions of different camera counts is a typed error (it used to
+    /// be cut to the shorter one: a camera left out of the shift, silently).
+    #[test]
+    fn a_difference_of_predictions_of_different_lengths_is_refused() {
+        let (a, b) = ([[1.0, 2.0], [3.0, 4.0]], [[2.0, 4.0], [6.0, 8.0]]);
+        assert_eq!(
+            MotionModel::difference(&a, &b).unwrap(),
+            vec![[1.0, 2.0], [3.0, 4.0]]
+        );
+        for (from, to) in [(&a[..], &b[..1]), (&a[..1], &b[..]), (&a[..0], &b[..])] {
+            assert!(matches!(
+                MotionModel::difference(from, to),
+                Err(PipelineError::InvalidParameter {
+                    name: "predictions",
+                    ..
+                })
+            ));
+        }
+        assert!(MotionModel::difference(&[], &[]).unwrap().is_empty());
     }
 
     /// A camera count whose two outputs per camera overflow is a typed error (it used to panic

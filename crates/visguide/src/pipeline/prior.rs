@@ -54,7 +54,11 @@ impl PositionPrior {
     /// teacher's tip on frames the model did not learn from: `σ_c` = their median / 1.1774.
     ///
     /// Errors: no camera, a camera without distances, a distance not finite and non-negative,
-    /// or a median of zero (a prior of zero width would refuse every vote).
+    /// or a median of zero, or one so small that the prior's squared width `2(kσ_c)²`
+    /// underflows (below about 10⁻¹⁵⁴ px): a prior of zero width would refuse every vote, and
+    /// one of numerically zero width weighed even a vote at the prediction down to the floor.
+    /// Huge finite distances are fine: their `σ_c` is finite (the median of two huge middle
+    /// values used to overflow to ∞) and the camera gets no prior ([`Self::applies`]).
     pub fn from_distances(distances: &[Vec<f64>]) -> Result<Self> {
         if distances.is_empty() {
             return Err(PipelineError::InvalidParameter {
@@ -77,14 +81,34 @@ impl PositionPrior {
                         "camera {cam}: no frame to measure the forward model's error on"
                     )));
                 }
-                let median = median(&mut d.clone());
+                let mut sorted = d.clone();
+                let mut median = median(&mut sorted);
+                if median.is_infinite() {
+                    // The mean of two finite middle values whose sum overflows: halved first
+                    // (the same value wherever the sum does not overflow).
+                    let n = sorted.len();
+                    median = 0.5 * sorted[n / 2 - 1] + 0.5 * sorted[n / 2];
+                }
                 if median <= 0.0 {
                     return Err(PipelineError::InvalidParameter {
                         name: "distances",
                         reason: format!("camera {cam}: median distance 0"),
                     });
                 }
-                Ok(median / RAYLEIGH_MEDIAN)
+                let sigma = median / RAYLEIGH_MEDIAN;
+                // The factor's denominator, as `factor` computes it: zero or subnormal is a
+                // width that underflowed (an overflow is a camera without a prior, fine).
+                let s = WIDTH_FACTOR * sigma;
+                if 2.0 * s * s < f64::MIN_POSITIVE {
+                    return Err(PipelineError::InvalidParameter {
+                        name: "distances",
+                        reason: format!(
+                            "camera {cam}: median distance {median:e} px, too small for a prior \
+                             of non-zero width"
+                        ),
+                    });
+                }
+                Ok(sigma)
             })
             .collect::<Result<Vec<f64>>>()?;
         Ok(PositionPrior { sigma })
@@ -127,8 +151,13 @@ impl PositionPrior {
     }
 
     /// Multiplies every vote's weight of camera `cam` by its [`factor`](Self::factor) (no change
-    /// where the prior does not [apply](Self::applies)).
-    /// Errors: a camera the prior does not cover, or a non-finite prediction.
+    /// where the prior does not [apply](Self::applies)). A vote however far from the prediction
+    /// keeps the floor `ε` of its weight.
+    ///
+    /// Errors ([`PipelineError::InvalidParameter`]; no vote is changed): a camera the prior
+    /// does not cover, or a non-finite prediction (`predicted`); a vote with a non-finite
+    /// position or a weight not finite and non-negative (`votes`, as [`super::mode`] refuses
+    /// them; a NaN position used to be weighed down to the floor as if it were far away).
     pub fn weigh(&self, cam: usize, predicted: [f64; 2], votes: &mut [Vote]) -> Result<()> {
         if cam >= self.sigma.len() || !predicted.iter().all(|v| v.is_finite()) {
             return Err(PipelineError::InvalidParameter {
@@ -136,6 +165,18 @@ impl PositionPrior {
                 reason: format!(
                     "camera {cam} of {} at {predicted:?}: a covered camera and a finite position expected",
                     self.sigma.len()
+                ),
+            });
+        }
+        if let Some((i, v)) = votes.iter().enumerate().find(|(_, v)| {
+            !(v.position.iter().all(|c| c.is_finite()) && v.weight.is_finite() && v.weight >= 0.0)
+        }) {
+            return Err(PipelineError::InvalidParameter {
+                name: "votes",
+                reason: format!(
+                    "vote {i} at {:?} with weight {}: needs a finite position and a finite, \
+                     non-negative weight",
+                    v.position, v.weight
                 ),
             });
         }
@@ -209,6 +250,96 @@ mod tests {
         assert_eq!(p.factor(1, at, [60.0, 10.0]), 1.0);
         p.weigh(0, at, &mut votes).unwrap();
         assert!((votes[0].weight - 0.5 * (-50.0f64 * 50.0 / 800.0).exp()).abs() < 1e-12);
+    }
+
+    /// Huge distances: the median of two huge middle values is finite (it used to overflow to
+    /// σ = ∞), and the camera gets no prior (wider than the limit), the factor 1.
+    #[test]
+    fn huge_distances_give_a_finite_sigma_and_no_prior() {
+        let p =
+            PositionPrior::from_distances(&[vec![f64::MAX, f64::MAX], vec![1e300, 2e300]]).unwrap();
+        assert_eq!(p.sigmas()[0], f64::MAX / RAYLEIGH_MEDIAN);
+        assert_eq!(p.sigmas()[1], 1.5e300 / RAYLEIGH_MEDIAN);
+        for cam in 0..2 {
+            assert!(p.sigmas()[cam].is_finite() && !p.applies(cam));
+            assert_eq!(p.support_px(cam), None);
+            assert_eq!(p.factor(cam, [0.0, 0.0], [1e300, -1e300]), 1.0);
+        }
+        // Where the sum does not overflow, the median is the usual mean of the middle two.
+        let q = PositionPrior::from_distances(&[vec![1.0, 2.0, 4.0, 8.0]]).unwrap();
+        assert_eq!(q.sigmas()[0], 3.0 / RAYLEIGH_MEDIAN);
+    }
+
+    /// Far votes and a far prediction keep the floor of their weight (a finite factor, never
+    /// NaN), and a median so small that the prior's squared width underflows is refused at
+    /// learning: it used to give a prior under which a vote at the prediction itself was
+    /// weighed down to the floor (`0 / 0`).
+    #[test]
+    fn far_votes_weigh_the_floor_and_a_numerically_zero_width_is_refused() {
+        let p = PositionPrior::from_distances(&[vec![RAYLEIGH_MEDIAN * 5.0]]).unwrap();
+        let mut votes = vec![vote([1e200, -1e200]), vote([f64::MAX, f64::MAX])];
+        p.weigh(0, [0.0, 0.0], &mut votes).unwrap();
+        assert!(votes.iter().all(|v| v.weight == 0.5 * FLOOR), "{votes:?}");
+        let mut votes = vec![vote([10.0, 10.0])];
+        p.weigh(0, [f64::MAX, -f64::MAX], &mut votes).unwrap();
+        assert_eq!(votes[0].weight, 0.5 * FLOOR);
+
+        for tiny in [1e-170, 1e-300, 5e-324] {
+            assert!(
+                matches!(
+                    PositionPrior::from_distances(&[vec![tiny]]),
+                    Err(PipelineError::InvalidParameter {
+                        name: "distances",
+                        ..
+                    })
+                ),
+                "{tiny:e}"
+            );
+        }
+        // A small median whose squared width is still a normal number is a prior, and a vote at
+        // the prediction keeps its weight under it.
+        let narrow = PositionPrior::from_distances(&[vec![1e-100]]).unwrap();
+        let mut at = vec![vote([3.0, 4.0])];
+        narrow.weigh(0, [3.0, 4.0], &mut at).unwrap();
+        assert_eq!(at[0].weight, 0.5);
+    }
+
+    /// A vote with a non-finite position or a bad weight is refused and no vote is changed (a
+    /// NaN position used to be weighed down to the floor, as if it lay far away).
+    #[test]
+    fn bad_votes_are_refused_and_no_vote_changes() {
+        let p = PositionPrior::from_distances(&[vec![RAYLEIGH_MEDIAN * 5.0]]).unwrap();
+        let bad = [
+            Vote {
+                position: [f64::NAN, 1.0],
+                ..vote([0.0, 0.0])
+            },
+            Vote {
+                position: [1.0, f64::INFINITY],
+                ..vote([0.0, 0.0])
+            },
+            Vote {
+                weight: f64::NAN,
+                ..vote([0.0, 0.0])
+            },
+            Vote {
+                weight: -1.0,
+                ..vote([0.0, 0.0])
+            },
+        ];
+        for b in bad {
+            let mut votes = vec![vote([3.0, 0.0]), b];
+            let before = votes.clone();
+            assert!(
+                matches!(
+                    p.weigh(0, [0.0, 0.0], &mut votes),
+                    Err(PipelineError::InvalidParameter { name: "votes", .. })
+                ),
+                "{b:?}"
+            );
+            // (By their debug text: a NaN is not equal to itself.)
+            assert_eq!(format!("{votes:?}"), format!("{before:?}"));
+        }
     }
 
     #[test]

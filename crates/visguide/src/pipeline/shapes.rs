@@ -184,6 +184,8 @@ struct CameraShapes {
     background_by_area: Vec<usize>,
     /// The farthest contour pixel of any stored view from its training tip (px).
     reach: f64,
+    /// Width and height of the camera's training captures (px).
+    size: [u32; 2],
 }
 
 /// One training capture of one camera: the gripper at its servoing set-point, the same pose
@@ -230,9 +232,11 @@ fn centre(f: &Features, i: usize) -> [f64; 2] {
 }
 
 impl ShapeModel {
-    /// Learns the model from action pairs of `cameras` cameras (see the module docs).
+    /// Learns the model from action pairs of `cameras` cameras (see the module docs); it keeps
+    /// each camera's image size ([`Self::image_size`]).
     /// Errors: an invalid configuration, a camera index out of range, a pair whose `rest` and
-    /// `moved` differ in size ([`PipelineError::InvalidParameter`]), fewer pairs than cameras,
+    /// `moved` differ in size, pairs of one camera of different sizes
+    /// ([`PipelineError::InvalidParameter`]), fewer pairs than cameras,
     /// or a camera left without any gripper view or background region
     /// ([`PipelineError::NotEnoughData`]).
     pub fn learn(
@@ -272,6 +276,27 @@ impl ShapeModel {
                     p.moved.height()
                 ),
             });
+        }
+        // One image size per camera: its views' offsets and reach are in its pixels.
+        let mut sizes: Vec<Option<[u32; 2]>> = vec![None; cameras];
+        for (k, p) in pairs.iter().enumerate() {
+            let Some(size) = sizes.get_mut(p.camera) else {
+                continue; // refused below, with the camera's index
+            };
+            let this = [p.rest.width(), p.rest.height()];
+            match *size {
+                Some(first) if first != this => {
+                    return Err(PipelineError::InvalidParameter {
+                        name: "pairs",
+                        reason: format!(
+                            "pair {k}: camera {} captures {}×{} px, its first pair {}×{}",
+                            p.camera, this[0], this[1], first[0], first[1]
+                        ),
+                    });
+                }
+                Some(_) => {}
+                None => *size = Some(this),
+            }
         }
         let mut views: Vec<Vec<GripperView>> = vec![Vec::new(); cameras];
         // Per candidate view: its capture, centre and area (for the static check below).
@@ -379,13 +404,13 @@ impl ShapeModel {
                 &kept.iter().map(|&i| bg[i].as_slice()).collect::<Vec<_>>(),
             )?
             .set;
-            if grip.is_empty() || background.is_empty() {
+            let (Some(size), false) = (sizes[cam], grip.is_empty() || background.is_empty()) else {
                 return Err(PipelineError::NotEnoughData(format!(
                     "camera {cam}: {} gripper views, {} background regions",
                     grip.len(),
                     background.len()
                 )));
-            }
+            };
             report.views[cam] = grip.len();
             report.background[cam] = background.len();
             let background_area: Vec<f64> = (0..background.len())
@@ -404,6 +429,7 @@ impl ShapeModel {
                 background_area,
                 background_by_area,
                 reach: reach[cam],
+                size,
             });
         }
         Ok((
@@ -418,6 +444,12 @@ impl ShapeModel {
     /// Number of cameras.
     pub fn num_cameras(&self) -> usize {
         self.cameras.len()
+    }
+
+    /// Width and height (px) of camera `cam`'s training captures, the images its views and
+    /// offsets are measured in (`None` for an unknown camera).
+    pub fn image_size(&self, cam: usize) -> Option<[u32; 2]> {
+        self.cameras.get(cam).map(|c| c.size)
     }
 
     /// The settings it was learned with.
@@ -438,7 +470,9 @@ impl ShapeModel {
     }
 
     /// The tip votes of one image of camera `cam` (module docs), each inside the image; an
-    /// empty list when nothing matched.
+    /// empty list when nothing matched. Errors as [`votes_in`](Self::votes_in)'s. The image
+    /// may be of any size (a crop, say): the views' offsets are distances in pixels at the
+    /// training captures' scale, whatever the image's size.
     pub fn votes(&self, cam: usize, img: &GrayImage) -> Result<Vec<Vote>> {
         Ok(self.votes_with_boxes(cam, img, None)?.0)
     }
@@ -1095,6 +1129,47 @@ pub(crate) mod tests {
             }
             other => panic!("{:?}", other.map(|(_, r)| r)),
         }
+    }
+
+    /// The model keeps each camera's image size, and refuses pairs of one camera of different
+    /// sizes (the views' offsets and reach would mix two images' pixels).
+    #[test]
+    fn the_image_size_is_kept_and_one_cameras_pairs_of_two_sizes_are_refused() {
+        let (model, _, rest) = one_l_model();
+        assert_eq!(model.image_size(0), Some([rest.width(), rest.height()]));
+        assert_eq!(model.image_size(1), None);
+        let (c0, a0) = L0;
+        let (small_rest, small_moved) = (
+            scene_with([200, 160], Some((c0, a0, 1.0)), None),
+            scene_with([200, 160], None, None),
+        );
+        let moved = scene(c0, a0, false);
+        let pair = |camera, rest, moved| ActionPair {
+            camera,
+            rest,
+            moved,
+            tip: Some(tip(c0, a0)),
+        };
+        match ShapeModel::learn(
+            model.config(),
+            1,
+            &[pair(0, &rest, &moved), pair(0, &small_rest, &small_moved)],
+        ) {
+            Err(PipelineError::InvalidParameter { name, reason }) => {
+                assert_eq!(name, "pairs");
+                assert!(reason.contains("pair 1"), "{reason}");
+            }
+            other => panic!("{:?}", other.map(|(_, r)| r)),
+        }
+        // Two cameras of different sizes are fine, each with its own.
+        let (two, _) = ShapeModel::learn(
+            model.config(),
+            2,
+            &[pair(0, &rest, &moved), pair(1, &small_rest, &small_moved)],
+        )
+        .unwrap();
+        assert_eq!(two.image_size(0), Some([240, 200]));
+        assert_eq!(two.image_size(1), Some([200, 160]));
     }
 
     #[test]

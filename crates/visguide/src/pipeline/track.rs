@@ -14,6 +14,12 @@
 //! started again there when the tracker's own certainty falls below `lost_certainty`.
 //! [`FdCbtRecogniser::reset`] forgets every track (call it before a new, unrelated run).
 //!
+//! The parts must fit one another: the shape model's cameras and their image size, the
+//! tracker's canvas, the forward model's and the prior's cameras. [`FdCbtRecogniser::new`],
+//! [`FdCbtRecogniser::with_motion`] and [`FdCbtRecogniser::with_prior`] refuse parts that do
+//! not; as the percept's fields are public, every capture checks them again (and the captured
+//! images against them) before any track moves.
+//!
 //! The commanded move is a known input ([`super::motion`]): with a forward model
 //! ([`FdCbtRecogniser::with_motion`]) each commanded move, told by [`Notifying`], adds its
 //! predicted shift to the track's offset `c`, and the tracker runs on the votes at `z − c`
@@ -25,6 +31,7 @@
 //! tracker (or a track start) sees them; with [`PerceptConfig::search_window`] (the default)
 //! they are the votes of the window around that prediction alone ([`super::window`]).
 
+use std::fmt;
 use std::sync::{Arc, Mutex};
 
 use cbt_tracker::{
@@ -181,7 +188,8 @@ fn forget(state: &Mutex<State>) {
 /// Tells an [`FdCbtRecogniser`] of the commanded moves: with a forward model, each move shifts
 /// the tracks by its predicted image motion and sets the centre of the prior on the votes'
 /// position ([`FdCbtRecogniser::predicted`]); without one (or outside it), a move larger than
-/// the tracker learned restarts the tracks from the votes.
+/// the tracker learned restarts the tracks from the votes. A command it refuses
+/// ([`MoveNotifier::commanded`]) changes nothing.
 #[derive(Debug)]
 pub struct MoveNotifier {
     state: Shared,
@@ -192,18 +200,67 @@ pub struct MoveNotifier {
     last_predicted: Option<Vec<[f64; 2]>>,
 }
 
+/// What telling a checked command does: the forward model's prediction at it and the shift
+/// from the last one (`MoveNotifier::check`).
+#[derive(Debug)]
+struct Told {
+    predicted: Option<Vec<[f64; 2]>>,
+    shift: Option<Vec<[f64; 2]>>,
+}
+
 impl MoveNotifier {
     /// A command was sent (the full set-points, as the robot was given them).
-    pub fn commanded(&mut self, set_points: &[f64]) {
-        let predicted = self
-            .motion
-            .as_ref()
-            .and_then(|m| m.predict(set_points).ok().flatten());
+    ///
+    /// Errors ([`PipelineError::InvalidParameter`]), with the tracks, the prior's centre and
+    /// the last command left as they were: an empty command, a set-point that is not finite, a
+    /// command of another length than the last one told (`set_points`), or one the forward
+    /// model cannot read (too short for the servos it reads, `command`). (A NaN set-point
+    /// used to be taken: the forward model had no prediction for it, so the prior lost its
+    /// centre, and every later move compared with it looked small, so a move of any size kept
+    /// the tracks.)
+    pub fn commanded(&mut self, set_points: &[f64]) -> Result<()> {
+        let told = self.check(set_points)?;
+        self.tell(set_points, told);
+        Ok(())
+    }
+
+    /// The checks of [`Self::commanded`] and what telling `set_points` does, changing
+    /// nothing.
+    fn check(&self, set_points: &[f64]) -> Result<Told> {
+        let refuse = |reason: String| {
+            Err(PipelineError::InvalidParameter {
+                name: "set_points",
+                reason,
+            })
+        };
+        if set_points.is_empty() {
+            return refuse("an empty command".into());
+        }
+        if let Some((i, v)) = set_points.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return refuse(format!("set-point {i} is {v}, not finite"));
+        }
+        if let Some(l) = self.last.as_ref().filter(|l| l.len() != set_points.len()) {
+            return refuse(format!(
+                "{} set-points, the last command told had {}",
+                set_points.len(),
+                l.len()
+            ));
+        }
+        let predicted = match &self.motion {
+            Some(m) => m.predict(set_points)?,
+            None => None,
+        };
         // `g(y') − g(y)`, as `MotionModel::shift`, with `g(y)` kept from the last command.
         let shift = match (&self.last_predicted, &predicted) {
-            (Some(a), Some(b)) => Some(MotionModel::difference(a, b)),
+            (Some(a), Some(b)) => Some(MotionModel::difference(a, b)?),
             _ => None,
         };
+        Ok(Told { predicted, shift })
+    }
+
+    /// Tells the tracks of the checked command `set_points`.
+    fn tell(&mut self, set_points: &[f64], told: Told) {
+        let Told { predicted, shift } = told;
         lock(&self.state).predicted.clone_from(&predicted);
         if let Some(d) = shift {
             let mut state = lock(&self.state);
@@ -229,7 +286,8 @@ impl MoveNotifier {
     }
 }
 
-/// A robot whose accepted commands are told to a [`MoveNotifier`].
+/// A robot whose accepted commands are told to a [`MoveNotifier`]: a command the notifier
+/// refuses ([`MoveNotifier::commanded`]) is not sent, and one the robot refuses is not told.
 #[derive(Debug)]
 pub struct Notifying<R> {
     /// The robot.
@@ -238,21 +296,57 @@ pub struct Notifying<R> {
     pub notifier: MoveNotifier,
 }
 
+/// Why a [`Notifying`] robot refused a command or a capture.
+#[derive(Debug)]
+pub enum NotifyingError<E> {
+    /// The notifier refused the command; it was not sent to the robot, and nothing changed.
+    Notifier(PipelineError),
+    /// The robot's own error (a command it refused was not told to the notifier). Its message
+    /// is the robot's.
+    Robot(E),
+}
+
+impl<E: fmt::Display> fmt::Display for NotifyingError<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NotifyingError::Notifier(e) => write!(f, "the percept's notifier refused it: {e}"),
+            NotifyingError::Robot(e) => e.fmt(f),
+        }
+    }
+}
+
+impl<E: fmt::Debug + fmt::Display> std::error::Error for NotifyingError<E> {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            NotifyingError::Notifier(e) => Some(e),
+            NotifyingError::Robot(_) => None,
+        }
+    }
+}
+
 impl<R: Robot> Robot for Notifying<R> {
-    type Error = R::Error;
+    type Error = NotifyingError<R::Error>;
     fn num_servos(&self) -> usize {
         self.robot.num_servos()
     }
     fn servo_range(&self, i: usize) -> [f64; 2] {
         self.robot.servo_range(i)
     }
-    fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), R::Error> {
-        self.robot.command(set_points)?;
-        self.notifier.commanded(set_points);
+    fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), Self::Error> {
+        // Checked before the robot moves: a command told after the robot took it can no
+        // longer be refused without the tracks missing a move.
+        let told = self
+            .notifier
+            .check(set_points)
+            .map_err(NotifyingError::Notifier)?;
+        self.robot
+            .command(set_points)
+            .map_err(NotifyingError::Robot)?;
+        self.notifier.tell(set_points, told);
         Ok(())
     }
-    fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, R::Error> {
-        self.robot.capture()
+    fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, Self::Error> {
+        self.robot.capture().map_err(NotifyingError::Robot)
     }
 }
 
@@ -276,6 +370,7 @@ fn check_images(
             got: images.len(),
         });
     }
+    check_shape_sizes(shapes, size).map_err(percept_error)?;
     for img in images {
         if [img.width(), img.height()] != size {
             return Err(ServoError::InvalidParameter {
@@ -291,6 +386,57 @@ fn check_images(
         }
     }
     Ok(())
+}
+
+/// `Ok` when every camera of `shapes` was learned on images of `size`.
+fn check_shape_sizes(shapes: &ShapeModel, size: [u32; 2]) -> Result<()> {
+    match (0..shapes.num_cameras())
+        .map(|cam| (cam, shapes.image_size(cam)))
+        .find(|(_, s)| *s != Some(size))
+    {
+        None => Ok(()),
+        Some((cam, learned)) => Err(PipelineError::InvalidParameter {
+            name: "shapes",
+            reason: format!(
+                "camera {cam}'s shape model was learned on {} images, the percept's are {}×{}",
+                learned.map_or("no".into(), |s| format!("{}×{}", s[0], s[1])),
+                size[0],
+                size[1]
+            ),
+        }),
+    }
+}
+
+/// `Ok` when the tracker's model covers the canvas of an image of `size`, `[0, w] × [0, h]`,
+/// as [`learn_tracker`] makes it (its state and measurement channels alike).
+fn check_tracker_size(model: &CbtModel, size: [u32; 2]) -> Result<()> {
+    let space = model.space();
+    let ranges: Vec<(f64, f64)> = (0..space.dims())
+        .flat_map(|d| {
+            [
+                space.state_basis(d).representable_range(),
+                space.meas_basis(d).representable_range(),
+            ]
+        })
+        .collect();
+    let fits = space.dims() == 2
+        && ranges.iter().enumerate().all(|(k, &(lo, hi))| {
+            let want = f64::from(size[k / 2]);
+            // `ChannelBasis::covering` rounds its ends by far less than this.
+            let slack = 1e-9 * want.max(1.0);
+            lo.abs() <= slack && (hi - want).abs() <= slack
+        });
+    if fits {
+        return Ok(());
+    }
+    Err(PipelineError::InvalidParameter {
+        name: "model",
+        reason: format!(
+            "a tracker model of the canvas {ranges:?} (state and measurement per axis), the \
+             percept's images are {}×{} (learn it on their size, `learn_tracker`)",
+            size[0], size[1]
+        ),
+    })
 }
 
 /// A pipeline error in a percept, as the servo library's (the percept's settings or votes were
@@ -335,7 +481,8 @@ impl Recogniser for FdRecogniser {
         self.size
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
-        // The settings are public fields: checked here, as the percept's input.
+        // The settings and the shape model are public fields: checked here, as the percept's
+        // input (the shape model's image size with the images).
         self.config.validate().map_err(percept_error)?;
         check_images(images, &self.shapes, self.size)?;
         images
@@ -369,14 +516,49 @@ pub struct FdCbtRecogniser {
 
 impl FdCbtRecogniser {
     /// The percept with `model` learned by [`learn_tracker`]; no track yet, no forward model.
-    pub fn new(fd: FdRecogniser, model: CbtModel) -> Self {
+    /// It keeps a track for each of the shape model's cameras.
+    ///
+    /// Errors ([`PipelineError::InvalidParameter`]): a shape model learned on images of
+    /// another size than `fd.size` on any camera (`shapes`), or a tracker model whose canvas
+    /// is not that of `fd.size` images (`model`; one learned on larger images used to be
+    /// taken silently, one on smaller images refused every frame whose tip lay outside it).
+    /// What only a capture shows (the robot's camera count and image size) is checked by
+    /// every capture, before any track moves.
+    pub fn new(fd: FdRecogniser, model: CbtModel) -> Result<Self> {
+        check_shape_sizes(&fd.shapes, fd.size)?;
+        check_tracker_size(&model, fd.size)?;
         let n = fd.shapes.num_cameras();
-        FdCbtRecogniser {
+        Ok(FdCbtRecogniser {
             fd,
             model,
             motion: None,
             prior: None,
             state: shared(n),
+        })
+    }
+
+    /// `Ok` when the parts still fit one another (the percept's fields are public): the
+    /// shape model and the tracker model of `fd.size` images (as [`Self::new`] checks), and
+    /// the shape model's cameras those of the `tracks` this percept keeps, of the forward
+    /// model and of the prior.
+    fn check_parts(&self, tracks: usize) -> Result<()> {
+        check_shape_sizes(&self.fd.shapes, self.fd.size)?;
+        check_tracker_size(&self.model, self.fd.size)?;
+        let n = self.fd.shapes.num_cameras();
+        let counts = [
+            ("tracks", Some(tracks)),
+            ("motion", self.motion.as_ref().map(|m| m.num_cameras())),
+            ("prior", self.prior.as_ref().map(PositionPrior::num_cameras)),
+        ];
+        match counts.into_iter().find(|(_, c)| c.is_some_and(|c| c != n)) {
+            None => Ok(()),
+            Some((name, c)) => Err(PipelineError::InvalidParameter {
+                name,
+                reason: format!(
+                    "{} cameras, the shape model has {n} (the percept's parts must agree)",
+                    c.unwrap_or(0)
+                ),
+            }),
         }
     }
 
@@ -554,11 +736,16 @@ impl Recogniser for FdCbtRecogniser {
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
         // Before any track moves: settings out of range (public fields) used to restart or
         // keep tracks silently (a NaN certainty threshold), or forget a track and then fail
-        // (a NaN kernel width on a restart), while the other cameras' tracks advanced.
+        // (a NaN kernel width on a restart), while the other cameras' tracks advanced. So did
+        // parts that no longer fit (a shape model of more cameras than the tracks panicked).
         self.fd.config.validate().map_err(percept_error)?;
-        check_images(images, &self.fd.shapes, self.fd.size)?;
         // The prediction at the last command: the prior's centre and the search windows'.
-        let predicted = lock(&self.state).predicted.clone();
+        let (predicted, tracks) = {
+            let state = lock(&self.state);
+            (state.predicted.clone(), state.tracks.len())
+        };
+        self.check_parts(tracks).map_err(percept_error)?;
+        check_images(images, &self.fd.shapes, self.fd.size)?;
         let mut votes: Vec<Vec<Vote>> = images
             .iter()
             .enumerate()
@@ -622,7 +809,7 @@ mod tests {
             size,
             config: PerceptConfig::default(),
         };
-        FdCbtRecogniser::new(fd, model)
+        FdCbtRecogniser::new(fd, model).unwrap()
     }
 
     /// Settings out of range (the percept's fields are public) are refused before any track
@@ -654,5 +841,248 @@ mod tests {
         assert_eq!(fresh.offsets(), vec![None]);
         // The FD-only percept checks its settings too.
         assert!(fresh.fd.locate_all(&frame).is_err());
+    }
+
+    /// The L scene with the L moved from its training pose by `dx`.
+    fn frame(dx: f64) -> [GrayImage; 1] {
+        [scene([L0.0[0] + dx, L0.0[1] + 2.0], L0.1, true)]
+    }
+
+    /// A one-camera tracker walk around the L's tip on the shape tests' images, scaled by `k`
+    /// (to learn a tracker model on images `k` times the size).
+    fn walk(k: f64) -> Walk {
+        let t0 = tip(L0.0, L0.1);
+        (0..30)
+            .map(|i| {
+                let t = [
+                    k * (t0[0] - 5.0 + f64::from(i % 7)),
+                    k * (t0[1] - 4.0 + f64::from(i % 5)),
+                ];
+                let vote = Vote {
+                    position: t,
+                    weight: 0.8,
+                    error: 0.05,
+                    rotation: 0.0,
+                    region: 0,
+                };
+                (Some(t), vec![vote])
+            })
+            .collect()
+    }
+
+    /// The shape model of the L seen by two cameras (the same pair for both).
+    fn two_camera_shapes(config: &crate::pipeline::ShapeConfig) -> ShapeModel {
+        let (rest, moved) = (scene(L0.0, L0.1, true), scene(L0.0, L0.1, false));
+        let pair = |camera| crate::pipeline::ActionPair {
+            camera,
+            rest: &rest,
+            moved: &moved,
+            tip: Some(tip(L0.0, L0.1)),
+        };
+        ShapeModel::learn(config, 2, &[pair(0), pair(1)]).unwrap().0
+    }
+
+    /// A one-camera forward model of servo 0: the tip moves 0.1 px per µs along x.
+    fn motion() -> MotionModel {
+        let mut m = MotionModel::new(&[0], 1, &crate::pipeline::MotionConfig::default()).unwrap();
+        let t0 = tip(L0.0, L0.1);
+        for i in 0..200 {
+            let y = 1300.0 + 2.0 * f64::from(i);
+            m.update(&[y], &[[t0[0] + 0.1 * (y - 1500.0), t0[1]]])
+                .unwrap();
+        }
+        m
+    }
+
+    /// A tracker model or a shape model of another image size than the percept's is refused at
+    /// construction. (A tracker model of larger images used to be taken silently; one of
+    /// smaller images refused every frame whose tip lay outside its canvas, after forgetting
+    /// the track.)
+    #[test]
+    fn parts_of_another_image_size_are_refused_at_construction() {
+        let p = percept();
+        let size = p.fd.size;
+        for k in [2.0, 0.5] {
+            let other = [
+                (f64::from(size[0]) * k) as u32,
+                (f64::from(size[1]) * k) as u32,
+            ];
+            let model = learn_tracker(other, &[walk(k)]).unwrap();
+            assert!(
+                matches!(
+                    FdCbtRecogniser::new(p.fd.clone(), model.clone()),
+                    Err(PipelineError::InvalidParameter { name: "model", .. })
+                ),
+                "a tracker model of {other:?} images"
+            );
+            // A shape model learned on `size` images, in a percept of `other` images (with a
+            // tracker model of those).
+            let fd = FdRecogniser {
+                size: other,
+                ..p.fd.clone()
+            };
+            assert!(
+                matches!(
+                    FdCbtRecogniser::new(fd, model),
+                    Err(PipelineError::InvalidParameter { name: "shapes", .. })
+                ),
+                "a shape model of {size:?} images in a percept of {other:?}"
+            );
+        }
+        // The parts of the right size are taken.
+        assert!(
+            FdCbtRecogniser::new(p.fd.clone(), learn_tracker(size, &[walk(1.0)]).unwrap()).is_ok()
+        );
+    }
+
+    /// Parts changed after construction (the percept's fields are public) are refused by the
+    /// next capture, a typed error before any track moves: a shape model of two cameras in a
+    /// percept built with one used to panic (the tracks' index), a percept image size that
+    /// fits neither the shape model nor the tracker model used to be taken.
+    #[test]
+    fn parts_changed_after_construction_are_refused_before_any_track_moves() {
+        let mut p = percept().with_motion(motion()).unwrap();
+        let mut notifier = p.notifier(50.0).unwrap();
+        notifier.commanded(&[1500.0]).unwrap();
+        p.locate_all(&frame(5.0)).unwrap();
+        let (offsets, predicted) = (p.offsets(), p.predicted());
+        assert_eq!(offsets, vec![Some([0.0, 0.0])]);
+        assert!(predicted.is_some());
+        let is_refused = |r: servo_loop::Result<Vec<Localisation>>| {
+            matches!(
+                r,
+                Err(ServoError::InvalidParameter {
+                    name: "percept",
+                    ..
+                })
+            )
+        };
+
+        let one = p.fd.shapes.clone();
+        p.fd.shapes = two_camera_shapes(one.config());
+        let [f] = frame(5.0);
+        assert!(is_refused(p.locate_all(&[f.clone(), f.clone()])));
+        assert!(is_refused(p.locate_all(&[f])));
+        p.fd.shapes = one;
+
+        let size = p.fd.size;
+        p.fd.size = [size[0] / 2, size[1] / 2];
+        let small = [GrayImage::new(size[0] / 2, size[1] / 2)];
+        assert!(is_refused(p.locate_all(&small)));
+        assert!(is_refused(p.fd.locate_all(&small)));
+        p.fd.size = size;
+
+        assert_eq!(p.offsets(), offsets, "the track was kept");
+        assert_eq!(p.predicted(), predicted);
+        assert!(p.locate_all(&frame(6.0)).is_ok());
+    }
+
+    /// A command that is not finite (or empty, or of another length than the last) is refused
+    /// by the notifier, and nothing changes. A NaN set-point used to be taken: with a forward
+    /// model the prior lost its centre, and every later move compared with the NaN looked
+    /// small, so a move far beyond `reset_us` kept the tracks.
+    #[test]
+    fn a_non_finite_command_is_refused_and_changes_nothing() {
+        // Without a forward model: the restart on a large move.
+        let p = percept();
+        let mut notifier = p.notifier(50.0).unwrap();
+        notifier.commanded(&[1500.0]).unwrap();
+        p.locate_all(&frame(5.0)).unwrap();
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])]);
+        for bad in [
+            &[f64::NAN][..],
+            &[f64::INFINITY],
+            &[-f64::INFINITY],
+            &[],
+            &[1500.0, 1500.0],
+        ] {
+            assert!(
+                matches!(
+                    notifier.commanded(bad),
+                    Err(PipelineError::InvalidParameter {
+                        name: "set_points",
+                        ..
+                    })
+                ),
+                "{bad:?}"
+            );
+            assert_eq!(p.offsets(), vec![Some([0.0, 0.0])], "{bad:?}");
+        }
+        // The last command is still 1500: a 1000 µs move restarts the track.
+        notifier.commanded(&[2500.0]).unwrap();
+        assert_eq!(p.offsets(), vec![None]);
+
+        // With a forward model: the prior's centre and the tracks' offset stay.
+        let p = percept().with_motion(motion()).unwrap();
+        let mut notifier = p.notifier(50.0).unwrap();
+        notifier.commanded(&[1500.0]).unwrap();
+        p.locate_all(&frame(5.0)).unwrap();
+        let predicted = p.predicted();
+        assert!(predicted.is_some());
+        assert!(notifier.commanded(&[f64::NAN]).is_err());
+        assert_eq!(p.predicted(), predicted);
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])]);
+        // The next move's shift is from 1500 (0.1 px per µs).
+        notifier.commanded(&[1520.0]).unwrap();
+        let dx = p.offsets()[0].expect("a track")[0];
+        assert!((dx - 2.0).abs() < 0.2, "{dx}");
+    }
+
+    /// A robot that takes commands up to 2000 µs and counts them.
+    #[derive(Debug, Default)]
+    struct Picky {
+        sent: Vec<Vec<f64>>,
+    }
+
+    impl Robot for Picky {
+        type Error = String;
+        fn num_servos(&self) -> usize {
+            1
+        }
+        fn servo_range(&self, _: usize) -> [f64; 2] {
+            [1000.0, 2000.0]
+        }
+        fn command(&mut self, set_points: &[f64]) -> std::result::Result<(), String> {
+            if set_points.iter().any(|v| *v > 2000.0) {
+                return Err(format!("{set_points:?} out of range"));
+            }
+            self.sent.push(set_points.to_vec());
+            Ok(())
+        }
+        fn capture(&mut self) -> std::result::Result<Vec<GrayImage>, String> {
+            Err("no camera".into())
+        }
+    }
+
+    /// Through [`Notifying`]: a command the robot refuses is not told (the track is kept), and
+    /// one the notifier refuses is not sent (the robot never sees a NaN set-point, and the
+    /// tracks are not poisoned by it: a large move after it still restarts them).
+    #[test]
+    fn notifying_tells_only_the_commands_the_robot_took_and_sends_none_the_notifier_refuses() {
+        let p = percept();
+        let mut robot = Notifying {
+            robot: Picky::default(),
+            notifier: p.notifier(50.0).unwrap(),
+        };
+        robot.command(&[1500.0]).unwrap();
+        p.locate_all(&frame(5.0)).unwrap();
+        let refused = robot.command(&[3000.0]).unwrap_err();
+        assert!(matches!(&refused, NotifyingError::Robot(m) if m.contains("out of range")));
+        assert_eq!(refused.to_string(), "[3000.0] out of range");
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])], "not told");
+
+        let refused = robot.command(&[f64::NAN]).unwrap_err();
+        assert!(matches!(
+            refused,
+            NotifyingError::Notifier(PipelineError::InvalidParameter {
+                name: "set_points",
+                ..
+            })
+        ));
+        assert_eq!(robot.robot.sent, vec![vec![1500.0]], "not sent");
+        assert_eq!(p.offsets(), vec![Some([0.0, 0.0])]);
+        robot.command(&[1900.0]).unwrap();
+        assert_eq!(p.offsets(), vec![None], "a 400 µs move restarts the track");
+        assert!(matches!(robot.capture(), Err(NotifyingError::Robot(_))));
     }
 }

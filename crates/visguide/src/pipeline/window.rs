@@ -112,12 +112,16 @@ impl SearchWindow {
     }
 
     /// Whether a region with bounding box `b` (image coordinates) is kept (module docs): it
-    /// lies in the window and touches none of the window's edges inside the image.
+    /// lies in the window and touches none of the window's edges inside the image. (A box
+    /// reaching the last representable column or row is not kept: `x_max + 1` used to
+    /// overflow there, a panic in a debug build and a kept box in a release one.)
     pub fn keeps(&self, b: &BoundingBox) -> bool {
         let left = b.x_min > self.x0 || (self.x0 == 0 && b.x_min == 0);
         let top = b.y_min > self.y0 || (self.y0 == 0 && b.y_min == 0);
-        let right = b.x_max + 1 < self.x1 || (self.x1 == self.size[0] && b.x_max < self.x1);
-        let bottom = b.y_max + 1 < self.y1 || (self.y1 == self.size[1] && b.y_max < self.y1);
+        let right =
+            b.x_max.saturating_add(1) < self.x1 || (self.x1 == self.size[0] && b.x_max < self.x1);
+        let bottom =
+            b.y_max.saturating_add(1) < self.y1 || (self.y1 == self.size[1] && b.y_max < self.y1);
         left && top && right && bottom
     }
 }
@@ -177,5 +181,25 @@ mod tests {
         assert_eq!((corner.x1, corner.y1), (640, 480));
         assert!(corner.keeps(&bbox(611, 451, 639, 479)));
         assert!(!corner.keeps(&bbox(610, 451, 639, 479)));
+    }
+
+    /// A bounding box (its fields are public) reaching `u32::MAX` is not kept, not a panic:
+    /// `x_max + 1` overflowed (in a release build it wrapped to 0 and the box was kept).
+    #[test]
+    fn a_box_reaching_the_largest_coordinate_is_not_kept_and_no_panic() {
+        let w = SearchWindow::around([10.0, 100.0], 20.0, [640, 480]).unwrap();
+        assert!(!w.keeps(&bbox(5, 90, u32::MAX, 100)));
+        assert!(!w.keeps(&bbox(5, 90, 20, u32::MAX)));
+        let max = u32::MAX;
+        let whole = SearchWindow {
+            x0: 0,
+            y0: 0,
+            x1: max,
+            y1: max,
+            size: [max, max],
+        };
+        assert!(whole.keeps(&bbox(0, 0, max - 1, max - 1)));
+        assert!(!whole.keeps(&bbox(0, 0, max, 3)));
+        assert!(!whole.keeps(&bbox(0, 0, 3, max)));
     }
 }
