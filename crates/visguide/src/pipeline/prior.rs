@@ -31,7 +31,7 @@
 use servo_loop::stats::median;
 
 use super::error::{PipelineError, Result};
-use super::vote::Vote;
+use super::vote::{Vote, check_votes};
 
 /// Width multiplier `k` of the prior (module docs).
 pub const WIDTH_FACTOR: f64 = 2.0;
@@ -168,18 +168,7 @@ impl PositionPrior {
                 ),
             });
         }
-        if let Some((i, v)) = votes.iter().enumerate().find(|(_, v)| {
-            !(v.position.iter().all(|c| c.is_finite()) && v.weight.is_finite() && v.weight >= 0.0)
-        }) {
-            return Err(PipelineError::InvalidParameter {
-                name: "votes",
-                reason: format!(
-                    "vote {i} at {:?} with weight {}: needs a finite position and a finite, \
-                     non-negative weight",
-                    v.position, v.weight
-                ),
-            });
-        }
+        check_votes(votes)?;
         if self.applies(cam) {
             for v in votes {
                 v.weight *= self.factor(cam, predicted, v.position);

@@ -42,6 +42,24 @@ pub struct Mode {
     pub support: usize,
 }
 
+/// `Ok` when every vote has a finite position and a finite, non-negative weight; otherwise
+/// [`PipelineError::InvalidParameter`] (`votes`) naming the first one that does not.
+pub(crate) fn check_votes(votes: &[Vote]) -> Result<()> {
+    match votes.iter().enumerate().find(|(_, v)| {
+        !(v.position.iter().all(|c| c.is_finite()) && v.weight.is_finite() && v.weight >= 0.0)
+    }) {
+        None => Ok(()),
+        Some((i, v)) => Err(PipelineError::InvalidParameter {
+            name: "votes",
+            reason: format!(
+                "vote {i} at {:?} with weight {}: needs a finite position and a finite, \
+                 non-negative weight",
+                v.position, v.weight
+            ),
+        }),
+    }
+}
+
 /// The weighted mode of `votes` with kernel width `sigma` (pixels); `None` without votes (or
 /// with zero total weight).
 ///
@@ -55,18 +73,7 @@ pub fn mode(votes: &[Vote], sigma: f64) -> Result<Option<Mode>> {
             reason: format!("{sigma} must be finite and positive"),
         });
     }
-    if let Some((i, v)) = votes.iter().enumerate().find(|(_, v)| {
-        !(v.position.iter().all(|c| c.is_finite()) && v.weight.is_finite() && v.weight >= 0.0)
-    }) {
-        return Err(PipelineError::InvalidParameter {
-            name: "votes",
-            reason: format!(
-                "vote {i} at {:?} with weight {}: needs a finite position and a finite, \
-                 non-negative weight",
-                v.position, v.weight
-            ),
-        });
-    }
+    check_votes(votes)?;
     let total: f64 = votes.iter().map(|v| v.weight).sum();
     if votes.is_empty() || total <= 0.0 {
         return Ok(None);
