@@ -5,14 +5,24 @@
 //! which definition is used.
 
 /// Median: the middle value of an odd-sized sample, the mean of the two middle values of an
-/// even-sized one; NaN for an empty sample. Sorts `xs` in place (NaNs sort last).
+/// even-sized one; NaN for an empty sample. Sorts `xs` in place (NaNs sort last). The mean of
+/// two finite values is finite: where their sum overflows, each is halved first.
 pub fn median(xs: &mut [f64]) -> f64 {
     xs.sort_by(f64::total_cmp);
     let n = xs.len();
     match n {
         0 => f64::NAN,
         _ if n % 2 == 1 => xs[n / 2],
-        _ => 0.5 * (xs[n / 2 - 1] + xs[n / 2]),
+        _ => {
+            let (a, b) = (xs[n / 2 - 1], xs[n / 2]);
+            let sum = a + b;
+            if sum.is_finite() {
+                0.5 * sum
+            } else {
+                // Only an overflow (or an infinite or NaN value) gets here.
+                0.5 * a + 0.5 * b
+            }
+        }
     }
 }
 
@@ -55,6 +65,13 @@ mod tests {
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
         assert!(median(&mut []).is_nan());
+        // Two finite middle values whose sum overflows have a finite mean (it was ∞).
+        assert_eq!(median(&mut [f64::MAX, f64::MAX]), f64::MAX);
+        let m = median(&mut [1e308, 1.5e308, 0.0, f64::INFINITY]);
+        assert!(m.is_finite() && m > 1e308 && m < 1.5e308, "{m:e}");
+        assert_eq!(median(&mut [-f64::MAX, -f64::MAX]), -f64::MAX);
+        // Infinite values stay infinite.
+        assert_eq!(median(&mut [f64::INFINITY, f64::INFINITY]), f64::INFINITY);
     }
 
     #[test]

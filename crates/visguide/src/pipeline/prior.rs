@@ -81,14 +81,7 @@ impl PositionPrior {
                         "camera {cam}: no frame to measure the forward model's error on"
                     )));
                 }
-                let mut sorted = d.clone();
-                let mut median = median(&mut sorted);
-                if median.is_infinite() {
-                    // The mean of two finite middle values whose sum overflows: halved first
-                    // (the same value wherever the sum does not overflow).
-                    let n = sorted.len();
-                    median = 0.5 * sorted[n / 2 - 1] + 0.5 * sorted[n / 2];
-                }
+                let median = median(&mut d.clone());
                 if median <= 0.0 {
                     return Err(PipelineError::InvalidParameter {
                         name: "distances",
