@@ -125,6 +125,11 @@ pub struct PipelineArgs {
     /// around the forward model's predicted tip (`PerceptConfig::search_window`).
     #[arg(long, requires = "development")]
     pub no_search_window: bool,
+    /// With `--development`: match within a polarity (`ShapeConfig::same_polarity`: a view
+    /// votes only for regions of its MSER polarity, and the ratio test's competitor is of the
+    /// region's polarity).
+    #[arg(long, requires = "development")]
+    pub same_polarity: bool,
     /// With `--development`: the development seeds to run (default 101, 102; seeds of the
     /// evaluation, 3000 and above, are refused).
     #[arg(long, requires = "development", value_delimiter = ',')]
@@ -354,6 +359,9 @@ fn learn(name: &str, role: Role, config: &SimConfig, args: &PipelineArgs) -> Res
     }
     if let Some(views) = args.views {
         protocol.views = views;
+    }
+    if args.same_polarity {
+        protocol.shapes.same_polarity = true;
     }
     if let Some(m) = args.max_scale {
         protocol.shapes.max_scale = m;

@@ -93,6 +93,11 @@ pub struct ShapeConfig {
     /// within `[1 / max_scale, max_scale]`, and the ratio test's background competitor is the
     /// best background region whose scale against the region lies in the same range.
     pub max_scale: f64,
+    /// Matching within a polarity (a development candidate, off by default): a view votes for
+    /// a region only when both are of one MSER polarity (darker or brighter than their
+    /// surround), and the ratio test's background competitor is the best background region of
+    /// the region's polarity (and size).
+    pub same_polarity: bool,
 }
 
 impl Default for ShapeConfig {
@@ -114,6 +119,7 @@ impl Default for ShapeConfig {
             offset_scale_px: 20.0,
             view_error_factor: 3.0,
             max_scale: 1.25,
+            same_polarity: false,
         }
     }
 }
@@ -169,6 +175,8 @@ pub struct GripperView {
     pub area: f64,
     /// The tip minus its centre (pixels), in the training image.
     pub offset: [f64; 2],
+    /// Whether the region is brighter than its surround (MSER's bright polarity).
+    pub bright: bool,
 }
 
 /// One camera's part of the model.
@@ -182,6 +190,8 @@ struct CameraShapes {
     background_area: Vec<f64>,
     /// The background descriptors' indices by ascending area (ties by index).
     background_by_area: Vec<usize>,
+    /// Per background descriptor, whether its region is of the bright polarity.
+    background_bright: Vec<bool>,
     /// The farthest contour pixel of any stored view from its training tip (px).
     reach: f64,
     /// Width and height of the camera's training captures (px).
@@ -229,6 +239,21 @@ fn descriptor_config() -> DescriptorConfig {
 
 fn centre(f: &Features, i: usize) -> [f64; 2] {
     [f.frames[i].u, f.frames[i].v]
+}
+
+/// An unchanged region of a training capture (a background region).
+#[derive(Debug, Clone, Copy)]
+struct Unchanged {
+    capture: usize,
+    centre: [f64; 2],
+    area: f64,
+    /// Of the bright polarity.
+    bright: bool,
+}
+
+/// Whether region `i` is of the bright polarity.
+fn bright(f: &Features, i: usize) -> bool {
+    f.regions[i].polarity == mser::Polarity::Bright
 }
 
 impl ShapeModel {
@@ -302,8 +327,7 @@ impl ShapeModel {
         // Per candidate view: its capture, centre and area (for the static check below).
         let mut placed: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); cameras];
         let mut background: Vec<Vec<Vec<(u32, u32)>>> = vec![Vec::new(); cameras];
-        // Per unchanged region: its capture, centre and area.
-        let mut still: Vec<Vec<(usize, [f64; 2], f64)>> = vec![Vec::new(); cameras];
+        let mut still: Vec<Vec<Unchanged>> = vec![Vec::new(); cameras];
         let mut report = ShapeReport {
             views: vec![0; cameras],
             far_changes: vec![0; cameras],
@@ -332,7 +356,12 @@ impl ShapeModel {
                 });
                 if unchanged {
                     background[p.camera].push(rest.contours[i].clone());
-                    still[p.camera].push((capture, c, area));
+                    still[p.camera].push(Unchanged {
+                        capture,
+                        centre: c,
+                        area,
+                        bright: bright(&rest, i),
+                    });
                     continue;
                 }
                 match p.tip {
@@ -342,6 +371,7 @@ impl ShapeModel {
                             contour: rest.contours[i].clone(),
                             area,
                             offset: [t[0] - c[0], t[1] - c[1]],
+                            bright: bright(&rest, i),
                         });
                     }
                     _ => report.far_changes[p.camera] += 1,
@@ -358,7 +388,8 @@ impl ShapeModel {
                 .map(|(v, &(capture, c))| {
                     let elsewhere = still[cam]
                         .iter()
-                        .filter(|&&(k, d, a)| {
+                        .filter(|u| {
+                            let (k, d, a) = (u.capture, u.centre, u.area);
                             k != capture
                                 && (c[0] - d[0]).hypot(c[1] - d[1]) <= 2.0 * config.same_px
                                 && (a / v.area - 1.0).abs() <= 2.0 * config.same_area
@@ -414,7 +445,10 @@ impl ShapeModel {
             report.views[cam] = grip.len();
             report.background[cam] = background.len();
             let background_area: Vec<f64> = (0..background.len())
-                .map(|d| still[cam][kept[background.source(d)]].2)
+                .map(|d| still[cam][kept[background.source(d)]].area)
+                .collect();
+            let background_bright: Vec<bool> = (0..background.len())
+                .map(|d| still[cam][kept[background.source(d)]].bright)
                 .collect();
             let mut background_by_area: Vec<usize> = (0..background.len()).collect();
             background_by_area.sort_by(|&a, &b| {
@@ -428,6 +462,7 @@ impl ShapeModel {
                 background,
                 background_area,
                 background_by_area,
+                background_bright,
                 reach: reach[cam],
                 size,
             });
@@ -586,6 +621,7 @@ impl ShapeModel {
         let mut corr = fd_match::Correlator::new(dc.max_frequency(), dc.samples)?;
         let max_scale = self.config.max_scale;
         let sized = max_scale.is_finite();
+        let polar = self.config.same_polarity;
         let less = |r: f64| r.partial_cmp(&t_r) == Some(std::cmp::Ordering::Less);
         // Per region: the views that may vote, `(view, error, rotation, scale)`.
         let mut candidates: Vec<(usize, f64, f64, f64)> = Vec::new();
@@ -600,19 +636,26 @@ impl ShapeModel {
             // Every view's error is at least the best one's, so a background error at or
             // below `e_best / T_r` fails them all: the region does not vote, and the sized
             // search may stop there.
-            let same_size = |c: &fd_match::Candidate| shapes.same_size(c.index, area, max_scale);
+            // With matching within a polarity, only views and background regions of the
+            // region's polarity take part.
+            let polarity = polar.then(|| bright(&features, region));
+            let fits = |c: &fd_match::Candidate| {
+                shapes.same_size(c.index, area, max_scale)
+                    && polarity.is_none_or(|p| shapes.background_bright[c.index] == p)
+            };
             let e_bg = match (b.best, b.second) {
                 (None, _) => f64::INFINITY,
                 // The best background region overall is the best of any subset holding it.
-                (Some(c), _) if !sized || same_size(&c) => c.error,
-                // The best is of another size and the second of this one: the second is the
-                // best of the rest.
-                (Some(_), Some(c)) if same_size(&c) => c.error,
+                (Some(c), _) if (!sized && !polar) || fits(&c) => c.error,
+                // The best is of another size (or polarity) and the second fits: the second
+                // is the best of the rest.
+                (Some(_), Some(c)) if fits(&c) => c.error,
                 _ => shapes.background_error(
                     &mut corr,
                     set.fd(k),
                     area,
                     max_scale,
+                    polarity,
                     best.error / t_r,
                 )?,
             };
@@ -631,7 +674,9 @@ impl ShapeModel {
             for j in 0..shapes.grip.len() {
                 let view = &shapes.views[shapes.grip.source(j)];
                 let s = (area / view.area).sqrt();
-                if !(s * max_scale >= 1.0 && s <= max_scale) {
+                if !(s * max_scale >= 1.0 && s <= max_scale)
+                    || polarity.is_some_and(|p| view.bright != p)
+                {
                     continue;
                 }
                 let (error, rotation) = if j == best.index {
@@ -689,14 +734,16 @@ impl CameraShapes {
 
     /// The smallest FD correlation error between `fd` (a region of `area` pixels) and the
     /// background regions whose linear scale against it lies within `[1 / max_scale,
-    /// max_scale]` (infinite when there is none); or, as soon as one is found at or below
-    /// `floor`, that one's error (the caller needs no more then).
+    /// max_scale]` and, given a polarity (`bright`), of that polarity (infinite when there is
+    /// none); or, as soon as one is found at or below `floor`, that one's error (the caller
+    /// needs no more then).
     fn background_error(
         &self,
         corr: &mut fd_match::Correlator,
         fd: &[fd_match::Complex64],
         area: f64,
         max_scale: f64,
+        bright: Option<bool>,
         floor: f64,
     ) -> Result<f64> {
         let (lo, hi) = (area / (max_scale * max_scale), area * max_scale * max_scale);
@@ -708,7 +755,9 @@ impl CameraShapes {
             if self.background_area[d] > hi {
                 break;
             }
-            if !self.same_size(d, area, max_scale) {
+            if !self.same_size(d, area, max_scale)
+                || bright.is_some_and(|b| self.background_bright[d] != b)
+            {
                 continue;
             }
             if let Some(c) = corr.correlate_below(fd, self.background.fd(d), best)? {
@@ -1055,13 +1104,66 @@ pub(crate) mod tests {
         assert!(sized.votes(0, &alone).unwrap().is_empty());
     }
 
+    /// The image with every grey level `g` replaced by `255 − g`.
+    fn invert(img: &GrayImage) -> GrayImage {
+        let mut out = img.clone();
+        out.pixels_mut().for_each(|p| p.0[0] = 255 - p.0[0]);
+        out
+    }
+
+    /// Matching within a polarity: the views and background regions keep their polarity; an L
+    /// of the other polarity (the image inverted: a dark L on a bright ground) votes for the
+    /// tip by shape alone, and not at all when views vote only for regions of their polarity.
+    #[test]
+    fn within_a_polarity_a_region_of_the_other_polarity_does_not_vote() {
+        let (mut model, _, _) = one_l_model();
+        let shapes = &model.cameras[0];
+        assert!(shapes.views.iter().all(|v| v.bright), "the L is bright");
+        let (c1, a1) = ([130.0, 100.0], 0.4);
+        let t = tip(c1, a1);
+        let near = |votes: &[Vote]| {
+            votes
+                .iter()
+                .filter(|v| (v.position[0] - t[0]).hypot(v.position[1] - t[1]) < 5.0)
+                .count()
+        };
+        let same = scene(c1, a1, true);
+        let inverted = invert(&same);
+        assert!(near(&model.votes(0, &same).unwrap()) > 0);
+        assert!(
+            near(&model.votes(0, &inverted).unwrap()) > 0,
+            "by shape alone"
+        );
+        model.config.same_polarity = true;
+        assert!(near(&model.votes(0, &same).unwrap()) > 0);
+        assert!(model.votes(0, &inverted).unwrap().is_empty());
+    }
+
     #[test]
     fn the_sized_background_error_is_the_brute_force_minimum_over_regions_of_that_size() {
         let size = [320, 260];
         let static_l = Some(([250.0, 190.0], 2.0));
-        let model = sized_model(1.25, size, static_l);
+        // Learned from the scene and from its inverse too, so that the background holds regions
+        // of both polarities.
+        let model = {
+            let config = sized_model(1.25, size, static_l).config;
+            let (c0, a0) = ([100.0, 80.0], 0.2);
+            let rest = scene_with(size, Some((c0, a0, 1.0)), static_l);
+            let moved = scene_with(size, None, static_l);
+            let (rest_inv, moved_inv) = (invert(&rest), invert(&moved));
+            let pair = |rest, moved| ActionPair {
+                camera: 0,
+                rest,
+                moved,
+                tip: Some(tip(c0, a0)),
+            };
+            let pairs = [pair(&rest, &moved), pair(&rest_inv, &moved_inv)];
+            ShapeModel::learn(&config, 1, &pairs).unwrap().0
+        };
         let shapes = &model.cameras[0];
         assert!(shapes.background.len() >= 2, "{}", shapes.background.len());
+        let polarities = &shapes.background_bright;
+        assert!(polarities.contains(&true) && polarities.contains(&false));
         let query = scene_with(size, Some(([120.0, 95.0], 0.5, 1.0)), static_l);
         let features = detect(&query, &model.config.mser).unwrap();
         let set = fd_match::describe_all(descriptor_config(), &features.contours)
@@ -1072,23 +1174,30 @@ pub(crate) mod tests {
         let mut compared = 0;
         for k in 0..set.len() {
             let area = f64::from(features.regions[set.source(k)].area);
-            for max_scale in [1.1, 1.25, 2.0, 4.0] {
+            // Of the region's size, and of either polarity or of one.
+            let kinds = [1.1, 1.25, 2.0, 4.0]
+                .into_iter()
+                .flat_map(|m| [None, Some(false), Some(true)].map(|b| (m, b)));
+            for (max_scale, bright) in kinds {
                 let fast = shapes
-                    .background_error(&mut corr, set.fd(k), area, max_scale, -1.0)
+                    .background_error(&mut corr, set.fd(k), area, max_scale, bright, -1.0)
                     .unwrap();
                 let brute = (0..shapes.background.len())
-                    .filter(|&d| shapes.same_size(d, area, max_scale))
+                    .filter(|&d| {
+                        shapes.same_size(d, area, max_scale)
+                            && bright.is_none_or(|b| shapes.background_bright[d] == b)
+                    })
                     .map(|d| {
                         corr.correlate(set.fd(k), shapes.background.fd(d))
                             .unwrap()
                             .error
                     })
                     .fold(f64::INFINITY, f64::min);
-                assert_eq!(fast, brute, "region {k}, max_scale {max_scale}");
+                assert_eq!(fast, brute, "region {k}, max_scale {max_scale}, {bright:?}");
                 // With a floor the search may stop early, but on the same side of it.
                 for floor in [0.5 * brute, brute, 1.5 * brute] {
                     let early = shapes
-                        .background_error(&mut corr, set.fd(k), area, max_scale, floor)
+                        .background_error(&mut corr, set.fd(k), area, max_scale, bright, floor)
                         .unwrap();
                     assert!(
                         early >= brute,
