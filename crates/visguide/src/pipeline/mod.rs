@@ -7,7 +7,8 @@
 //!    camera ([`ShapeModel`]).
 //! 2. **Recognise** ([`ShapeModel::votes`]): MSER → contours → FDs → correlation matching
 //!    against the gripper views with a ratio test against the background's regions, both
-//!    limited to regions of about the same size; each accepted region votes for the tip once
+//!    limited to regions of about the same size and of the same MSER polarity; each accepted
+//!    region votes for the tip once
 //!    per stored view near its best match, with that view's recovered rotation and scale
 //!    ([`Vote`]; a generalised Hough transform). The frame's mode is the FD-only percept
 //!    ([`FdRecogniser`]).

@@ -45,6 +45,13 @@
 //! need not pass the ratio test (it may be of another size); every voting view still must.
 //! Adopted by a rule on development seeds 119–122 (docs/methods.md, *Size-aware matching*).
 //!
+//! **Within a polarity** ([`ShapeConfig::same_polarity`]): MSER tells whether a region is
+//! darker or brighter than its surround, and a gripper part keeps that as it moves, so a view
+//! votes only for regions of its own polarity, and the ratio test's competitor is the best
+//! background region of the region's polarity (and size): a dark background region shaped
+//! like a bright gripper part neither votes as that part nor refuses it. Adopted by a rule on
+//! development seeds 134–137 (docs/methods.md, *Matching within a polarity*).
+//!
 //! **In a window** ([`ShapeModel::votes_in`]): the same on the regions MSER finds in a window of
 //! the image ([`super::window`]), dropping those that touch one of its edges inside the image;
 //! the votes are in the image's coordinates. [`ShapeModel::reach`], the farthest contour pixel
@@ -93,7 +100,7 @@ pub struct ShapeConfig {
     /// within `[1 / max_scale, max_scale]`, and the ratio test's background competitor is the
     /// best background region whose scale against the region lies in the same range.
     pub max_scale: f64,
-    /// Matching within a polarity (a development candidate, off by default): a view votes for
+    /// Matching within a polarity (default on; off: by shape and size only): a view votes for
     /// a region only when both are of one MSER polarity (darker or brighter than their
     /// surround), and the ratio test's background competitor is the best background region of
     /// the region's polarity (and size).
@@ -119,7 +126,7 @@ impl Default for ShapeConfig {
             offset_scale_px: 20.0,
             view_error_factor: 3.0,
             max_scale: 1.25,
-            same_polarity: false,
+            same_polarity: true,
         }
     }
 }
@@ -1129,14 +1136,17 @@ pub(crate) mod tests {
         };
         let same = scene(c1, a1, true);
         let inverted = invert(&same);
+        // Within a polarity (the default).
+        assert!(model.config.same_polarity);
+        assert!(near(&model.votes(0, &same).unwrap()) > 0);
+        assert!(model.votes(0, &inverted).unwrap().is_empty());
+        // By shape (and size) alone.
+        model.config.same_polarity = false;
         assert!(near(&model.votes(0, &same).unwrap()) > 0);
         assert!(
             near(&model.votes(0, &inverted).unwrap()) > 0,
             "by shape alone"
         );
-        model.config.same_polarity = true;
-        assert!(near(&model.votes(0, &same).unwrap()) > 0);
-        assert!(model.votes(0, &inverted).unwrap().is_empty());
     }
 
     #[test]
