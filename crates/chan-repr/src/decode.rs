@@ -11,7 +11,12 @@ use crate::{ChanError, ChannelBasis, Kernel};
 pub(crate) const VALID_SLACK: f64 = 1e-9;
 
 /// One decoded mode of a 1-D channel vector.
+///
+/// Deserialisation checks what the decoders produce ([`ChanError::InvalidParameter`] naming
+/// the field otherwise): a finite value, a finite certainty `> 0` (a valid window's sum) and a
+/// finite weight `≥ 0`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ModeSpec")]
 pub struct Mode {
     /// The decoded value (value space).
     pub value: f64,
@@ -23,7 +28,12 @@ pub struct Mode {
 }
 
 /// The raw output of one decoding window, before rejection (eq. 2.6, 2.7).
+///
+/// Deserialisation checks what the decoders produce ([`ChanError::InvalidParameter`] naming
+/// the field otherwise): a finite certainty `≥ 0`, and for a window marked valid an estimate
+/// that is finite and a certainty `> 0`. (An invalid window's estimate carries no promise.)
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "WindowEstimateSpec")]
 pub struct WindowEstimate {
     /// First channel of the window (0-based).
     pub start: usize,
@@ -33,6 +43,102 @@ pub struct WindowEstimate {
     pub certainty: f64,
     /// Whether the estimate lies inside the window's valid range.
     pub valid: bool,
+}
+
+/// The serialised form of a [`Mode`] (the same fields), checked by [`check_mode`].
+#[derive(Deserialize)]
+struct ModeSpec {
+    value: f64,
+    certainty: f64,
+    weight: f64,
+}
+
+impl TryFrom<ModeSpec> for Mode {
+    type Error = ChanError;
+    fn try_from(s: ModeSpec) -> Result<Self, ChanError> {
+        check_mode(&[s.value], s.certainty, s.weight)?;
+        Ok(Mode {
+            value: s.value,
+            certainty: s.certainty,
+            weight: s.weight,
+        })
+    }
+}
+
+/// The serialised form of a [`WindowEstimate`] (the same fields), checked on deserialisation.
+#[derive(Deserialize)]
+struct WindowEstimateSpec {
+    start: usize,
+    value: Option<f64>,
+    certainty: f64,
+    valid: bool,
+}
+
+impl TryFrom<WindowEstimateSpec> for WindowEstimate {
+    type Error = ChanError;
+    fn try_from(s: WindowEstimateSpec) -> Result<Self, ChanError> {
+        // NaN fails every comparison.
+        if !(s.certainty.is_finite() && s.certainty >= 0.0) {
+            return Err(ChanError::InvalidParameter {
+                name: "certainty",
+                value: s.certainty,
+                reason: "a window's certainty (the sum of its coefficients) is finite and >= 0",
+            });
+        }
+        if s.valid {
+            let Some(value) = s.value else {
+                return Err(ChanError::InvalidParameter {
+                    name: "valid",
+                    value: s.certainty,
+                    reason: "a window marked valid has an estimate",
+                });
+            };
+            check_mode(&[value], s.certainty, 0.0)?;
+        }
+        Ok(WindowEstimate {
+            start: s.start,
+            value: s.value,
+            certainty: s.certainty,
+            valid: s.valid,
+        })
+    }
+}
+
+/// Checks the numbers of a decoded mode as every decoder produces them (1-D, periodic and
+/// n-D): at least one coordinate, every coordinate finite, the certainty finite and `> 0` (the
+/// sum of a valid window, which holds mass) and the weight finite and `≥ 0`. The one home of
+/// that rule for deserialised results ([`Mode`], [`WindowEstimate`], [`crate::ModeNd`]).
+pub(crate) fn check_mode(value: &[f64], certainty: f64, weight: f64) -> Result<(), ChanError> {
+    if value.is_empty() {
+        return Err(ChanError::LengthMismatch {
+            what: "dimensions (at least)",
+            expected: 1,
+            got: 0,
+        });
+    }
+    if let Some(&v) = value.iter().find(|v| !v.is_finite()) {
+        return Err(ChanError::InvalidParameter {
+            name: "value",
+            value: v,
+            reason: "a decoded value is finite",
+        });
+    }
+    // NaN fails both range tests.
+    if !(certainty.is_finite() && certainty > 0.0) {
+        return Err(ChanError::InvalidParameter {
+            name: "certainty",
+            value: certainty,
+            reason: "a mode's certainty (its window's sum) is finite and > 0",
+        });
+    }
+    if !(weight.is_finite() && weight >= 0.0) {
+        return Err(ChanError::InvalidParameter {
+            name: "weight",
+            value: weight,
+            reason: "a mode's weight is finite and >= 0",
+        });
+    }
+    Ok(())
 }
 
 impl ChannelBasis {

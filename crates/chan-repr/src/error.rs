@@ -22,7 +22,8 @@ pub enum ChanError {
         max: usize,
     },
     /// A finite number so large that sums of it could overflow (weights, coefficients and
-    /// histogram totals are limited to [`crate::MAX_MASS`]).
+    /// histogram totals are limited to [`crate::MAX_MASS`]), or a Gaussian kernel so wide that
+    /// its decoding is rounding noise (`sigma` is limited to [`crate::GAUSSIAN_MAX_SIGMA`]).
     #[error("{what} {value} exceeds the limit of {max}")]
     TooLarge {
         /// What was too large.
@@ -48,7 +49,8 @@ pub enum ChanError {
         /// Which limit was violated.
         reason: String,
     },
-    /// A parameter (spacing, range, width) that is non-finite, zero or negative where it must not be.
+    /// A parameter (spacing, range, width), or a field of a deserialised decoding result, that
+    /// is non-finite, zero or negative where it must not be.
     #[error("invalid parameter `{name}` = {value}: {reason}")]
     InvalidParameter {
         /// Parameter name.

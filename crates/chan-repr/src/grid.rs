@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::basis::{MAX_CHANNELS, check_weight};
-use crate::decode::{VALID_SLACK, check_channels, sort_modes};
+use crate::decode::{VALID_SLACK, check_channels, check_mode, sort_modes};
 use crate::{ChanError, ChannelBasis};
 
 /// The most channels one n-D decoding window may hold (the product of the bases' windows:
@@ -35,7 +35,12 @@ pub struct ChannelGrid {
 }
 
 /// One decoded mode of an n-D channel grid.
+///
+/// Deserialisation checks what the decoders produce: at least one coordinate
+/// ([`ChanError::LengthMismatch`]), every coordinate finite, a finite certainty `> 0` and a
+/// finite weight `≥ 0` ([`ChanError::InvalidParameter`] naming the field).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ModeNdSpec")]
 pub struct ModeNd {
     /// The decoded vector (value space), one entry per dimension.
     pub value: Vec<f64>,
@@ -43,6 +48,26 @@ pub struct ModeNd {
     pub certainty: f64,
     /// The encoded weight this certainty corresponds to (1 for a plain encoded value).
     pub weight: f64,
+}
+
+/// The serialised form of a [`ModeNd`] (the same fields), checked by `check_mode`.
+#[derive(Deserialize)]
+struct ModeNdSpec {
+    value: Vec<f64>,
+    certainty: f64,
+    weight: f64,
+}
+
+impl TryFrom<ModeNdSpec> for ModeNd {
+    type Error = ChanError;
+    fn try_from(s: ModeNdSpec) -> Result<Self, ChanError> {
+        check_mode(&s.value, s.certainty, s.weight)?;
+        Ok(ModeNd {
+            value: s.value,
+            certainty: s.certainty,
+            weight: s.weight,
+        })
+    }
 }
 
 impl TryFrom<Vec<ChannelBasis>> for ChannelGrid {

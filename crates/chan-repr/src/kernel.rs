@@ -10,6 +10,14 @@ use crate::ChanError;
 pub const GAUSSIAN_SUPPORT_SIGMAS: f64 = 4.0;
 /// Smallest Gaussian width (in channel spacings) whose 3-channel decoding window is always active.
 pub const GAUSSIAN_MIN_SIGMA: f64 = 0.5;
+/// Largest Gaussian width (in channel spacings) accepted (1e6); wider kernels are refused with
+/// [`ChanError::TooLarge`]. The Gaussian decoder reads the curvature `1/σ²` of `ln c` over a
+/// window of responses that all lie within `~1/σ²` of 1, so its rounding error grows like
+/// `ε·σ²` channel spacings: the worst error measured over a basis is 7e-5 spacings at this
+/// bound, 5e-3 at `σ = 1e7` and 0.55 at `σ = 1e8` (the decoded value is noise); from about
+/// `σ = 1e10` every response rounds to exactly 1 and nothing decodes, and beyond `~4.5e307`
+/// the support radius `4σ` overflows to infinity.
+pub const GAUSSIAN_MAX_SIGMA: f64 = 1e6;
 
 /// A channel kernel (basis function), measured in units of the channel spacing.
 ///
@@ -17,7 +25,8 @@ pub const GAUSSIAN_MIN_SIGMA: f64 = 0.5;
 ///   with `a = π/m`: `m` channels overlap any point and the local decoder (eq. 2.4) looks at
 ///   windows of `m` channels. The thesis's example uses `m = 3` (`a = π/3`).
 /// - [`Kernel::BSpline2`]: the quadratic B-spline, support `|d| < 3/2`, three active channels.
-/// - [`Kernel::Gaussian`]: `exp(−d²/(2σ²))`, truncated to exactly 0 beyond `4σ`.
+/// - [`Kernel::Gaussian`]: `exp(−d²/(2σ²))`, truncated to exactly 0 beyond `4σ`, with
+///   [`GAUSSIAN_MIN_SIGMA`] `≤ σ ≤` [`GAUSSIAN_MAX_SIGMA`].
 ///
 /// Deserialisation applies [`Kernel::validate`]: a kernel it refuses (e.g. `{"cos2":{"m":0}}`)
 /// is a deserialisation error carrying the [`ChanError`] message, never a kernel that encodes
@@ -32,7 +41,8 @@ pub enum Kernel {
     },
     /// Quadratic B-spline (support 3 channels).
     BSpline2,
-    /// Truncated Gaussian with standard deviation `sigma` channel spacings (`sigma ≥ 0.5`).
+    /// Truncated Gaussian with standard deviation `sigma` channel spacings
+    /// (`0.5 ≤ sigma ≤ 1e6`, [`GAUSSIAN_MIN_SIGMA`] and [`GAUSSIAN_MAX_SIGMA`]).
     Gaussian {
         /// Standard deviation in channel spacings.
         sigma: f64,
@@ -101,7 +111,10 @@ impl Kernel {
         Ok(kernel)
     }
 
-    /// Checks the kernel's width leaves enough overlapping channels to decode locally.
+    /// Checks the kernel's width leaves enough overlapping channels to decode locally
+    /// ([`ChanError::TooNarrow`]) and, for a Gaussian, that `sigma` is finite
+    /// ([`ChanError::InvalidParameter`]) and at most [`GAUSSIAN_MAX_SIGMA`]
+    /// ([`ChanError::TooLarge`]: wider ones decode to rounding noise).
     pub fn validate(&self) -> Result<(), ChanError> {
         match *self {
             Kernel::Cos2 { m } if m < 3 => Err(ChanError::TooNarrow {
@@ -118,6 +131,11 @@ impl Kernel {
                 reason: format!(
                     "Gaussian sigma = {sigma} < {GAUSSIAN_MIN_SIGMA} leaves fewer than 3 active channels"
                 ),
+            }),
+            Kernel::Gaussian { sigma } if sigma > GAUSSIAN_MAX_SIGMA => Err(ChanError::TooLarge {
+                what: "Gaussian sigma",
+                value: sigma,
+                max: GAUSSIAN_MAX_SIGMA,
             }),
             _ => Ok(()),
         }

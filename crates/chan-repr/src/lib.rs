@@ -56,13 +56,18 @@
 //! ```
 //!
 //! Errors are typed ([`ChanError`]): out-of-range or non-finite values, negative weights or
-//! coefficients, too few channels, kernels too narrow to decode.
+//! coefficients, too few channels, kernels too narrow to decode (or, for a Gaussian wider than
+//! [`GAUSSIAN_MAX_SIGMA`], too wide: its decoding would be rounding noise).
 //!
 //! **Limits** (checked before anything is allocated or added): at most [`MAX_CHANNELS`]
 //! (2²⁴) channels per basis and per dense vector or histogram (sparse histograms may span
 //! larger grids), and per encoded value of an n-D grid; at most [`MAX_WINDOW_CHANNELS`]
 //! (2¹²) channels per n-D decoding window, which bounds the number of dimensions; weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
 //! that no window sum can overflow. A rejected value leaves a histogram unchanged.
+//!
+//! **Deserialisation** runs the same checks as the constructors: a basis, grid, histogram or
+//! kernel that they refuse is a serde error carrying the [`ChanError`] message, and so is a
+//! decoded result ([`Mode`], [`WindowEstimate`], [`ModeNd`]) with values no decoder produces.
 #![deny(missing_docs)]
 
 mod basis;
@@ -79,5 +84,5 @@ pub use decode::{Mode, WindowEstimate};
 pub use error::ChanError;
 pub use grid::{ChannelGrid, MAX_WINDOW_CHANNELS, ModeNd};
 pub use histogram::{SoftHistogram, SparseHistogram};
-pub use kernel::{GAUSSIAN_MIN_SIGMA, GAUSSIAN_SUPPORT_SIGMAS, Kernel};
+pub use kernel::{GAUSSIAN_MAX_SIGMA, GAUSSIAN_MIN_SIGMA, GAUSSIAN_SUPPORT_SIGMAS, Kernel};
 pub use periodic::{PERIODIC_MAX_TURNS, PeriodicBasis};

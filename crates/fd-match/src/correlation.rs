@@ -39,7 +39,7 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-use crate::descriptor::{MAX_SAMPLES, fd_frequency};
+use crate::descriptor::{MAX_SAMPLES, UNIT_NORM_TOLERANCE, fd_frequency};
 use crate::error::FdError;
 
 /// The rigid part of a correlation match: `c₂(l) ≈ e^{iφ} c₁(l − Δl)` after normalisation.
@@ -92,7 +92,14 @@ impl TryFrom<AlignmentSpec> for Alignment {
 }
 
 /// Result of [`Correlator::correlate`].
+///
+/// Deserialisation checks what the correlator produces ([`FdError::InvalidParameter`]
+/// naming the field otherwise): a peak in `[0, (1 + UNIT_NORM_TOLERANCE)²]` (the largest
+/// `|r₁₂|` of two FDs of unit norm within [`crate::UNIT_NORM_TOLERANCE`]), an error finite,
+/// `≥ 0` and equal to `max(2 − 2·peak, 0)` to within `1e-9`, and the alignment's ranges
+/// ([`Alignment`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CorrelationSpec")]
 pub struct Correlation {
     /// `e = 2 − 2 max |r₁₂|` in `[0, 4]` (eq. 10); 0 for identical shapes.
     pub error: f64,
@@ -100,6 +107,51 @@ pub struct Correlation {
     pub peak: f64,
     /// Rotation and shift at the maximum.
     pub alignment: Alignment,
+}
+
+/// The serialised form of a [`Correlation`] (the same fields), checked on deserialisation.
+#[derive(Deserialize)]
+struct CorrelationSpec {
+    error: f64,
+    peak: f64,
+    alignment: Alignment,
+}
+
+impl TryFrom<CorrelationSpec> for Correlation {
+    type Error = FdError;
+    fn try_from(s: CorrelationSpec) -> Result<Self, FdError> {
+        // `|r₁₂| ≤ ‖C₁‖‖C₂‖` (Cauchy–Schwarz), each norm within the tolerance of 1; NaN fails
+        // the range test.
+        let max_peak = (1.0 + UNIT_NORM_TOLERANCE).powi(2) + ROUNDING_MARGIN;
+        if !(0.0..=max_peak).contains(&s.peak) {
+            return Err(FdError::InvalidParameter {
+                name: "peak",
+                value: s.peak,
+                reason: "a correlation peak max |r12| of unit-norm FDs lies in [0, 1] (within the unit-norm tolerance)",
+            });
+        }
+        crate::search::check_pair_error(s.error)?;
+        // The error is computed from the peak (eq. 10); a text round trip may move either by
+        // an ulp, far below the margin.
+        if (s.error - correlation_error(s.peak)).abs() > ROUNDING_MARGIN {
+            return Err(FdError::InvalidParameter {
+                name: "error",
+                value: s.error,
+                reason: "a correlation error is max(2 - 2 peak, 0) (eq. 10)",
+            });
+        }
+        Ok(Correlation {
+            error: s.error,
+            peak: s.peak,
+            alignment: s.alignment,
+        })
+    }
+}
+
+/// The correlation error `e = 2 − 2·peak` of eq. 10, clamped at 0 (a peak a rounding above 1).
+#[inline]
+fn correlation_error(peak: f64) -> f64 {
+    (2.0 - 2.0 * peak).max(0.0)
 }
 
 /// Correlates FDs of one configuration; owns the padded inverse-FFT plan and its buffers, so a
@@ -345,7 +397,7 @@ impl Correlator {
             shift = 0.0;
         }
         Some(Correlation {
-            error: (2.0 - 2.0 * peak).max(0.0),
+            error: correlation_error(peak),
             peak,
             alignment: Alignment {
                 rotation: best_r.arg(),

@@ -165,3 +165,67 @@ fn matches_with_impossible_values_are_refused() {
         assert!(err.contains(what), "{json}: {err}");
     }
 }
+
+#[test]
+fn correlations_round_trip_unchanged() {
+    let (a, b) = sets();
+    let cfg = a.config();
+    let mut cor = Correlator::new(cfg.max_frequency(), cfg.samples).unwrap();
+    let mut seen = 0;
+    for i in 0..a.len() {
+        for j in 0..b.len() {
+            let c = cor.correlate(a.fd(i), b.fd(j)).unwrap();
+            assert_eq!(round_trip(&c), c);
+            seen += 1;
+        }
+        // Identical FDs: the peak may round above 1, the error is clamped at 0.
+        let c = cor.correlate(a.fd(i), a.fd(i)).unwrap();
+        assert_eq!(round_trip(&c), c);
+    }
+    assert!(seen > 40);
+    // The serialised form is unchanged.
+    let c = Correlation {
+        error: 0.5,
+        peak: 0.75,
+        alignment: serde_json::from_str(r#"{"rotation":0.25,"shift":3.5}"#).unwrap(),
+    };
+    let json = r#"{"error":0.5,"peak":0.75,"alignment":{"rotation":0.25,"shift":3.5}}"#;
+    assert_eq!(serde_json::to_string(&c).unwrap(), json);
+    assert_eq!(serde_json::from_str::<Correlation>(json).unwrap(), c);
+    // A peak a rounding above 1 with the clamped error is what the correlator can produce.
+    let top = r#"{"error":0.0,"peak":1.0000000000000002,"alignment":{"rotation":0.0,"shift":0.0}}"#;
+    assert!(serde_json::from_str::<Correlation>(top).is_ok());
+}
+
+#[test]
+fn correlations_with_impossible_values_are_refused() {
+    let c = |error: &str, peak: &str, alignment: &str| {
+        format!(r#"{{"error":{error},"peak":{peak},"alignment":{alignment}}}"#)
+    };
+    let ok = r#"{"rotation":0.5,"shift":2.0}"#;
+    for (json, what) in [
+        // A negative error, or one above what any peak gives.
+        (c("-0.5", "1.0", ok), "`error`"),
+        (c("3.5", "0.0", ok), "`error`"),
+        // An error that does not follow from the peak (eq. 10).
+        (c("0.0", "0.5", ok), "`error`"),
+        (c("1.2", "0.5", ok), "`error`"),
+        // A peak outside [0, 1] (beyond the unit-norm tolerance).
+        (c("0.0", "1.5", ok), "`peak`"),
+        (c("2.2", "-0.1", ok), "`peak`"),
+        // The alignment is checked as an `Alignment`.
+        (
+            c("1.0", "0.5", r#"{"rotation":4.0,"shift":0.0}"#),
+            "`rotation`",
+        ),
+    ] {
+        let err = refused::<Correlation>(&json);
+        assert!(err.contains(what), "{json}: {err}");
+    }
+    // The error is the crate's typed one.
+    let v = serde_json::json!({"error": 0.0, "peak": 1.5, "alignment": {"rotation": 0.0, "shift": 0.0}});
+    let err = serde_json::from_value::<Correlation>(v)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("invalid parameter `peak` = 1.5"), "{err}");
+}
