@@ -5,7 +5,8 @@
 //! - [`LwprFile`] (`visguide-lwpr`): column names and an [`lwpr::Lwpr`] model (the crate's own
 //!   versioned JSON, validated on load).
 //! - [`TrackModelFile`] (`visguide-cbt`): the CBT model ([`cbt_tracker::CbtModel`], validated as
-//!   a whole on load), the baselines' calibration and the image extent it was learned on.
+//!   a whole on load), the baselines' calibration and the image extent it was learned on (the
+//!   contents are checked whenever the file is deserialised, [`TrackModelFile::validate`]).
 
 use std::path::Path;
 
@@ -117,7 +118,14 @@ impl LwprFile {
 }
 
 /// A saved tracking model: CBT, the baselines' calibration, the image extent.
+///
+/// Deserialisation applies [`TrackModelFile::validate`] (a 2-D state grid, the extent a finite
+/// range within it; [`VisguideError::Invalid`] naming `cbt` or `extent`), so a file read by
+/// `serde` alone cannot hold what [`TrackModelFile::load`] refuses (it used to: the extent
+/// was checked by the loader only). The envelope (`format`, `version`) is checked by the
+/// loader alone, before.
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "TrackModelSpec")]
 pub struct TrackModelFile {
     /// Always [`CBT_FORMAT`].
     pub format: String,
@@ -133,7 +141,71 @@ pub struct TrackModelFile {
     pub calibration: Calibration,
 }
 
+/// The serialised form of a [`TrackModelFile`], checked by [`TrackModelFile::validate`] on
+/// deserialisation.
+#[derive(Deserialize)]
+struct TrackModelSpec {
+    format: String,
+    version: u32,
+    extent: [f64; 4],
+    sequences: usize,
+    cbt: CbtModel,
+    calibration: Calibration,
+}
+
+impl TryFrom<TrackModelSpec> for TrackModelFile {
+    type Error = VisguideError;
+    fn try_from(s: TrackModelSpec) -> Result<Self> {
+        let file = TrackModelFile {
+            format: s.format,
+            version: s.version,
+            extent: s.extent,
+            sequences: s.sequences,
+            cbt: s.cbt,
+            calibration: s.calibration,
+        };
+        file.validate()?;
+        Ok(file)
+    }
+}
+
 impl TrackModelFile {
+    /// Checks the contents: the CBT model's state grid is 2-D (`cbt`), and the extent is finite
+    /// with `lo < hi` on both axes and lies within that grid (`extent`; it is the grid's range
+    /// when `visguide track learn` writes it); [`VisguideError::Invalid`] otherwise.
+    /// Deserialisation applies it.
+    pub fn validate(&self) -> Result<()> {
+        let space = self.cbt.space();
+        if space.dims() != 2 {
+            return Err(VisguideError::Invalid {
+                name: "cbt",
+                reason: format!(
+                    "a tracking model needs a 2-D state grid, this one has {} dimension(s)",
+                    space.dims()
+                ),
+            });
+        }
+        for d in 0..2 {
+            let (lo, hi) = (self.extent[2 * d], self.extent[2 * d + 1]);
+            let (glo, ghi) = space.state_basis(d).representable_range();
+            let slack = 1e-9 * (ghi - glo);
+            if !(lo.is_finite()
+                && hi.is_finite()
+                && lo < hi
+                && lo >= glo - slack
+                && hi <= ghi + slack)
+            {
+                return Err(VisguideError::Invalid {
+                    name: "extent",
+                    reason: format!(
+                        "[{lo}, {hi}] on axis {d} is not a finite range within the model's grid [{glo}, {ghi}]"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Saves atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string(self).map_err(|e| VisguideError::Invalid {
@@ -143,46 +215,79 @@ impl TrackModelFile {
         write_bytes(path, text.as_bytes())
     }
 
-    /// Loads and checks a file (the CBT model and the calibration are validated by their own
-    /// deserialisers): the extent must be finite with `lo < hi` on both axes and lie within
-    /// the CBT model's 2-D state grid (it is the grid's range when `visguide track learn`
-    /// writes it).
+    /// Loads and checks a file: its envelope, then its contents as deserialisation checks them
+    /// (the CBT model and the calibration by their own deserialisers, the rest by
+    /// [`Self::validate`]: a 2-D state grid, an extent that is a finite range with `lo < hi` on
+    /// both axes within that grid). Errors: [`VisguideError::Model`] naming the file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_checked(path, CBT_FORMAT)?;
-        let bad = |reason: String| VisguideError::Model {
+        serde_json::from_str(&text).map_err(|e| VisguideError::Model {
             path: path.to_path_buf(),
-            reason,
-        };
-        let file: TrackModelFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        let space = file.cbt.space();
-        if space.dims() != 2 {
-            return Err(bad(format!(
-                "a tracking model needs a 2-D state grid, this one has {} dimension(s)",
-                space.dims()
-            )));
-        }
-        for d in 0..2 {
-            let (lo, hi) = (file.extent[2 * d], file.extent[2 * d + 1]);
-            let (glo, ghi) = space.state_basis(d).representable_range();
-            let slack = 1e-9 * (ghi - glo);
-            if !(lo.is_finite()
-                && hi.is_finite()
-                && lo < hi
-                && lo >= glo - slack
-                && hi <= ghi + slack)
-            {
-                return Err(bad(format!(
-                    "extent [{lo}, {hi}] on axis {d} is not a finite range within the model's grid [{glo}, {ghi}]"
-                )));
-            }
-        }
-        Ok(file)
+            reason: e.to_string(),
+        })
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tracking model file of a tracker learned on a 100×80 image canvas (the grid's range,
+    /// as `visguide track learn` writes it).
+    fn track_file() -> TrackModelFile {
+        let walk: crate::pipeline::Walk = (0..30)
+            .map(|k| {
+                let t = [40.0 + f64::from(k % 7), 30.0 + f64::from(k % 5)];
+                let vote = crate::pipeline::Vote {
+                    position: [t[0] + 0.3 * f64::from(k % 3), t[1] - 0.2 * f64::from(k % 2)],
+                    weight: 0.8,
+                    error: 0.05,
+                    rotation: 0.0,
+                    region: 0,
+                };
+                (Some(t), vec![vote])
+            })
+            .collect();
+        let cbt = crate::pipeline::learn_tracker([100, 80], &[walk]).unwrap();
+        TrackModelFile {
+            format: CBT_FORMAT.into(),
+            version: MODEL_VERSION,
+            extent: [0.0, 100.0, 0.0, 80.0],
+            sequences: 1,
+            cbt,
+            calibration: Calibration {
+                accel_sigma: 1.0,
+                meas_sigma: 0.5,
+                p_detect: 0.9,
+                clutter_rate: 0.2,
+            },
+        }
+    }
+
+    /// Deserialising a tracking model file applies the checks `TrackModelFile::load` makes (an
+    /// extent that is not a finite range within the model's grid is a typed error); it used to
+    /// give a file whose extent lay off or across the grid, which saved, and then did not load.
+    /// A valid file reads back to the same bytes.
+    #[test]
+    fn a_track_model_file_with_an_extent_off_its_grid_does_not_deserialise() {
+        let text = serde_json::to_string(&track_file()).unwrap();
+        let back: TrackModelFile = serde_json::from_str(&text).unwrap();
+        assert_eq!(serde_json::to_string(&back).unwrap(), text);
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for extent in [
+            [100.0, 0.0, 0.0, 80.0],
+            [0.0, 100.0, 80.0, 80.0],
+            [1e6, 2e6, 0.0, 80.0],
+            [-10.0, 100.0, 0.0, 80.0],
+            [0.0, 100.0, 0.0, 1e300],
+        ] {
+            let mut e = v.clone();
+            e["extent"] = serde_json::json!(extent);
+            let r = serde_json::from_str::<TrackModelFile>(&e.to_string());
+            let err = r.err().unwrap_or_else(|| panic!("{extent:?} was taken"));
+            assert!(err.to_string().contains("extent"), "{err}");
+        }
+    }
 
     #[test]
     fn lwpr_round_trip_and_foreign_files_are_refused() {

@@ -320,8 +320,8 @@ fn the_prior_weighs_the_votes_around_the_last_commands_prediction() {
                 "camera {cam}: a vote of the window is not one of the whole image's"
             );
             for w in &whole {
-                let above =
-                    prior.factor(cam, centre[cam], w.position) > visguide::pipeline::prior::FLOOR;
+                let above = prior.factor(cam, centre[cam], w.position).unwrap()
+                    > visguide::pipeline::prior::FLOOR;
                 assert!(
                     !above || votes.iter().any(|v| same(v, w)),
                     "camera {cam}: the window lost a vote above the prior's floor: {w:?}"

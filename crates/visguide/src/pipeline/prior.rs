@@ -132,15 +132,47 @@ impl PositionPrior {
     }
 
     /// The factor `max(ε, exp(−d² / 2(kσ_c)²))` for a vote at `position` when the forward model
-    /// predicts the tip of camera `cam` at `predicted` (the camera must be covered; 1 where the
-    /// prior does not [apply](Self::applies)).
-    pub fn factor(&self, cam: usize, predicted: [f64; 2], position: [f64; 2]) -> f64 {
+    /// predicts the tip of camera `cam` at `predicted` (1 where the prior does not
+    /// [apply](Self::applies)).
+    ///
+    /// Errors ([`PipelineError::InvalidParameter`]), as [`Self::weigh`] refuses them: a camera
+    /// the prior does not cover or a non-finite prediction (`predicted`), a non-finite
+    /// `position` (`position`). (A NaN prediction or position used to give the floor `ε`, as
+    /// if the vote lay far away, and an uncovered camera the factor 1.)
+    pub fn factor(&self, cam: usize, predicted: [f64; 2], position: [f64; 2]) -> Result<f64> {
+        self.check_predicted(cam, predicted)?;
+        if !position.iter().all(|v| v.is_finite()) {
+            return Err(PipelineError::InvalidParameter {
+                name: "position",
+                reason: format!("{position:?}: a finite position expected"),
+            });
+        }
+        Ok(self.checked_factor(cam, predicted, position))
+    }
+
+    /// [`Self::factor`] of a covered camera, a finite prediction and a finite position.
+    fn checked_factor(&self, cam: usize, predicted: [f64; 2], position: [f64; 2]) -> f64 {
         if !self.applies(cam) {
             return 1.0;
         }
         let s = WIDTH_FACTOR * self.sigma[cam];
         let d2 = (position[0] - predicted[0]).powi(2) + (position[1] - predicted[1]).powi(2);
         (-d2 / (2.0 * s * s)).exp().max(FLOOR)
+    }
+
+    /// `Ok` when the prior covers camera `cam` and `predicted` is finite, else
+    /// [`PipelineError::InvalidParameter`] (`predicted`).
+    fn check_predicted(&self, cam: usize, predicted: [f64; 2]) -> Result<()> {
+        if cam >= self.sigma.len() || !predicted.iter().all(|v| v.is_finite()) {
+            return Err(PipelineError::InvalidParameter {
+                name: "predicted",
+                reason: format!(
+                    "camera {cam} of {} at {predicted:?}: a covered camera and a finite position expected",
+                    self.sigma.len()
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// Multiplies every vote's weight of camera `cam` by its [`factor`](Self::factor) (no change
@@ -152,19 +184,11 @@ impl PositionPrior {
     /// position or a weight not finite and non-negative (`votes`, as [`super::mode`] refuses
     /// them; a NaN position used to be weighed down to the floor as if it were far away).
     pub fn weigh(&self, cam: usize, predicted: [f64; 2], votes: &mut [Vote]) -> Result<()> {
-        if cam >= self.sigma.len() || !predicted.iter().all(|v| v.is_finite()) {
-            return Err(PipelineError::InvalidParameter {
-                name: "predicted",
-                reason: format!(
-                    "camera {cam} of {} at {predicted:?}: a covered camera and a finite position expected",
-                    self.sigma.len()
-                ),
-            });
-        }
+        self.check_predicted(cam, predicted)?;
         check_votes(votes)?;
         if self.applies(cam) {
             for v in votes {
-                v.weight *= self.factor(cam, predicted, v.position);
+                v.weight *= self.checked_factor(cam, predicted, v.position);
             }
         }
         Ok(())
@@ -229,7 +253,7 @@ mod tests {
         let mut votes = vec![vote([60.0, 10.0])];
         p.weigh(1, at, &mut votes).unwrap();
         assert_eq!(votes[0].weight, 0.5);
-        assert_eq!(p.factor(1, at, [60.0, 10.0]), 1.0);
+        assert_eq!(p.factor(1, at, [60.0, 10.0]).unwrap(), 1.0);
         p.weigh(0, at, &mut votes).unwrap();
         assert!((votes[0].weight - 0.5 * (-50.0f64 * 50.0 / 800.0).exp()).abs() < 1e-12);
     }
@@ -245,7 +269,7 @@ mod tests {
         for cam in 0..2 {
             assert!(p.sigmas()[cam].is_finite() && !p.applies(cam));
             assert_eq!(p.support_px(cam), None);
-            assert_eq!(p.factor(cam, [0.0, 0.0], [1e300, -1e300]), 1.0);
+            assert_eq!(p.factor(cam, [0.0, 0.0], [1e300, -1e300]).unwrap(), 1.0);
         }
         // Where the sum does not overflow, the median is the usual mean of the middle two.
         let q = PositionPrior::from_distances(&[vec![1.0, 2.0, 4.0, 8.0]]).unwrap();
@@ -322,6 +346,53 @@ mod tests {
             // (By their debug text: a NaN is not equal to itself.)
             assert_eq!(format!("{votes:?}"), format!("{before:?}"));
         }
+    }
+
+    /// A non-finite prediction or position, or a camera the prior does not cover, is refused
+    /// by `factor` as by `weigh` (a NaN prediction or position used to give the floor `ε`, a
+    /// weight as if the vote lay far away); finite input gives the formula's factor.
+    #[test]
+    fn factor_refuses_a_non_finite_prediction_or_position() {
+        let p = PositionPrior::from_distances(&[vec![RAYLEIGH_MEDIAN * 5.0]]).unwrap();
+        for bad in [f64::NAN, f64::INFINITY, -f64::INFINITY] {
+            for predicted in [[bad, 0.0], [0.0, bad]] {
+                assert!(
+                    matches!(
+                        p.factor(0, predicted, [1.0, 2.0]),
+                        Err(PipelineError::InvalidParameter {
+                            name: "predicted",
+                            ..
+                        })
+                    ),
+                    "{predicted:?}"
+                );
+            }
+            for position in [[bad, 0.0], [0.0, bad]] {
+                assert!(
+                    matches!(
+                        p.factor(0, [0.0, 0.0], position),
+                        Err(PipelineError::InvalidParameter {
+                            name: "position",
+                            ..
+                        })
+                    ),
+                    "{position:?}"
+                );
+            }
+        }
+        assert!(matches!(
+            p.factor(1, [0.0, 0.0], [1.0, 2.0]),
+            Err(PipelineError::InvalidParameter {
+                name: "predicted",
+                ..
+            })
+        ));
+        // σ = 5 px, kσ = 10 px: a vote 10 px away weighs exp(−1/2), one 400 px away the floor.
+        assert_eq!(
+            p.factor(0, [0.0, 0.0], [10.0, 0.0]).unwrap(),
+            (-100.0f64 / 200.0).exp()
+        );
+        assert_eq!(p.factor(0, [0.0, 0.0], [400.0, 0.0]).unwrap(), FLOOR);
     }
 
     #[test]

@@ -20,6 +20,17 @@
 //! not; as the percept's fields are public, every capture checks them again (and the captured
 //! images against them) before any track moves.
 //!
+//! **Errors of a capture** (`locate_all` of either percept), in the order checked, the first
+//! one found: settings out of range ([`PerceptConfig::validate`]), then parts that do not fit
+//! one another, each check in one place (the shape model's image size against the percept's
+//! `size` for both percepts; for FD + CBT also the tracker model's canvas, and the tracks', the
+//! forward model's and the prior's cameras against the shape model's), both as
+//! [`ServoError::InvalidParameter`] `percept` whose reason names the setting or the part
+//! (`shapes`, `model`, `tracks`, `motion`, `prior`); only then the images against the
+//! percept: another count than the shape model's cameras ([`ServoError::DimensionMismatch`]
+//! `images`), an image of another size than `size` ([`ServoError::InvalidParameter`]
+//! `image`). A broken part is thus reported as such whatever the images are.
+//!
 //! The commanded move is a known input ([`super::motion`]): with a forward model
 //! ([`FdCbtRecogniser::with_motion`]) each commanded move, told by [`Notifying`], adds its
 //! predicted shift to the track's offset `c`, and the tracker runs on the votes at `z − c`
@@ -358,19 +369,18 @@ fn failed(camera: usize, certainty: f64, min: f64) -> ServoError {
     }
 }
 
-fn check_images(
-    images: &[GrayImage],
-    shapes: &ShapeModel,
-    size: [u32; 2],
-) -> servo_loop::Result<()> {
-    if images.len() != shapes.num_cameras() {
+/// `Ok` when the captured `images` fit the percept: one per camera of the shape model
+/// ([`ServoError::DimensionMismatch`] `images` otherwise), each of the percept's `size`
+/// ([`ServoError::InvalidParameter`] `image`). The parts are checked before, on their own
+/// ([`FdRecogniser::check_parts`], [`FdCbtRecogniser::check_parts`]).
+fn check_images(images: &[GrayImage], cameras: usize, size: [u32; 2]) -> servo_loop::Result<()> {
+    if images.len() != cameras {
         return Err(ServoError::DimensionMismatch {
             what: "images",
-            expected: shapes.num_cameras(),
+            expected: cameras,
             got: images.len(),
         });
     }
-    check_shape_sizes(shapes, size).map_err(percept_error)?;
     for img in images {
         if [img.width(), img.height()] != size {
             return Err(ServoError::InvalidParameter {
@@ -473,6 +483,14 @@ pub struct FdRecogniser {
     pub config: PerceptConfig,
 }
 
+impl FdRecogniser {
+    /// `Ok` when the shape model was learned on images of `size` on every camera
+    /// ([`PipelineError::InvalidParameter`] `shapes` otherwise; the fields are public).
+    fn check_parts(&self) -> Result<()> {
+        check_shape_sizes(&self.shapes, self.size)
+    }
+}
+
 impl Recogniser for FdRecogniser {
     fn num_cameras(&self) -> usize {
         self.shapes.num_cameras()
@@ -481,10 +499,11 @@ impl Recogniser for FdRecogniser {
         self.size
     }
     fn locate_all(&self, images: &[GrayImage]) -> servo_loop::Result<Vec<Localisation>> {
-        // The settings and the shape model are public fields: checked here, as the percept's
-        // input (the shape model's image size with the images).
+        // The settings and the shape model are public fields: checked here, before the images
+        // are compared with them (module docs, *Errors of a capture*).
         self.config.validate().map_err(percept_error)?;
-        check_images(images, &self.shapes, self.size)?;
+        self.check_parts().map_err(percept_error)?;
+        check_images(images, self.shapes.num_cameras(), self.size)?;
         images
             .iter()
             .enumerate()
@@ -525,7 +544,7 @@ impl FdCbtRecogniser {
     /// What only a capture shows (the robot's camera count and image size) is checked by
     /// every capture, before any track moves.
     pub fn new(fd: FdRecogniser, model: CbtModel) -> Result<Self> {
-        check_shape_sizes(&fd.shapes, fd.size)?;
+        fd.check_parts()?;
         check_tracker_size(&model, fd.size)?;
         let n = fd.shapes.num_cameras();
         Ok(FdCbtRecogniser {
@@ -538,11 +557,13 @@ impl FdCbtRecogniser {
     }
 
     /// `Ok` when the parts still fit one another (the percept's fields are public): the
-    /// shape model and the tracker model of `fd.size` images (as [`Self::new`] checks), and
-    /// the shape model's cameras those of the `tracks` this percept keeps, of the forward
-    /// model and of the prior.
+    /// shape model ([`FdRecogniser::check_parts`]) and the tracker model of `fd.size` images
+    /// (as [`Self::new`] checks), and the shape model's cameras those of the `tracks` this
+    /// percept keeps, of the forward model and of the prior; the first that does not is the
+    /// error ([`PipelineError::InvalidParameter`] naming it: `shapes`, `model`, `tracks`,
+    /// `motion`, `prior`).
     fn check_parts(&self, tracks: usize) -> Result<()> {
-        check_shape_sizes(&self.fd.shapes, self.fd.size)?;
+        self.fd.check_parts()?;
         check_tracker_size(&self.model, self.fd.size)?;
         let n = self.fd.shapes.num_cameras();
         let counts = [
@@ -745,7 +766,7 @@ impl Recogniser for FdCbtRecogniser {
             (state.predicted.clone(), state.tracks.len())
         };
         self.check_parts(tracks).map_err(percept_error)?;
-        check_images(images, &self.fd.shapes, self.fd.size)?;
+        check_images(images, self.fd.shapes.num_cameras(), self.fd.size)?;
         let mut votes: Vec<Vec<Vote>> = images
             .iter()
             .enumerate()
@@ -975,6 +996,69 @@ mod tests {
         assert_eq!(p.offsets(), offsets, "the track was kept");
         assert_eq!(p.predicted(), predicted);
         assert!(p.locate_all(&frame(6.0)).is_ok());
+    }
+
+    /// Which error a capture gives (module docs, *Errors of a capture*): parts that do not fit
+    /// one another first (`percept`, the reason naming the part), before the images are
+    /// compared with the percept (`images`: their count; `image`: their size). The FD-only
+    /// percept used to compare the image count before its shape model's image size, so a
+    /// broken shape model with a wrong count of images was reported as the images' fault.
+    #[test]
+    fn a_capture_reports_parts_that_do_not_fit_before_the_images() {
+        /// `percept: <part>`, `images` (count) or `image` (size).
+        fn kind(r: servo_loop::Result<Vec<Localisation>>) -> String {
+            match r {
+                Err(ServoError::InvalidParameter {
+                    name: "percept",
+                    reason,
+                }) => {
+                    let part = reason.split('`').nth(1).unwrap_or("?");
+                    format!("percept: {part}")
+                }
+                Err(ServoError::DimensionMismatch { what, .. }) => what.to_string(),
+                Err(ServoError::InvalidParameter { name, .. }) => name.to_string(),
+                other => format!("{other:?}"),
+            }
+        }
+        let mut p = percept();
+        let [f] = frame(5.0);
+        let size = p.fd.size;
+        let small = GrayImage::new(size[0] / 2, size[1] / 2);
+        // The parts fit: the images' count, then their size.
+        for r in [&p.fd as &dyn Recogniser, &p] {
+            assert_eq!(kind(r.locate_all(&[])), "images");
+            assert_eq!(kind(r.locate_all(&[f.clone(), f.clone()])), "images");
+            assert_eq!(
+                kind(r.locate_all(&[small.clone(), small.clone()])),
+                "images"
+            );
+            assert_eq!(kind(r.locate_all(std::slice::from_ref(&small))), "image");
+        }
+        assert_eq!(p.offsets(), vec![None]);
+        // The shape model no longer fits the percept's image size: the parts' error, whatever
+        // the images (of the shape model's size or the percept's, too many or too few).
+        p.fd.size = [size[0] / 2, size[1] / 2];
+        for r in [&p.fd as &dyn Recogniser, &p] {
+            for images in [
+                vec![small.clone()],
+                vec![f.clone()],
+                vec![],
+                vec![small.clone(), small.clone()],
+            ] {
+                assert_eq!(kind(r.locate_all(&images)), "percept: shapes");
+            }
+        }
+        p.fd.size = size;
+        // Two parts of the FD + CBT percept that do not fit each other: a shape model of two
+        // cameras in a percept that keeps one track, with one image or two.
+        let one = p.fd.shapes.clone();
+        p.fd.shapes = two_camera_shapes(one.config());
+        for images in [vec![f.clone()], vec![f.clone(), f.clone()]] {
+            assert_eq!(kind(p.locate_all(&images)), "percept: tracks");
+        }
+        p.fd.shapes = one;
+        assert_eq!(p.offsets(), vec![None], "no track moved");
+        assert!(p.locate_all(&[f]).is_ok());
     }
 
     /// A command that is not finite (or empty, or of another length than the last) is refused
