@@ -30,6 +30,40 @@
 //! stage also run only in the window around the prediction outside which every vote would weigh
 //! the prior's floor ([`window`]; on by default, [`PerceptConfig::search_window`]): less work,
 //! and the answers change only in frames that votes of that floor weight decided.
+//!
+//! ## Cost
+//!
+//! The goal is 25 ms per capture of both cameras on one core; the measured times per scene are
+//! in docs/performance.md, *visguide pipeline*. What decides them:
+//! - **MSER's flood.** A `perf` profile with call graphs (development seed 133, default and hard
+//!   scenes) puts `mser`'s component-tree flood at 80 % of [`ShapeModel::votes`], the
+//!   descriptors at 9 %, the FD matching at 8 % and the contours under 1 %. So the flood is the
+//!   lever here, as it is for `mser`'s speed against OpenCV.
+//! - **The window** ([`window`]). [`FdRecogniser`] searches the whole image. [`FdCbtRecogniser`]
+//!   searches only the square of half-width `m R_c + D_c` around the predicted tip, where the
+//!   prior applies (`fixtures/pipeline/summary.md` lists the half-width per camera).
+//!   - On the default scene the square is about 210–230 px, and it cut the cost by a third:
+//!     20.9 → 13.6 ms side by side on development seeds 125–128.
+//!   - On the hard scene's camera 1 (334 px; camera 0 has no prior) and on both cameras of the
+//!     held-out second rig (403 / 356 px) it is about the whole image. There one stored view
+//!     about 250–275 px long sets the reach `R_c`. So the cost there is the whole image's.
+//!   - Where the window cuts little, FD + CBT costs about 1–1.5 ms more than FD only: the
+//!     tracking.
+//! - **The second rig's FD stage.** Its textured table and extra clutter give the FD stage more
+//!   contours to describe and match. Its shape model also holds more stored views: 356 / 267
+//!   against 204 / 224 per camera on the default arm.
+//!   - A `perf` profile of one whole study run per arm (before size-aware matching, one thread):
+//!     `fd-match` (contour sampling, descriptor FFTs, matching) took 9.8 s against 2.1 s on the
+//!     default arm. The sampling and the FFTs took about five times as much. MSER took 19.2 s
+//!     against 17.7 s.
+//!   - Within [`ShapeModel::votes`] on the second rig, with size-aware matching (development
+//!     seed 123): MSER with the contours is about three quarters of the samples, the FD
+//!     correlations about a seventh.
+//!   - Tried and not kept: a size pre-filter before the contours removed nothing (the views'
+//!     areas span 40–5,544 px); a magnitude bound before each view's correlation (no FFT)
+//!     pruned next to nothing.
+//! - **Training poses.** The 80 training poses store about twice the views of 40, and make the
+//!   FD matching 3–6 ms dearer per capture.
 
 pub mod error;
 pub mod learn;

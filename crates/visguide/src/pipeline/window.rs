@@ -25,8 +25,8 @@
 //! What it changes: the votes of the regions outside the window, which the prior weighed down to
 //! its floor, are gone, so a frame whose every vote lies far from the prediction has no vote at
 //! all (it used to be decided by those floor-weighted votes alone). What it saves: MSER, contours
-//! and descriptors of the rest of the image, the percept's largest costs (docs/performance.md,
-//! *visguide pipeline*). Adopted as the default by a rule on development seeds 125–128
+//! and descriptors of the rest of the image, the percept's largest costs ([`super`],
+//! *Cost*). Adopted as the default by a rule on development seeds 125–128
 //! (docs/methods.md, *A window the training walks share*): on the default scene a third of the
 //! cost, the same servo. Where one long stored view makes `R_c` large the window is the whole
 //! image (the hard scene's camera 1, the held-out second rig).
