@@ -101,7 +101,8 @@ impl TryFrom<AlignmentSpec> for Alignment {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "CorrelationSpec")]
 pub struct Correlation {
-    /// `e = 2 − 2 max |r₁₂|` in `[0, 4]` (eq. 10); 0 for identical shapes.
+    /// `e = 2 − 2 max |r₁₂|` in `[0, 2]` (eq. 10), as `max |r₁₂|` lies in `[0, 1]`; 0 for
+    /// identical shapes.
     pub error: f64,
     /// `max |r₁₂|` in `[0, 1]`.
     pub peak: f64,
