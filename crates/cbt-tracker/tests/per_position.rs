@@ -112,6 +112,62 @@ fn velocities_that_do_not_fit_the_window_are_corrupt() {
     assert!(err.contains("per-position velocities"), "{err}");
 }
 
+/// The current marginals saved with the window are the posterior's: ones of another length
+/// or origin are corrupt. (They used to load, and the next step's per-position prediction
+/// panicked slicing them: "range end index 11 out of range for slice of length 0".)
+#[test]
+fn current_marginals_that_do_not_fit_the_window_are_corrupt() {
+    let (_, test) = data();
+    let mut t = CbtTracker::new(model(Velocity::PerPosition));
+    run(&mut t, 10);
+    let v: Value = serde_json::to_value(&t).unwrap();
+    for d in 0..2 {
+        let cur = format!("/win/cur/{d}");
+        let mut edits: Vec<Value> = Vec::new();
+        let mut shorter = v.clone();
+        shorter
+            .pointer_mut(&format!("{cur}/1"))
+            .unwrap()
+            .as_array_mut()
+            .unwrap()
+            .pop();
+        edits.push(shorter);
+        let mut longer = v.clone();
+        longer
+            .pointer_mut(&format!("{cur}/1"))
+            .unwrap()
+            .as_array_mut()
+            .unwrap()
+            .push(0.0.into());
+        edits.push(longer);
+        let mut shifted = v.clone();
+        let origin = shifted.pointer_mut(&format!("{cur}/0")).unwrap();
+        *origin = (origin.as_u64().unwrap() + 1).into();
+        edits.push(shifted);
+        for w in edits {
+            let err = match serde_json::from_value::<CbtTracker>(w) {
+                Ok(mut u) => {
+                    let e = test.frames[10..13]
+                        .iter()
+                        .map(|f| u.step(&f.detections).map(|e| e.position))
+                        .collect::<Vec<_>>();
+                    panic!("axis {d}: loaded, then stepped to {e:?}");
+                }
+                Err(e) => e.to_string(),
+            };
+            assert!(err.contains("current marginal"), "{err}");
+        }
+    }
+    // Unedited, it loads and continues as the original.
+    let mut u: CbtTracker = serde_json::from_value(v).unwrap();
+    for f in &test.frames[10..] {
+        assert_eq!(
+            t.step(&f.detections).unwrap(),
+            u.step(&f.detections).unwrap()
+        );
+    }
+}
+
 #[test]
 fn only_the_stationary_layout_takes_it() {
     let cfg = CbtConfig {

@@ -435,7 +435,8 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
 
 impl WindowState {
     /// Consistency of a deserialised window with `space`; the current marginals, which older
-    /// files lack, are recomputed from the posterior when missing.
+    /// files lack, are recomputed from the posterior when missing, and must otherwise cover
+    /// the posterior window's rows and columns exactly (as every step leaves them).
     pub fn check(&mut self, space: &Space) -> Result<(), TrackError> {
         let p = &self.post;
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
@@ -452,6 +453,16 @@ impl WindowState {
         }
         if self.cur[0].1.is_empty() && self.cur[1].1.is_empty() {
             self.cur = marginals(&self.post);
+        }
+        for (d, (o, n)) in [(p.i0, p.h), (p.j0, p.w)].into_iter().enumerate() {
+            let (co, cv) = &self.cur[d];
+            if (*co, cv.len()) != (o, n) {
+                return Err(corrupt(format!(
+                    "current marginal of axis {d} ({} cells from {co}) does not match the \
+                     posterior window ({n} cells from {o})",
+                    cv.len()
+                )));
+            }
         }
         for (what, m) in [("previous", &self.prev), ("current", &self.cur)] {
             for (d, (o, v)) in m.iter().enumerate() {
