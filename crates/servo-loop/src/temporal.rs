@@ -88,7 +88,12 @@ impl TemporalConfig {
 
 /// The learned temporal check (module doc): refuse when `r > κ (a + b·d)` for a move of
 /// command distance `d ≤ max_move`.
+///
+/// Deserialising applies [`TemporalConfig::validate`] and checks the fitted line as
+/// [`TemporalCheck::learn`] leaves it (offset and slope finite and `≥ 0`): a file that fails
+/// is an error, never a check that refuses or passes every percept.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TemporalCheckFile")]
 pub struct TemporalCheck {
     config: TemporalConfig,
     /// Fitted quantile line: offset `a` and slope `b`.
@@ -96,6 +101,30 @@ pub struct TemporalCheck {
     slope: f64,
     /// Training pairs the line was fitted to.
     pairs: usize,
+}
+
+/// The serialised form of a [`TemporalCheck`], checked on deserialisation.
+#[derive(Deserialize)]
+struct TemporalCheckFile {
+    config: TemporalConfig,
+    offset: f64,
+    slope: f64,
+    pairs: usize,
+}
+
+impl TryFrom<TemporalCheckFile> for TemporalCheck {
+    type Error = ServoError;
+
+    fn try_from(f: TemporalCheckFile) -> Result<Self> {
+        f.config.validate()?;
+        TemporalCheck::check_line(f.offset, f.slope)?;
+        Ok(TemporalCheck {
+            config: f.config,
+            offset: f.offset,
+            slope: f.slope,
+            pairs: f.pairs,
+        })
+    }
 }
 
 /// What the check says about one percept.
@@ -222,6 +251,21 @@ impl TemporalCheck {
             slope,
             pairs,
         })
+    }
+
+    /// Checks a quantile line as [`TemporalCheck::learn`] fits it: offset `a` and slope `b`
+    /// finite and `≥ 0` (a negative threshold would refuse every percept, an infinite one
+    /// none). [`ServoError::InvalidParameter`] otherwise.
+    fn check_line(offset: f64, slope: f64) -> Result<()> {
+        for (name, v) in [("offset", offset), ("slope", slope)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ServoError::invalid(
+                    name,
+                    &format!("the threshold line must be finite and ≥ 0, got {v}"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The settings.

@@ -10,24 +10,9 @@ use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::{full_to_half, half_resolution, half_to_full};
 use servo_loop::{GripperModel, RecognitionConfig};
 
-fn scene(w: u32, h: u32, square: Option<(u32, u32, u32)>, seed: u32) -> GrayImage {
-    let mut img = GrayImage::from_fn(w, h, |x, y| {
-        // Deterministic low-contrast texture.
-        let v = 90 + ((x.wrapping_mul(7) ^ y.wrapping_mul(13) ^ seed) % 9) as u8;
-        Luma([v])
-    });
-    if let Some((sx, sy, s)) = square {
-        for y in sy..(sy + s).min(h) {
-            for x in sx..(sx + s / 3).min(w) {
-                img.put_pixel(x, y, Luma([220]));
-            }
-            for x in (sx + 2 * s / 3)..(sx + s).min(w) {
-                img.put_pixel(x, y, Luma([220]));
-            }
-        }
-    }
-    img
-}
+#[path = "common/two_bar_scene.rs"]
+mod two_bar_scene;
+use two_bar_scene::scene;
 
 #[test]
 fn coordinates_round_trip() {

@@ -232,3 +232,45 @@ fn unchecked_plants_pass_everything_and_bad_settings_are_errors() {
     let check = TemporalCheck::learn(&model, &samples, &config()).unwrap();
     assert!(TemporalPlant::new(arm(), three, check).is_err());
 }
+
+/// A saved check reads back unchanged (same text, same verdicts); one whose settings
+/// [`TemporalCheck::learn`] would refuse, or whose threshold line is negative, is an error when
+/// it is read. (A factor of −3 used to load and refuse every percept, a true one included.)
+#[test]
+fn a_saved_check_round_trips_and_a_bad_file_is_an_error() {
+    let (model, samples) = trained();
+    let check = TemporalCheck::learn(&model, &samples, &config()).unwrap();
+    let text = serde_json::to_string(&check).unwrap();
+    let back: TemporalCheck = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, check);
+    assert_eq!(serde_json::to_string(&back).unwrap(), text);
+    let (x0, y0) = &samples[0];
+    let (x1, y1) = &samples[1];
+    assert_eq!(
+        back.judge(&model, (x0, y0), (x1, y1)).unwrap(),
+        check.judge(&model, (x0, y0), (x1, y1)).unwrap()
+    );
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (pointer, bad) in [
+        ("/config/factor", -3.0),
+        ("/config/max_move", 0.0),
+        ("/config/quantile", 1.5),
+        ("/config/bins", 1.0),
+        ("/offset", -1.0),
+        ("/slope", -0.5),
+    ] {
+        let mut v = value.clone();
+        *v.pointer_mut(pointer).unwrap() = if pointer.ends_with("bins") {
+            serde_json::json!(bad as u64)
+        } else {
+            serde_json::json!(bad)
+        };
+        let err = serde_json::from_value::<TemporalCheck>(v)
+            .map(|c| c.threshold(0.1))
+            .expect_err(pointer);
+        assert!(
+            err.to_string().contains("invalid parameter"),
+            "{pointer}: {err}"
+        );
+    }
+}

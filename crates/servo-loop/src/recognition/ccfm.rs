@@ -121,12 +121,73 @@ pub struct RecognitionReport {
 }
 
 /// The learned gripper appearance, per camera.
+///
+/// Deserialising checks the model as [`GripperModel::learn`] builds it: the settings (the
+/// checks `learn` applies), at least one camera, and per camera at least one prototype, each
+/// a finite descriptor of the settings' length (`cells² × (orientations + intensities)`); a
+/// file that fails is an error, never a model that scores against truncated prototypes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "GripperModelFile")]
 pub struct GripperModel {
     config: RecognitionConfig,
     /// Per camera, unit-length prototype descriptors.
     prototypes: Vec<Vec<Vec<f32>>>,
     image_size: [u32; 2],
+}
+
+/// The serialised form of a [`GripperModel`], checked on deserialisation.
+#[derive(Deserialize)]
+struct GripperModelFile {
+    config: RecognitionConfig,
+    prototypes: Vec<Vec<Vec<f32>>>,
+    image_size: [u32; 2],
+}
+
+impl TryFrom<GripperModelFile> for GripperModel {
+    type Error = ServoError;
+
+    fn try_from(f: GripperModelFile) -> Result<Self> {
+        f.config.validate()?;
+        if f.prototypes.is_empty() {
+            return Err(ServoError::invalid(
+                "prototypes",
+                "a gripper model needs at least one camera",
+            ));
+        }
+        // The descriptor length of `FeatureMap::descriptor` with these settings (no prototype
+        // can be as long when it overflows).
+        let c = &f.config;
+        let len = c
+            .orientations
+            .checked_add(c.intensities)
+            .and_then(|n| n.checked_mul(c.cells)?.checked_mul(c.cells))
+            .unwrap_or(usize::MAX);
+        for (cam, protos) in f.prototypes.iter().enumerate() {
+            if protos.is_empty() {
+                return Err(ServoError::invalid(
+                    "prototypes",
+                    &format!("camera {cam} has no prototype"),
+                ));
+            }
+            if let Some(p) = protos
+                .iter()
+                .find(|p| p.len() != len || p.iter().any(|v| !v.is_finite()))
+            {
+                return Err(ServoError::invalid(
+                    "prototypes",
+                    &format!(
+                        "camera {cam} has a prototype of {} values (finite ones, {len} expected)",
+                        p.len()
+                    ),
+                ));
+            }
+        }
+        Ok(GripperModel {
+            config: f.config,
+            prototypes: f.prototypes,
+            image_size: f.image_size,
+        })
+    }
 }
 
 impl GripperModel {

@@ -4,11 +4,19 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::{Result, ServoError};
 use crate::recognition::image::halve;
 use crate::recognition::lighting::{fit_lighting, lighting_field};
 
+/// Smallest image side (pixels) a scene is learned on ([`crate::TipModel::learn`]).
+pub(super) const MIN_SIDE: usize = 8;
+
 /// One camera's learned scene and gripper size.
+///
+/// Deserialising applies [`CameraScene::check`]: a scene read from an edited or truncated
+/// file is an error, never a recogniser that panics on its first image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CameraSceneFile")]
 pub struct CameraScene {
     pub(super) width: usize,
     pub(super) height: usize,
@@ -26,7 +34,87 @@ pub struct CameraScene {
     pub(super) end_area: f64,
 }
 
+/// The serialised form of a [`CameraScene`], checked by [`CameraScene::check`] on
+/// deserialisation.
+#[derive(Deserialize)]
+struct CameraSceneFile {
+    width: usize,
+    height: usize,
+    background: Vec<f32>,
+    half_background: Vec<f32>,
+    noise_sigma: f32,
+    root: [f64; 2],
+    end_length: f64,
+    end_area: f64,
+}
+
+impl TryFrom<CameraSceneFile> for CameraScene {
+    type Error = ServoError;
+
+    fn try_from(f: CameraSceneFile) -> Result<Self> {
+        let scene = CameraScene {
+            width: f.width,
+            height: f.height,
+            background: f.background,
+            half_background: f.half_background,
+            noise_sigma: f.noise_sigma,
+            root: f.root,
+            end_length: f.end_length,
+            end_area: f.end_area,
+        };
+        scene.check()?;
+        Ok(scene)
+    }
+}
+
 impl CameraScene {
+    /// Checks what learning guarantees ([`crate::TipModel::learn`]): both sides at least 8
+    /// pixels, a finite scene of `width × height` grey levels and its half-resolution copy of
+    /// `⌊width/2⌋ × ⌊height/2⌋`, a finite positive noise level, end length and end area, a
+    /// finite root. [`ServoError::InvalidParameter`] (`camera scene`) otherwise.
+    pub fn check(&self) -> Result<()> {
+        let bad = |reason: String| Err(ServoError::invalid("camera scene", &reason));
+        let (w, h) = (self.width, self.height);
+        if w < MIN_SIDE || h < MIN_SIDE {
+            return bad(format!("{w}×{h} is too small"));
+        }
+        let sizes = [
+            ("background", &self.background, w.checked_mul(h)),
+            (
+                "half_background",
+                &self.half_background,
+                Some((w / 2) * (h / 2)),
+            ),
+        ];
+        for (name, values, expected) in sizes {
+            if Some(values.len()) != expected {
+                return bad(format!(
+                    "{name} has {} values, a {w}×{h} image needs {}",
+                    values.len(),
+                    expected.map_or("more".into(), |n| n.to_string())
+                ));
+            }
+            if values.iter().any(|v| !v.is_finite()) {
+                return bad(format!("{name} is not finite"));
+            }
+        }
+        if !(self.noise_sigma.is_finite() && self.noise_sigma > 0.0) {
+            return bad(format!(
+                "noise_sigma {} must be finite and positive",
+                self.noise_sigma
+            ));
+        }
+        for (name, v) in [("end_length", self.end_length), ("end_area", self.end_area)] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} {v} must be finite and positive"));
+            }
+        }
+        if !self.root.iter().all(|v| v.is_finite()) {
+            return bad(format!("root {:?} is not finite", self.root));
+        }
+        Ok(())
+    }
+
     /// The learned static scene (row-major grey levels, frame lighting normalised).
     pub fn background(&self) -> &[f32] {
         &self.background

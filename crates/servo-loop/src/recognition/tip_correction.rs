@@ -108,7 +108,11 @@ pub struct CorrectedTip {
 /// let tip = correction.tips(&[[112.5, 91.0]], &[None]).unwrap();
 /// assert!((tip[0][0] - 110.5).abs() < 1e-6 && (tip[0][1] - 91.0).abs() < 1e-6);
 /// ```
+///
+/// Deserialising applies the same consistency check as every use ([`TipCorrection::tips`]'s
+/// "inconsistent model" error): a file that fails it is an error when it is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TipCorrectionFile")]
 pub struct TipCorrection {
     cameras: usize,
     /// Per sample, the `2 · cameras` descriptor values (row-major).
@@ -116,6 +120,30 @@ pub struct TipCorrection {
     /// Per sample, the `2 · cameras` offsets (row-major).
     offsets: Vec<f64>,
     bandwidth: f64,
+}
+
+/// The serialised form of a [`TipCorrection`], checked on deserialisation.
+#[derive(Deserialize)]
+struct TipCorrectionFile {
+    cameras: usize,
+    descriptors: Vec<f64>,
+    offsets: Vec<f64>,
+    bandwidth: f64,
+}
+
+impl TryFrom<TipCorrectionFile> for TipCorrection {
+    type Error = ServoError;
+
+    fn try_from(f: TipCorrectionFile) -> Result<Self> {
+        let c = TipCorrection {
+            cameras: f.cameras,
+            descriptors: f.descriptors,
+            offsets: f.offsets,
+            bandwidth: f.bandwidth,
+        };
+        c.check()?;
+        Ok(c)
+    }
 }
 
 impl TipCorrection {
@@ -205,7 +233,7 @@ impl TipCorrection {
 
     /// The learned tips from every camera's far end and end-face tip (module docs, step 3; a
     /// non-finite end-face tip counts as none). Errors: camera counts other than the learned
-    /// one, non-finite far ends, an inconsistent model (e.g. one read from an edited file).
+    /// one, non-finite far ends, an inconsistent model (deserialising refuses one already).
     pub fn tips(
         &self,
         far_ends: &[[f64; 2]],
@@ -273,7 +301,7 @@ impl TipCorrection {
     }
 
     /// A model fit to use: cameras, matching finite sample arrays, a positive bandwidth (a
-    /// learned one always is; a deserialised one may not be).
+    /// learned one always is; a deserialised one is checked as it is read).
     fn check(&self) -> Result<()> {
         let consistent = self.cameras.checked_mul(2).is_some_and(|dim| {
             dim > 0

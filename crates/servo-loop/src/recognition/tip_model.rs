@@ -13,7 +13,7 @@ use crate::recognition::image::{
     half_resolution, halve, largest_component, smoothed_magnitude, to_f32,
 };
 use crate::recognition::lighting::{fit_lighting, residual};
-use crate::recognition::scene::{CameraScene, learn_scene};
+use crate::recognition::scene::{CameraScene, MIN_SIDE, learn_scene};
 use crate::recognition::silhouette::{
     EndFit, FACE_WINDOW, Silhouette, end_face_centre, farthest, learn_root, pixel_cdf,
 };
@@ -158,7 +158,13 @@ pub struct SilhouetteReport {
 }
 
 /// The silhouette-based gripper-tip recogniser (see the module docs).
+///
+/// Deserialising checks the model as [`TipModel::learn`] would have built it: the settings
+/// (the checks `learn` applies), at least one camera, every [`CameraScene`]
+/// ([`CameraScene::check`]) and the learned correction ([`TipCorrection`]'s own checks); a
+/// file that fails them is an error, never a recogniser that panics or misreads later.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TipModelFile")]
 pub struct TipModel {
     config: SilhouetteConfig,
     cameras: Vec<CameraScene>,
@@ -170,6 +176,38 @@ pub struct TipModel {
     /// consistency.
     #[serde(default)]
     consistency: Vec<EpipolarGeometry>,
+}
+
+/// The serialised form of a [`TipModel`], checked on deserialisation (its scenes and
+/// correction check themselves as they are read).
+#[derive(Deserialize)]
+struct TipModelFile {
+    config: SilhouetteConfig,
+    cameras: Vec<CameraScene>,
+    #[serde(default)]
+    correction: Option<TipCorrection>,
+    #[serde(default)]
+    consistency: Vec<EpipolarGeometry>,
+}
+
+impl TryFrom<TipModelFile> for TipModel {
+    type Error = ServoError;
+
+    fn try_from(f: TipModelFile) -> Result<Self> {
+        f.config.validate()?;
+        if f.cameras.is_empty() {
+            return Err(ServoError::invalid(
+                "cameras",
+                "a tip model needs at least one camera",
+            ));
+        }
+        Ok(TipModel {
+            config: f.config,
+            cameras: f.cameras,
+            correction: f.correction,
+            consistency: f.consistency,
+        })
+    }
 }
 
 impl TipModel {
@@ -190,7 +228,7 @@ impl TipModel {
         let mut cameras = Vec::with_capacity(cams);
         for cam in 0..cams {
             let (w, h) = (sizes[cam][0] as usize, sizes[cam][1] as usize);
-            if w < 8 || h < 8 {
+            if w < MIN_SIDE || h < MIN_SIDE {
                 return Err(ServoError::InvalidParameter {
                     name: "image",
                     reason: format!("{w}×{h} is too small"),
