@@ -8,7 +8,7 @@ use servo_loop::recognition::TrainingView;
 use servo_loop::recognition::change::changed_region;
 use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::{full_to_half, half_resolution, half_to_full};
-use servo_loop::{GripperModel, RecognitionConfig};
+use servo_loop::{GripperModel, RecognitionConfig, ServoError};
 
 #[path = "common/two_bar_scene.rs"]
 mod two_bar_scene;
@@ -94,6 +94,33 @@ fn localisation_finds_a_learned_object_elsewhere() {
         "{loc:?}"
     );
     assert!(loc.certainty > 0.6);
+
+    // An unknown camera or a non-finite hint is a typed error on every entry point: an
+    // unknown camera used to panic in `prototypes` and `locate_unchecked`, and a NaN hint to
+    // be taken as none (a search of the whole image).
+    assert_eq!(model.prototypes(0).map(<[_]>::len), Some(2));
+    assert!(model.prototypes(1).is_none());
+    let half = half_resolution(&img);
+    let unknown = |r: servo_loop::Result<servo_loop::Localisation>| {
+        matches!(
+            r,
+            Err(ServoError::DimensionMismatch {
+                what: "camera index",
+                expected: 1,
+                got: 1
+            })
+        )
+    };
+    assert!(unknown(model.locate(1, &img, None)));
+    assert!(unknown(model.locate_unchecked(1, &half, None)));
+    assert!(unknown(model.locate_after_move(1, &img, &img)));
+    for hint in [[f64::NAN, 115.0], [155.0, f64::INFINITY]] {
+        let bad_hint = |r: servo_loop::Result<servo_loop::Localisation>| {
+            matches!(r, Err(ServoError::InvalidParameter { name: "hint", .. }))
+        };
+        assert!(bad_hint(model.locate(0, &img, Some(hint))), "{hint:?}");
+        assert!(bad_hint(model.locate_unchecked(0, &half, Some(hint))));
+    }
 }
 
 #[test]

@@ -307,27 +307,41 @@ impl GripperModel {
         self.image_size
     }
 
-    /// Prototypes of camera `cam` (unit-length descriptors).
-    pub fn prototypes(&self, cam: usize) -> &[Vec<f32>] {
-        &self.prototypes[cam]
+    /// Prototypes of camera `cam` (unit-length descriptors); `None` for a camera the model
+    /// does not have.
+    pub fn prototypes(&self, cam: usize) -> Option<&[Vec<f32>]> {
+        self.prototypes.get(cam).map(Vec::as_slice)
+    }
+
+    /// Camera `cam`'s prototypes, [`ServoError::DimensionMismatch`] (`camera index`) for a
+    /// camera the model does not have; and a `hint`, when given, finite
+    /// ([`ServoError::InvalidParameter`] `hint`; a non-finite one used to be taken as none,
+    /// a search of the whole image).
+    fn camera(&self, cam: usize, hint: Option<[f64; 2]>) -> Result<&[Vec<f32>]> {
+        let protos = self.prototypes(cam).ok_or(ServoError::DimensionMismatch {
+            what: "camera index",
+            expected: self.prototypes.len(),
+            got: cam,
+        })?;
+        if let Some(h) = hint.filter(|h| !h.iter().all(|v| v.is_finite())) {
+            return Err(ServoError::InvalidParameter {
+                name: "hint",
+                reason: format!("{h:?}: a finite position expected"),
+            });
+        }
+        Ok(protos)
     }
 
     /// Finds the gripper in camera `cam`'s image, searching within `search_radius` of `hint`
     /// if given, else everywhere. Errors: unknown camera, wrong image size, certainty below
-    /// `min_certainty` ([`ServoError::RecognitionFailed`]).
+    /// `min_certainty` ([`ServoError::RecognitionFailed`]), a non-finite hint.
     pub fn locate(
         &self,
         cam: usize,
         img: &GrayImage,
         hint: Option<[f64; 2]>,
     ) -> Result<Localisation> {
-        if cam >= self.prototypes.len() {
-            return Err(ServoError::DimensionMismatch {
-                what: "camera index",
-                expected: self.prototypes.len(),
-                got: cam,
-            });
-        }
+        let protos = self.camera(cam, hint)?;
         if [img.width(), img.height()] != self.image_size {
             return Err(ServoError::InvalidParameter {
                 name: "image",
@@ -341,7 +355,7 @@ impl GripperModel {
             });
         }
         let map = FeatureMap::compute(&half_resolution(img), &self.config.feature_params())?;
-        let loc = self.search(&map, &self.prototypes[cam], hint, None);
+        let loc = self.search(&map, protos, hint, None);
         self.checked(cam, loc)
     }
 
@@ -362,7 +376,8 @@ impl GripperModel {
             });
         }
         // Size and camera checks as in `locate`.
-        if cam >= self.prototypes.len() || [img.width(), img.height()] != self.image_size {
+        let protos = self.camera(cam, None)?;
+        if [img.width(), img.height()] != self.image_size {
             return self.locate(cam, img, None);
         }
         let (a, b) = (half_resolution(previous), half_resolution(img));
@@ -383,7 +398,7 @@ impl GripperModel {
             }
             any.then_some(allowed)
         });
-        let loc = self.search(&map, &self.prototypes[cam], None, allowed.as_deref());
+        let loc = self.search(&map, protos, None, allowed.as_deref());
         self.checked(cam, loc)
     }
 
@@ -402,15 +417,17 @@ impl GripperModel {
         Ok(loc)
     }
 
-    /// Localises in a precomputed half-resolution image (no certainty check).
+    /// Localises in a precomputed half-resolution image (no certainty check). Errors: as
+    /// [`Self::locate`] for the camera and the hint (an unknown camera used to panic).
     pub fn locate_unchecked(
         &self,
         cam: usize,
         img: &FloatImage,
         hint: Option<[f64; 2]>,
     ) -> Result<Localisation> {
+        let protos = self.camera(cam, hint)?;
         let map = FeatureMap::compute(img, &self.config.feature_params())?;
-        Ok(self.search(&map, &self.prototypes[cam], hint, None))
+        Ok(self.search(&map, protos, hint, None))
     }
 
     fn search(
