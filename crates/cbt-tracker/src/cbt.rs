@@ -149,7 +149,8 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
         )?;
         let state = if cfg.layout == Layout::Stationary {
             let mut win = raw.win;
-            win.check(space)?;
+            let (_, sys) = stationary_models(&raw.model)?;
+            win.check(space, sys)?;
             check_marginals(space, &raw.marg, &raw.marg_prev)?;
             LayoutState::Stationary(Box::new(win))
         } else {

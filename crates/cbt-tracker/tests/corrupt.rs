@@ -162,6 +162,40 @@ fn truncated_vectors_are_errors() {
     assert!(corrupt::<CbtTracker>(&t).contains("posterior"));
 }
 
+/// A stationary tracker's carried velocity distribution is empty (unknown) or one entry per
+/// velocity of its axis's system model, with mass: one entry more or fewer, or all zeros, used
+/// to load and be taken silently as unknown (the first order's prediction).
+#[test]
+fn carried_velocities_of_another_length_or_without_mass_are_errors() {
+    let t = to_value(&tracker(stationary()));
+    for d in 0..2 {
+        let at = format!("/win/vel/{d}");
+        let n = pointer(&mut t.clone(), &at).as_array().unwrap().len();
+        assert!(n > 1, "axis {d}: the run carries a velocity");
+        let mut shorter = t.clone();
+        pointer(&mut shorter, &at).as_array_mut().unwrap().pop();
+        let mut longer = t.clone();
+        pointer(&mut longer, &at)
+            .as_array_mut()
+            .unwrap()
+            .push(0.0.into());
+        for bad in [shorter, longer] {
+            let e = corrupt::<CbtTracker>(&bad);
+            assert!(e.contains("velocity distribution has"), "axis {d}: {e}");
+        }
+        let mut zeros = t.clone();
+        for v in pointer(&mut zeros, &at).as_array_mut().unwrap() {
+            *v = 0.0.into();
+        }
+        let e = corrupt::<CbtTracker>(&zeros);
+        assert!(e.contains("no mass"), "axis {d}: {e}");
+        // Unknown (empty) is what a start leaves: it loads.
+        let mut unknown = t.clone();
+        pointer(&mut unknown, &at).as_array_mut().unwrap().clear();
+        serde_json::from_value::<CbtTracker>(unknown).unwrap();
+    }
+}
+
 #[test]
 fn negative_and_non_finite_numbers_are_errors() {
     let stat = to_value(&stationary());

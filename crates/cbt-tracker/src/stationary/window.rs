@@ -434,10 +434,14 @@ fn marginals_into(p: &Patch, m: &mut [(usize, Vec<f64>); 2]) {
 }
 
 impl WindowState {
-    /// Consistency of a deserialised window with `space`; the current marginals, which older
-    /// files lack, are recomputed from the posterior when missing, and must otherwise cover
-    /// the posterior window's rows and columns exactly (as every step leaves them).
-    pub fn check(&mut self, space: &Space) -> Result<(), TrackError> {
+    /// Consistency of a deserialised window with `space` and the model's system models `sys`
+    /// (one per axis); the current marginals, which older files lack, are recomputed from the
+    /// posterior when missing, and must otherwise cover the posterior window's rows and
+    /// columns exactly (as every step leaves them). A carried velocity distribution is empty
+    /// (unknown) or, as every step leaves it, one entry per velocity of its axis's system
+    /// model (`2r + 1`) with positive mass: one of another length used to be taken silently
+    /// as unknown.
+    pub fn check(&mut self, space: &Space, sys: &[StatSystem]) -> Result<(), TrackError> {
         let p = &self.post;
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
         if p.h == 0 || p.w == 0 || p.i0 + p.h > nx || p.j0 + p.w > ny {
@@ -475,8 +479,18 @@ impl WindowState {
                 nonneg("posterior marginal", v)?;
             }
         }
-        for v in &self.vel {
+        len("system models", sys.len(), 2)?;
+        for (d, v) in self.vel.iter().enumerate() {
             nonneg("velocity distribution", v)?;
+            if v.is_empty() {
+                continue;
+            }
+            len("velocity distribution", v.len(), 2 * sys[d].radius() + 1)?;
+            if v.iter().sum::<f64>() <= 0.0 {
+                return Err(corrupt(format!(
+                    "the velocity distribution of axis {d} has no mass"
+                )));
+            }
         }
         self.coupled.check(&self.post)
     }
