@@ -127,7 +127,11 @@
 //! Typed ([`ServoError`]): recognition failure, command outside the servo range, target
 //! outside the image, non-finite input, robot errors. A servo run that stops early returns
 //! [`ServoAbort`] with the moves executed so far; learned models are updated only with
-//! completed, recognised moves, so they stay intact on any error.
+//! completed, recognised moves, so they stay intact on any error. A learned model read back
+//! with serde ([`TipModel`], [`GripperModel`], [`TipCorrection`], [`TemporalCheck`],
+//! [`InverseModel`], [`MotionCheck`]) passes the checks learning applies as it is read: a file
+//! learning could not have written is an error then, not a recogniser that panics or misreads
+//! later.
 #![deny(missing_docs)]
 
 pub mod approach;
