@@ -12,7 +12,7 @@ use servo_loop::{GripperModel, RecognitionConfig, ServoError};
 
 #[path = "common/two_bar_scene.rs"]
 mod two_bar_scene;
-use two_bar_scene::scene;
+use two_bar_scene::{opening_views, scene};
 
 #[test]
 fn coordinates_round_trip() {
@@ -69,15 +69,7 @@ fn change_region_is_where_the_object_moved() {
 
 #[test]
 fn localisation_finds_a_learned_object_elsewhere() {
-    // Training views: the two-bar object "opens" (bars move apart) at several places.
-    let views: Vec<TrainingView> = [(60u32, 50u32), (180, 60), (100, 150), (220, 160)]
-        .iter()
-        .enumerate()
-        .map(|(i, &(x, y))| TrainingView {
-            before: vec![scene(320, 240, Some((x, y, 30)), i as u32)],
-            after: vec![scene(320, 240, Some((x - 2, y, 34)), i as u32)],
-        })
-        .collect();
+    let views = opening_views();
     let cfg = RecognitionConfig {
         prototypes: 2,
         ..RecognitionConfig::default()

@@ -5,14 +5,13 @@
 
 use image::{GrayImage, Luma};
 use serde_json::{Value, json};
-use servo_loop::recognition::TrainingView;
 use servo_loop::{
     CorrectionSample, GripperModel, Recogniser, RecognitionConfig, TipCorrection, TipModel,
 };
 
 #[path = "common/two_bar_scene.rs"]
 mod two_bar_scene;
-use two_bar_scene::scene;
+use two_bar_scene::{opening_views, scene};
 
 /// Loads `v` as `T`, expecting the crate's parameter error (not a JSON syntax error).
 fn refused<T: serde::de::DeserializeOwned>(v: Value, what: &str) -> String {
@@ -170,14 +169,7 @@ fn a_saved_correction_round_trips_and_an_inconsistent_one_is_an_error() {
 }
 
 fn gripper_model() -> GripperModel {
-    let views: Vec<TrainingView> = [(60u32, 50u32), (180, 60), (100, 150), (220, 160)]
-        .iter()
-        .enumerate()
-        .map(|(i, &(x, y))| TrainingView {
-            before: vec![scene(320, 240, Some((x, y, 30)), i as u32)],
-            after: vec![scene(320, 240, Some((x - 2, y, 34)), i as u32)],
-        })
-        .collect();
+    let views = opening_views();
     let cfg = RecognitionConfig {
         prototypes: 2,
         ..RecognitionConfig::default()

@@ -1,7 +1,9 @@
 //! The recognition tests' synthetic scene: a deterministic low-contrast texture with a bright
-//! two-bar object (included with `#[path]`, not part of the library).
+//! two-bar object, and training views of it opening (included with `#[path]`, not part of the
+//! library).
 
 use image::{GrayImage, Luma};
+use servo_loop::recognition::TrainingView;
 
 /// A `w × h` texture (varied by `seed`) with, when `square` is `(sx, sy, s)`, a two-bar object
 /// of size `s` at `(sx, sy)`: its left and right thirds bright.
@@ -21,4 +23,17 @@ pub fn scene(w: u32, h: u32, square: Option<(u32, u32, u32)>, seed: u32) -> Gray
         }
     }
     img
+}
+
+/// One camera's training views: at four places the two-bar object "opens" (its bars move
+/// apart, the object grows from 30 to 34 px).
+pub fn opening_views() -> Vec<TrainingView> {
+    [(60u32, 50u32), (180, 60), (100, 150), (220, 160)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| TrainingView {
+            before: vec![scene(320, 240, Some((x, y, 30)), i as u32)],
+            after: vec![scene(320, 240, Some((x - 2, y, 34)), i as u32)],
+        })
+        .collect()
 }
