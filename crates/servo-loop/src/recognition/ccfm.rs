@@ -156,11 +156,12 @@ impl TryFrom<GripperModelFile> for GripperModel {
         }
         // The descriptor length of `FeatureMap::descriptor` with these settings (no prototype
         // can be as long when it overflows).
-        let c = &f.config;
-        let len = c
-            .orientations
-            .checked_add(c.intensities)
-            .and_then(|n| n.checked_mul(c.cells)?.checked_mul(c.cells))
+        let cells = f.config.cells;
+        let len = f
+            .config
+            .feature_params()
+            .channels()
+            .and_then(|n| n.checked_mul(cells)?.checked_mul(cells))
             .unwrap_or(usize::MAX);
         for (cam, protos) in f.prototypes.iter().enumerate() {
             if protos.is_empty() {
@@ -458,7 +459,8 @@ impl GripperModel {
         // Coarse candidates on the channel grid.
         let (bx, by) = (map.blocks_x as i64, map.blocks_y as i64);
         let (x0, x1, y0, y1, step) = match hint {
-            Some([u, v]) if u.is_finite() && v.is_finite() => {
+            // A hint is finite: every entry point checks it (`camera`).
+            Some([u, v]) => {
                 let r = self.config.search_radius / map.scale;
                 let (cx, cy) = (map.to_channel(u), map.to_channel(v));
                 (

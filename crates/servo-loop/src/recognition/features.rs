@@ -24,7 +24,7 @@ use chan_repr::{ChannelBasis, Kernel, PeriodicBasis};
 
 use std::f64::consts::TAU;
 
-use crate::error::Result;
+use crate::error::{Result, ServoError};
 use crate::recognition::image::FloatImage;
 
 /// Parameters of the feature map.
@@ -38,6 +38,14 @@ pub struct FeatureParams {
     pub magnitude_half: f32,
     /// Number of grey-level channels (cos², over 0–255; 0 = none), each pixel weighted 1.
     pub intensities: usize,
+}
+
+impl FeatureParams {
+    /// Channels per spatial cell of the map, `max(orientations, 3) + intensities` (the map's
+    /// `orientations`; a descriptor holds `cells²` times as many); `None` when that overflows.
+    pub fn channels(&self) -> Option<usize> {
+        self.orientations.max(3).checked_add(self.intensities)
+    }
 }
 
 /// The cyclic cos² orientation channels (chan-repr [`PeriodicBasis`] over `[0, 2π)`) of the
@@ -83,7 +91,9 @@ impl FeatureMap {
     pub fn compute(img: &FloatImage, p: &FeatureParams) -> Result<FeatureMap> {
         let (w, h, b, no0) = (img.width, img.height, p.block.max(1), p.orientations.max(3));
         let ni = p.intensities;
-        let no = no0 + ni;
+        let no = p
+            .channels()
+            .ok_or_else(|| ServoError::invalid("intensities", "too many channels per cell"))?;
         let grey = if ni >= 3 {
             Some(ChannelBasis::covering(
                 0.0,
