@@ -186,7 +186,9 @@ fn stationary_models(model: &CbtModel) -> Result<(&StatObservation, &[StatSystem
 }
 
 impl CbtTracker {
-    /// A tracker with the given model, started at the centre of the grid.
+    /// A tracker with the given model, not yet placed: the dense layouts start from the
+    /// uniform posterior over the grid, the stationary layout at the centre of the grid.
+    /// [`reset`](Tracker::reset) or [`reset_to`](Self::reset_to) places the track.
     pub fn new(model: CbtModel) -> Self {
         let name = match (model.config().order, model.config().layout) {
             (Order::Second, Layout::Separable) => "CBT 2nd order",

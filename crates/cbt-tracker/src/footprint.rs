@@ -11,8 +11,9 @@
 //! alone for 10¹⁰: an allocation that aborts the process rather than returning. So learning
 //! refuses a layout whose estimate exceeds [`MAX_MODEL_VALUES`] with
 //! [`TrackError::ModelTooLarge`]. The stationary layout holds displacement kernels and the
-//! posterior's window, whose sizes follow the motion and the noise, not the grid: it is not
-//! bounded here.
+//! posterior's window, whose sizes follow the motion and the noise, not the grid: learning caps
+//! the kernels' radius, and an untrained model, whose radius follows `fallback_sigma` alone, is
+//! checked by [`check_kernels`].
 
 use crate::config::{CbtConfig, Layout, Order};
 use crate::{Space, TrackError};
@@ -66,6 +67,30 @@ pub(crate) fn check(space: &Space, config: &CbtConfig) -> Result<(), TrackError>
         return Err(TrackError::ModelTooLarge {
             layout: config.layout,
             values,
+        });
+    }
+    Ok(())
+}
+
+/// Numbers the stationary layout's displacement kernels of radius `r` hold, over `dims` axes:
+/// per axis the first-order counts and sums and the start column (`3w`) and the second-order
+/// counts and model (`2w²`), `w = 2r + 1` (in `f64`, so a saturated `r` cannot overflow).
+fn kernel_values(r: usize, dims: usize) -> f64 {
+    let w = 2.0 * r as f64 + 1.0;
+    dims as f64 * (2.0 * w * w + 3.0 * w)
+}
+
+/// An untrained stationary model's kernels of radius `r = ⌈3σ⌉ + 1` (σ the `fallback_sigma`):
+/// [`TrackError::InvalidParameter`] `fallback_sigma` when they would hold more than
+/// [`MAX_MODEL_VALUES`] numbers (σ above about 1,365 channels on a 2-D grid), instead of an
+/// allocation that aborts the process.
+pub(crate) fn check_kernels(r: usize, dims: usize, config: &CbtConfig) -> Result<(), TrackError> {
+    if kernel_values(r, dims) > MAX_MODEL_VALUES {
+        return Err(TrackError::InvalidParameter {
+            name: "fallback_sigma",
+            value: config.fallback_sigma,
+            reason: "an untrained stationary model's displacement kernels (radius 3σ + 1) \
+                     would hold more than 2^28 numbers",
         });
     }
     Ok(())

@@ -12,7 +12,8 @@ pub struct Score {
     pub rmse: f64,
     /// Share of scored frames whose error exceeds the track-loss radius.
     pub loss_share: f64,
-    /// Number of scored frames (frames after the first with a truth).
+    /// Number of scored frames: the frames `k ≥ 1` that have a truth (frame 0, the start, is
+    /// not scored).
     pub frames: usize,
 }
 

@@ -191,7 +191,9 @@ impl TryFrom<CbtModelRaw> for CbtModel {
 impl CbtModel {
     /// An untrained model: every column is its fallback prior.
     pub fn untrained(space: Space, config: CbtConfig) -> Result<Self, TrackError> {
-        let r = (3.0 * config.fallback_sigma).ceil() as usize + 1;
+        // Saturating: an infinite `fallback_sigma` (refused by the validation below) used to
+        // overflow here.
+        let r = crate::stationary::sigma_radius(config.fallback_sigma);
         CbtModel::untrained_with_radius(space, config, r)
     }
 
@@ -229,6 +231,7 @@ impl CbtModel {
             }
             Layout::Stationary => {
                 check_space(&space)?;
+                crate::footprint::check_kernels(r, dims, &config)?;
                 (
                     ObservationModel::Stationary(StatObservation::new(&space, &config)),
                     SystemModel::Stationary(

@@ -22,7 +22,10 @@ pub struct Estimate {
     pub position: Point,
     /// Certainty of the estimate when the tracker has one (CBT), else `None`.
     pub certainty: Option<f64>,
-    /// Runner-up hypotheses by decreasing certainty (CBT only; empty for the others).
+    /// Runner-up hypotheses (CBT only; empty for the others). The dense layouts rank the
+    /// best mode and its runner-ups by decreasing certainty; the stationary layout ranks
+    /// them by the height of their highest cell (module `stationary::window`, step 4), so
+    /// there a runner-up may have a larger certainty than the best mode.
     pub runner_ups: Vec<Hypothesis>,
 }
 

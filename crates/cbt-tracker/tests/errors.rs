@@ -603,3 +603,259 @@ fn a_grid_too_fine_for_the_layout_is_an_error_not_an_abort() {
     let e = CbtModel::untrained(space, CbtConfig::default()).unwrap_err();
     assert!(e.to_string().contains("coarser spacing"), "{e}");
 }
+
+/// A configuration field: its name, a setter, values it refuses and values it takes.
+type RangeCase = (
+    &'static str,
+    fn(&mut CbtConfig, f64),
+    &'static [f64],
+    &'static [f64],
+);
+
+/// `CbtConfig::validate` checks every parameter's range: each out-of-range value is an
+/// `InvalidParameter` naming its field (and the ends of each range are as documented: the
+/// `[0, 1)` parameters take 0 and refuse 1, `obs_radius` takes 1..=64).
+#[test]
+fn every_configuration_range_is_checked_by_its_name() {
+    let space = Space::image(100.0, 100.0, 10.0).unwrap();
+    let base = CbtConfig::default();
+    let cases: [RangeCase; 7] = [
+        (
+            "prior_weight",
+            |c, v| c.prior_weight = v,
+            &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            &[1e-9, 1e6],
+        ),
+        (
+            "fallback_sigma",
+            |c, v| c.fallback_sigma = v,
+            &[0.0, -1.0, f64::NAN, f64::INFINITY],
+            &[1e-3, 20.0],
+        ),
+        (
+            "observation_floor",
+            |c, v| c.observation_floor = v,
+            &[1.0, -1e-9, f64::NAN, 2.0],
+            &[0.0, 0.5],
+        ),
+        (
+            "mixing",
+            |c, v| c.mixing = v,
+            &[1.0, -1e-9, f64::NAN, f64::INFINITY],
+            &[0.0, 0.999],
+        ),
+        (
+            "prune",
+            |c, v| c.prune = v,
+            &[1.0, -0.5, f64::NAN],
+            &[0.0, 0.5],
+        ),
+        (
+            "online_weight",
+            |c, v| c.online_weight = v,
+            &[0.0, -2.0, f64::NAN, f64::INFINITY],
+            &[0.01, 5.0],
+        ),
+        (
+            "support",
+            |c, v| c.support = v,
+            &[1.0, -0.1, f64::NAN],
+            &[0.0, 0.2],
+        ),
+    ];
+    for (name, set, bad, good) in cases {
+        for &v in bad {
+            let mut c = base;
+            set(&mut c, v);
+            for r in [
+                c.validate(),
+                CbtModel::untrained(space.clone(), c).map(|_| ()),
+            ] {
+                assert!(
+                    matches!(r, Err(TrackError::InvalidParameter { name: n, .. }) if n == name),
+                    "{name} = {v}: {r:?}"
+                );
+            }
+        }
+        for &v in good {
+            let mut c = base;
+            set(&mut c, v);
+            assert!(c.validate().is_ok(), "{name} = {v}");
+        }
+    }
+    for (r, ok) in [(0usize, false), (1, true), (64, true), (65, false)] {
+        let c = CbtConfig {
+            obs_radius: r,
+            ..CbtConfig::stationary()
+        };
+        match c.validate() {
+            Ok(()) => assert!(ok, "obs_radius = {r}"),
+            Err(TrackError::InvalidParameter {
+                name: "obs_radius", ..
+            }) => assert!(!ok, "obs_radius = {r}"),
+            Err(e) => panic!("obs_radius = {r}: {e}"),
+        }
+    }
+}
+
+/// A system fallback width far beyond the grid is a model (the displacement radius is capped)
+/// and an infinite one an `InvalidParameter`, not an arithmetic overflow; an off-grid state in
+/// stationary training is `OutsideGrid` however far off it lies.
+#[test]
+fn huge_fallback_widths_and_far_states_do_not_overflow() {
+    let space = Space::image(100.0, 100.0, 10.0).unwrap();
+    for layout in [Layout::Separable, Layout::Stationary] {
+        let cfg = CbtConfig {
+            layout,
+            fallback_sigma: f64::INFINITY,
+            ..CbtConfig::default()
+        };
+        // Used to panic with "attempt to add with overflow" before the range check.
+        assert!(matches!(
+            CbtModel::untrained(space.clone(), cfg),
+            Err(TrackError::InvalidParameter {
+                name: "fallback_sigma",
+                ..
+            })
+        ));
+    }
+    for layout in [Layout::Separable, Layout::SparseJoint] {
+        let huge = CbtConfig {
+            layout,
+            fallback_sigma: 1e300,
+            ..CbtConfig::default()
+        };
+        assert!(
+            CbtModel::untrained(space.clone(), huge).is_ok(),
+            "{layout:?}"
+        );
+    }
+    // The untrained stationary layout's kernels follow σ: too wide a σ is refused before the
+    // allocation (which used to abort the process), a modest one is not.
+    for sigma in [1e300, 1e4, 1400.0] {
+        let huge = CbtConfig {
+            fallback_sigma: sigma,
+            ..CbtConfig::stationary()
+        };
+        assert!(
+            matches!(
+                CbtModel::untrained(space.clone(), huge),
+                Err(TrackError::InvalidParameter {
+                    name: "fallback_sigma",
+                    ..
+                })
+            ),
+            "σ = {sigma}"
+        );
+    }
+    let modest = CbtConfig {
+        fallback_sigma: 30.0,
+        ..CbtConfig::stationary()
+    };
+    assert!(CbtModel::untrained(space.clone(), modest).is_ok());
+    let walk: Vec<TrainingFrame> = (0..12)
+        .map(|k| {
+            let p = [20.0 + 3.0 * k as f64, 50.0];
+            TrainingFrame {
+                states: vec![p],
+                detections: vec![Detection::new(p[0], p[1])],
+            }
+        })
+        .collect();
+    let stationary = CbtConfig {
+        fallback_sigma: 1e300,
+        ..CbtConfig::stationary()
+    };
+    assert!(CbtModel::learn(space.clone(), stationary, std::slice::from_ref(&walk)).is_ok());
+    let mut far = walk;
+    far[5].states = vec![[1e300, 50.0]];
+    assert!(matches!(
+        CbtModel::learn(space, CbtConfig::stationary(), &[far]),
+        Err(TrackError::OutsideGrid { what: "state", .. })
+    ));
+}
+
+/// The particle filter's models are checked when a filter is built: `P_D ∈ (0, 1]`, `λ > 0`,
+/// positive noise and non-negative initial velocity spread (constant velocity), positive
+/// variances and spread (UNGM); each refusal names its field.
+#[test]
+fn particle_filter_models_are_checked_by_field() {
+    let good = PfModel::ConstantVelocity {
+        accel_sigma: 1.0,
+        meas_sigma: 2.0,
+        p_detect: 0.9,
+        clutter_density: 1e-4,
+        init_vel_sigma: 3.0,
+    };
+    let cv = |f: fn(&mut [f64; 5])| {
+        let mut v = [1.0, 2.0, 0.9, 1e-4, 3.0];
+        f(&mut v);
+        PfModel::ConstantVelocity {
+            accel_sigma: v[0],
+            meas_sigma: v[1],
+            p_detect: v[2],
+            clutter_density: v[3],
+            init_vel_sigma: v[4],
+        }
+    };
+    assert!(ParticleFilter::new(good, 10, 1).is_ok());
+    for (ok, model) in [
+        (true, cv(|v| v[2] = 1.0)),
+        (true, cv(|v| v[4] = 0.0)),
+        (false, cv(|v| v[2] = 0.0)),
+    ] {
+        assert_eq!(ParticleFilter::new(model, 10, 1).is_ok(), ok, "{model:?}");
+    }
+    let ungm = |process_var, meas_var, init_sigma| PfModel::Ungm {
+        process_var,
+        meas_var,
+        init_sigma,
+    };
+    for (model, name) in [
+        (cv(|v| v[0] = 0.0), "accel_sigma"),
+        (cv(|v| v[1] = f64::NAN), "meas_sigma"),
+        (cv(|v| v[2] = 0.0), "p_detect"),
+        (cv(|v| v[2] = 1.5), "p_detect"),
+        (cv(|v| v[3] = 0.0), "clutter_density"),
+        (cv(|v| v[3] = f64::INFINITY), "clutter_density"),
+        (cv(|v| v[4] = -1.0), "init_vel_sigma"),
+        (ungm(0.0, 1.0, 1.0), "process_var"),
+        (ungm(10.0, -1.0, 1.0), "meas_var"),
+        (ungm(10.0, 1.0, 0.0), "init_sigma"),
+    ] {
+        let r = ParticleFilter::new(model, 10, 1);
+        assert!(
+            matches!(r, Err(TrackError::InvalidParameter { name: n, .. }) if n == name),
+            "{name}: {r:?}"
+        );
+    }
+}
+
+/// `axis` refuses a spacing that is not finite and positive (`spacing`), a range that is not
+/// finite with `hi > lo` (`range`), and more than a million channels on one axis (`spacing`),
+/// before any basis is built; a million cells are accepted.
+#[test]
+fn axes_refuse_bad_ranges_and_more_than_a_million_channels() {
+    use cbt_tracker::{DEFAULT_KERNEL, axis};
+    for (lo, hi, spacing, name) in [
+        (0.0, 10.0, 0.0, "spacing"),
+        (0.0, 10.0, f64::NAN, "spacing"),
+        (0.0, 10.0, -1.0, "spacing"),
+        (10.0, 10.0, 1.0, "range"),
+        (10.0, 0.0, 1.0, "range"),
+        (f64::NAN, 10.0, 1.0, "range"),
+        (0.0, f64::INFINITY, 1.0, "range"),
+        (0.0, 1e6 + 1.0, 1.0, "spacing"),
+        (0.0, 1.0, 1e-7, "spacing"),
+    ] {
+        let r = axis(lo, hi, spacing, DEFAULT_KERNEL);
+        assert!(
+            matches!(r, Err(TrackError::InvalidParameter { name: n, .. }) if n == name),
+            "[{lo}, {hi}] at {spacing}: {r:?}"
+        );
+    }
+    let b = axis(0.0, 1e6, 1.0, DEFAULT_KERNEL).unwrap();
+    // One channel per cell plus the kernel's window less one.
+    assert_eq!(b.len(), 1_000_000 + 2);
+    assert!(b.spacing() <= 1.0);
+}

@@ -4,7 +4,7 @@
 use cbt_tracker::sim::{Level, Scenario, generate, rng_for};
 use cbt_tracker::{
     Calibration, CbtConfig, CbtModel, CbtTracker, Detection, Frame, KalmanParams, KalmanTracker,
-    Layout, Order, ParticleFilter, PfModel, Scales, Sequence, Space, Tracker, metrics,
+    Layout, Order, ParticleFilter, PfModel, Scales, Sequence, Space, TrackError, Tracker, metrics,
 };
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
@@ -179,6 +179,121 @@ fn estimate_reports_runner_ups_for_two_targets() {
         "{xs:?}"
     );
     assert!(e.certainty.unwrap() >= e.runner_ups[0].certainty);
+}
+
+/// A new tracker, before any reset: the dense layouts hold the uniform posterior over the
+/// grid, the stationary layout a sharp start at the centre of the grid (`CbtTracker::new`).
+#[test]
+fn a_new_tracker_is_uniform_or_at_the_centre() {
+    let space = Space::image(100.0, 80.0, 10.0).unwrap();
+    let joint = CbtConfig {
+        layout: Layout::SparseJoint,
+        ..CbtConfig::default()
+    };
+    for cfg in [CbtConfig::default(), joint, CbtConfig::stationary()] {
+        let t = CbtTracker::new(CbtModel::untrained(space.clone(), cfg).unwrap());
+        let q = t.posterior();
+        if cfg.layout == Layout::Stationary {
+            let centre: Vec<f64> = (0..2)
+                .map(|d| {
+                    let (lo, hi) = space.state_basis(d).representable_range();
+                    0.5 * (lo + hi)
+                })
+                .collect();
+            let p = t.estimate().position;
+            assert!((p[0] - centre[0]).abs() < 1e-9 && (p[1] - centre[1]).abs() < 1e-9);
+            assert!((q.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        } else {
+            let g = space.cells() as f64;
+            assert_eq!(q.len(), space.cells());
+            assert!(q.iter().all(|&v| (v - 1.0 / g).abs() < 1e-15), "{cfg:?}");
+        }
+    }
+}
+
+/// `reset_to` refuses a density of the wrong length (`Mismatch`), with a non-finite value
+/// (`NonFinite`), a negative value (`NegativeWeight`) or without mass (`InvalidParameter`
+/// `density`), each leaving the tracker unchanged; an accepted density is normalised and both
+/// previous posteriors are set to it: a tracker that had been stepping is then equal to a new
+/// one started from the same density, and steps identically. Dense and stationary layouts.
+#[test]
+fn reset_to_validates_normalises_and_forgets_the_past() {
+    for cfg in [CbtConfig::default(), CbtConfig::stationary()] {
+        let (model, test) = trained(1, cfg);
+        let s = &test[0];
+        let space = model.space().clone();
+        let g = space.cells();
+        let mut fresh = CbtTracker::new(model.clone());
+        let mut t = CbtTracker::new(model);
+        t.reset(s.frames[0].truth.unwrap()).unwrap();
+        for f in &s.frames[1..8] {
+            t.step(&f.detections).unwrap();
+        }
+        // An unnormalised density: three times a channel encoding away from the track.
+        let density: Vec<f64> = space
+            .grid()
+            .encode(&[150.0, 100.0])
+            .unwrap()
+            .iter()
+            .map(|v| 3.0 * v)
+            .collect();
+        assert_eq!(density.len(), g);
+        let before = t.clone();
+        let with = |k: usize, v: f64| {
+            let mut d = density.clone();
+            d[k] = v;
+            d
+        };
+        let k = density.iter().position(|&v| v > 0.0).unwrap();
+        for (bad, what) in [
+            (vec![1.0; g - 1], "length"),
+            (vec![1.0; g + 1], "length"),
+            (with(k, f64::NAN), "non-finite"),
+            (with(k, f64::INFINITY), "non-finite"),
+            (with(0, -1e-9), "negative"),
+            (vec![0.0; g], "no mass"),
+        ] {
+            let r = t.reset_to(&bad);
+            let ok = match what {
+                "length" => matches!(r, Err(TrackError::Mismatch(_))),
+                "non-finite" => matches!(
+                    r,
+                    Err(TrackError::NonFinite {
+                        what: "density",
+                        ..
+                    })
+                ),
+                "negative" => matches!(r, Err(TrackError::NegativeWeight(_))),
+                _ => matches!(
+                    r,
+                    Err(TrackError::InvalidParameter {
+                        name: "density",
+                        ..
+                    })
+                ),
+            };
+            assert!(ok, "{cfg:?} {what}: {r:?}");
+            assert_eq!(t, before, "{what}");
+        }
+        t.reset_to(&density).unwrap();
+        fresh.reset_to(&density).unwrap();
+        assert_eq!(t, fresh);
+        let q = t.posterior();
+        assert!((q.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        if cfg.layout == Layout::Separable {
+            let total: f64 = density.iter().sum();
+            for (a, d) in q.iter().zip(&density) {
+                assert!((a - d / total).abs() <= 1e-15, "{a} vs {}", d / total);
+            }
+        }
+        for f in &s.frames[8..14] {
+            assert_eq!(
+                t.step(&f.detections).unwrap(),
+                fresh.step(&f.detections).unwrap()
+            );
+        }
+        assert_eq!(t, fresh);
+    }
 }
 
 #[test]

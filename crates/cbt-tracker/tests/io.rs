@@ -73,6 +73,46 @@ fn sparse_frames_and_blank_lines() {
     assert_eq!(s.frames[2].detections[0].pos, [1.5, 2.0]);
 }
 
+/// A frame without rows is stored only inside the sequence: empty frames at its start or end
+/// are not written, so reading gives the frames from the first to the last with a row, with
+/// `first_frame` moved to the first (as `csv::to_string` documents); no row at all reads as
+/// an empty sequence from frame 0.
+#[test]
+fn empty_frames_at_either_end_are_not_stored() {
+    let f = |x: Option<f64>| Frame {
+        truth: x.map(|x| [x, 1.0]),
+        detections: Vec::new(),
+    };
+    let s = Sequence {
+        name: "e".into(),
+        first_frame: 10,
+        frames: vec![
+            f(None),
+            f(Some(2.0)),
+            f(None),
+            f(Some(3.0)),
+            f(None),
+            f(None),
+        ],
+    };
+    let text = csv::to_string(&s);
+    assert_eq!(text, "frame,kind,x,y\n11,truth,2,1\n13,truth,3,1\n");
+    let back = csv::parse(&text, "e", Path::new("e.csv")).unwrap();
+    assert_eq!(back.first_frame, 11);
+    assert_eq!(back.frames, s.frames[1..4]);
+    let dir = temp_dir("ends");
+    let path = csv::write(&dir, &s).unwrap();
+    assert_eq!(csv::read(&path).unwrap(), back);
+    std::fs::remove_dir_all(&dir).ok();
+    let blank = Sequence {
+        name: "b".into(),
+        first_frame: 7,
+        frames: vec![f(None); 3],
+    };
+    let back = csv::parse(&csv::to_string(&blank), "b", Path::new("b.csv")).unwrap();
+    assert_eq!((back.first_frame, back.frames.len()), (0, 0));
+}
+
 #[test]
 fn unreadable_folders_are_errors() {
     assert!(matches!(

@@ -134,6 +134,15 @@ fn scores_every_candidate_and_picks_the_best() {
         grid.prior_weights.len() * grid.fallback_sigmas.len()
     );
     assert_eq!((s.folds, s.held_out), (4, 4 * 19));
+    // In the grid's order: `σ` outer, `α` inner.
+    let na = grid.prior_weights.len();
+    for (i, c) in s.scores.iter().enumerate() {
+        assert_eq!(
+            (c.fallback_sigma, c.prior_weight),
+            (grid.fallback_sigmas[i / na], grid.prior_weights[i % na]),
+            "score {i}"
+        );
+    }
     let best = s
         .scores
         .iter()
@@ -146,6 +155,29 @@ fn scores_every_candidate_and_picks_the_best() {
         .find(|c| c.prior_weight == s.prior_weight && c.fallback_sigma == s.fallback_sigma)
         .unwrap();
     assert_eq!(chosen.log_likelihood, best);
+}
+
+/// Ties go to the broader candidate, larger `α` among equal `σ`: a held-out track scored
+/// against a fold with no transitions reads the prior columns themselves, the same for every
+/// `α` (powers of two, so exactly the same), and the largest `α` is picked.
+#[test]
+fn ties_go_to_the_larger_prior_weight() {
+    let mut seqs = tracks(1, 12, 1.0, 3);
+    // A second sequence of one frame: states to hold out, no transition to count.
+    seqs.push(vec![seqs[0][0].clone()]);
+    let grid = SmoothingGrid {
+        prior_weights: vec![1.0, 4.0, 2.0],
+        fallback_sigmas: vec![1.0, 2.0],
+    };
+    let s = select(&integer_space(200), &config(), &seqs, &grid).unwrap();
+    assert_eq!(s.held_out, 11);
+    for c in s.scores.chunks(3) {
+        assert!(c[0].log_likelihood.is_finite());
+        assert_eq!(c[0].log_likelihood, c[1].log_likelihood, "{c:?}");
+        assert_eq!(c[0].log_likelihood, c[2].log_likelihood, "{c:?}");
+    }
+    assert_ne!(s.scores[0].log_likelihood, s.scores[3].log_likelihood);
+    assert_eq!(s.prior_weight, 4.0, "{s:?}");
 }
 
 #[test]

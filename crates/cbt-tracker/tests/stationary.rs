@@ -472,3 +472,44 @@ fn the_velocity_is_carried_through_missed_detections() {
     let e = a.step(&[Detection::new(44.0, 40.0)]).unwrap();
     assert!((e.position[0] - 44.0).abs() < 0.5, "{:?}", e.position);
 }
+
+/// The order of the estimate's hypotheses (`Estimate::runner_ups`): the dense layouts give the
+/// modes by decreasing certainty (window mass), the stationary layout by the height of their
+/// highest cell (module `stationary::window`, step 4), so there a sharp, high cell is the
+/// estimate even when a broad mode holds more mass, and that mode is a runner-up with the
+/// larger certainty.
+#[test]
+fn hypotheses_are_ordered_by_mass_in_dense_layouts_and_by_peak_in_the_stationary_one() {
+    let n = 40;
+    let space = integer_space(n);
+    // A single high cell at channel (11, 11) (index 10) and a broad plateau around (29, 29)
+    // whose own peak is lower.
+    let mut d = vec![0.0; n * n];
+    d[10 * n + 10] = 1.0;
+    for i in 26..=30 {
+        for j in 26..=30 {
+            d[i * n + j] = 0.5;
+        }
+    }
+    d[28 * n + 28] = 0.9;
+    for cfg in [CbtConfig::default(), CbtConfig::stationary()] {
+        let mut t = CbtTracker::new(CbtModel::untrained(space.clone(), cfg).unwrap());
+        t.reset_to(&d).unwrap();
+        let e = t.estimate();
+        let c = e.certainty.unwrap();
+        assert!(!e.runner_ups.is_empty(), "{:?}", cfg.layout);
+        if cfg.layout == Layout::Stationary {
+            assert_eq!(e.position, [11.0, 11.0]);
+            let broad = &e.runner_ups[0];
+            assert_eq!(broad.position, [29.0, 29.0]);
+            assert!(broad.certainty > 10.0 * c, "{c} vs {}", broad.certainty);
+        } else {
+            assert!((e.position[0] - 29.0).abs() < 1e-9 && (e.position[1] - 29.0).abs() < 1e-9);
+            let mut last = c;
+            for r in &e.runner_ups {
+                assert!(r.certainty <= last, "{:?}", e.runner_ups);
+                last = r.certainty;
+            }
+        }
+    }
+}

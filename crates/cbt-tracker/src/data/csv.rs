@@ -41,7 +41,10 @@ pub const HEADER: &str = "frame,kind,x,y";
 pub const MAX_SPAN: u64 = 1_000_000;
 
 /// Formats a sequence (numbers in Rust's shortest round-trip form, so reading gives back
-/// exactly the same values; detection weights are not stored).
+/// exactly the same values; detection weights are not stored). A frame without truth or
+/// detections has no row: inside the sequence it reads back as an empty frame, but empty
+/// frames at its start or end are not stored, so reading gives the frames from the first to
+/// the last with a row ([`Sequence::first_frame`] moved to the first).
 pub fn to_string(s: &Sequence) -> String {
     let mut out = String::from(HEADER);
     out.push('\n');
@@ -252,7 +255,8 @@ pub(crate) fn files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>, TrackError> {
 
 /// Writes a sequence to `dir/<name>.csv`, atomically: the text goes to a temporary file beside
 /// it (named by process id and a per-process counter), flushed and renamed over the target, so a
-/// failed write leaves no partial file and an existing file unchanged. A sequence [`read`]
+/// failed write leaves no partial file and an existing file unchanged. The text is
+/// [`to_string`]'s (empty frames at either end of the sequence are not stored). A sequence [`read`]
 /// would refuse (a non-finite coordinate, frame numbers beyond `u64` or spanning more than
 /// [`MAX_SPAN`] frames), or a name that is not a plain file name (`../x`, `a/b`), is an error
 /// before anything is written.
@@ -298,9 +302,10 @@ fn check_name(dir: &Path, name: &str) -> Result<(), TrackError> {
     })
 }
 
-/// Checks that [`read`] would give `s` back (up to detection weights, which are not stored):
-/// finite coordinates ([`TrackError::NonFinite`]) and frame numbers that are `u64` and span at
-/// most [`MAX_SPAN`] frames ([`TrackError::InvalidParameter`]).
+/// Checks that [`read`] would accept what [`to_string`] writes of `s` (and give it back up to
+/// detection weights and empty frames at either end, which are not stored): finite
+/// coordinates ([`TrackError::NonFinite`]) and frame numbers that are `u64` and span at most
+/// [`MAX_SPAN`] frames ([`TrackError::InvalidParameter`]).
 fn check_readable(s: &Sequence) -> Result<(), TrackError> {
     let n = s.frames.len() as u64;
     if n > MAX_SPAN {

@@ -33,7 +33,8 @@ use crate::{Space, TrackError};
 fn gaussian(n: usize, centre: usize, sigma: f64) -> (usize, Vec<f64>) {
     let r = (3.0 * sigma).ceil() as usize;
     let lo = centre.saturating_sub(r);
-    let hi = (centre + r).min(n - 1);
+    // Saturating: `r` is `usize::MAX` for a huge `sigma`.
+    let hi = centre.saturating_add(r).min(n - 1);
     let mut v: Vec<f64> = (lo..=hi)
         .map(|m| {
             let d = m as f64 - centre as f64;

@@ -17,6 +17,6 @@ mod window;
 
 pub(crate) use model::{
     StatObservation, StatSystem, check_space, coordinate_runs, fitted_slopes, motion_radius,
-    start_density,
+    sigma_radius, start_density,
 };
 pub(crate) use window::{Patch, WindowState};

@@ -992,7 +992,14 @@ pub(crate) fn motion_radius(
             }
         }
     }
-    let r = max.ceil() as usize + 3;
-    r.max((3.0 * cfg.fallback_sigma).ceil() as usize + 1)
-        .min(96)
+    // Saturating: an off-grid state (refused later, when it is counted) or a huge
+    // `fallback_sigma` must not overflow here; the radius is capped anyway.
+    let r = (max.ceil() as usize).saturating_add(3);
+    r.max(sigma_radius(cfg.fallback_sigma)).min(96)
+}
+
+/// The displacement radius a Gaussian fallback of `sigma` channels needs, `⌈3σ⌉ + 1`
+/// (saturating: a huge `sigma` gives `usize::MAX`, never an overflow).
+pub(crate) fn sigma_radius(sigma: f64) -> usize {
+    ((3.0 * sigma).ceil() as usize).saturating_add(1)
 }
