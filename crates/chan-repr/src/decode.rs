@@ -87,10 +87,11 @@ impl TryFrom<WindowEstimateSpec> for WindowEstimate {
         }
         if s.valid {
             let Some(value) = s.value else {
+                // `valid` is true (reported as 1); what is missing is the estimate.
                 return Err(ChanError::InvalidParameter {
                     name: "valid",
-                    value: s.certainty,
-                    reason: "a window marked valid has an estimate",
+                    value: 1.0,
+                    reason: "a window marked valid (1 = true) has an estimate, but `value` is null",
                 });
             };
             check_mode(&[value], s.certainty, 0.0)?;

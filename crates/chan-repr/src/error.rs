@@ -50,7 +50,8 @@ pub enum ChanError {
         reason: String,
     },
     /// A parameter (spacing, range, width), or a field of a deserialised decoding result, that
-    /// is non-finite, zero or negative where it must not be.
+    /// is non-finite, zero or negative where it must not be (or a window estimate marked
+    /// `valid` without an estimate: `name` is `valid`, `value` 1 for true).
     #[error("invalid parameter `{name}` = {value}: {reason}")]
     InvalidParameter {
         /// Parameter name.

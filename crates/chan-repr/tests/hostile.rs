@@ -168,3 +168,162 @@ fn cos2_from_a_refuses_windows_beyond_u32() {
         Ok(Kernel::Cos2 { m: u32::MAX })
     );
 }
+
+#[test]
+fn periodic_values_are_accepted_up_to_exactly_the_turn_limit() {
+    // `PERIODIC_MAX_TURNS` is the largest |x| / P accepted: the limit itself encodes, the next
+    // number beyond it is refused with the bound in the error.
+    use chan_repr::PERIODIC_MAX_TURNS;
+    let period = 360.0;
+    let b = PeriodicBasis::new(period, 24, Kernel::Cos2 { m: 3 }).unwrap();
+    let bound = PERIODIC_MAX_TURNS * period;
+    for x in [bound, -bound] {
+        let c = b.encode(x).unwrap();
+        assert_eq!(c, b.encode(0.0).unwrap(), "{x}"); // a whole number of turns
+    }
+    for x in [bound.next_up(), (-bound).next_down(), 1.5 * bound] {
+        assert_eq!(
+            b.encode(x),
+            Err(ChanError::OutOfRange {
+                value: x,
+                lo: -bound,
+                hi: bound
+            }),
+            "{x}"
+        );
+    }
+}
+
+#[test]
+fn wrapping_never_returns_the_period_itself() {
+    // rem_euclid of a tiny negative number rounds up to P: `wrap` and `to_index` promise
+    // [0, P) and [0, N).
+    let b = PeriodicBasis::new(std::f64::consts::TAU, 8, Kernel::Cos2 { m: 3 }).unwrap();
+    for x in [-1e-300, -1e-17, -0.0, 0.0, -f64::MIN_POSITIVE] {
+        let w = b.wrap(x);
+        assert!((0.0..b.period()).contains(&w), "wrap({x}) = {w}");
+        let t = b.to_index(x);
+        assert!((0.0..8.0).contains(&t), "to_index({x}) = {t}");
+    }
+}
+
+#[test]
+fn gaussians_are_accepted_from_exactly_the_minimum_width() {
+    use chan_repr::GAUSSIAN_MIN_SIGMA;
+    assert_eq!(
+        Kernel::Gaussian {
+            sigma: GAUSSIAN_MIN_SIGMA
+        }
+        .validate(),
+        Ok(())
+    );
+    let b = ChannelBasis::integer(
+        12,
+        Kernel::Gaussian {
+            sigma: GAUSSIAN_MIN_SIGMA,
+        },
+    )
+    .unwrap();
+    let mode = b.decode_best(&b.encode(6.3).unwrap()).unwrap().unwrap();
+    assert!((mode.value - 6.3).abs() < 1e-9, "{mode:?}");
+    let below = GAUSSIAN_MIN_SIGMA.next_down();
+    assert!(matches!(
+        Kernel::Gaussian { sigma: below }.validate(),
+        Err(ChanError::TooNarrow { .. })
+    ));
+}
+
+#[test]
+fn grid_deserialisation_runs_the_constructors_checks() {
+    // A grid is serialised as its list of bases; a list `ChannelGrid::new` refuses is a serde
+    // error carrying the constructor's message.
+    let b = ChannelBasis::integer(4, Kernel::BSpline2).unwrap();
+    for bases in [vec![], vec![b.clone(); 8]] {
+        let typed = ChannelGrid::new(bases.clone()).unwrap_err();
+        let json = serde_json::to_string(&bases).unwrap();
+        let err = serde_json::from_str::<ChannelGrid>(&json)
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with(&typed.to_string()), "{err}");
+    }
+    let g = ChannelGrid::new(vec![b.clone(); 7]).unwrap();
+    let back: ChannelGrid = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
+    assert_eq!(back, g);
+    assert_eq!(back.strides(), g.strides());
+}
+
+#[test]
+fn gaussians_are_exactly_zero_from_four_sigma() {
+    // "truncated to exactly 0 beyond 4σ": the support radius is 4σ and the kernel is 0 there,
+    // so encoding stays sparse; just inside it is the Gaussian itself.
+    use chan_repr::GAUSSIAN_SUPPORT_SIGMAS;
+    assert_eq!(GAUSSIAN_SUPPORT_SIGMAS, 4.0);
+    for sigma in [0.5, 1.0, 2.5] {
+        let k = Kernel::Gaussian { sigma };
+        let r = 4.0 * sigma;
+        assert_eq!(k.support_radius(), r);
+        for d in [r, -r, r + 1e-9, 10.0 * r] {
+            assert_eq!(k.value(d), 0.0, "σ = {sigma}, d = {d}");
+        }
+        let inside = r.next_down();
+        assert_eq!(
+            k.value(inside),
+            (-inside * inside / (2.0 * sigma * sigma)).exp()
+        );
+    }
+    // A value on a channel centre touches exactly the channels strictly inside 4σ.
+    let b = ChannelBasis::integer(40, Kernel::Gaussian { sigma: 1.0 }).unwrap();
+    let c = b.encode(20.0).unwrap();
+    let active: Vec<usize> = (0..40).filter(|&k| c[k] != 0.0).collect();
+    assert_eq!(active, (16..=22).collect::<Vec<_>>()); // centres 17..=23, |d| < 4
+}
+
+#[test]
+fn cos2_from_a_accepts_pi_over_a_within_1e_9_of_an_integer() {
+    use std::f64::consts::PI;
+    assert_eq!(
+        Kernel::cos2_from_a(PI / (3.0 + 5e-10)),
+        Ok(Kernel::Cos2 { m: 3 })
+    );
+    assert_eq!(
+        Kernel::cos2_from_a(PI / (4.0 - 5e-10)),
+        Ok(Kernel::Cos2 { m: 4 })
+    );
+    for a in [PI / (3.0 + 2e-9), PI / (4.0 - 2e-9)] {
+        assert!(
+            matches!(
+                Kernel::cos2_from_a(a),
+                Err(ChanError::InvalidParameter { name: "a", .. })
+            ),
+            "a = {a}"
+        );
+    }
+}
+
+#[test]
+fn periodic_windows_are_all_n_windows_with_values_on_the_circle() {
+    // "N windows …, window l covering channels l, …, l+W−1 modulo N; values in [0, P)",
+    // valid or not.
+    use std::f64::consts::TAU;
+    for kernel in [
+        Kernel::Cos2 { m: 3 },
+        Kernel::Cos2 { m: 5 },
+        Kernel::BSpline2,
+    ] {
+        let b = PeriodicBasis::new(TAU, 10, kernel).unwrap();
+        for i in 0..=60 {
+            let x = TAU * i as f64 / 60.0 - 1e-13;
+            let mut c = b.encode(x).unwrap();
+            b.accumulate(x + 2.0, 0.5, &mut c).unwrap();
+            let windows = b.decode_windows(&c).unwrap();
+            assert_eq!(windows.len(), 10, "{kernel:?}");
+            for (l, w) in windows.iter().enumerate() {
+                assert_eq!(w.start, l);
+                if let Some(v) = w.value {
+                    assert!((0.0..TAU).contains(&v), "{kernel:?} x={x} window {l}: {v}");
+                }
+            }
+            assert!(windows.iter().any(|w| w.valid), "{kernel:?} x={x}");
+        }
+    }
+}

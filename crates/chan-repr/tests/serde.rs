@@ -220,3 +220,50 @@ fn gaussians_too_wide_to_decode_are_refused() {
     assert_eq!(round_trip(&kernel), kernel);
     assert_eq!(round_trip(&b), b);
 }
+
+#[test]
+fn a_valid_window_without_an_estimate_names_the_missing_estimate() {
+    // The error used to report `valid` = the window's certainty (here 0.75), a number that has
+    // nothing to do with what is wrong: the estimate is missing.
+    let json = r#"{"start":0,"value":null,"certainty":0.75,"valid":true}"#;
+    let err = refused::<WindowEstimate>(json);
+    let typed = ChanError::InvalidParameter {
+        name: "valid",
+        value: 1.0,
+        reason: "a window marked valid (1 = true) has an estimate, but `value` is null",
+    };
+    assert_eq!(err, typed.to_string());
+    assert!(!err.contains("0.75"), "{err}");
+}
+
+/// Deserialises a [`Mode`] from numbers serde_json cannot carry (NaN, ±∞), through serde's
+/// own map deserialiser.
+fn mode_from(fields: [(&'static str, f64); 3]) -> Result<Mode, String> {
+    use serde::Deserialize;
+    use serde::de::value::{Error, MapDeserializer};
+    Mode::deserialize(MapDeserializer::<_, Error>::new(fields.into_iter()))
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn modes_with_non_finite_numbers_are_refused() {
+    // JSON cannot express NaN or infinity, but other serde formats can: the check is the
+    // deserialiser's, not the format's.
+    for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        for (i, name) in ["value", "certainty", "weight"].into_iter().enumerate() {
+            let mut fields = [("value", 3.0), ("certainty", 1.5), ("weight", 1.0)];
+            fields[i].1 = v;
+            let err = mode_from(fields).expect_err(name);
+            assert!(err.contains(&format!("`{name}`")), "{name} = {v}: {err}");
+        }
+    }
+    let ok = mode_from([("value", 3.0), ("certainty", 1.5), ("weight", 1.0)]).unwrap();
+    assert_eq!(
+        ok,
+        Mode {
+            value: 3.0,
+            certainty: 1.5,
+            weight: 1.0
+        }
+    );
+}

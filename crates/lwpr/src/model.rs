@@ -239,7 +239,10 @@ impl Lwpr {
         &self.mean_x
     }
 
-    /// Running (population) variance of the raw training inputs.
+    /// Running spread of the raw training inputs, kept as the reference library keeps it: after
+    /// sample `k + 1`, `v ← (k·v + (x − x̄)²) / (k + 1)` with the mean `x̄` already updated to
+    /// include `x`. This is an estimate that the reference's files carry, not the exact
+    /// population variance (the samples 0, 2, 4 give 5/3, not 8/3); inspection only.
     pub fn var_x(&self) -> &[f64] {
         &self.var_x
     }

@@ -1,5 +1,6 @@
 //! No heap allocation per update once the model has stopped growing, and none per
-//! `predict_into` (counting global allocator).
+//! `predict_into` up to the documented `n ≤ 32` inputs (counting global allocator; the tests
+//! take turns, so that no test counts another's allocations).
 
 #[path = "../peer/harness.rs"]
 mod harness;
@@ -7,7 +8,10 @@ mod harness;
 use harness::*;
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+use lwpr::LwprBuilder;
 
 struct Counting;
 static ALLOCS: AtomicUsize = AtomicUsize::new(0);
@@ -29,8 +33,12 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Held by every test while it counts.
+static TURN: Mutex<()> = Mutex::new(());
+
 #[test]
 fn grown_model_updates_and_predicts_without_allocating() {
+    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     // n = 6 with a full metric runs the vectorised path (`Arithmetic::Fast`).
     for (dim, diag, meta) in [(2, true, false), (2, false, true), (6, false, true)] {
         let (x2, y) = cross_samples(1, 6000, 0.1);
@@ -72,5 +80,40 @@ fn grown_model_updates_and_predicts_without_allocating() {
             }
         }
         assert!(checked, "the model never stopped growing");
+    }
+}
+
+/// The widest models that predict on the stack buffer (`n` 31 and 32).
+#[test]
+fn predict_into_allocates_nothing_up_to_32_inputs() {
+    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
+    for n in [31, 32] {
+        let mut m = LwprBuilder::new(n, 1)
+            .init_d_spherical(0.5)
+            .build()
+            .unwrap();
+        let xs: Vec<Vec<f64>> = (0..60)
+            .map(|i| {
+                (0..n)
+                    .map(|j| ((i * 7 + j * 3) % 11) as f64 / 11.0)
+                    .collect()
+            })
+            .collect();
+        for x in &xs {
+            m.update(x, &[x.iter().sum::<f64>()]).unwrap();
+        }
+        assert!(m.num_rfs()[0] > 0);
+        let mut out = [0.0];
+        let before = ALLOCS.load(Ordering::SeqCst);
+        for x in &xs {
+            m.predict_into(x, 0.001, &mut out).unwrap();
+        }
+        let allocs = ALLOCS.load(Ordering::SeqCst) - before;
+        assert_eq!(
+            allocs,
+            0,
+            "allocations in {} predictions with n = {n}",
+            xs.len()
+        );
     }
 }

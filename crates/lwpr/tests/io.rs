@@ -149,3 +149,24 @@ fn arithmetic_choice_survives_both_forms() {
         assert_eq!(back, m);
     }
 }
+
+#[test]
+fn save_writes_binary_for_bin_and_json_otherwise() {
+    // `files_round_trip_in_both_forms` cannot tell: `load` detects either format by content.
+    let m = trained();
+    let dir = std::env::temp_dir().join(format!("lwpr-io-ext-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    m.save(dir.join("model.bin")).unwrap();
+    // `assert!(a == b)`: a failure should name the file, not print the model.
+    let bin = std::fs::read(dir.join("model.bin")).unwrap();
+    assert!(bin == m.to_binary(), "model.bin is not the binary form");
+    for name in ["model.json", "model.txt", "model", "model.bin.json"] {
+        m.save(dir.join(name)).unwrap();
+        let text = std::fs::read(dir.join(name)).unwrap();
+        assert!(
+            text == m.to_json().into_bytes(),
+            "{name} is not the JSON form"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -305,3 +305,95 @@ fn pruning_rules_remove_the_documented_field() {
         );
     }
 }
+
+#[test]
+fn input_statistics_follow_the_documented_recurrence() {
+    // `mean_x` is the exact running mean; `var_x` the reference's running estimate
+    // v ← (k·v + (x − x̄_new)²)/(k + 1), which for 0, 2, 4 is 5/3 (the population variance
+    // would be 8/3).
+    let mut m = LwprBuilder::new(2, 1).build().unwrap();
+    let mut expected = [(0.0, 0.0); 2];
+    for (k, x) in [[0.0, -1.0], [2.0, 3.0], [4.0, 0.5]].iter().enumerate() {
+        m.update(x, &[0.0]).unwrap();
+        for (i, e) in expected.iter_mut().enumerate() {
+            let kf = k as f64;
+            let mean = (e.0 * kf + x[i]) / (kf + 1.0);
+            let var = (e.1 * kf + (x[i] - mean).powi(2)) / (kf + 1.0);
+            *e = (mean, var);
+        }
+    }
+    assert_eq!(m.n_data(), 3);
+    for (i, &(mean, var)) in expected.iter().enumerate() {
+        assert!((m.mean_x()[i] - mean).abs() < 1e-12, "mean_x[{i}]");
+        assert!((m.var_x()[i] - var).abs() < 1e-12, "var_x[{i}]");
+    }
+    assert!((m.mean_x()[0] - 2.0).abs() < 1e-12);
+    assert!((m.var_x()[0] - 5.0 / 3.0).abs() < 1e-12);
+}
+
+#[test]
+fn fields_at_exactly_the_cutoff_are_ignored() {
+    // "receptive fields with activation ≤ cutoff are ignored": with one field, a cutoff equal
+    // to its activation leaves no active field (prediction 0, Jacobian 0, confidence ∞) and
+    // the next smaller cutoff keeps it.
+    let mut m = LwprBuilder::new(1, 1)
+        .init_d_spherical(0.01)
+        .build()
+        .unwrap();
+    for i in 0..400 {
+        let x = (i % 100) as f64 / 100.0;
+        m.update(&[x], &[2.0 * x + 1.0]).unwrap();
+    }
+    assert_eq!(m.num_rfs(), vec![1]);
+    let x = [0.7];
+    let (y, w) = m.predict_with_max_activation(&x, 0.001).unwrap();
+    let w = w[0];
+    assert!(w > 0.001 && w < 1.0, "activation {w}");
+    assert!((y[0] - 2.4).abs() < 0.1, "{y:?}");
+
+    assert_eq!(m.predict(&x, w).unwrap(), vec![0.0]);
+    let c = m.predict_with_confidence(&x, w).unwrap();
+    assert_eq!(c.y, vec![0.0]);
+    assert!(c.confidence[0].is_infinite());
+    let j = m.predict_with_jacobian(&x, w).unwrap();
+    assert_eq!(j.y, vec![0.0]);
+    assert_eq!(j.jacobian[(0, 0)], 0.0);
+
+    let below = w.next_down();
+    assert_eq!(m.predict(&x, below).unwrap(), y);
+    assert!(m.predict_with_confidence(&x, below).unwrap().confidence[0].is_finite());
+    assert_eq!(m.predict_with_jacobian(&x, below).unwrap().y, y);
+}
+
+#[test]
+fn field_views_report_input_units_and_the_metric_factor() {
+    // A new field is centred at the sample that created it; `centre` reports it in input units
+    // whatever `norm_in` (the field stores it normalised).
+    let mut m = LwprBuilder::new(2, 1)
+        .norm_in(&[4.0, 0.5])
+        .diag_only(false)
+        .init_d(&[30.0, 5.0, 5.0, 20.0])
+        .build()
+        .unwrap();
+    m.update(&[2.0, -1.0], &[0.5]).unwrap();
+    assert_eq!(m.receptive_fields(0)[0].centre(), vec![2.0, -1.0]);
+    for i in 0..300 {
+        let (x, y) = good(i);
+        m.update(&[4.0 * x[0], 0.5 * x[1]], &[y[0]]).unwrap();
+    }
+    // `metric_factor` is the upper-triangular M of `metric` D = MᵀM (column-major).
+    for rf in m.receptive_fields(0) {
+        let (d, f) = (rf.metric(), rf.metric_factor());
+        assert_eq!(f[1], 0.0, "M is upper triangular: {f:?}");
+        for i in 0..2 {
+            for j in 0..2 {
+                let mtm: f64 = (0..2).map(|k| f[k + i * 2] * f[k + j * 2]).sum();
+                let scale = (d[i + i * 2] * d[j + j * 2]).sqrt();
+                assert!(
+                    (d[i + j * 2] - mtm).abs() <= 1e-9 * scale,
+                    "D = {d:?}, M = {f:?}"
+                );
+            }
+        }
+    }
+}
