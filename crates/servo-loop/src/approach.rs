@@ -218,7 +218,9 @@ impl ApproachState {
 
     /// Executes `y` (already rounded with [`Approach::round`]) on `plant` with the
     /// unidirectional approach: checks it, sends the pre-position if one is needed, then `y`.
-    /// Returns the pre-position. On an error every joint counts as unseated.
+    /// Returns the pre-position. A `y` that fails the check ([`check_command`]) is refused
+    /// before anything is sent and changes no state; on an error of the plant (a move may have
+    /// been made) every joint counts as unseated.
     pub fn execute<P: Plant + ?Sized>(
         &mut self,
         plant: &mut P,

@@ -152,8 +152,10 @@ pub fn chain_order(points: Vec<Vec<f64>>, direction: ApproachDirection) -> Vec<V
 /// keep snapshots of the model at chosen training sizes, or to draw the caller's progress bar
 /// (the library draws none).
 ///
-/// Recognition failures skip the move (counted in [`LearnReport::not_recognised`]); any other
-/// error stops learning and is returned, with the model holding every completed move.
+/// Recognition failures skip the move (counted in [`LearnReport::not_recognised`]), and so do
+/// refused percepts ([`ServoError::PerceptRefused`], counted in [`LearnReport::refused`]); any
+/// other error stops learning and is returned, with the model holding every completed move.
+/// When no move gave a percept, [`ServoError::NotEnoughData`].
 pub fn learn_control<P: Plant + ?Sized>(
     plant: &mut P,
     model: &mut InverseModel,
@@ -355,6 +357,76 @@ mod tests {
                 certainty: 0.0,
                 min: 0.5,
             })
+        }
+    }
+
+    /// A plant that records the command of every percept it gives (percept = command).
+    #[derive(Default)]
+    struct Recording {
+        y: Vec<f64>,
+        seen: Vec<Vec<f64>>,
+    }
+    impl Plant for Recording {
+        fn command_dim(&self) -> usize {
+            3
+        }
+        fn percept_dim(&self) -> usize {
+            3
+        }
+        fn command_range(&self, _: usize) -> [f64; 2] {
+            [0.0, 3000.0]
+        }
+        fn act(&mut self, y: &[f64]) -> Result<()> {
+            self.y = y.to_vec();
+            Ok(())
+        }
+        fn observe(&mut self) -> Result<crate::plant::Observation> {
+            self.seen.push(self.y.clone());
+            Ok(crate::plant::Observation {
+                x: self.y.clone(),
+                certainty: 1.0,
+            })
+        }
+    }
+
+    /// The commands `learn_control_chained` executes and observes, in order.
+    fn learned_commands(config: &LearnConfig, chain_block: usize) -> Vec<Vec<f64>> {
+        let mut plant = Recording::default();
+        let mut model = InverseModel::new(3, 3, &Default::default()).unwrap();
+        learn_control_chained(&mut plant, &mut model, config, chain_block, |_, _| {}).unwrap();
+        plant.seen
+    }
+
+    #[test]
+    fn chained_learning_reorders_the_same_commands_within_blocks() {
+        let sorted = |mut v: Vec<Vec<f64>>| {
+            v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            v
+        };
+        for seed in 0..4 {
+            let config = LearnConfig {
+                moves: 40,
+                explore: vec![[1000.0, 2000.0]; 3],
+                seed,
+                approach: Some(Approach::hobby_servo()),
+            };
+            let drawn = learned_commands(&config, 0);
+            assert_eq!(drawn.len(), 40);
+            // The same commands as `learn_control`'s (rounded), each block of 7 (the last one
+            // 5) in its own chain order.
+            let chained = learned_commands(&config, 7);
+            assert_ne!(chained, drawn, "reordered");
+            assert_eq!(chained.len(), 40);
+            for (a, b) in drawn.chunks(7).zip(chained.chunks(7)) {
+                assert_eq!(sorted(a.to_vec()), sorted(b.to_vec()), "seed {seed}");
+            }
+            // A block of one, or no approach: the drawn order.
+            assert_eq!(learned_commands(&config, 1), drawn);
+            let plain = LearnConfig {
+                approach: None,
+                ..config.clone()
+            };
+            assert_eq!(learned_commands(&plain, 7), learned_commands(&plain, 0));
         }
     }
 

@@ -206,8 +206,9 @@ pub struct ServoAbort {
 /// Result of a servo run.
 pub type ServoResult = std::result::Result<ServoRun, ServoAbort>;
 
-/// The image error between percept `x` and target `x_w`: `‖x − x_w‖ / √(n/2)`, i.e. for a
-/// visual plant (`n = 2 × cameras`) the RMS over cameras of the per-camera pixel distance.
+/// The image error between percept `x` and target `x_w`: `‖x − x_w‖ / √max(n/2, 1)`, i.e.
+/// for a visual plant (`n = 2 × cameras`) the RMS over cameras of the per-camera pixel
+/// distance (and `‖x − x_w‖` for a one-component percept).
 ///
 /// Errors: `x_w` not as long as `x` ([`ServoError::DimensionMismatch`] `target`; it used to be
 /// compared over the shorter of the two), a non-finite value ([`ServoError::NonFinite`]).

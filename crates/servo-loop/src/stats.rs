@@ -65,6 +65,11 @@ mod tests {
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
         assert!(median(&mut []).is_nan());
+        // Sorted in place, NaNs last.
+        let mut xs = [3.0, f64::NAN, -1.0, 2.0];
+        assert_eq!(median(&mut xs), 2.5);
+        assert_eq!(xs[..3], [-1.0, 2.0, 3.0]);
+        assert!(xs[3].is_nan());
         // Two finite middle values whose sum overflows have a finite mean (it was ∞).
         assert_eq!(median(&mut [f64::MAX, f64::MAX]), f64::MAX);
         let m = median(&mut [1e308, 1.5e308, 0.0, f64::INFINITY]);

@@ -373,3 +373,74 @@ fn invalid_settings_are_rejected() {
         }
     ));
 }
+
+/// `learn_control`: an error other than a failed recognition stops learning and is returned,
+/// with the model holding every completed move (exactly the moves before the failing one).
+#[test]
+fn a_robot_error_stops_learning_with_the_completed_moves_learned() {
+    let config = |moves| LearnConfig {
+        moves,
+        explore: RANGE.to_vec(),
+        seed: 11,
+        approach: None,
+    };
+    let mut arm = Arm::new();
+    arm.fail_at = Some(5);
+    let mut model = InverseModel::new(2, 2, &model_config()).unwrap();
+    let mut seen = Vec::new();
+    let e = learn_control(&mut arm, &mut model, &config(10), |k, _| seen.push(k)).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ServoError::Robot {
+                during: "command",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(arm.acts, 5, "learning stopped at the failing move");
+    assert_eq!(seen, [1, 2, 3, 4]);
+    // The same four moves, learned without an error.
+    let mut four = InverseModel::new(2, 2, &model_config()).unwrap();
+    learn_control(&mut Arm::new(), &mut four, &config(4), |_, _| {}).unwrap();
+    assert_eq!(model.n_data(), 4);
+    assert_eq!(model, four);
+}
+
+/// [`RangePolicy::Stop`]: a command outside the servo range stops the run with
+/// [`ServoError::OutOfServoRange`] and nothing is sent; [`RangePolicy::Clamp`] sends it
+/// clamped into the range.
+#[test]
+fn a_command_outside_the_range_is_never_sent() {
+    let x_w = target([0.8, 1.0]);
+    let mut arm = Arm::new();
+    let abort = servo_image_jacobian(&mut arm, &[0.8, 2.5], &x_w, &ServoConfig::default(), |y| {
+        Ok(DMatrix::from_column_slice(2, 2, jac_g(y).as_slice()))
+    })
+    .unwrap_err();
+    assert_eq!(
+        abort.error,
+        ServoError::OutOfServoRange {
+            joint: 1,
+            value: 2.5,
+            min: RANGE[1][0],
+            max: RANGE[1][1],
+        }
+    );
+    assert_eq!(arm.acts, 0, "nothing sent");
+    assert!(abort.run.steps.is_empty());
+    let clamp = ServoConfig {
+        range: RangePolicy::Clamp,
+        max_iterations: 0,
+        ..ServoConfig::default()
+    };
+    let mut arm = Arm::new();
+    let run = servo_image_jacobian(&mut arm, &[0.8, 2.5], &x_w, &clamp, |y| {
+        Ok(DMatrix::from_column_slice(2, 2, jac_g(y).as_slice()))
+    })
+    .unwrap();
+    assert_eq!(arm.acts, 1);
+    assert_eq!(run.steps[0].command, vec![0.8, RANGE[1][1]]);
+    assert_eq!(arm.y, vec![0.8, RANGE[1][1]]);
+}

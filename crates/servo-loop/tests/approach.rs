@@ -475,3 +475,78 @@ fn deserialised_approaches_are_validated() {
     let err = serde_json::from_str::<ServoConfig>(servo).unwrap_err();
     assert!(err.to_string().contains("resolution"), "{err}");
 }
+
+/// A plant that refuses its commands when told to (a robot error).
+struct Unplugged {
+    fail: bool,
+    acts: usize,
+}
+
+impl Plant for Unplugged {
+    fn percept_dim(&self) -> usize {
+        2
+    }
+    fn command_dim(&self) -> usize {
+        2
+    }
+    fn command_range(&self, _: usize) -> [f64; 2] {
+        RANGE
+    }
+    fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
+        self.acts += 1;
+        if self.fail {
+            return Err(ServoError::Robot {
+                during: "command",
+                message: "unplugged".into(),
+            });
+        }
+        Ok(())
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        Ok(Observation {
+            x: vec![0.0, 0.0],
+            certainty: 1.0,
+        })
+    }
+}
+
+/// `ApproachState::execute`: a command the check refuses sends nothing and changes no state
+/// (the joints stay seated); an error from the plant leaves every joint unseated (a move may
+/// have been made), so the next move comes from the pre-position again.
+#[test]
+fn execute_errors_leave_the_state_as_documented() {
+    let a = Approach::hobby_servo();
+    let mut plant = Unplugged {
+        fail: false,
+        acts: 0,
+    };
+    let mut state = ApproachState::new();
+    state
+        .execute(&mut plant, &a, &[1500.0, 1500.0], false)
+        .unwrap();
+    assert_eq!(
+        state.pre_position(&plant, &a, &[1503.0, 1500.0], false),
+        None
+    );
+    let (before, acts) = (state.clone(), plant.acts);
+    for bad in [vec![1500.0, 9000.0], vec![f64::NAN, 1500.0], vec![1500.0]] {
+        assert!(
+            state.execute(&mut plant, &a, &bad, false).is_err(),
+            "{bad:?}"
+        );
+        assert_eq!(state, before, "{bad:?}: nothing changed");
+        assert_eq!(plant.acts, acts, "{bad:?}: nothing sent");
+    }
+    plant.fail = true;
+    let e = state
+        .execute(&mut plant, &a, &[1503.0, 1500.0], false)
+        .unwrap_err();
+    assert!(matches!(e, ServoError::Robot { .. }), "{e}");
+    plant.fail = false;
+    assert_eq!(state.last(), None);
+    assert_eq!(
+        state.pre_position(&plant, &a, &[1503.0, 1500.0], false),
+        Some(vec![1483.0, 1480.0]),
+        "every joint unseated"
+    );
+}

@@ -2,8 +2,8 @@
 //! constructor's checks, and a plant with inconsistent percept bounds is a typed error.
 
 use servo_loop::{
-    InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, ServoError, check_target,
-    learn_control,
+    InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, ServoError, check_command,
+    check_target, learn_control,
 };
 
 /// A linear two-joint plant seen as one camera point.
@@ -213,6 +213,13 @@ fn image_error_refuses_mismatched_or_non_finite_points() {
         Err(ServoError::NonFinite { what: "target", .. })
     ));
     assert_eq!(image_error(&[3.0, 4.0], &[0.0, 0.0]).unwrap(), 5.0);
+    // Two cameras: the RMS over the cameras of the per-camera distance (5 px and 0 px).
+    assert_eq!(
+        image_error(&[3.0, 4.0, 7.0, 7.0], &[0.0, 0.0, 7.0, 7.0]).unwrap(),
+        (12.5f64).sqrt()
+    );
+    // One component: divided by one, not by √½.
+    assert_eq!(image_error(&[3.0], &[0.0]).unwrap(), 3.0);
 }
 
 /// A dimension beyond LWPR's limits is the builder's TooBig error, however large (usize::MAX
@@ -317,4 +324,347 @@ fn exploration_ranges_whose_width_overflows_are_refused() {
     ));
     let mut r = RandomCommands::new(&[[-1e307, 1e307]], 1).unwrap();
     assert!(r.next_command().iter().all(|v| v.is_finite()));
+}
+
+/// `check_command` checks the length, then finiteness, then the servo range, naming the first
+/// joint outside.
+#[test]
+fn check_command_names_the_first_joint_outside_the_range() {
+    let plant = Line {
+        y: vec![0.5, 0.5],
+        bounds: None,
+    };
+    check_command(&plant, &[0.0, 1.0]).unwrap();
+    assert_eq!(
+        check_command(&plant, &[0.5]),
+        Err(ServoError::DimensionMismatch {
+            what: "command",
+            expected: 2,
+            got: 1
+        })
+    );
+    assert_eq!(
+        check_command(&plant, &[7.0, f64::NAN]),
+        Err(ServoError::NonFinite {
+            what: "command",
+            index: 1
+        })
+    );
+    assert_eq!(
+        check_command(&plant, &[-0.5, 1.5]),
+        Err(ServoError::OutOfServoRange {
+            joint: 0,
+            value: -0.5,
+            min: 0.0,
+            max: 1.0
+        })
+    );
+    assert_eq!(
+        check_command(&plant, &[0.5, 1.5]),
+        Err(ServoError::OutOfServoRange {
+            joint: 1,
+            value: 1.5,
+            min: 0.0,
+            max: 1.0
+        })
+    );
+}
+
+/// `InverseModelConfig::validate` checks every value (positive, finite scales; `w_gen` and
+/// `cutoff` in `(0, 1)`), `InverseModel::new` refuses a zero dimension, and bad input to an
+/// inverse model is a typed error that leaves the model untouched.
+#[test]
+fn inverse_model_settings_and_inputs_are_checked() {
+    let ok = InverseModelConfig::default();
+    ok.validate().unwrap();
+    let bad: [(&str, InverseModelConfig); 10] = [
+        (
+            "percept_scale",
+            InverseModelConfig {
+                percept_scale: 0.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "command_scale",
+            InverseModelConfig {
+                command_scale: -1.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "command_scale",
+            InverseModelConfig {
+                command_scale: f64::INFINITY,
+                ..ok.clone()
+            },
+        ),
+        (
+            "init_d",
+            InverseModelConfig {
+                init_d: f64::NAN,
+                ..ok.clone()
+            },
+        ),
+        (
+            "init_alpha",
+            InverseModelConfig {
+                init_alpha: 0.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "w_gen",
+            InverseModelConfig {
+                w_gen: 0.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "w_gen",
+            InverseModelConfig {
+                w_gen: 1.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "cutoff",
+            InverseModelConfig {
+                cutoff: 0.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "cutoff",
+            InverseModelConfig {
+                cutoff: 1.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "cutoff",
+            InverseModelConfig {
+                cutoff: f64::NAN,
+                ..ok.clone()
+            },
+        ),
+    ];
+    for (name, config) in bad {
+        for e in [
+            config.validate(),
+            InverseModel::new(2, 2, &config).map(|_| ()),
+        ] {
+            assert!(
+                matches!(&e, Err(ServoError::InvalidParameter { name: n, .. }) if *n == name),
+                "{name}: {e:?}"
+            );
+        }
+    }
+    for (n, m) in [(0, 2), (2, 0)] {
+        assert!(matches!(
+            InverseModel::new(n, m, &ok),
+            Err(ServoError::InvalidParameter {
+                name: "dimensions",
+                ..
+            })
+        ));
+    }
+    let mut model = trained();
+    let before = model.clone();
+    for (x, y) in [
+        (vec![200.0], vec![0.5, 0.5]),
+        (vec![200.0, 175.0], vec![0.5]),
+        (vec![f64::NAN, 175.0], vec![0.5, 0.5]),
+        (vec![200.0, 175.0], vec![0.5, f64::INFINITY]),
+    ] {
+        assert!(model.update(&x, &y).is_err(), "{x:?} {y:?}");
+    }
+    assert_eq!(model, before, "invalid input leaves the model untouched");
+    assert!(matches!(
+        model.predict(&[200.0]),
+        Err(ServoError::DimensionMismatch {
+            what: "percept",
+            expected: 2,
+            got: 1
+        })
+    ));
+    assert!(matches!(
+        model.predict_with_jacobian(&[200.0, f64::NAN]),
+        Err(ServoError::NonFinite {
+            what: "percept",
+            index: 1
+        })
+    ));
+}
+
+/// `ControlSpace::validate` checks the indices and set-points against the robot: a rest
+/// command of every servo, at least one controlled servo, no index out of range or repeated,
+/// held and gripper set-points finite and inside their servo's range, a gripper that is not
+/// controlled.
+#[test]
+fn control_spaces_that_do_not_fit_the_robot_are_refused() {
+    use servo_loop::ControlSpace;
+    let robot = Counting { commands: 0 };
+    let ok = ControlSpace {
+        controlled: vec![0, 1],
+        rest: vec![50.0; 3],
+        gripper: Some((2, [10.0, 90.0])),
+    };
+    ok.validate(&robot).unwrap();
+    // A controlled servo's rest value is ignored.
+    ControlSpace {
+        rest: vec![f64::NAN, 500.0, 50.0],
+        ..ok.clone()
+    }
+    .validate(&robot)
+    .unwrap();
+    let with = |f: &dyn Fn(&mut ControlSpace)| {
+        let mut s = ok.clone();
+        f(&mut s);
+        s.validate(&robot).unwrap_err()
+    };
+    assert!(matches!(
+        with(&|s| s.rest.pop().map(drop).unwrap()),
+        ServoError::DimensionMismatch {
+            what: "rest command",
+            expected: 3,
+            got: 2
+        }
+    ));
+    for e in [
+        with(&|s| s.controlled.clear()),
+        with(&|s| s.controlled = vec![0, 3]),
+        with(&|s| s.controlled = vec![1, 1]),
+    ] {
+        assert!(
+            matches!(
+                e,
+                ServoError::InvalidParameter {
+                    name: "controlled",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+    for e in [
+        with(&|s| s.gripper = Some((3, [10.0, 90.0]))),
+        with(&|s| s.gripper = Some((1, [10.0, 90.0]))),
+    ] {
+        assert!(
+            matches!(
+                e,
+                ServoError::InvalidParameter {
+                    name: "gripper",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+    assert!(matches!(
+        with(&|s| s.rest[2] = 101.0),
+        ServoError::OutOfServoRange { joint: 2, .. }
+    ));
+    assert!(matches!(
+        with(&|s| {
+            s.rest[2] = f64::NAN;
+            s.gripper = None;
+        }),
+        ServoError::OutOfServoRange { joint: 2, .. }
+    ));
+    assert!(matches!(
+        with(&|s| s.gripper = Some((2, [10.0, -1.0]))),
+        ServoError::OutOfServoRange { joint: 2, .. }
+    ));
+}
+
+/// `ServoConfig::validate`: `tolerance ≥ 0` (finite) and `damping ∈ (0, 1]`; a run with bad
+/// settings, or a Broyden probe that is not finite and positive, sends nothing.
+#[test]
+fn servo_settings_are_checked_before_anything_is_sent() {
+    use servo_loop::{BroydenConfig, ServoConfig, servo_broyden};
+    let ok = ServoConfig::default();
+    ok.validate().unwrap();
+    ServoConfig {
+        tolerance: 0.0,
+        damping: 1.0,
+        ..ok.clone()
+    }
+    .validate()
+    .unwrap();
+    for (name, bad) in [
+        (
+            "tolerance",
+            ServoConfig {
+                tolerance: -0.1,
+                ..ok.clone()
+            },
+        ),
+        (
+            "tolerance",
+            ServoConfig {
+                tolerance: f64::NAN,
+                ..ok.clone()
+            },
+        ),
+        (
+            "tolerance",
+            ServoConfig {
+                tolerance: f64::INFINITY,
+                ..ok.clone()
+            },
+        ),
+        (
+            "damping",
+            ServoConfig {
+                damping: 0.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "damping",
+            ServoConfig {
+                damping: 1.5,
+                ..ok.clone()
+            },
+        ),
+        (
+            "damping",
+            ServoConfig {
+                damping: f64::NAN,
+                ..ok.clone()
+            },
+        ),
+    ] {
+        let e = bad.validate().unwrap_err();
+        assert!(
+            matches!(&e, ServoError::InvalidParameter { name: n, .. } if *n == name),
+            "{name}: {e}"
+        );
+    }
+    for probe in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let mut plant = Line {
+            y: vec![0.25, 0.25],
+            bounds: None,
+        };
+        let abort = servo_broyden(
+            &mut plant,
+            &[0.5, 0.5],
+            &[200.0, 175.0],
+            &ok,
+            &BroydenConfig { probe },
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                abort.error,
+                ServoError::InvalidParameter { name: "probe", .. }
+            ),
+            "{probe}: {}",
+            abort.error
+        );
+        assert!(abort.run.steps.is_empty());
+        assert_eq!(plant.y, vec![0.25, 0.25], "nothing sent");
+    }
 }

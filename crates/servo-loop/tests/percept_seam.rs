@@ -7,7 +7,8 @@ use image::{GrayImage, Luma};
 use servo_loop::{
     ControlSpace, InverseModel, InverseModelConfig, LearnConfig, Localisation, MotionCheck,
     MotionConfig, PerceptPolicy, PerceptUse, Plant, RandomCommands, Recogniser, Robot, ServoConfig,
-    ServoError, VisualPlant, learn_control, servo_lwpr,
+    ServoError, VisualPlant, learn_control, observe_averaged, observe_averaged_by, observe_checked,
+    servo_lwpr,
 };
 
 /// Two servos; each capture shows the set-points as grey levels, a "doubt" flag for the
@@ -487,4 +488,111 @@ fn a_users_recogniser_gets_the_recovery_move() {
     let abort = servo_lwpr(&mut p, &mut model, &x_w, &cfg).unwrap_err();
     assert!(matches!(abort.error, ServoError::PerceptRefused { .. }));
     assert_eq!(abort.run.moves(), 1);
+}
+
+/// Camera `cam`'s image that [`Reader`] reads as the point `(10 + a + 5 cam, 20 + b − 3 cam)`,
+/// doubted (certainty 0.01, else 0.9) when `doubt`.
+fn reader_image(cam: u8, a: u8, b: u8, doubt: bool) -> GrayImage {
+    let mut img = GrayImage::new(8, 8);
+    img.put_pixel(0, 0, Luma([a]));
+    img.put_pixel(1, 0, Luma([b]));
+    img.put_pixel(2, 0, Luma([if doubt { 255 } else { 0 }]));
+    img.put_pixel(3, 0, Luma([cam]));
+    img
+}
+
+/// `observe_averaged`: the mean position of the captures and the smallest certainty per
+/// camera, with the last capture's images; a capture or a localisation of another camera
+/// count is a typed error. `observe_checked` names the least certain camera and counts every
+/// capture made.
+#[test]
+fn observations_average_the_captures_and_name_the_least_certain_camera() {
+    let frames = [
+        [(10, 20, false), (30, 40, false)],
+        [(20, 40, false), (50, 60, true)],
+        [(30, 30, false), (40, 50, false)],
+    ];
+    let images = |k: usize| -> Vec<GrayImage> {
+        (0..2)
+            .map(|cam| {
+                let (a, b, d) = frames[k % 3][cam];
+                reader_image(cam as u8, a, b, d)
+            })
+            .collect()
+    };
+    let mut k = 0;
+    let (locs, last) = observe_averaged(&Reader, 3, || {
+        k += 1;
+        Ok(images(k - 1))
+    })
+    .unwrap();
+    assert_eq!(k, 3);
+    assert_eq!(
+        locs,
+        vec![
+            Localisation {
+                position: [30.0, 50.0],
+                certainty: 0.9
+            },
+            Localisation {
+                position: [55.0, 67.0],
+                certainty: 0.01
+            },
+        ]
+    );
+    assert_eq!(last, images(2));
+    // Another camera count, in the capture or in the localisations.
+    assert!(matches!(
+        observe_averaged(&Reader, 1, || Ok(vec![reader_image(0, 1, 1, false)])),
+        Err(ServoError::DimensionMismatch {
+            what: "camera images",
+            expected: 2,
+            got: 1
+        })
+    ));
+    assert!(matches!(
+        observe_averaged_by(
+            &Reader,
+            1,
+            || Ok(images(0)),
+            |imgs| Ok(Reader.locate_all(imgs)?[..1].to_vec())
+        ),
+        Err(ServoError::DimensionMismatch {
+            what: "camera localisations",
+            expected: 2,
+            got: 1
+        })
+    ));
+    // Camera 1 doubted on every capture: refused after 2 attempts of 2 captures, naming it.
+    let policy = PerceptPolicy {
+        captures: 2,
+        min_certainty: 0.5,
+        recaptures: 1,
+        used: PerceptUse::Servo,
+    };
+    let (mut grabbed, mut recaptures) = (0, 0);
+    let e = observe_checked(
+        &Reader,
+        &policy,
+        || {
+            grabbed += 1;
+            Ok(vec![
+                reader_image(0, 1, 1, false),
+                reader_image(1, 1, 1, true),
+            ])
+        },
+        |imgs| Reader.locate_all(imgs),
+        || recaptures += 1,
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        ServoError::PerceptRefused {
+            camera: 1,
+            certainty: 0.01,
+            min: 0.5,
+            captures: 4
+        }
+    );
+    assert_eq!((grabbed, recaptures), (4, 1));
 }

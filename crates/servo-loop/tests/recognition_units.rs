@@ -5,7 +5,7 @@
 use image::{GrayImage, Luma};
 use proptest::prelude::*;
 use servo_loop::recognition::TrainingView;
-use servo_loop::recognition::change::changed_region;
+use servo_loop::recognition::change::{changed_mask, changed_region};
 use servo_loop::recognition::features::{FeatureMap, FeatureParams};
 use servo_loop::recognition::image::{full_to_half, half_resolution, half_to_full};
 use servo_loop::{GripperModel, RecognitionConfig, ServoError};
@@ -124,4 +124,61 @@ fn learning_without_views_or_changes_fails() {
         after: vec![scene(320, 240, Some((50, 50, 30)), 0)],
     };
     assert!(GripperModel::learn(&cfg, &[still]).is_err());
+}
+
+/// `half_resolution`: pixel `(i, j)` is the mean of the full-resolution 2 × 2 block at
+/// `(2i, 2j)`, odd trailing rows and columns dropped; its centre is the full-resolution
+/// coordinate `2i + 0.5`.
+#[test]
+fn half_resolution_averages_blocks_centred_at_two_i_plus_a_half() {
+    let img = GrayImage::from_fn(5, 3, |x, y| Luma([(10 * y + x) as u8]));
+    let half = half_resolution(&img);
+    assert_eq!((half.width, half.height), (2, 1));
+    // (0 + 1 + 10 + 11) / 4 and (2 + 3 + 12 + 13) / 4.
+    assert_eq!(half.data, vec![5.5, 7.5]);
+    assert_eq!(half.at(1, 0), 7.5);
+    assert_eq!(half_to_full(0.0), 0.5);
+    assert_eq!(half_to_full(3.0), 6.5);
+    assert_eq!(full_to_half(6.5), 3.0);
+}
+
+/// `changed_region` and `changed_mask` give `None` for images of different sizes, and
+/// `changed_mask` for images smaller than 3 × 3.
+#[test]
+fn changes_between_images_of_different_sizes_are_none() {
+    let a = half_resolution(&scene(64, 48, Some((10, 10, 12)), 1));
+    let b = half_resolution(&scene(64, 50, Some((14, 10, 12)), 1));
+    let c = half_resolution(&scene(64, 48, Some((14, 10, 12)), 1));
+    assert!(changed_mask(&a, &c).is_some());
+    assert!(changed_region(&a, &c, 1).is_some());
+    assert!(changed_mask(&a, &b).is_none());
+    assert!(changed_region(&a, &b, 1).is_none());
+    let tiny = half_resolution(&GrayImage::new(4, 6));
+    assert!(changed_mask(&tiny, &tiny).is_none());
+}
+
+/// `EpipolarGeometry`: the Sampson distance of `F`, the consistency scale
+/// `s = max(2σ, 0.5 px)`, the consistency `exp(−½ (d/s)²)`, and 0 for non-finite points.
+#[test]
+fn epipolar_consistency_is_a_gaussian_of_the_sampson_distance() {
+    use servo_loop::EpipolarGeometry;
+    // A rectified pair: `bᵀ F a = a_v − b_v`, Sampson distance `|a_v − b_v| / √2`.
+    let geometry = |sigma: f64| -> EpipolarGeometry {
+        serde_json::from_value(serde_json::json!({
+            "f": [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], "sigma": sigma
+        }))
+        .unwrap()
+    };
+    let (g, narrow) = (geometry(0.75), geometry(0.1));
+    assert_eq!((g.scale(), narrow.scale()), (1.5, 0.5));
+    let (a, b) = ([10.0, 5.0], [40.0, 8.0]);
+    let d = 3.0 / 2f64.sqrt();
+    assert!((g.distance(a, b) - d).abs() < 1e-12);
+    assert!((g.consistency(a, b) - (-0.5 * (d / 1.5).powi(2)).exp()).abs() < 1e-12);
+    assert!((narrow.consistency(a, b) - (-0.5 * (d / 0.5).powi(2)).exp()).abs() < 1e-12);
+    assert_eq!(g.consistency(a, [99.0, 5.0]), 1.0);
+    for bad in [f64::NAN, f64::INFINITY] {
+        assert_eq!(g.consistency([bad, 5.0], b), 0.0, "{bad}");
+        assert_eq!(g.consistency(a, [40.0, bad]), 0.0, "{bad}");
+    }
 }

@@ -213,3 +213,41 @@ fn a_saved_gripper_model_round_trips_and_a_bad_one_is_an_error() {
         refused::<GripperModel>(bad, what);
     }
 }
+
+/// A tip model whose learned parts do not fit its cameras (a correction learned for another
+/// number of cameras; a consistency that is not one geometry per camera `k ≥ 1`) is a file
+/// learning could not have written: an error when it is read. (Both used to load: the first
+/// failed only when the recogniser was used, the second left cameras unchecked or ignored
+/// geometries.)
+#[test]
+fn a_tip_model_whose_learned_parts_do_not_fit_its_cameras_is_an_error() {
+    let v = tip_model_json();
+    let camera = v.pointer("/cameras/0").unwrap().clone();
+    let geometry = json!({ "f": [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], "sigma": 0.5 });
+    let cameras = |n: usize| json!(vec![camera.clone(); n]);
+    // The learned one-camera correction in a two-camera model.
+    refused::<TipModel>(
+        with(&v, "/cameras", cameras(2)),
+        "a correction of another camera count",
+    );
+    // A geometry in a one-camera model; one geometry in a three-camera model.
+    refused::<TipModel>(
+        with(&v, "/consistency", json!([geometry.clone()])),
+        "a geometry without a second camera",
+    );
+    let three = with(
+        &with(&v, "/cameras", cameras(3)),
+        "/correction",
+        Value::Null,
+    );
+    refused::<TipModel>(
+        with(&three, "/consistency", json!([geometry.clone()])),
+        "one geometry for three cameras",
+    );
+    // What learning writes loads: no geometry, or one per camera k ≥ 1.
+    for consistency in [json!([]), json!([geometry.clone(), geometry])] {
+        let m: TipModel = serde_json::from_value(with(&three, "/consistency", consistency))
+            .expect("a file learning could have written");
+        assert_eq!(m.num_cameras(), 3);
+    }
+}

@@ -161,8 +161,10 @@ pub struct SilhouetteReport {
 ///
 /// Deserialising checks the model as [`TipModel::learn`] would have built it: the settings
 /// (the checks `learn` applies), at least one camera, every [`CameraScene`]
-/// ([`CameraScene::check`]) and the learned correction ([`TipCorrection`]'s own checks); a
-/// file that fails them is an error, never a recogniser that panics or misreads later.
+/// ([`CameraScene::check`]), the learned correction ([`TipCorrection`]'s own checks, and
+/// learned for the model's number of cameras) and the learned consistency (none, or one
+/// geometry per camera `k ≥ 1`); a file that fails them is an error, never a recogniser that
+/// panics or misreads later.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "TipModelFile")]
 pub struct TipModel {
@@ -199,6 +201,23 @@ impl TryFrom<TipModelFile> for TipModel {
             return Err(ServoError::invalid(
                 "cameras",
                 "a tip model needs at least one camera",
+            ));
+        }
+        let cams = f.cameras.len();
+        if f.correction
+            .as_ref()
+            .is_some_and(|c| c.num_cameras() != cams)
+        {
+            return Err(ServoError::invalid(
+                "correction",
+                "learned for another number of cameras than the model's",
+            ));
+        }
+        // `learn_consistency` writes one geometry per camera k ≥ 1 (none for one camera).
+        if !f.consistency.is_empty() && f.consistency.len() != cams - 1 {
+            return Err(ServoError::invalid(
+                "consistency",
+                "must hold one geometry per camera after the first, or none",
             ));
         }
         Ok(TipModel {

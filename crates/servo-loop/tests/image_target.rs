@@ -1,0 +1,221 @@
+//! [`check_image_target`]: a user's pixel target is checked against what the learner knows
+//! before any move: its length and values, the cameras' learned epipolar consistency (every
+//! camera `k ≥ 1` against camera 0) and the learned inverse model's coverage; it returns the
+//! first guess `f̂(x_w)`.
+
+use serde_json::{Value, json};
+use servo_loop::{
+    InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, ServoError, TipModel,
+    check_image_target, learn_control,
+};
+
+/// A rectified camera pair: `F` relates points of one image row (`bᵀ F a = a_v − b_v`, Sampson
+/// distance `|a_v − b_v| / √2`), residual scale 0.5 px (consistency scale 1 px).
+fn rectified() -> Value {
+    json!({ "f": [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], "sigma": 0.5 })
+}
+
+/// A tip model of `cams` 16 × 12 cameras with the given learned consistency (as saved).
+fn tip_model(cams: usize, consistency: Vec<Value>) -> TipModel {
+    let camera = json!({
+        "width": 16, "height": 12,
+        "background": vec![40.0f32; 16 * 12], "half_background": vec![40.0f32; 8 * 6],
+        "noise_sigma": 1.5, "root": [0.5, 6.0], "end_length": 8.0, "end_area": 12.0
+    });
+    serde_json::from_value(json!({
+        "config": {
+            "noise_multiple": 5.0, "min_threshold": 8.0, "min_pixels": 4, "min_certainty": 0.3,
+            "tip": "far_end", "correction_poses": 100, "cross_camera_choice": false,
+            "face_gate": 0.0, "spread_scale": 0.0, "cap_training": true
+        },
+        "cameras": vec![camera; cams],
+        "consistency": consistency
+    }))
+    .unwrap()
+}
+
+/// Two joints seen by `cams` rectified cameras: every camera sees the point in the same row.
+struct Stereo {
+    cams: usize,
+    y: Vec<f64>,
+}
+
+impl Stereo {
+    fn percept(&self, y: &[f64]) -> Vec<f64> {
+        (0..self.cams)
+            .flat_map(|c| [100.0 + 20.0 * c as f64 + 200.0 * y[0], 100.0 + 150.0 * y[1]])
+            .collect()
+    }
+}
+
+impl Plant for Stereo {
+    fn percept_dim(&self) -> usize {
+        2 * self.cams
+    }
+    fn command_dim(&self) -> usize {
+        2
+    }
+    fn command_range(&self, _: usize) -> [f64; 2] {
+        [0.0, 1.0]
+    }
+    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.y = y.to_vec();
+        Ok(())
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        Ok(Observation {
+            x: self.percept(&self.y),
+            certainty: 1.0,
+        })
+    }
+}
+
+fn model_config() -> InverseModelConfig {
+    InverseModelConfig {
+        percept_scale: 100.0,
+        command_scale: 1.0,
+        ..InverseModelConfig::default()
+    }
+}
+
+/// The inverse model of the two-camera [`Stereo`] plant, learned from 300 random moves.
+fn trained() -> InverseModel {
+    let mut plant = Stereo {
+        cams: 2,
+        y: vec![0.5, 0.5],
+    };
+    let mut model = InverseModel::new(4, 2, &model_config()).unwrap();
+    let learn = LearnConfig {
+        moves: 300,
+        explore: vec![[0.0, 1.0]; 2],
+        seed: 5,
+        approach: None,
+    };
+    learn_control(&mut plant, &mut model, &learn, |_, _| {}).unwrap();
+    model
+}
+
+#[test]
+fn a_consistent_target_inside_the_model_gives_the_first_guess() {
+    let tips = tip_model(2, vec![rectified()]);
+    let model = trained();
+    let y = [0.4, 0.6];
+    let x_w = Stereo { cams: 2, y: vec![] }.percept(&y);
+    let first = check_image_target(&tips, &model, &x_w, 0.5).unwrap();
+    assert_eq!(first, model.predict(&x_w).unwrap());
+    assert!(
+        (first[0] - y[0]).abs() < 0.05 && (first[1] - y[1]).abs() < 0.05,
+        "{first:?}"
+    );
+    // A one-camera recogniser needs no consistency.
+    let mut one = InverseModel::new(2, 2, &model_config()).unwrap();
+    learn_control(
+        &mut Stereo {
+            cams: 1,
+            y: vec![0.5, 0.5],
+        },
+        &mut one,
+        &LearnConfig {
+            moves: 200,
+            explore: vec![[0.0, 1.0]; 2],
+            seed: 5,
+            approach: None,
+        },
+        |_, _| {},
+    )
+    .unwrap();
+    assert_eq!(
+        check_image_target(&tip_model(1, vec![]), &one, &x_w[..2], 1.0).unwrap(),
+        one.predict(&x_w[..2]).unwrap()
+    );
+}
+
+#[test]
+fn a_target_whose_cameras_disagree_is_inconsistent() {
+    let tips = tip_model(2, vec![rectified()]);
+    // Camera 1's point 3 px below camera 0's row: Sampson distance 3/√2 px, scale 1 px.
+    let x_w = [200.0, 175.0, 220.0, 178.0];
+    let d = 3.0 / 2f64.sqrt();
+    let want = (-0.5 * d * d).exp();
+    match check_image_target(&tips, &trained(), &x_w, 0.5) {
+        Err(ServoError::TargetInconsistent {
+            camera,
+            distance_px,
+            consistency,
+            min,
+        }) => {
+            assert_eq!(camera, 1);
+            assert!((distance_px - d).abs() < 1e-9, "{distance_px}");
+            assert!((consistency - want).abs() < 1e-12, "{consistency}");
+            assert_eq!(min, 0.5);
+        }
+        other => panic!("{other:?}"),
+    }
+    // The threshold is inclusive: the same target passes at its own consistency, and at 0.
+    check_image_target(&tips, &trained(), &x_w, want).unwrap();
+    check_image_target(&tips, &trained(), &x_w, 0.0).unwrap();
+    // With three cameras, camera 2 is checked against camera 0 by the second geometry.
+    let three = tip_model(3, vec![rectified(), rectified()]);
+    let mut model = InverseModel::new(6, 2, &model_config()).unwrap();
+    let x3 = [200.0, 175.0, 220.0, 175.0, 240.0, 171.0];
+    assert!(matches!(
+        check_image_target(&three, &model, &x3, 0.5),
+        Err(ServoError::TargetInconsistent { camera: 2, .. })
+    ));
+    // The consistency is checked before the model's coverage.
+    model = InverseModel::new(4, 2, &model_config()).unwrap();
+    assert!(matches!(
+        check_image_target(&tips, &model, &x_w, 0.5),
+        Err(ServoError::TargetInconsistent { camera: 1, .. })
+    ));
+}
+
+#[test]
+fn bad_targets_and_unready_recognisers_are_typed_errors() {
+    let tips = tip_model(2, vec![rectified()]);
+    let model = trained();
+    let x_w = [200.0, 175.0, 220.0, 175.0];
+    assert!(matches!(
+        check_image_target(&tips, &model, &x_w[..3], 0.5),
+        Err(ServoError::DimensionMismatch {
+            what: "target",
+            expected: 4,
+            got: 3
+        })
+    ));
+    assert!(matches!(
+        check_image_target(&tips, &model, &[200.0, 175.0, f64::NAN, 175.0], 0.5),
+        Err(ServoError::NonFinite {
+            what: "target",
+            index: 2
+        })
+    ));
+    for bad in [-0.1, 1.5, f64::NAN] {
+        assert!(
+            matches!(
+                check_image_target(&tips, &model, &x_w, bad),
+                Err(ServoError::InvalidParameter {
+                    name: "min_consistency",
+                    ..
+                })
+            ),
+            "{bad}"
+        );
+    }
+    // A model of another percept than the recogniser's cameras give.
+    assert!(matches!(
+        check_image_target(&tip_model(1, vec![]), &model, &x_w, 0.5),
+        Err(ServoError::DimensionMismatch { what: "target", .. })
+    ));
+    // Two or more cameras without the learned consistency.
+    assert!(matches!(
+        check_image_target(&tip_model(2, vec![]), &model, &x_w, 0.5),
+        Err(ServoError::NotEnoughData(_))
+    ));
+    // Consistent, but outside what the model learned.
+    let empty = InverseModel::new(4, 2, &model_config()).unwrap();
+    assert_eq!(
+        check_image_target(&tips, &empty, &x_w, 0.5),
+        Err(ServoError::OutsideModel)
+    );
+}
