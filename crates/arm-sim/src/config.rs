@@ -461,13 +461,16 @@ impl SimConfig {
     }
 
     /// The same arm, cameras and scene with every non-ideality off: no calibration error,
-    /// quantisation, deadband, backlash, move noise or sag, steady lighting and no sensor noise.
-    /// Lens distortion and clutter stay (they are part of the scene, not faults).
+    /// quantisation, deadband, backlash, move noise or sag, no per-frame lighting change and no
+    /// sensor noise. Lens distortion, clutter and the opt-in scene features (a
+    /// [`Distractor`], a [`LightingDrift`]) stay: they are part of the scene, not faults of the
+    /// arm or the camera (the default scene has neither feature, so `ideal()`'s light is steady).
     pub fn ideal() -> Self {
         SimConfig::default().into_ideal()
     }
 
-    /// This configuration with every non-ideality switched off (see [`SimConfig::ideal`]).
+    /// This configuration with every non-ideality switched off (see [`SimConfig::ideal`]; the
+    /// scene, including a distractor or a lighting drift, is kept).
     pub fn into_ideal(mut self) -> Self {
         for s in &mut self.servos {
             s.offset_us = 0.0;

@@ -58,8 +58,9 @@ pub struct ArmSim {
 }
 
 impl ArmSim {
-    /// Validates the configuration, pre-renders each camera's static background and puts the
-    /// arm at rest in its home pose (every servo at its centre pulse).
+    /// Validates the configuration, sets up each camera's renderer (its static background is
+    /// ray-traced once, on the first [`capture`](Self::capture)) and puts the arm at rest in its
+    /// home pose (every servo at its centre pulse).
     pub fn new(config: SimConfig) -> Result<Self> {
         config.validate()?;
         let mut views = Vec::with_capacity(config.cameras.len());
@@ -313,8 +314,12 @@ impl<'a> Inspection<'a> {
     /// [`crate::LABEL_ARM`], [`crate::LABEL_PALM`], [`crate::LABEL_FINGER_A`],
     /// [`crate::LABEL_FINGER_B`]); all zero before the first capture.
     pub fn labels(&self, i: usize) -> Result<GrayImage> {
-        self.camera(i)?;
+        let camera = self.camera(i)?;
         let v = &self.sim.views[i];
+        if v.labels.is_empty() {
+            // No capture yet: the label buffer is allocated with the first frame.
+            return Ok(GrayImage::new(camera.width, camera.height));
+        }
         Ok(
             GrayImage::from_raw(v.camera.width, v.camera.height, v.labels.clone())
                 .expect("buffer matches size"),

@@ -182,3 +182,43 @@ fn degenerate_camera_parameters_are_refused_by_camera_new() {
         assert!(cfg.validate(0).is_err());
     }
 }
+
+/// `CameraConfig::scaled`: the size is rounded and the view unchanged, pixel centres at
+/// integers, so every world point lands at `(u + ½)·f − ½` of its full-size pixel, where `f` is
+/// the actual ratio of the (rounded) sizes.
+#[test]
+fn scaled_cameras_see_the_same_view() {
+    let full_cfg = CameraConfig::looking_at([450.0, -250.0, 380.0], [120.0, 20.0, 60.0]);
+    let full = Camera::new(&full_cfg, 0).unwrap();
+    for factor in [0.25, 0.5, 0.33, 1.7] {
+        let cfg = full_cfg.scaled(factor);
+        let (w, h) = (
+            (640.0 * factor).round() as u32,
+            (480.0 * factor).round() as u32,
+        );
+        assert_eq!((cfg.width, cfg.height), (w, h), "{factor}");
+        let (fu, fv) = (w as f64 / 640.0, h as f64 / 480.0);
+        let small = Camera::new(&cfg, 0).unwrap();
+        for p in [
+            [120.0, 20.0, 60.0],
+            [0.0, 0.0, 0.0],
+            [200.0, 100.0, 10.0],
+            [60.0, -90.0, 150.0],
+        ] {
+            let p = Vector3::from(p);
+            let [u, v] = full.project(&p).unwrap();
+            let [us, vs] = small.project(&p).unwrap();
+            assert!(
+                (us - ((u + 0.5) * fu - 0.5)).abs() < 1e-9
+                    && (vs - ((v + 0.5) * fv - 0.5)).abs() < 1e-9,
+                "{factor}: {p:?} at ({u}, {v}) full size, ({us}, {vs}) scaled"
+            );
+        }
+    }
+    // `SimConfig::with_image_scale` scales every camera that way.
+    let cfg = SimConfig::default();
+    let scaled = cfg.clone().with_image_scale(0.25);
+    for (a, b) in cfg.cameras.iter().zip(&scaled.cameras) {
+        assert_eq!(*b, a.scaled(0.25));
+    }
+}

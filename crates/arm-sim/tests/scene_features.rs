@@ -227,3 +227,33 @@ fn the_hard_scene_occludes_the_gripper_at_some_poses() {
         "the fingers partly hidden in {occluded} of {poses} views"
     );
 }
+
+/// `into_ideal` switches off the arm's and the camera's faults but keeps the scene: lens
+/// distortion, clutter, and the opt-in distractor and lighting drift of the hard scene.
+#[test]
+fn into_ideal_keeps_the_scene_features() {
+    let h = hard();
+    let i = h.clone().into_ideal();
+    assert_eq!(i.scene.clutter, h.scene.clutter);
+    assert_eq!(i.scene.distractor, h.scene.distractor);
+    assert_eq!(i.scene.lighting_drift, h.scene.lighting_drift);
+    assert_eq!(i.cameras, h.cameras);
+    assert!(i.cameras.iter().all(|c| c.k1 != 0.0));
+    assert_eq!(
+        (
+            i.scene.lighting_gain_sigma,
+            i.scene.lighting_gradient_sigma,
+            i.scene.sensor_noise_sigma
+        ),
+        (0.0, 0.0, 0.0)
+    );
+    assert!(
+        i.servos
+            .iter()
+            .all(|s| s.end_noise_deg == 0.0 && s.backlash_deg == 0.0)
+    );
+    // `ideal()` starts from the default scene, which has neither feature: its light is steady.
+    let ideal = SimConfig::ideal();
+    assert!(ideal.scene.distractor.is_none() && ideal.scene.lighting_drift.is_none());
+    assert_eq!(ideal.scene.clutter, SimConfig::default().scene.clutter);
+}

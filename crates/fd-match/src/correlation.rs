@@ -101,10 +101,11 @@ impl TryFrom<AlignmentSpec> for Alignment {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "CorrelationSpec")]
 pub struct Correlation {
-    /// `e = 2 − 2 max |r₁₂|` in `[0, 2]` (eq. 10), as `max |r₁₂|` lies in `[0, 1]`; 0 for
-    /// identical shapes.
+    /// `e = max(2 − 2 max |r₁₂|, 0)` in `[0, 2]` (eq. 10), as `max |r₁₂|` lies in `[0, 1]` up to
+    /// rounding; 0 for identical shapes, up to rounding.
     pub error: f64,
-    /// `max |r₁₂|` in `[0, 1]`.
+    /// `max |r₁₂|`, in `[0, 1]` up to rounding: for (nearly) identical shapes it can lie a few
+    /// ulps above 1 (the error is then clamped to 0).
     pub peak: f64,
     /// Rotation and shift at the maximum.
     pub alignment: Alignment,

@@ -480,3 +480,36 @@ fn descriptor_rows_out_of_range_panic_instead_of_wrapping_to_another_row() {
         assert!(set.get(i).is_none());
     }
 }
+
+/// `Extractor::describe_into` refuses a set made with another configuration (same row lengths,
+/// another sampling: the rows would be silently incomparable) and leaves the set unchanged on
+/// every error; on success it appends exactly `describe`'s descriptor with the given source.
+#[test]
+fn describe_into_refuses_a_foreign_set_and_changes_nothing_on_error() {
+    let square = [(0, 0), (9, 0), (9, 4), (0, 4)];
+    let triangle = [(0, 0), (8, 1), (3, 6)];
+    let mut ex = ex();
+    let mut set = DescriptorSet::new(DescriptorConfig::default()).unwrap();
+    ex.describe_into(&square, &mut set, 41).unwrap();
+    let before = set.clone();
+    let mut foreign =
+        DescriptorSet::new(DescriptorConfig::with_sampling(Sampling::Canonical)).unwrap();
+    assert_eq!(foreign.fd_len(), set.fd_len());
+    assert!(matches!(
+        ex.describe_into(&triangle, &mut foreign, 0),
+        Err(FdError::IncompatibleSets { .. })
+    ));
+    assert!(foreign.is_empty());
+    for bad in [
+        vec![(0, 0), (1, 1)],
+        vec![(0, 0), (1, 0), (2, 0)],
+        vec![(0, 0), (5, 0), (5, 0), (0, 5)],
+    ] {
+        assert!(ex.describe_into(&bad, &mut set, 42).is_err(), "{bad:?}");
+        assert_eq!(set, before);
+    }
+    ex.describe_into(&triangle, &mut set, 43).unwrap();
+    assert_eq!(set.sources(), &[41, 43]);
+    assert_eq!(set.get(0).unwrap(), ex.describe(&square).unwrap());
+    assert_eq!(set.get(1).unwrap(), ex.describe(&triangle).unwrap());
+}

@@ -360,3 +360,25 @@ proptest::proptest! {
         }
     }
 }
+
+/// Sets too small for a best or second best: `min_errors_within` is `+∞` for a descriptor alone
+/// in its set (so preselection keeps it at any finite `T_err`), `best_two` has no best without
+/// targets (ratio `None`) and no second with one target (ratio 0).
+#[test]
+fn lonely_descriptors_have_infinite_min_error_and_no_second() {
+    let cfg = DescriptorConfig::default();
+    let one = describe_all(cfg, &[star(9, 120, 15.0)]).unwrap().set;
+    let empty = DescriptorSet::new(cfg).unwrap();
+    for method in ALL {
+        assert_eq!(min_errors_within(&one, method).unwrap(), [f64::INFINITY]);
+        assert!(min_errors_within(&empty, method).unwrap().is_empty());
+        let none = best_two(&one, &empty, method).unwrap();
+        assert_eq!(none.len(), 1);
+        assert!(none[0].best.is_none() && none[0].second.is_none());
+        assert_eq!(none[0].ratio(), None);
+        let single = best_two(&one, &one, method).unwrap();
+        assert!(single[0].best.is_some() && single[0].second.is_none());
+        assert_eq!(single[0].ratio(), Some(0.0));
+    }
+    assert_eq!(preselect(&[f64::INFINITY], 1e300).unwrap(), [0]);
+}

@@ -368,9 +368,11 @@ impl Region {
     /// The outer contour: a closed, ordered list of region pixels `(x, y)`, each with a
     /// non-region 4-neighbour, consecutive points (and last to first) 8-adjacent, running once
     /// along the whole boundary between the region and the outside, counter-clockwise as seen on
-    /// screen (x right, y down; the shoelace sum `Σ x_i y_{i+1} − x_{i+1} y_i` is negative), starting
-    /// at [`seed`](Self::seed). Holes are not part of it. A pixel is listed again when the boundary
-    /// passes it twice (one-pixel-wide parts); the first point is not repeated at the end.
+    /// screen (x right, y down; the shoelace sum `Σ x_i y_{i+1} − x_{i+1} y_i` is ≤ 0: negative
+    /// for a region with an interior, 0 for a one-pixel-wide one, which the chain retraces),
+    /// starting at [`seed`](Self::seed). Holes are not part of it. A pixel is listed again when
+    /// the boundary passes it twice (one-pixel-wide parts); the first point is not repeated at the
+    /// end, and a one-pixel region gives one point.
     /// `img` must be the image the region was detected in.
     pub fn contour(&self, img: &GrayView) -> Result<Vec<(u32, u32)>> {
         trace_outer_contour(img, self.seed, self.level, self.polarity)

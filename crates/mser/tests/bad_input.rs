@@ -447,3 +447,39 @@ fn regions_without_an_ellipse_are_errors() {
     }
     assert!(Ellipse::from_covariance(1.0, 2.0, [1.0, 0.0, 1.0], 1.0).is_some());
 }
+
+/// An image whose padded size exceeds the detector's 2^28 pixels, or whose size overflows
+/// `usize`, is an `ImageTooLarge` naming its size (not just any error). The buffer is
+/// zero-filled memory that is never touched, so the test costs nothing.
+#[test]
+fn oversized_images_are_image_too_large() {
+    let w = 1usize << 27;
+    let px = vec![0u8; w];
+    // One row of 2^27 pixels: (1 + 2) padded rows of at least 2^27 + 1 bytes > 2^28.
+    assert!(matches!(
+        GrayView::new(&px, w, 1, w),
+        Err(MserError::ImageTooLarge { width, height: 1 }) if width == w
+    ));
+    // Just below the limit: (w + padding) · 3 ≤ 2^28.
+    let ok = (1usize << 28) / 3 - 64;
+    assert!(GrayView::new(&px[..ok], ok, 1, ok).is_ok());
+    // `stride · (height − 1) + width` overflows usize.
+    assert!(matches!(
+        GrayView::new(&px[..4], usize::MAX, 2, usize::MAX),
+        Err(MserError::ImageTooLarge {
+            width: usize::MAX,
+            height: 2
+        })
+    ));
+}
+
+/// `GrayView::get` panics outside the image, also in the stride padding of a row, which the
+/// buffer holds but the image does not.
+#[test]
+#[should_panic(expected = "outside the image")]
+fn get_outside_the_width_panics_even_inside_the_stride() {
+    let px = [1u8, 2, 3, 99, 4, 5, 6, 99];
+    let img = GrayView::new(&px, 3, 2, 4).unwrap();
+    assert_eq!(img.get(2, 0), 3);
+    img.get(3, 0);
+}

@@ -134,3 +134,89 @@ fn bounding_box_sizes_neither_overflow_nor_underflow() {
     let inverted = bb(u32::MAX, u32::MAX, 0, 0);
     assert_eq!((inverted.width(), inverted.height()), (0, 0));
 }
+
+/// `Ellipse::area`, `semi_axes` (larger first) and `contains` (strictly inside) on an ellipse
+/// with known axes, rotated and axis-aligned.
+#[test]
+fn ellipse_area_semi_axes_and_strict_containment() {
+    use mser::Ellipse;
+    // x²/16 + y²/4 = 1 around (10, 20): semi-axes 4 and 2, area 8π.
+    let e = Ellipse {
+        u: 10.0,
+        v: 20.0,
+        a: 1.0 / 16.0,
+        b: 0.0,
+        c: 1.0 / 4.0,
+    };
+    let (l_max, l_min) = e.semi_axes();
+    assert!((l_max - 4.0).abs() < 1e-12 && (l_min - 2.0).abs() < 1e-12);
+    assert!((e.area() - 8.0 * std::f64::consts::PI).abs() < 1e-12);
+    assert!(e.contains(10.0, 20.0) && e.contains(13.9, 20.0) && e.contains(10.0, 21.9));
+    // On the boundary is not inside (dᵀ M d = 1 exactly), beyond it neither.
+    assert!(!e.contains(14.0, 20.0) && !e.contains(10.0, 22.0) && !e.contains(6.0, 20.0));
+    assert!(!e.contains(14.1, 20.0) && !e.contains(13.0, 21.5));
+    // The same ellipse turned by 90°: the axes keep their order.
+    let t = Ellipse {
+        a: e.c,
+        c: e.a,
+        ..e
+    };
+    assert_eq!(t.semi_axes(), e.semi_axes());
+    // Turned by 30° (M = R diag(1/16, 1/4) Rᵀ): same axes and area.
+    let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
+    let (p, q) = (1.0 / 16.0, 1.0 / 4.0);
+    let r = Ellipse {
+        a: p * c * c + q * s * s,
+        b: (p - q) * c * s,
+        c: p * s * s + q * c * c,
+        ..e
+    };
+    let (l_max, l_min) = r.semi_axes();
+    assert!((l_max - 4.0).abs() < 1e-12 && (l_min - 2.0).abs() < 1e-12);
+    assert!((r.area() - e.area()).abs() < 1e-12);
+    // The long axis now points along (cos 30°, sin 30°).
+    assert!(r.contains(10.0 + 3.9 * c, 20.0 + 3.9 * s));
+    assert!(!r.contains(10.0 + 3.9 * -s, 20.0 + 3.9 * c));
+}
+
+/// One-pixel-wide regions: the boundary passes their pixels twice, so the contour lists them
+/// again and its shoelace sum is 0, not negative; a one-pixel region gives one point.
+#[test]
+fn contours_of_one_pixel_wide_regions_retrace_and_have_zero_area() {
+    let shoelace = |c: &[(u32, u32)]| -> i64 {
+        (0..c.len())
+            .map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                a.0 as i64 * b.1 as i64 - b.0 as i64 * a.1 as i64
+            })
+            .sum()
+    };
+    // A vertical bar of three pixels at x = 2, y = 1..=3.
+    let (w, h) = (5, 5);
+    let mut px = vec![200u8; w * h];
+    for y in 1..4 {
+        px[y * w + 2] = 10;
+    }
+    let (img, r) = one_dark_region(&px, w, h);
+    let c = r.contour(&img).unwrap();
+    assert_eq!(c, vec![(2, 1), (2, 2), (2, 3), (2, 2)]);
+    assert_eq!(shoelace(&c), 0);
+    // A single pixel: one point, the seed.
+    let mut px = vec![200u8; w * h];
+    px[3 * w + 1] = 10;
+    let (img, r) = one_dark_region(&px, w, h);
+    let c = r.contour(&img).unwrap();
+    assert_eq!(c, vec![(1, 3)]);
+    assert_eq!(shoelace(&c), 0);
+    // A solid region has a negative sum (counter-clockwise on screen).
+    let mut px = vec![200u8; w * h];
+    for y in 1..3 {
+        for x in 1..3 {
+            px[y * w + x] = 10;
+        }
+    }
+    let (img, r) = one_dark_region(&px, w, h);
+    let c = r.contour(&img).unwrap();
+    assert_eq!(c, vec![(1, 1), (1, 2), (2, 2), (2, 1)]);
+    assert!(shoelace(&c) < 0);
+}

@@ -150,3 +150,43 @@ fn a_region_found_in_a_window_moved_to_the_image_is_the_images_region() {
         Err(mser::MserError::InvalidParameter { name: "offset", .. })
     ));
 }
+
+/// `RegionsWithPixels::into_regions` gives `detect`'s regions and `is_empty` agrees with them.
+#[test]
+fn regions_with_pixels_release_the_regions_they_hold() {
+    let px = pattern(60, 40, 7);
+    let img = GrayView::packed(&px, 60, 40).unwrap();
+    let mut det = Mser::new(MserParams {
+        min_area: 5,
+        ..Default::default()
+    })
+    .unwrap();
+    let plain = det.detect(&img).unwrap();
+    assert!(!plain.is_empty());
+    let with = det.detect_with_pixels(&img).unwrap();
+    assert!(!with.is_empty());
+    assert_eq!(with.into_regions(), plain);
+    // A flat image has no region.
+    let flat = vec![9u8; 100];
+    let flat = GrayView::packed(&flat, 10, 10).unwrap();
+    let none = det.detect_with_pixels(&flat).unwrap();
+    assert_eq!(none.len(), 0);
+    assert!(none.is_empty() && none.into_regions().is_empty());
+}
+
+/// `RegionsWithPixels::pixels(i)` for `i >= len()` panics like slice indexing instead of
+/// returning another region's run.
+#[test]
+#[should_panic(expected = "out of bounds")]
+fn regions_with_pixels_refuse_an_index_past_the_end() {
+    let px = pattern(60, 40, 7);
+    let img = GrayView::packed(&px, 60, 40).unwrap();
+    let mut det = Mser::new(MserParams {
+        min_area: 5,
+        ..Default::default()
+    })
+    .unwrap();
+    let with = det.detect_with_pixels(&img).unwrap();
+    assert!(!with.is_empty());
+    let _ = with.pixels(with.len());
+}

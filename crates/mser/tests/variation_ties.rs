@@ -138,3 +138,29 @@ fn opencv_drops_a_region_tied_with_its_parent() {
     );
     assert_eq!(theirs.len(), ours.len() - 2);
 }
+
+/// `Ratio::equals` compares as rational numbers (not as rounded floats, not field by field), and
+/// only a *positive* variation equal to the parent's is OpenCV's parent tie: a zero variation
+/// tied with a zero parent is kept by OpenCV too (`var > 0` in its test).
+#[test]
+fn parent_ties_are_exact_rational_and_positive() {
+    use mser::{Ratio, Variations};
+    let r = |num, den| Ratio { num, den };
+    assert!(r(1, 5).equals(&r(30, 150)) && r(0, 5).equals(&r(0, 7)));
+    assert!(!r(1, 5).equals(&r(2, 11)));
+    // Two ratios that round to the same f64 but differ exactly.
+    let (a, b) = (r(1, 3), r((1 << 60) / 3, 1 << 60));
+    assert_eq!(a.value(), b.value());
+    assert!(!a.equals(&b));
+    assert_eq!(r(30, 150).value(), 0.2);
+    let v = |region, parent| Variations {
+        region,
+        parent_level: 12,
+        parent_area: 155,
+        parent,
+    };
+    assert!(v(r(25, 125), r(30, 150)).is_positive_parent_tie());
+    assert!(!v(r(0, 125), r(0, 150)).is_positive_parent_tie());
+    assert!(!v(r(25, 125), r(32, 155)).is_positive_parent_tie());
+    assert!(!v(a, b).is_positive_parent_tie());
+}
