@@ -97,6 +97,17 @@ mod tests {
             "{hx} {hy}"
         );
         assert!(f.contours[k].len() > 50);
-        assert_eq!(f.contours[k][0], f.regions[k].seed);
+        // Every contour starts at its region's seed and runs counter-clockwise on screen (x
+        // right, y down): a negative shoelace sum.
+        for (c, r) in f.contours.iter().zip(&f.regions) {
+            assert_eq!(c[0], r.seed);
+            let twice_area: i64 = (0..c.len())
+                .map(|n| {
+                    let (p, q) = (c[n], c[(n + 1) % c.len()]);
+                    p.0 as i64 * q.1 as i64 - q.0 as i64 * p.1 as i64
+                })
+                .sum();
+            assert!(twice_area < 0, "{twice_area}");
+        }
     }
 }

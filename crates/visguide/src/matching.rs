@@ -224,6 +224,55 @@ pub fn match_images(img1: &GrayImage, img2: &GrayImage, s: &MatchSettings) -> Re
 mod tests {
     use super::*;
 
+    /// `all` holds every symmetric match once, ascending in `i`, with region indices; the
+    /// accepted ones are exactly those with `ratio < T_r` (strictly), in the same order: a
+    /// threshold equal to a match's ratio leaves that match out.
+    #[test]
+    fn accepted_is_the_strict_ratio_test_of_all_in_ascending_i() {
+        // Four distinct blobs; in the second image shifted, and two of them resized.
+        let scene = |dx: u32, k: f64| {
+            GrayImage::from_fn(200, 140, |x, y| {
+                let (x, y) = (x as f64 - dx as f64, y as f64);
+                let square = (20.0..50.0).contains(&x) && (30.0..60.0).contains(&y);
+                let blob = ((x - 100.0) / (25.0 * k)).powi(2) + ((y - 70.0) / 12.0).powi(2) < 1.0;
+                let disc = (x - 40.0).powi(2) + ((y - 110.0) / k).powi(2) < 144.0;
+                let bar = (130.0..180.0).contains(&x) && (20.0..32.0).contains(&y);
+                image::Luma([if square || blob || disc || bar {
+                    40
+                } else {
+                    200
+                }])
+            })
+        };
+        let (a, b) = (scene(0, 1.0), scene(5, 1.15));
+        let all = match_images(&a, &b, &MatchSettings::paper()).unwrap().all;
+        let t = all.iter().map(|m| m.ratio).fold(0.0, f64::max);
+        assert!(all.len() >= 3 && t > 0.0, "{all:?}");
+        for s in [
+            MatchSettings::paper(),
+            MatchSettings {
+                ratio_threshold: t,
+                ..MatchSettings::paper()
+            },
+        ] {
+            let pair = match_images(&a, &b, &s).unwrap();
+            assert_eq!(pair.all, all);
+            assert!(pair.all.windows(2).all(|w| w[0].i < w[1].i));
+            assert!(
+                pair.all
+                    .iter()
+                    .all(|m| m.i < pair.features1.len() && m.j < pair.features2.len())
+            );
+            let want: Vec<RegionMatch> = all
+                .iter()
+                .filter(|m| m.ratio < s.ratio_threshold)
+                .copied()
+                .collect();
+            let got: Vec<RegionMatch> = pair.accepted.iter().map(|g| g.m).collect();
+            assert_eq!(got, want);
+        }
+    }
+
     /// Bad settings are an error before any work; a bad RANSAC setting used to be swallowed
     /// (no homography, no error) and a NaN `T_r` to accept nothing silently.
     #[test]

@@ -1081,3 +1081,52 @@ fn eval_scores_a_sequence_folder() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `--quiet` (`-q`): a successful run prints nothing on stderr, where it otherwise prints its
+/// summary; an error is still printed.
+#[test]
+fn quiet_prints_nothing_but_errors() {
+    let dir = temp("quiet");
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    let args = fit_args(&data, &model, "1");
+    let loud: Vec<&str> = args.iter().copied().filter(|a| *a != "-q").collect();
+    let o = ok(&loud);
+    assert!(!o.stderr.is_empty(), "no summary without --quiet");
+    for quiet in [&args[..], &[&["--quiet"][..], &loud[..]].concat()] {
+        let o = ok(quiet);
+        assert!(
+            o.stderr.is_empty(),
+            "{quiet:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let missing = dir.join("missing.csv");
+    fails(&fit_args(&missing, &model, "1"), "missing.csv");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A usage error (an unknown option, a missing argument, a bad value) exits with code 2 and
+/// does no work, as `visguide --help` says; a failed run exits with 1 (`fails`).
+#[test]
+fn usage_errors_exit_with_code_2() {
+    let dir = temp("usage");
+    let out = dir.join("out");
+    for args in [
+        &["regions", "--no-such-option", "--out", s(&out), "x.png"][..],
+        &["regions", "--out", s(&out)],
+        &["regions", "--preset", "sift", "--out", s(&out), "x.png"],
+        &["lwpr", "fit"],
+        &["no-such-command"],
+    ] {
+        let o = run(args);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!out.exists(), "{args:?} wrote output");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -49,6 +49,24 @@ def test_descriptors_and_matches_equal_the_rust_crate(reference, image, sampling
         assert a.min_errors(method).tolist() == expected["min_errors"], method
 
 
+@pytest.mark.parametrize("sampling", fd.SAMPLINGS)
+def test_descriptors_and_matches_are_laid_out_as_documented(image, sampling):
+    """``fd`` is ``(k, N-1)`` with unit-norm rows (N = 51 by default), ``magnitudes`` of the
+    same shape; ``match`` gives equal-length arrays in ascending ``query``, with
+    ``query_contour`` / ``target_contour`` the descriptors' ``sources``."""
+    a = fd.describe(contours(image), sampling=sampling)
+    b = fd.describe(contours(np.rot90(image)), sampling=sampling)
+    assert len(a) > 2 and a.fd.shape == (len(a), 50) and a.magnitudes.shape == a.fd.shape
+    assert np.allclose(np.linalg.norm(a.fd, axis=1), 1.0, rtol=0, atol=1e-12)
+    for method in fd.METHODS:
+        m = fd.match(a, b, method=method, ratio=None)
+        assert len({len(v) for v in m.values()}) == 1 and len(m["query"]) > 1, method
+        q = m["query"].tolist()
+        assert q == sorted(set(q)), method
+        assert np.array_equal(m["query_contour"], a.sources[m["query"]]), method
+        assert np.array_equal(m["target_contour"], b.sources[m["target"]]), method
+
+
 def test_ratio_threshold_filters_the_mutual_matches(image):
     a = fd.describe(contours(image))
     b = fd.describe(contours(np.rot90(image)))

@@ -205,3 +205,34 @@ def test_ellipse_scaled(image):
     for bad in (0.0, -1.0, float("nan"), float("inf"), 1e-200, 1e200):
         with pytest.raises(ValueError):
             r.ellipse_scaled(bad)
+
+
+@pytest.mark.parametrize("kwargs", [dict(min_area=5, delta=2), dict(CASES["opencv_min_area_10"], opencv_compatible=True)])
+def test_regions_are_what_the_docs_say(image, kwargs):
+    """The module's order (dark first, then bright; dark by ascending, bright by descending
+    level; then the first pixel's row and column) and each Region attribute's documented
+    meaning: level, seed, pixels in raster order, the contour counter-clockwise on screen from
+    the seed, the inclusive bbox, the raw moments and the centroid."""
+    regions = mser.detect(image, pixels=True, contours=True, **kwargs)
+    assert {r.polarity for r in regions} == {"dark", "bright"}
+    keys = [
+        (r.polarity == "bright", r.level if r.polarity == "dark" else 255 - r.level, r.seed[1], r.seed[0])
+        for r in regions
+    ]
+    assert keys == sorted(keys) and len(set(keys)) == len(keys)
+    for r in regions:
+        x, y = r.pixels[:, 0].astype(np.int64), r.pixels[:, 1].astype(np.int64)
+        values = image[y, x]
+        # The level is the region's brightest pixel (dark regions) or its darkest (bright ones).
+        assert r.level == (values.max() if r.polarity == "dark" else values.min())
+        assert np.array_equal(np.lexsort((x, y)), np.arange(len(x))), "not in raster order"
+        assert r.seed == (x[0], y[0]) and r.area == len(x)
+        assert r.bbox == (x.min(), y.min(), x.max(), y.max())
+        assert r.moments == (len(x), x.sum(), y.sum(), (x * x).sum(), (x * y).sum(), (y * y).sum())
+        assert r.centroid == pytest.approx((x.mean(), y.mean()), abs=1e-12)
+        c = r.contour.astype(np.int64)
+        assert tuple(c[0]) == r.seed
+        # Counter-clockwise on screen (y down): a negative shoelace sum (0 for a chain).
+        assert (c[:, 0] * np.roll(c[:, 1], -1) - np.roll(c[:, 0], -1) * c[:, 1]).sum() <= 0
+        # Every contour point is a region pixel.
+        assert set(map(tuple, c.tolist())) <= set(zip(x.tolist(), y.tolist()))

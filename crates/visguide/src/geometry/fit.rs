@@ -214,6 +214,10 @@ mod tests {
         let four = [src[0], src[4], src[20], src[24]];
         let four_d = [dst[0], dst[4], dst[20], dst[24]];
         assert!(same(&dlt(&four, &four_d).unwrap(), &h) < 1e-9);
+        // Scaled to unit Frobenius norm.
+        for m in [dlt(&src, &dst).unwrap(), dlt(&four, &four_d).unwrap()] {
+            assert!((m.norm() - 1.0).abs() < 1e-12, "{}", m.norm());
+        }
         // Collinear, too few, or coincident points.
         let line: Vec<Point> = (0..6).map(|k| (k as f64, 2.0 * k as f64)).collect();
         assert!(dlt(&line, &line).is_none());

@@ -240,6 +240,48 @@ mod tests {
         );
     }
 
+    /// `to_text` is what `parse` reads back to the very same matrix (bit for bit), for entries
+    /// that no short decimal holds, tiny and huge ones, and a matrix rescaled on construction.
+    #[test]
+    fn text_round_trips_bit_for_bit() {
+        for v in [
+            [
+                1.0 / 3.0,
+                0.1,
+                -2.5e-7,
+                2.0 / 7.0,
+                1e10,
+                -123.456_789_012_345,
+                1e-17,
+                -3e-9,
+                0.7,
+            ],
+            [1e200, 3.3e199, 0.0, -1e200, 7e200, 1.0, 0.0, 1e190, 9.1e200],
+        ] {
+            let h = Homography::from_row_major(&v).unwrap();
+            let back = Homography::parse(&h.to_text()).unwrap();
+            assert_eq!(
+                back.to_row_major().map(f64::to_bits),
+                h.to_row_major().map(f64::to_bits),
+                "{}",
+                h.to_text()
+            );
+            assert_eq!(h.to_text().lines().count(), 3);
+        }
+    }
+
+    /// The corner error is infinite, not a finite number or NaN, when a corner maps to the line
+    /// at infinity under either homography.
+    #[test]
+    fn corner_error_is_infinite_when_a_corner_maps_to_infinity() {
+        let id = Homography::parse("1 0 0 0 1 0 0 0 1").unwrap();
+        // (x, y) ↦ (x / y, 1 / y): the corner (0, 0) lies on the line at infinity.
+        let g = Homography::parse("1 0 0 0 0 1 0 1 0").unwrap();
+        assert_eq!(g.corner_error(&id, 640, 480), f64::INFINITY);
+        assert_eq!(id.corner_error(&g, 640, 480), f64::INFINITY);
+        assert_eq!(id.corner_error(&id, 640, 480), 0.0);
+    }
+
     #[test]
     fn parses_mixed_float_notation() {
         let h = Homography::parse(SAMPLE).unwrap();

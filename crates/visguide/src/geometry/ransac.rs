@@ -289,6 +289,40 @@ mod tests {
         }
     }
 
+    /// The number of draws adapts to the inlier ratio found (`N = log(1 − confidence) /
+    /// log(1 − w⁴)`) and is capped by `max_iterations`: without outliers one good sample ends
+    /// the search; with half of them outliers the formula asks for about 107 draws, so a cap of
+    /// 7 stops at 7 and the default cap at the formula's count.
+    #[test]
+    fn draws_adapt_to_the_inlier_ratio_and_stop_at_the_cap() {
+        let (_, src, _) = scene(60, 0);
+        let h = Homography::from_row_major(&[0.95, 0.1, 20.0, -0.08, 1.02, -15.0, 1e-4, 5e-5, 1.0])
+            .unwrap();
+        let exact: Vec<Point> = src.iter().map(|p| h.map(p.0, p.1).unwrap()).collect();
+        let clean = fit_homography(&src, &exact, &RansacConfig::default()).unwrap();
+        assert_eq!(clean.inlier_count, 60);
+        assert!(clean.iterations <= 3, "{} draws", clean.iterations);
+        let (_, src, dst) = scene(60, 2);
+        let capped = fit_homography(
+            &src,
+            &dst,
+            &RansacConfig {
+                max_iterations: 7,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(capped.iterations, 7);
+        let free = fit_homography(&src, &dst, &RansacConfig::default()).unwrap();
+        let w = free.inlier_count as f64 / 60.0;
+        let n = ((1.0f64 - 0.999).ln() / (1.0 - w.powi(4)).ln()).ceil() as usize;
+        assert!(
+            free.iterations >= n && free.iterations < 5000,
+            "{} draws, formula {n}",
+            free.iterations
+        );
+    }
+
     #[test]
     fn the_same_seed_gives_the_same_fit_and_bad_input_is_refused() {
         let (_, src, dst) = scene(40, 4);

@@ -194,6 +194,34 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// A rename that fails (a non-empty directory in the way) is an I/O error naming that
+    /// target; the file renamed before it stays, and no staging file outlives the call (the
+    /// failed one's and the later ones' are removed, their targets never created).
+    #[test]
+    fn a_failed_rename_removes_every_staging_file_left() {
+        let dir = std::env::temp_dir().join(format!("visguide-staged-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("b/inside")).unwrap();
+        let staged: Vec<(PathBuf, PathBuf)> = ["a", "b", "c"]
+            .iter()
+            .map(|n| {
+                let tmp = dir.join(format!(".{n}.staged"));
+                write_synced(&tmp, n.as_bytes()).unwrap();
+                (tmp, dir.join(n))
+            })
+            .collect();
+        match rename_staged(&staged) {
+            Err(VisguideError::Io { path, .. }) => assert_eq!(path, dir.join("b")),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(std::fs::read(dir.join("a")).unwrap(), b"a");
+        assert!(dir.join("b/inside").is_dir() && !dir.join("c").exists());
+        for (tmp, _) in &staged {
+            assert!(!tmp.exists(), "{tmp:?} left behind");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     /// Several files written as one: all or nothing. A target in a missing folder, a
     /// directory in the way or the same path twice (also spelt differently) leaves no file and
     /// no temporary one, and the files that were there keep their contents.

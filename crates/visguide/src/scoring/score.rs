@@ -112,4 +112,23 @@ mod tests {
         let none = score_matches(&f1, &f2, &[], &h, None);
         assert_eq!((none.precision, none.recall), (None, Some(0.0)));
     }
+
+    /// A region of img2 whose centre `H⁻¹` maps to the line at infinity scores ε = 1 (not
+    /// correct), and takes no part in the ground truth.
+    #[test]
+    fn a_region_mapped_to_infinity_has_overlap_error_one() {
+        // H⁻¹ = [[1, 0, 0], [0, 1, 0], [0.01, 0, 1]]: w = 0 on x = −100.
+        let h_inv =
+            Homography::from_row_major(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.01, 0.0, 1.0]).unwrap();
+        let h = h_inv.inverse();
+        let f1 = [circ(50.0, 50.0, 5.0)];
+        let f2 = [circ(-100.0, 50.0, 5.0)];
+        let s = score_matches(&f1, &f2, &[(0, 0)], &h, None);
+        assert_eq!(s.per_match[0].overlap_error, 1.0);
+        assert!(!s.per_match[0].correct);
+        assert_eq!(
+            (s.correct_pairs, s.existing, s.precision),
+            (0, 0, Some(0.0))
+        );
+    }
 }
