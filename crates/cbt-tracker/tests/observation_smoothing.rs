@@ -184,9 +184,30 @@ fn is_deterministic_and_ties_go_to_the_broad_candidate() {
     };
     let s = select_observation(&integer_space(N as usize), &config(), &seqs, &grid).unwrap();
     assert_eq!(s.scores[0].log_likelihood, s.scores[1].log_likelihood);
-    // Broader widths win ties against sharper ones: with identical scores the first of the
-    // order (largest s) is kept.
-    assert_eq!(s.choice.width_scale, 1.0);
+    // Frames without a single detection: a held-out frame's likelihood does not depend on the
+    // kernel width or the clutter scale, so every (s, c) ties, and the broadest candidate,
+    // the largest s and then the largest c, is kept whatever the grid's order.
+    let blind = tracks(6, 40, 0.0, 1.5, 0.0, 3);
+    assert!(blind.iter().flatten().all(|f| f.detections.is_empty()));
+    let grid = ObservationGrid {
+        width_scales: vec![1.0, 2.0, 0.5],
+        p_detects: vec![0.8],
+        clutter_scales: vec![1.0, 3.0, 2.0],
+    };
+    let s = select_observation(&integer_space(N as usize), &config(), &blind, &grid).unwrap();
+    let first = s.scores[0].log_likelihood;
+    assert!(first.is_finite());
+    assert!(
+        s.scores.iter().all(|c| c.log_likelihood == first),
+        "{:?}",
+        s.scores
+    );
+    assert_eq!(
+        (s.choice.width_scale, s.choice.clutter_scale),
+        (2.0, 3.0),
+        "{:?}",
+        s.choice
+    );
 }
 
 #[test]
