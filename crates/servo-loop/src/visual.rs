@@ -454,7 +454,8 @@ impl<R: Robot, Q: Recogniser> VisualPlant<R, Q> {
 }
 
 /// Locates the tip in every camera image of `captures` captures and averages (certainty: the
-/// smallest). Shared by [`VisualPlant`] and evaluation harnesses.
+/// smallest). Shared by [`VisualPlant`] and evaluation harnesses. `captures` 0 is an
+/// [`ServoError::InvalidParameter`] `captures`, before anything is grabbed.
 pub fn observe_averaged<Q, F>(
     model: &Q,
     captures: usize,
@@ -471,8 +472,8 @@ where
 
 /// As [`observe_averaged`], with each capture's images located by `locate` (one localisation
 /// per camera of `model`), e.g. the cameras in parallel through [`TipModel::estimate_end`] and
-/// [`TipModel::tips`]. Errors: a capture or a `locate` result with another camera count, and
-/// any error of `grab_images` or `locate`.
+/// [`TipModel::tips`]. Errors: `captures` 0 (before anything is grabbed), a capture or a
+/// `locate` result with another camera count, and any error of `grab_images` or `locate`.
 pub fn observe_averaged_by<Q, F, L>(
     model: &Q,
     captures: usize,
@@ -484,11 +485,17 @@ where
     F: FnMut() -> Result<Vec<GrayImage>>,
     L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
 {
+    if captures == 0 {
+        return Err(ServoError::invalid(
+            "captures",
+            "at least one capture per observation",
+        ));
+    }
     let cams = model.num_cameras();
     let mut sum = vec![[0.0f64; 2]; cams];
     let mut cert = vec![1.0f64; cams];
     let mut last = Vec::new();
-    for _ in 0..captures.max(1) {
+    for _ in 0..captures {
         let images = grab_images()?;
         if images.len() != cams {
             return Err(ServoError::DimensionMismatch {
@@ -512,7 +519,7 @@ where
         }
         last = images;
     }
-    let n = captures.max(1) as f64;
+    let n = captures as f64;
     let locs = sum
         .iter()
         .zip(&cert)

@@ -541,6 +541,19 @@ fn observations_average_the_captures_and_name_the_least_certain_camera() {
         ]
     );
     assert_eq!(last, images(2));
+    // No capture asked for: an error before anything is grabbed.
+    let mut grabbed = 0;
+    assert!(matches!(
+        observe_averaged(&Reader, 0, || {
+            grabbed += 1;
+            Ok(images(0))
+        }),
+        Err(ServoError::InvalidParameter {
+            name: "captures",
+            ..
+        })
+    ));
+    assert_eq!(grabbed, 0);
     // Another camera count, in the capture or in the localisations.
     assert!(matches!(
         observe_averaged(&Reader, 1, || Ok(vec![reader_image(0, 1, 1, false)])),
