@@ -121,13 +121,27 @@ fn pick<T: Copy>(v: &[T], idx: [usize; 4]) -> Vec<T> {
 }
 
 /// Fits a homography mapping `src[k]` to `dst[k]` robustly. Fails with fewer than four
-/// correspondences or when no sample gives a homography.
+/// correspondences or when no sample gives a homography; lists of different lengths, or a
+/// non-finite coordinate, are [`VisguideError::Invalid`] `correspondences`.
 pub fn fit_homography(src: &[Point], dst: &[Point], cfg: &RansacConfig) -> Result<HomographyFit> {
     cfg.validate()?;
     if src.len() != dst.len() {
         return Err(VisguideError::Invalid {
             name: "correspondences",
             reason: format!("{} source and {} target points", src.len(), dst.len()),
+        });
+    }
+    if let Some(k) = (0..src.len()).find(|&k| {
+        ![src[k].0, src[k].1, dst[k].0, dst[k].1]
+            .iter()
+            .all(|v| v.is_finite())
+    }) {
+        return Err(VisguideError::Invalid {
+            name: "correspondences",
+            reason: format!(
+                "correspondence {k} has a non-finite coordinate: {:?} -> {:?}",
+                src[k], dst[k]
+            ),
         });
     }
     let n = src.len();
@@ -336,6 +350,21 @@ mod tests {
             Err(VisguideError::TooFewMatches(3))
         ));
         assert!(fit_homography(&src, &dst[..5], &cfg).is_err());
+        // A non-finite coordinate anywhere names the correspondence (it used to end as "too
+        // few matches", every sample holding it failing).
+        for (k, bad) in [(0, f64::NAN), (3, f64::INFINITY)] {
+            let mut s2 = src.clone();
+            s2[k].1 = bad;
+            for (a, b) in [(&s2, &dst), (&dst, &s2)] {
+                match fit_homography(a, b, &cfg) {
+                    Err(VisguideError::Invalid {
+                        name: "correspondences",
+                        reason,
+                    }) => assert!(reason.contains(&format!("correspondence {k} ")), "{reason}"),
+                    other => panic!("{other:?}"),
+                }
+            }
+        }
         let bad = RansacConfig {
             threshold: -1.0,
             ..cfg
