@@ -245,14 +245,16 @@ impl ChannelGrid {
     }
 
     /// Calls `f(flat, value)` for every active channel of the index coordinates `t`, using
-    /// `scratch` (one list per dimension) to avoid allocation. `t` is not validated.
+    /// `scratch` (made by [`ActiveScratch::new`] for this grid's dimensions), so that no call
+    /// allocates once the scratch's lists have grown. `t` is not validated.
     pub(crate) fn for_each_active(
         &self,
         t: &[f64],
-        scratch: &mut [Vec<(usize, f64)>],
+        scratch: &mut ActiveScratch,
         mut f: impl FnMut(usize, f64),
     ) {
-        for ((b, &td), list) in self.bases.iter().zip(t).zip(scratch.iter_mut()) {
+        let ActiveScratch { lists, pos } = scratch;
+        for ((b, &td), list) in self.bases.iter().zip(t).zip(lists.iter_mut()) {
             list.clear();
             b.for_each_active(td, |k, v| list.push((k, v)));
             if list.is_empty() {
@@ -260,16 +262,17 @@ impl ChannelGrid {
             }
         }
         let dims = self.dims();
-        let mut pos = vec![0usize; dims];
+        pos.clear();
+        pos.resize(dims, 0);
         loop {
             let (mut flat, mut v) = (0, 1.0);
             for d in 0..dims {
-                let (k, vd) = scratch[d][pos[d]];
+                let (k, vd) = lists[d][pos[d]];
                 flat += k * self.strides[d];
                 v *= vd;
             }
             f(flat, v);
-            if !advance(&mut pos, |d| scratch[d].len()) {
+            if !advance(pos, |d| lists[d].len()) {
                 return;
             }
         }
@@ -301,7 +304,7 @@ impl ChannelGrid {
         }
         let mut t = Vec::with_capacity(self.dims());
         self.checked_indices(x, &mut t)?;
-        let mut scratch = vec![Vec::new(); self.dims()];
+        let mut scratch = ActiveScratch::new(self.dims());
         self.for_each_active(&t, &mut scratch, |k, v| out[k] += weight * v);
         Ok(())
     }
@@ -401,6 +404,24 @@ impl WindowScratch {
         WindowScratch {
             marginals: vec![Vec::new(); grid.dims()],
             pos: vec![0; grid.dims()],
+        }
+    }
+}
+
+/// The reusable buffers of [`ChannelGrid::for_each_active`]: each dimension's active channels
+/// and the position in their product.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ActiveScratch {
+    lists: Vec<Vec<(usize, f64)>>,
+    pos: Vec<usize>,
+}
+
+impl ActiveScratch {
+    /// Buffers for a grid of `dims` dimensions.
+    pub(crate) fn new(dims: usize) -> Self {
+        ActiveScratch {
+            lists: vec![Vec::new(); dims],
+            pos: Vec::with_capacity(dims),
         }
     }
 }

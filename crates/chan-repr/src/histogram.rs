@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::basis::{MAX_MASS, check_weight};
 use crate::decode::check_coefficient;
-use crate::grid::{WindowScratch, advance, finish_modes};
+use crate::grid::{ActiveScratch, WindowScratch, advance, finish_modes};
 use crate::{ChanError, ChannelBasis, ChannelGrid, Kernel, ModeNd};
 
 /// A dense soft histogram over an n-D channel grid.
@@ -37,7 +37,7 @@ pub struct SoftHistogram {
     #[serde(skip)]
     t: Vec<f64>,
     #[serde(skip)]
-    scratch: Vec<Vec<(usize, f64)>>,
+    scratch: ActiveScratch,
 }
 
 /// Equality of the represented distribution (grid, coefficients, total weight), not of scratch.
@@ -145,7 +145,7 @@ impl SoftHistogram {
             total_weight,
             ceiling,
             t: Vec::with_capacity(dims),
-            scratch: vec![Vec::new(); dims],
+            scratch: ActiveScratch::new(dims),
         }
     }
 
@@ -269,7 +269,7 @@ pub struct SparseHistogram {
     /// Upper bound on every coefficient and the total (as in [`SoftHistogram`]).
     ceiling: f64,
     t: Vec<f64>,
-    scratch: Vec<Vec<(usize, f64)>>,
+    scratch: ActiveScratch,
 }
 
 impl SparseHistogram {
@@ -282,7 +282,7 @@ impl SparseHistogram {
             total_weight: 0.0,
             ceiling: 0.0,
             t: Vec::with_capacity(dims),
-            scratch: vec![Vec::new(); dims],
+            scratch: ActiveScratch::new(dims),
         }
     }
 

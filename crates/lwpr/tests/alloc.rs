@@ -1,6 +1,7 @@
 //! No heap allocation per update once the model has stopped growing, and none per
-//! `predict_into` up to the documented `n ≤ 32` inputs (counting global allocator; the tests
-//! take turns, so that no test counts another's allocations).
+//! `predict_into` up to the documented `n ≤ 32` inputs (a global allocator that counts each
+//! thread's allocations, so that the test harness's threads and the other test are not
+//! counted; updates and `predict_into` run on the calling thread).
 
 #[path = "../peer/harness.rs"]
 mod harness;
@@ -8,24 +9,32 @@ mod harness;
 use harness::*;
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 
 use lwpr::LwprBuilder;
 
 struct Counting;
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// Allocations (and reallocations) made by this thread.
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+/// Allocations made by this thread so far.
+fn allocs() -> usize {
+    ALLOCS.with(Cell::get)
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        ALLOCS.with(|c| c.set(c.get() + 1));
         unsafe { System.alloc(l) }
     }
     unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
         unsafe { System.dealloc(p, l) }
     }
     unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        ALLOCS.with(|c| c.set(c.get() + 1));
         unsafe { System.realloc(p, l, n) }
     }
 }
@@ -33,12 +42,8 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// Held by every test while it counts.
-static TURN: Mutex<()> = Mutex::new(());
-
 #[test]
 fn grown_model_updates_and_predicts_without_allocating() {
-    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     // n = 6 with a full metric runs the vectorised path (`Arithmetic::Fast`).
     for (dim, diag, meta) in [(2, true, false), (2, false, true), (6, false, true)] {
         let (x2, y) = cross_samples(1, 6000, 0.1);
@@ -64,12 +69,12 @@ fn grown_model_updates_and_predicts_without_allocating() {
         let mut checked = false;
         for _pass in 0..10 {
             let (rfs, pls) = (m.num_rfs(), dims(&m));
-            let before = ALLOCS.load(Ordering::SeqCst);
+            let before = allocs();
             for (a, b) in x.chunks(dim).zip(&y).take(2000) {
                 m.update_into(a, &[*b], &mut out).unwrap();
                 m.predict_into(a, 0.001, &mut out).unwrap();
             }
-            let allocs = ALLOCS.load(Ordering::SeqCst) - before;
+            let allocs = allocs() - before;
             if (m.num_rfs(), dims(&m)) == (rfs, pls) {
                 assert_eq!(
                     allocs, 0,
@@ -86,7 +91,6 @@ fn grown_model_updates_and_predicts_without_allocating() {
 /// The widest models that predict on the stack buffer (`n` 31 and 32).
 #[test]
 fn predict_into_allocates_nothing_up_to_32_inputs() {
-    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     for n in [31, 32] {
         let mut m = LwprBuilder::new(n, 1)
             .init_d_spherical(0.5)
@@ -104,11 +108,11 @@ fn predict_into_allocates_nothing_up_to_32_inputs() {
         }
         assert!(m.num_rfs()[0] > 0);
         let mut out = [0.0];
-        let before = ALLOCS.load(Ordering::SeqCst);
+        let before = allocs();
         for x in &xs {
             m.predict_into(x, 0.001, &mut out).unwrap();
         }
-        let allocs = ALLOCS.load(Ordering::SeqCst) - before;
+        let allocs = allocs() - before;
         assert_eq!(
             allocs,
             0,
