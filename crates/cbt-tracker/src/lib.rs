@@ -75,7 +75,10 @@
 //!
 //! Learning refuses a dense layout whose tables would exceed [`MAX_MODEL_VALUES`] (2²⁸
 //! numbers, 2 GiB) with [`TrackError::ModelTooLarge`], before allocating them: the separable
-//! second order reaches it at about 500 channels per axis.
+//! second order reaches it at about 500 channels per axis. The stationary layout's kernels
+//! follow the motion (learning caps their radius at 96 channels); an untrained one's follow
+//! `fallback_sigma` alone, and a width whose kernels would pass the same bound is an
+//! [`TrackError::InvalidParameter`].
 //!
 //! ## Which settings
 //! - **Image tracking**: [`CbtConfig::stationary`] (second order, constant-velocity
