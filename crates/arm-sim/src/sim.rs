@@ -28,7 +28,8 @@ pub struct MoveReport {
     pub limited: [bool; NUM_SERVOS],
     /// Whether the move was stopped by the table: the arm stalls where it first touches it.
     pub table_contact: bool,
-    /// Fraction of the joint-space move executed before the table stopped it (1 = all).
+    /// Fraction of the joint-space move executed before the table stopped it (1 = all; 0 in
+    /// the report before the first command, when no move was made).
     pub executed_fraction: f64,
 }
 

@@ -2,7 +2,7 @@
 //! command changing nothing (not even the random stream), the frame counter, labels before the
 //! first capture, the public servo ranges, camera indices and the image's half-pixel border.
 
-use arm_sim::{ArmSim, ArmSimError, NUM_SERVOS, SimConfig, home_set_points};
+use arm_sim::{ArmSim, ArmSimError, MoveReport, NUM_SERVOS, SimConfig, home_set_points};
 use nalgebra::Vector3;
 
 fn sim() -> ArmSim {
@@ -33,6 +33,9 @@ fn new_puts_every_servo_at_its_centre_with_no_frame() {
     }
     assert_eq!(s.inspect().last_set_points(), home);
     assert_eq!(s.inspect().frames(), 0);
+    // No command yet: the report of no move.
+    assert_eq!(*s.inspect().last_move(), MoveReport::default());
+    assert_eq!(s.inspect().last_move().executed_fraction, 0.0);
     // Commanding the home set-points again: an ideal arm (no noise, deadband or backlash)
     // does not move from where `new` put it.
     let mut ideal = ArmSim::new(SimConfig::ideal().with_image_scale(0.25)).unwrap();

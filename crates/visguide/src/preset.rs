@@ -1,8 +1,9 @@
 //! MSER settings by name, with any parameter overridden: `opencv` (OpenCV's `MSER::create()`
 //! defaults), `larsson2009` (Paper A's setting, [`mser::MserParams::larsson2009`]) and `vlfeat`
 //! (VLFeat's `vl_mser` defaults: Δ = 5, upward variation, areas relative to the image — at least
-//! 3·10⁻⁵ and at most 0.75 of its pixels —, max variation 0.25, min diversity 0.2, both
-//! polarities). Relative areas make a setting depend on the image size, so a setting is
+//! 3·10⁻⁵ of its pixels (and at least 1) and at most 0.75 of them (but never below the minimum,
+//! which on an image of one to three pixels is more than 0.75 of them) —, max variation 0.25,
+//! min diversity 0.2, both polarities). Relative areas make a setting depend on the image size, so a setting is
 //! resolved per image by [`MserSettings::resolve`].
 
 use std::fmt;
