@@ -433,3 +433,57 @@ fn reference_fixture_loads_and_predicts_the_cross() {
     // Our file of it is exact, and reads back as the same model.
     assert_eq!(Lwpr::from_xml(&model.to_xml()).unwrap(), model);
 }
+
+/// The 5-D curve of `five_d::trained` from sample `from` on: `n` inputs and targets.
+fn five_d_samples(from: usize, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for k in from..from + n {
+        let t = k as f64 * 0.37;
+        let p = [
+            t.sin(),
+            t.cos(),
+            (2.0 * t).sin(),
+            0.1 * t % 1.0,
+            (0.7 * t).cos(),
+        ];
+        x.extend(p);
+        y.push(p[0] * p[1] + p[2]);
+    }
+    (x, y)
+}
+
+/// `set_arithmetic(Reference)`'s promise where the two arithmetics differ (n ≥ 5, full metric):
+/// a model trained with the default `Fast` arithmetic, saved, and switched to `Reference` trains
+/// on bit for bit like the reference library continuing from the same file. Staying `Fast`
+/// does not (its sums are vectorised), so the switch is what makes the difference.
+#[test]
+fn switched_to_reference_arithmetic_a_fast_model_trains_on_like_the_reference() {
+    let Some(reader) = or_skip(build_xml_peer(&root()), "XML read by the reference") else {
+        return;
+    };
+    let mut ours = five_d::trained(five_d::builder().meta(true), 400);
+    assert_eq!(ours.params().arithmetic, Arithmetic::Fast);
+    let path = scratch_for("ours", "5-D fast then reference");
+    ours.save_xml(&path).unwrap();
+    let (gx, _) = five_d_samples(1000, 40);
+    let (mx, my) = five_d_samples(400, 300);
+    let theirs =
+        run_xml_peer(&reader, &path, &gx, &mx, &my, 5, 1).expect("reference reads our file");
+    let mut fast = ours.clone();
+    ours.set_arithmetic(Arithmetic::Reference);
+    assert_eq!(
+        updates(&mut ours, &mx, &my),
+        theirs.update_predictions,
+        "update predictions after the switch"
+    );
+    assert_eq!(ours.num_rfs(), theirs.num_rfs_after);
+    // The training is bit for bit; predictions of the trained model (vectorised for n ≥ 5
+    // whatever the training's arithmetic) agree to rounding.
+    let da = worst(&ours.predict_batch(&gx, 0.001).unwrap(), &theirs.y_after);
+    assert!(da <= 1e-12, "{da:e}");
+    assert_ne!(
+        updates(&mut fast, &mx, &my),
+        theirs.update_predictions,
+        "the Fast arithmetic happened to match the reference here: the test shows nothing"
+    );
+}
