@@ -410,7 +410,7 @@ impl WindowScratch {
 
 /// The reusable buffers of [`ChannelGrid::for_each_active`]: each dimension's active channels
 /// and the position in their product.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub(crate) struct ActiveScratch {
     lists: Vec<Vec<(usize, f64)>>,
     pos: Vec<usize>,
