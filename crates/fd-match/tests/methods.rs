@@ -6,14 +6,6 @@ mod common;
 use common::*;
 use fd_match::*;
 
-const ALL: [Method; 5] = [
-    Method::FdCorr,
-    Method::AbsFdSsd,
-    Method::Afd0Ssd,
-    Method::Afd1Ssd,
-    Method::FdSsd,
-];
-
 #[test]
 fn names_labels_and_paper_thresholds_are_the_papers() {
     let names: Vec<&str> = ALL.iter().map(|m| m.name()).collect();

@@ -46,14 +46,6 @@ fn sets(sampling: Sampling, seed: u64) -> (DescriptorSet, DescriptorSet, Vec<(us
     )
 }
 
-const ALL: [Method; 5] = [
-    Method::FdCorr,
-    Method::AbsFdSsd,
-    Method::Afd0Ssd,
-    Method::Afd1Ssd,
-    Method::FdSsd,
-];
-
 #[test]
 fn fast_search_is_identical_to_brute_force() {
     for (sampling, seed) in [

@@ -434,20 +434,12 @@ fn reference_fixture_loads_and_predicts_the_cross() {
     assert_eq!(Lwpr::from_xml(&model.to_xml()).unwrap(), model);
 }
 
-/// The 5-D curve of `five_d::trained` from sample `from` on: `n` inputs and targets.
+/// Samples `from .. from + n` of the 5-D curve of `five_d::trained`: inputs and targets.
 fn five_d_samples(from: usize, n: usize) -> (Vec<f64>, Vec<f64>) {
     let (mut x, mut y) = (Vec::new(), Vec::new());
-    for k in from..from + n {
-        let t = k as f64 * 0.37;
-        let p = [
-            t.sin(),
-            t.cos(),
-            (2.0 * t).sin(),
-            0.1 * t % 1.0,
-            (0.7 * t).cos(),
-        ];
+    for (p, t) in (from..from + n).map(five_d::sample) {
         x.extend(p);
-        y.push(p[0] * p[1] + p[2]);
+        y.push(t);
     }
     (x, y)
 }

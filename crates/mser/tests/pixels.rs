@@ -151,16 +151,22 @@ fn a_region_found_in_a_window_moved_to_the_image_is_the_images_region() {
     ));
 }
 
+/// The detector of the `RegionsWithPixels` tests: regions of at least 5 pixels, the rest
+/// OpenCV's defaults.
+fn detector() -> Mser {
+    Mser::new(MserParams {
+        min_area: 5,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
 /// `RegionsWithPixels::into_regions` gives `detect`'s regions and `is_empty` agrees with them.
 #[test]
 fn regions_with_pixels_release_the_regions_they_hold() {
     let px = pattern(60, 40, 7);
     let img = GrayView::packed(&px, 60, 40).unwrap();
-    let mut det = Mser::new(MserParams {
-        min_area: 5,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut det = detector();
     let plain = det.detect(&img).unwrap();
     assert!(!plain.is_empty());
     let with = det.detect_with_pixels(&img).unwrap();
@@ -181,11 +187,7 @@ fn regions_with_pixels_release_the_regions_they_hold() {
 fn regions_with_pixels_refuse_an_index_past_the_end() {
     let px = pattern(60, 40, 7);
     let img = GrayView::packed(&px, 60, 40).unwrap();
-    let mut det = Mser::new(MserParams {
-        min_area: 5,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut det = detector();
     let with = det.detect_with_pixels(&img).unwrap();
     assert!(!with.is_empty());
     let _ = with.pixels(with.len());

@@ -1,61 +1,15 @@
 //! Regressions of the bad-input sweep (issue 24): a deserialised inverse model passes the
 //! constructor's checks, and a plant with inconsistent percept bounds is a typed error.
 
-use servo_loop::{
-    InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, ServoError, check_command,
-    check_target, learn_control,
-};
+#[path = "common/rectified.rs"]
+mod rectified;
 
-/// A linear two-joint plant seen as one camera point.
-struct Line {
-    y: Vec<f64>,
-    bounds: Option<Vec<[f64; 2]>>,
-}
+use rectified::{Rectified, learned};
+use servo_loop::{InverseModel, InverseModelConfig, ServoError, check_command, check_target};
 
-impl Plant for Line {
-    fn percept_dim(&self) -> usize {
-        2
-    }
-    fn command_dim(&self) -> usize {
-        2
-    }
-    fn command_range(&self, _: usize) -> [f64; 2] {
-        [0.0, 1.0]
-    }
-    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
-        self.y = y.to_vec();
-        Ok(())
-    }
-    fn observe(&mut self) -> servo_loop::Result<Observation> {
-        Ok(Observation {
-            x: vec![100.0 + 200.0 * self.y[0], 100.0 + 150.0 * self.y[1]],
-            certainty: 1.0,
-        })
-    }
-    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
-        self.bounds.clone()
-    }
-}
-
+/// The one-camera plant's inverse model, learned from 300 random moves.
 fn trained() -> InverseModel {
-    let mut plant = Line {
-        y: vec![0.5, 0.5],
-        bounds: None,
-    };
-    let config = InverseModelConfig {
-        percept_scale: 100.0,
-        command_scale: 1.0,
-        ..InverseModelConfig::default()
-    };
-    let mut model = InverseModel::new(2, 2, &config).unwrap();
-    let learn = LearnConfig {
-        moves: 300,
-        explore: vec![[0.0, 1.0]; 2],
-        seed: 3,
-        approach: None,
-    };
-    learn_control(&mut plant, &mut model, &learn, |_, _| {}).unwrap();
-    model
+    learned(1, 300, 3)
 }
 
 #[test]
@@ -91,7 +45,8 @@ fn a_deserialised_inverse_model_passes_the_constructor_checks() {
 fn percept_bounds_shorter_than_the_percept_are_a_typed_error() {
     // Used to panic indexing the bounds.
     for bounds in [vec![], vec![[0.0, 639.0]], vec![[0.0, 639.0]; 3]] {
-        let plant = Line {
+        let plant = Rectified {
+            cams: 1,
             y: vec![0.5, 0.5],
             bounds: Some(bounds.clone()),
         };
@@ -108,7 +63,8 @@ fn percept_bounds_shorter_than_the_percept_are_a_typed_error() {
             "{bounds:?}: {err}"
         );
     }
-    let plant = Line {
+    let plant = Rectified {
+        cams: 1,
         y: vec![0.5, 0.5],
         bounds: Some(vec![[0.0, 639.0], [0.0, 479.0]]),
     };
@@ -288,10 +244,7 @@ fn image_jacobians_of_the_wrong_shape_are_a_typed_error() {
     use nalgebra::DMatrix;
     use servo_loop::{ServoConfig, servo_image_jacobian};
     for (rows, cols) in [(2, 3), (2, 1), (2, 0), (0, 0), (3, 2)] {
-        let mut plant = Line {
-            y: vec![0.5, 0.5],
-            bounds: None,
-        };
+        let mut plant = Rectified::at(1, [0.5, 0.5]);
         let abort = servo_image_jacobian(
             &mut plant,
             &[0.5, 0.5],
@@ -330,10 +283,7 @@ fn exploration_ranges_whose_width_overflows_are_refused() {
 /// joint outside.
 #[test]
 fn check_command_names_the_first_joint_outside_the_range() {
-    let plant = Line {
-        y: vec![0.5, 0.5],
-        bounds: None,
-    };
+    let plant = Rectified::at(1, [0.5, 0.5]);
     check_command(&plant, &[0.0, 1.0]).unwrap();
     assert_eq!(
         check_command(&plant, &[0.5]),
@@ -644,10 +594,7 @@ fn servo_settings_are_checked_before_anything_is_sent() {
         );
     }
     for probe in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let mut plant = Line {
-            y: vec![0.25, 0.25],
-            bounds: None,
-        };
+        let mut plant = Rectified::at(1, [0.25, 0.25]);
         let abort = servo_broyden(
             &mut plant,
             &[0.5, 0.5],

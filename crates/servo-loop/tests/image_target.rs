@@ -3,11 +3,12 @@
 //! camera `k ≥ 1` against camera 0) and the learned inverse model's coverage; it returns the
 //! first guess `f̂(x_w)`.
 
+#[path = "common/rectified.rs"]
+mod rectified;
+
+use rectified::{Rectified, learned, model_config};
 use serde_json::{Value, json};
-use servo_loop::{
-    InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, ServoError, TipModel,
-    check_image_target, learn_control,
-};
+use servo_loop::{InverseModel, ServoError, TipModel, check_image_target};
 
 /// A rectified camera pair: `F` relates points of one image row (`bᵀ F a = a_v − b_v`, Sampson
 /// distance `|a_v − b_v| / √2`), residual scale 0.5 px (consistency scale 1 px).
@@ -34,65 +35,9 @@ fn tip_model(cams: usize, consistency: Vec<Value>) -> TipModel {
     .unwrap()
 }
 
-/// Two joints seen by `cams` rectified cameras: every camera sees the point in the same row.
-struct Stereo {
-    cams: usize,
-    y: Vec<f64>,
-}
-
-impl Stereo {
-    fn percept(&self, y: &[f64]) -> Vec<f64> {
-        (0..self.cams)
-            .flat_map(|c| [100.0 + 20.0 * c as f64 + 200.0 * y[0], 100.0 + 150.0 * y[1]])
-            .collect()
-    }
-}
-
-impl Plant for Stereo {
-    fn percept_dim(&self) -> usize {
-        2 * self.cams
-    }
-    fn command_dim(&self) -> usize {
-        2
-    }
-    fn command_range(&self, _: usize) -> [f64; 2] {
-        [0.0, 1.0]
-    }
-    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
-        self.y = y.to_vec();
-        Ok(())
-    }
-    fn observe(&mut self) -> servo_loop::Result<Observation> {
-        Ok(Observation {
-            x: self.percept(&self.y),
-            certainty: 1.0,
-        })
-    }
-}
-
-fn model_config() -> InverseModelConfig {
-    InverseModelConfig {
-        percept_scale: 100.0,
-        command_scale: 1.0,
-        ..InverseModelConfig::default()
-    }
-}
-
-/// The inverse model of the two-camera [`Stereo`] plant, learned from 300 random moves.
+/// The inverse model of the two-camera plant, learned from 300 random moves.
 fn trained() -> InverseModel {
-    let mut plant = Stereo {
-        cams: 2,
-        y: vec![0.5, 0.5],
-    };
-    let mut model = InverseModel::new(4, 2, &model_config()).unwrap();
-    let learn = LearnConfig {
-        moves: 300,
-        explore: vec![[0.0, 1.0]; 2],
-        seed: 5,
-        approach: None,
-    };
-    learn_control(&mut plant, &mut model, &learn, |_, _| {}).unwrap();
-    model
+    learned(2, 300, 5)
 }
 
 #[test]
@@ -100,7 +45,7 @@ fn a_consistent_target_inside_the_model_gives_the_first_guess() {
     let tips = tip_model(2, vec![rectified()]);
     let model = trained();
     let y = [0.4, 0.6];
-    let x_w = Stereo { cams: 2, y: vec![] }.percept(&y);
+    let x_w = Rectified::at(2, y).percept(&y);
     let first = check_image_target(&tips, &model, &x_w, 0.5).unwrap();
     assert_eq!(first, model.predict(&x_w).unwrap());
     assert!(
@@ -108,22 +53,7 @@ fn a_consistent_target_inside_the_model_gives_the_first_guess() {
         "{first:?}"
     );
     // A one-camera recogniser needs no consistency.
-    let mut one = InverseModel::new(2, 2, &model_config()).unwrap();
-    learn_control(
-        &mut Stereo {
-            cams: 1,
-            y: vec![0.5, 0.5],
-        },
-        &mut one,
-        &LearnConfig {
-            moves: 200,
-            explore: vec![[0.0, 1.0]; 2],
-            seed: 5,
-            approach: None,
-        },
-        |_, _| {},
-    )
-    .unwrap();
+    let one = learned(1, 200, 5);
     assert_eq!(
         check_image_target(&tip_model(1, vec![]), &one, &x_w[..2], 1.0).unwrap(),
         one.predict(&x_w[..2]).unwrap()

@@ -1,9 +1,19 @@
-//! Synthetic contours for the tests.
+//! Synthetic contours and the list of every matching method, for the tests.
 #![allow(dead_code)]
 
 use std::f64::consts::PI;
 
+use fd_match::Method;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
+
+/// Every matching method: the paper's four and plain `FD SSD`.
+pub const ALL: [Method; 5] = [
+    Method::FdCorr,
+    Method::AbsFdSsd,
+    Method::Afd0Ssd,
+    Method::Afd1Ssd,
+    Method::FdSsd,
+];
 
 /// A smooth random star-shaped polygon with `n` vertices around the origin: radius
 /// `1 + Σ_{k=2..=6} a_k cos(k·α + p_k)` with `Σ|a_k| ≤ 0.6`, mean radius `r0`.

@@ -11,21 +11,26 @@ pub fn builder() -> LwprBuilder {
         .diag_only(false)
 }
 
-/// A model of `builder` trained on the first `n` samples of a smooth 5-D curve
-/// (`t = 0.37 k`: `sin t, cos t, sin 2t, 0.1 t mod 1, cos 0.7 t`) with the target
-/// `x₀ x₁ + x₂`.
+/// Sample `k` of a smooth 5-D curve (`t = 0.37 k`: `sin t, cos t, sin 2t, 0.1 t mod 1,
+/// cos 0.7 t`) and its target `x₀ x₁ + x₂`.
+pub fn sample(k: usize) -> ([f64; 5], f64) {
+    let t = k as f64 * 0.37;
+    let x = [
+        t.sin(),
+        t.cos(),
+        (2.0 * t).sin(),
+        0.1 * t % 1.0,
+        (0.7 * t).cos(),
+    ];
+    (x, x[0] * x[1] + x[2])
+}
+
+/// A model of `builder` trained on the first `n` samples of the curve ([`sample`]).
 pub fn trained(builder: LwprBuilder, n: usize) -> Lwpr {
     let mut m = builder.build().unwrap();
     for k in 0..n {
-        let t = k as f64 * 0.37;
-        let x = [
-            t.sin(),
-            t.cos(),
-            (2.0 * t).sin(),
-            0.1 * t % 1.0,
-            (0.7 * t).cos(),
-        ];
-        m.update(&x, &[x[0] * x[1] + x[2]]).unwrap();
+        let (x, y) = sample(k);
+        m.update(&x, &[y]).unwrap();
     }
     m
 }
