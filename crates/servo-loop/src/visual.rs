@@ -283,15 +283,21 @@ impl Default for PerceptPolicy {
     }
 }
 
+/// `captures ≥ 1`: an observation needs at least one capture (the one home of this check).
+fn check_captures(captures: usize) -> Result<()> {
+    if captures == 0 {
+        return Err(ServoError::invalid(
+            "captures",
+            "at least one capture per observation",
+        ));
+    }
+    Ok(())
+}
+
 impl PerceptPolicy {
     /// Checks `captures ≥ 1` and `min_certainty ∈ [0, 1]`.
     pub fn validate(&self) -> Result<()> {
-        if self.captures == 0 {
-            return Err(ServoError::invalid(
-                "captures",
-                "at least one capture per observation",
-            ));
-        }
+        check_captures(self.captures)?;
         if !(0.0..=1.0).contains(&self.min_certainty) {
             return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
         }
@@ -485,12 +491,7 @@ where
     F: FnMut() -> Result<Vec<GrayImage>>,
     L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
 {
-    if captures == 0 {
-        return Err(ServoError::invalid(
-            "captures",
-            "at least one capture per observation",
-        ));
-    }
+    check_captures(captures)?;
     let cams = model.num_cameras();
     let mut sum = vec![[0.0f64; 2]; cams];
     let mut cert = vec![1.0f64; cams];
