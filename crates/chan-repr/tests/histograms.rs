@@ -138,3 +138,57 @@ fn from_counts_refuses_each_bad_input_with_its_error() {
         assert!(expected(&err), "{counts:?} {total}: {err:?}");
     }
 }
+
+/// The dense and the sparse histogram as the mass-limit test below uses them.
+trait Histogram: Clone + PartialEq + std::fmt::Debug {
+    fn add_value(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError>;
+}
+
+impl Histogram for SoftHistogram {
+    fn add_value(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
+        self.add(x, weight)
+    }
+}
+
+impl Histogram for SparseHistogram {
+    fn add_value(&mut self, x: &[f64], weight: f64) -> Result<(), ChanError> {
+        self.add(x, weight)
+    }
+}
+
+/// `h` and a twin that never saw the refused calls must accept and refuse the same later
+/// values: the hidden bound of the O(1) mass-limit test moves with accepted values only.
+fn refused_adds_leave_the_mass_limit(mut h: impl Histogram) {
+    let big = 0.3 * MAX_MASS;
+    h.add_value(&[4.0, 5.5], big).unwrap();
+    let mut twin = h.clone();
+    for x in [
+        vec![f64::NAN, 4.0],
+        vec![4.0, f64::INFINITY],
+        vec![4.0, 40.0],
+        vec![0.2, 4.0],
+        vec![4.0],
+        vec![4.0, 4.0, 4.0],
+    ] {
+        // Each would raise the bound by 0.3·MAX_MASS if it were stored before the value's
+        // checks: two such calls would make the next two accepted values below overflow it.
+        assert!(h.add_value(&x, big).is_err(), "{x:?}");
+        assert_eq!(h, twin, "{x:?}");
+    }
+    assert!(matches!(
+        h.add_value(&[4.0, 4.0], 2.0 * MAX_MASS),
+        Err(ChanError::TooLarge { .. })
+    ));
+    // 0.3 + 0.3 + 0.3 of MAX_MASS is accepted, a fourth 0.3 is not: by both.
+    for (x, accepted) in [([6.0, 2.0], true), ([2.0, 6.0], true), ([5.0, 5.0], false)] {
+        assert_eq!(h.add_value(&x, big).is_ok(), accepted, "{x:?}");
+        assert_eq!(twin.add_value(&x, big).is_ok(), accepted, "twin {x:?}");
+        assert_eq!(h, twin, "{x:?}");
+    }
+}
+
+#[test]
+fn a_refused_add_leaves_the_mass_limit_where_it_was() {
+    refused_adds_leave_the_mass_limit(SoftHistogram::new(grid2()).unwrap());
+    refused_adds_leave_the_mass_limit(SparseHistogram::new(grid2()));
+}

@@ -327,3 +327,124 @@ fn periodic_windows_are_all_n_windows_with_values_on_the_circle() {
         }
     }
 }
+
+/// Every way `accumulate` can refuse a call into an output of `n` channels: the value `x` (one
+/// coordinate per dimension), the weight and the output length, with the error it must give.
+/// `good` is an accepted value, `near` a value just outside the representable range whose
+/// kernel still reaches channels inside it (so a range check done too late would write there),
+/// `far` one far outside it.
+type AccumulateCase = (Vec<f64>, f64, usize, fn(&ChanError) -> bool);
+
+fn accumulate_refusals(good: &[f64], near: &[f64], far: &[f64], n: usize) -> Vec<AccumulateCase> {
+    let with = |d: usize, v: f64| {
+        let mut x = good.to_vec();
+        x[d] = v;
+        x
+    };
+    let last = good.len() - 1;
+    let non_finite = |e: &ChanError| matches!(e, ChanError::NonFinite { .. });
+    let out_of_range = |e: &ChanError| matches!(e, ChanError::OutOfRange { .. });
+    let negative = |e: &ChanError| matches!(e, ChanError::Negative { .. });
+    let too_large = |e: &ChanError| matches!(e, ChanError::TooLarge { .. });
+    let length = |e: &ChanError| matches!(e, ChanError::LengthMismatch { .. });
+    vec![
+        (with(last, f64::NAN), 1.0, n, non_finite),
+        (with(0, f64::INFINITY), 1.0, n, non_finite),
+        (with(last, f64::NEG_INFINITY), 1.0, n, non_finite),
+        (near.to_vec(), 1.0, n, out_of_range),
+        (far.to_vec(), 1.0, n, out_of_range),
+        (good.to_vec(), -1.0, n, negative),
+        (good.to_vec(), f64::NAN, n, non_finite),
+        (good.to_vec(), f64::INFINITY, n, non_finite),
+        (good.to_vec(), 2.0 * chan_repr::MAX_MASS, n, too_large),
+        (good.to_vec(), 1.0, n - 1, length),
+        (good.to_vec(), 1.0, n + 1, length),
+    ]
+}
+
+/// Runs every refusal of [`accumulate_refusals`] through `accumulate` on an output already
+/// holding one encoded value, and checks that each is refused with its error and leaves the
+/// output exactly as it was (bit for bit), whatever its length.
+fn check_refusals(
+    name: &str,
+    n: usize,
+    cases: Vec<AccumulateCase>,
+    accumulate: impl Fn(&[f64], f64, &mut [f64]) -> Result<(), ChanError>,
+    start: &[f64],
+) {
+    for (x, weight, len, expected) in cases {
+        let mut out: Vec<f64> = (0..len)
+            .map(|k| start.get(k).copied().unwrap_or(0.25))
+            .collect();
+        let before: Vec<u64> = out.iter().map(|v| v.to_bits()).collect();
+        let err = accumulate(&x, weight, &mut out).expect_err(&format!(
+            "{name}: x {x:?}, weight {weight}, {len} of {n} channels"
+        ));
+        assert!(
+            expected(&err),
+            "{name}: x {x:?}, weight {weight}, len {len}: {err:?}"
+        );
+        let after: Vec<u64> = out.iter().map(|v| v.to_bits()).collect();
+        assert_eq!(
+            after, before,
+            "{name}: x {x:?}, weight {weight}, len {len} changed the output"
+        );
+    }
+}
+
+#[test]
+fn a_refused_accumulate_leaves_the_output_unchanged() {
+    // "A rejected value leaves `out` unchanged", for the bounded, periodic and n-D encoders:
+    // every check (weight, output length, value) comes before the first channel is written.
+    let b = ChannelBasis::integer(10, Kernel::Cos2 { m: 3 }).unwrap(); // representable [1.5, 9.5]
+    let start = b.encode(3.3).unwrap();
+    check_refusals(
+        "ChannelBasis",
+        10,
+        accumulate_refusals(&[4.2], &[1.2], &[40.0], 10),
+        |x, w, out| b.accumulate(x[0], w, out),
+        &start,
+    );
+
+    let p = PeriodicBasis::new(std::f64::consts::TAU, 8, Kernel::BSpline2).unwrap();
+    let bound = chan_repr::PERIODIC_MAX_TURNS * std::f64::consts::TAU;
+    let start = p.encode(1.0).unwrap();
+    check_refusals(
+        "PeriodicBasis",
+        8,
+        accumulate_refusals(&[2.0], &[bound.next_up()], &[1e300], 8),
+        |x, w, out| p.accumulate(x[0], w, out),
+        &start,
+    );
+
+    let g = ChannelGrid::new(vec![
+        b.clone(),
+        ChannelBasis::integer(6, Kernel::BSpline2).unwrap(), // representable [1.5, 5.5]
+    ])
+    .unwrap();
+    let start = g.encode(&[3.3, 2.0]).unwrap();
+    let mut cases = accumulate_refusals(&[4.2, 3.0], &[4.2, 5.6], &[4.2, 60.0], g.len());
+    // Wrong numbers of coordinates, and a bad coordinate after a good one.
+    let length = |e: &ChanError| matches!(e, ChanError::LengthMismatch { .. });
+    cases.push((vec![4.2], 1.0, g.len(), length));
+    cases.push((vec![4.2, 3.0, 3.0], 1.0, g.len(), length));
+    cases.push((vec![1.2, 3.0], 1.0, g.len(), |e| {
+        matches!(e, ChanError::OutOfRange { .. })
+    }));
+    check_refusals(
+        "ChannelGrid",
+        g.len(),
+        cases,
+        |x, w, out| g.accumulate(x, w, out),
+        &start,
+    );
+
+    // The outputs still take values as before: the accepted twin of each call.
+    let mut out = b.encode(3.3).unwrap();
+    b.accumulate(4.2, 0.5, &mut out).unwrap();
+    let mut twin = b.encode(3.3).unwrap();
+    for (k, v) in b.encode_weighted(4.2, 0.5).unwrap().into_iter().enumerate() {
+        twin[k] += v;
+    }
+    assert_eq!(out, twin);
+}

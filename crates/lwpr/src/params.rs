@@ -341,6 +341,11 @@ pub fn check_sizes(n_in: usize, n_out: usize) -> Result<()> {
 
 /// Builder of an [`Lwpr`] model with the reference library's parameter names and defaults.
 ///
+/// Values are checked in [`build`](Self::build). A size refused on the spot (model sizes in
+/// [`new`](Self::new), a diagonal of the wrong length in
+/// [`init_d_diagonal`](Self::init_d_diagonal)) is kept: `build` returns the first such error,
+/// whatever is set after it.
+///
 /// ```
 /// use lwpr::{LwprBuilder, Kernel};
 /// let model = LwprBuilder::new(2, 1)

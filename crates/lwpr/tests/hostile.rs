@@ -284,6 +284,49 @@ fn a_rejected_validate_leaves_the_params_unchanged() {
 }
 
 #[test]
+fn every_refusal_of_validate_leaves_the_params_unchanged() {
+    // The test above refuses `w_gen`, the first check after the Cholesky factor is computed;
+    // each later check must leave `init_m` (and everything else) as it was too, and so must
+    // the checks before it. `init_d` is changed first, so an early store would show.
+    type Break = fn(&mut lwpr::Params);
+    let cases: [(&str, Break); 16] = [
+        ("init_D", |p| p.init_d[1] = 0.5),
+        ("init_D", |p| p.init_d[0] = -1.0),
+        ("init_alpha", |p| p.init_alpha[3] = 0.0),
+        ("norm_in", |p| p.norm_in[1] = f64::NAN),
+        ("norm_out", |p| p.norm_out[0] = -1.0),
+        ("w_gen", |p| p.w_gen = 1.0),
+        ("w_prune", |p| p.w_prune = f64::INFINITY),
+        ("init_lambda", |p| p.init_lambda = 0.0),
+        ("final_lambda", |p| p.final_lambda = 1.5),
+        ("tau_lambda", |p| p.tau_lambda = f64::NAN),
+        ("init_S2", |p| p.init_s2 = -1e-10),
+        ("add_threshold", |p| p.add_threshold = 0.0),
+        ("meta_rate", |p| p.meta_rate = f64::INFINITY),
+        ("penalty", |p| p.penalty = -1e-6),
+        ("penalty", |p| p.penalty = f64::NAN),
+        ("n_out", |p| p.n_out = 0),
+    ];
+    for (name, break_it) in cases {
+        let mut p = lwpr::Params::defaults(2, 1);
+        p.init_d = vec![9.0, 0.0, 0.0, 4.0];
+        break_it(&mut p);
+        let before = p.clone();
+        match p.validate() {
+            Err(LwprError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+            other => panic!("{name}: expected InvalidParameter, got {other:?}"),
+        }
+        // Debug, not `==`: some cases hold a NaN, which is never equal to itself.
+        assert_eq!(format!("{p:?}"), format!("{before:?}"), "{name}");
+    }
+    // The same parameters, repaired, validate and store the new factor.
+    let mut p = lwpr::Params::defaults(2, 1);
+    p.init_d = vec![9.0, 0.0, 0.0, 4.0];
+    p.validate().unwrap();
+    assert_eq!(p.init_m, vec![3.0, 0.0, 0.0, 2.0]);
+}
+
+#[test]
 fn defaults_of_impossible_sizes_allocate_nothing() {
     // `Params::defaults(2^31, 1)` computed n² = 2^62 elements and panicked (capacity overflow,
     // or an index out of bounds where the product wrapped); now the sizes are kept, nothing is

@@ -4,7 +4,7 @@
 mod harness;
 
 use harness::*;
-use lwpr::{Kernel, Lwpr, LwprBuilder, LwprError};
+use lwpr::{Kernel, Lwpr, LwprBuilder, LwprError, MAX_ABS_VALUE};
 
 fn model() -> Lwpr {
     LwprBuilder::new(2, 2)
@@ -129,6 +129,15 @@ fn invalid_parameters_are_named() {
     assert_eq!(name(b().init_d_spherical(0.0)), "init_D");
     assert_eq!(name(b().init_d_spherical(f64::NAN)), "init_D");
     assert_eq!(name(b().init_d_diagonal(&[1.0])), "init_D");
+    // A size refused on the spot is kept, whatever valid value is set after it.
+    for late in [
+        b().init_d_diagonal(&[1.0]).init_d_spherical(1.0),
+        b().init_d_diagonal(&[1.0]).init_d(&[1.0, 0.0, 0.0, 1.0]),
+        b().init_d_diagonal(&[1.0]).init_d_diagonal(&[1.0, 1.0]),
+    ] {
+        assert_eq!(name(late), "init_D");
+    }
+    assert_eq!(name(LwprBuilder::new(0, 1).init_alpha(10.0)), "n_in");
     assert_eq!(name(b().init_d(&[1.0, 0.5, 0.5, 1.0])), "init_D"); // not diagonal with diag_only
     assert!(
         b().init_d(&[1.0, 0.5, 0.5, 1.0])
@@ -396,4 +405,74 @@ fn field_views_report_input_units_and_the_metric_factor() {
             }
         }
     }
+}
+
+#[test]
+fn refused_calls_leave_the_callers_output_buffers_unchanged() {
+    // `update_into` and `predict_into` write into the caller's buffer: a refused call must
+    // leave it (as well as the model) exactly as it was, whichever argument is refused.
+    let mut m = model();
+    for i in 0..300 {
+        let (x, y) = good(i);
+        m.update(&x, &y).unwrap();
+    }
+    let (x, y) = good(300);
+    let sentinel = [7.25, -3.5, 11.0];
+    let bits = |v: &[f64]| v.iter().map(|a| a.to_bits()).collect::<Vec<_>>();
+
+    // (x, y, length of y_pred): each refused by `update_into`.
+    let updates: Vec<(Vec<f64>, Vec<f64>, usize)> = vec![
+        (vec![f64::NAN, 0.1], y.to_vec(), 2),
+        (vec![0.1, f64::INFINITY], y.to_vec(), 2),
+        (vec![0.1], y.to_vec(), 2),
+        (vec![0.1, 0.2, 0.3], y.to_vec(), 2),
+        (x.to_vec(), vec![0.5, f64::NAN], 2),
+        (x.to_vec(), vec![0.5], 2),
+        (x.to_vec(), vec![0.5, 0.5, 0.5], 2),
+        (vec![2.0 * MAX_ABS_VALUE, 0.1], y.to_vec(), 2),
+        (x.to_vec(), vec![0.5, -2.0 * MAX_ABS_VALUE], 2),
+        (x.to_vec(), y.to_vec(), 1),
+        (x.to_vec(), y.to_vec(), 3),
+    ];
+    let before = m.clone();
+    for (bx, by, len) in &updates {
+        let mut out = sentinel[..*len].to_vec();
+        assert!(
+            m.update_into(bx, by, &mut out).is_err(),
+            "{bx:?} {by:?} {len}"
+        );
+        assert_eq!(bits(&out), bits(&sentinel[..*len]), "{bx:?} {by:?} {len}");
+        assert_eq!(m, before, "{bx:?} {by:?} {len}");
+    }
+
+    // (x, cutoff, length of out): each refused by `predict_into`.
+    let predictions: Vec<(Vec<f64>, f64, usize)> = vec![
+        (vec![f64::NAN, 0.1], 0.001, 2),
+        (vec![0.1, f64::NEG_INFINITY], 0.001, 2),
+        (vec![0.1], 0.001, 2),
+        (vec![0.1, 0.2, 0.3], 0.001, 2),
+        (x.to_vec(), f64::NAN, 2),
+        (x.to_vec(), f64::INFINITY, 2),
+        (x.to_vec(), 0.001, 1),
+        (x.to_vec(), 0.001, 3),
+    ];
+    for (bx, cutoff, len) in &predictions {
+        let mut out = sentinel[..*len].to_vec();
+        assert!(
+            m.predict_into(bx, *cutoff, &mut out).is_err(),
+            "{bx:?} {cutoff} {len}"
+        );
+        assert_eq!(bits(&out), bits(&sentinel[..*len]), "{bx:?} {cutoff} {len}");
+    }
+
+    // The buffers still receive what a model that never saw the refused calls gives.
+    let mut twin = before.clone();
+    let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+    m.update_into(&x, &y, &mut a).unwrap();
+    twin.update_into(&x, &y, &mut b).unwrap();
+    assert_eq!(bits(&a), bits(&b));
+    m.predict_into(&x, 0.001, &mut a).unwrap();
+    twin.predict_into(&x, 0.001, &mut b).unwrap();
+    assert_eq!(bits(&a), bits(&b));
+    assert_eq!(m, twin);
 }
