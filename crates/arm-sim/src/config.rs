@@ -516,11 +516,14 @@ impl SimConfig {
     /// Writes the configuration as JSON (e.g. `SimConfig::default()` as a starting point for a
     /// user's own arm model): into a temporary file beside `path`, flushed and renamed into
     /// place, so a failed write leaves neither a partial file nor a damaged old one, and a
-    /// concurrent reader sees the old file or the new one, whole.
+    /// concurrent reader sees the old file or the new one, whole. A configuration that
+    /// [`read_file`](Self::read_file) would refuse is refused here, with the same error (see
+    /// [`validate`](Self::validate)), before any file is touched: what is written reads back.
     pub fn write_file(&self, path: impl AsRef<std::path::Path>) -> Result<()> {
         use std::io::Write;
         use std::sync::atomic::{AtomicU64, Ordering};
         static WRITES: AtomicU64 = AtomicU64::new(0);
+        self.validate()?;
         let path = path.as_ref();
         let io_err = |e: std::io::Error| ArmSimError::ConfigIo {
             path: path.display().to_string(),

@@ -153,6 +153,64 @@ fn write_file_replaces_the_file_whole() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A path that names no file (`dir/..`) is refused before anything is written: no temporary
+/// file appears, in the folder it would have gone to or anywhere else in the tree.
+#[test]
+fn write_file_refuses_a_path_without_a_file_name_and_writes_nothing() {
+    let dir = std::env::temp_dir().join(format!("arm-sim-no-name-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let sub = dir.join("sub");
+    std::fs::create_dir_all(&sub).unwrap();
+    let listing = || {
+        let mut v: Vec<_> = [&dir, &sub]
+            .iter()
+            .flat_map(|d| std::fs::read_dir(d).unwrap())
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing();
+    let e = SimConfig::default().write_file(sub.join("..")).unwrap_err();
+    assert!(
+        matches!(&e, ArmSimError::ConfigIo { message, .. } if message == "not a file path"),
+        "{e}"
+    );
+    assert_eq!(listing(), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A configuration `read_file` would refuse (a NaN, which JSON writes as `null`; a size out of
+/// range) used to be written, as a file that does not read back. It is refused with the error
+/// reading would give, and no file is created or changed.
+#[test]
+fn write_file_refuses_what_read_file_would_refuse() {
+    let dir = std::env::temp_dir().join(format!("arm-sim-invalid-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("arm.json");
+    SimConfig::default().write_file(&path).unwrap();
+    let old = std::fs::read(&path).unwrap();
+    let mut nan = SimConfig::default();
+    nan.arm.forearm_mm = f64::NAN;
+    let mut huge = SimConfig::default();
+    huge.arm.hand_mm = 1e300;
+    for bad in [nan, huge] {
+        let want = bad.validate().unwrap_err().to_string();
+        let e = bad.write_file(&path).unwrap_err();
+        assert_eq!(e.to_string(), want);
+        assert!(matches!(e, ArmSimError::InvalidConfig { .. }), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), old);
+        assert!(bad.write_file(dir.join("new.json")).is_err());
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "a file appeared"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Arm files with nonsense sizes used to load and then give NaN or absurd joint angles: masses
 /// given in grams instead of kilograms sagged the shoulder by millions of degrees, and links of
 /// 1e308 mm overflowed the kinematics to a NaN pose (a NaN tip, images of nothing).

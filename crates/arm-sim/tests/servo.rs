@@ -173,26 +173,41 @@ fn default_arm_is_not_ideal_but_repeatable_per_seed() {
     assert!((a[1] - nominal[1]).abs() > 1.0);
 }
 
+/// A refused step changes neither the servo nor the random stream: the servo and its generator
+/// equal what they were, and the next steps equal a twin's that never saw the refusals.
 #[test]
 fn servo_step_refuses_bad_input_and_keeps_its_state() {
-    let mut cfg = SimConfig::default().servos[1].clone();
+    let good = SimConfig::default().servos[1].clone();
+    assert!(good.end_noise_deg > 0.0, "moves draw noise");
+    let mut cfg = good.clone();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
     let mut s = ServoState::at_rest(&cfg, 1500.0);
-    let before = s.clone();
+    assert!(s.step(&cfg, 1620.0, &mut rng).unwrap());
+    let (before, rng_before) = (s.clone(), rng.clone());
     for p in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         assert!(matches!(
             s.step(&cfg, p, &mut rng),
             Err(arm_sim::ArmSimError::NonFinite { .. })
         ));
         assert_eq!(s, before);
+        assert_eq!(rng, rng_before);
     }
-    for noise in [-0.1, f64::NAN] {
+    for noise in [-0.1, f64::NAN, f64::INFINITY] {
         cfg.end_noise_deg = noise;
         assert!(matches!(
-            s.step(&cfg, 1600.0, &mut rng),
+            s.step(&cfg, 1400.0, &mut rng),
             Err(arm_sim::ArmSimError::InvalidConfig { .. })
         ));
         assert_eq!(s, before);
+        assert_eq!(rng, rng_before);
+    }
+    let (mut twin, mut twin_rng) = (before, rng_before);
+    for p in [1400.0, 1700.0, 1690.0, 1300.0] {
+        assert_eq!(
+            s.step(&good, p, &mut rng).unwrap(),
+            twin.step(&good, p, &mut twin_rng).unwrap()
+        );
+        assert_eq!(s, twin);
     }
 }
 

@@ -286,7 +286,8 @@ impl Correlator {
     /// tried first on the smallest grid `M₀ ≥ 2K + 1` (64 for K = 25, a quarter of the cost),
     /// then on the fine grid before refinement, and after the refinement of the best sample
     /// the remaining lobes are refined only if one could still beat `max_error`. A `Some`
-    /// result is bit-identical to [`Self::correlate`]. Input errors as for [`Self::correlate`].
+    /// result is bit-identical to [`Self::correlate`]. Input errors as for [`Self::correlate`];
+    /// `max_error` may be `+∞` (no bound), a NaN is refused ([`FdError::InvalidParameter`]).
     pub fn correlate_below(
         &mut self,
         a: &[Complex64],
@@ -294,6 +295,14 @@ impl Correlator {
         max_error: f64,
     ) -> Result<Option<Correlation>, FdError> {
         self.check(a, b)?;
+        // A NaN bound prunes nothing, as +∞ would: refused, as it is a caller's mistake.
+        if max_error.is_nan() {
+            return Err(FdError::InvalidParameter {
+                name: "max_error",
+                value: max_error,
+                reason: "a bound on the error is a number (+∞ for none)",
+            });
+        }
         let mut mags = std::mem::take(&mut self.mags);
         mags.clear();
         // `|C(n)|` exactly as the extractor stores it in a `DescriptorSet`.

@@ -1,5 +1,8 @@
-//! Bad input gives typed errors, never a panic.
+//! Bad input gives typed errors, never a panic; a refused call changes no state.
 
+mod common;
+
+use common::star;
 use fd_match::*;
 
 fn ex() -> Extractor {
@@ -512,4 +515,252 @@ fn describe_into_refuses_a_foreign_set_and_changes_nothing_on_error() {
     assert_eq!(set.sources(), &[41, 43]);
     assert_eq!(set.get(0).unwrap(), ex.describe(&square).unwrap());
     assert_eq!(set.get(1).unwrap(), ex.describe(&triangle).unwrap());
+}
+
+const SAMPLINGS: [Sampling; 3] = [
+    Sampling::ArcLength,
+    Sampling::AffineArcLength,
+    Sampling::Canonical,
+];
+
+/// `push` refuses rows of another length even when their values are finite and of unit norm
+/// (so that only the length check can refuse them), and leaves the set unchanged.
+#[test]
+fn push_refuses_rows_of_another_length_and_keeps_the_set() {
+    let good = ex().describe(&[(0, 0), (9, 0), (9, 4), (0, 4)]).unwrap();
+    let mut set = DescriptorSet::new(DescriptorConfig::default()).unwrap();
+    set.push(&good, 7).unwrap();
+    let before = set.clone();
+    let zero = Complex64::new(0.0, 0.0);
+    let (mut long_fd, mut long_afd0, mut long_afd1) = (good.clone(), good.clone(), good.clone());
+    long_fd.fd.push(zero);
+    long_afd0.afd0.push(0.0);
+    long_afd1.afd1.push(zero);
+    let smaller = DescriptorConfig {
+        coefficients: 31,
+        ..DescriptorConfig::default()
+    };
+    let short = Extractor::new(smaller)
+        .unwrap()
+        .describe(&[(0, 0), (9, 0), (9, 4), (0, 4)])
+        .unwrap();
+    for (what, d) in [
+        ("fd", long_fd),
+        ("afd0", long_afd0),
+        ("afd1", long_afd1),
+        ("all", short),
+    ] {
+        assert!(
+            matches!(set.push(&d, 8), Err(FdError::IncompatibleSets { .. })),
+            "{what}"
+        );
+        assert_eq!(set, before, "{what}");
+    }
+    set.push(&good, 8).unwrap();
+    assert_eq!(set.sources(), &[7, 8]);
+}
+
+/// `append` refuses a set of another configuration (other row lengths, or the same lengths
+/// with another sampling or smoothing) and leaves the set unchanged.
+#[test]
+fn append_refuses_a_set_of_another_configuration_and_keeps_the_set() {
+    let contours = vec![
+        vec![(0.0, 0.0), (9.0, 0.0), (9.0, 4.0), (0.0, 4.0)],
+        star(5, 70, 12.0),
+    ];
+    let cfg = DescriptorConfig::default();
+    let mut set = describe_all(cfg, &contours).unwrap().set;
+    assert_eq!(set.len(), 2);
+    let before = set.clone();
+    for other in [
+        DescriptorConfig::with_sampling(Sampling::Canonical),
+        DescriptorConfig {
+            coefficients: 31,
+            ..cfg
+        },
+        DescriptorConfig {
+            smoothing: 2.0,
+            ..cfg
+        },
+    ] {
+        let foreign = describe_all(other, &contours).unwrap().set;
+        assert_eq!(foreign.len(), 2, "{other:?}");
+        assert!(
+            matches!(set.append(&foreign), Err(FdError::IncompatibleSets { .. })),
+            "{other:?}"
+        );
+        assert_eq!(set, before, "{other:?}");
+    }
+    set.append(&before).unwrap();
+    assert_eq!(set.sources(), &[0, 1, 0, 1]);
+    assert_eq!(set.select(&[0, 1]).unwrap(), before);
+}
+
+/// A square traced twice passes every check of the contour (distinct successive points,
+/// positive area) but has only even harmonics, so its AFDs are refused
+/// (`DegenerateFirstHarmonic`) after `describe_into` has filled its row in the set: the row is
+/// rolled back, for every sampling, and the next contour lands where it would have.
+#[test]
+fn describe_into_rolls_back_a_degenerate_first_harmonic() {
+    let square = [(0, 0), (9, 0), (9, 4), (0, 4)];
+    let twice = [
+        (0, 0),
+        (4, 0),
+        (4, 4),
+        (0, 4),
+        (0, 0),
+        (4, 0),
+        (4, 4),
+        (0, 4),
+    ];
+    let triangle = [(0, 0), (8, 1), (3, 6)];
+    assert!(validate_contour(&twice).is_ok());
+    for sampling in SAMPLINGS {
+        let cfg = DescriptorConfig::with_sampling(sampling);
+        let mut ex = Extractor::new(cfg).unwrap();
+        let mut set = DescriptorSet::new(cfg).unwrap();
+        ex.describe_into(&square, &mut set, 1).unwrap();
+        let before = set.clone();
+        assert_eq!(
+            ex.describe_into(&twice, &mut set, 2),
+            Err(FdError::DegenerateFirstHarmonic),
+            "{sampling:?}"
+        );
+        assert_eq!(set, before, "{sampling:?}");
+        ex.describe_into(&triangle, &mut set, 3).unwrap();
+        assert_eq!(set.sources(), &[1, 3], "{sampling:?}");
+        let fresh = Extractor::new(cfg).unwrap().describe(&triangle).unwrap();
+        assert_eq!(set.get(1).unwrap(), fresh, "{sampling:?}");
+    }
+}
+
+/// A refused contour changes nothing in the extractor either: one that saw every kind of
+/// refusal (by `describe`, `describe_into` and `resample`) resamples and describes the next
+/// contours bit for bit like a twin that never saw them, for every sampling.
+#[test]
+fn a_refused_contour_leaves_the_extractor_as_it_was() {
+    let good = [
+        star(1, 60, 20.0),
+        star(2, 90, 7.5),
+        vec![(0.0, 0.0), (9.0, 0.0), (9.0, 4.0), (0.0, 4.0)],
+    ];
+    // Refused by the contour's checks (every entry point), then by the AFDs only.
+    let bad_geometry: Vec<Vec<(f64, f64)>> = vec![
+        vec![],
+        vec![(0.0, 0.0), (1.0, 1.0)],
+        vec![(0.0, 0.0), (1.0, 1.0), (2.0, 2.0)],
+        vec![(0.0, 0.0), (3.0, 0.0), (3.0, 0.0), (0.0, 2.0)],
+        vec![(0.0, 0.0), (3.0, f64::NAN), (0.0, 2.0)],
+        vec![(0.0, 0.0), (f64::INFINITY, 1.0), (0.0, 2.0)],
+    ];
+    let twice = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)].repeat(2);
+    for sampling in SAMPLINGS {
+        let cfg = DescriptorConfig::with_sampling(sampling);
+        let (mut a, mut b) = (Extractor::new(cfg).unwrap(), Extractor::new(cfg).unwrap());
+        // Both warm, so that the buffers hold a previous contour's values.
+        a.describe(&good[0]).unwrap();
+        b.describe(&good[0]).unwrap();
+        let mut own = DescriptorSet::new(cfg).unwrap();
+        for c in &bad_geometry {
+            assert!(a.resample(c).is_err(), "{sampling:?} {c:?}");
+            assert!(a.describe(c).is_err(), "{sampling:?} {c:?}");
+            assert!(
+                a.describe_into(c, &mut own, 0).is_err(),
+                "{sampling:?} {c:?}"
+            );
+        }
+        assert!(a.describe(&twice).is_err(), "{sampling:?}");
+        assert!(
+            a.describe_into(&twice, &mut own, 0).is_err(),
+            "{sampling:?}"
+        );
+        let other = SAMPLINGS[(SAMPLINGS.iter().position(|&s| s == sampling).unwrap() + 1) % 3];
+        let mut foreign = DescriptorSet::new(DescriptorConfig::with_sampling(other)).unwrap();
+        assert!(a.describe_into(&good[1], &mut foreign, 0).is_err());
+        assert!(own.is_empty() && foreign.is_empty());
+        assert_eq!(a.config(), b.config());
+        for c in &good {
+            assert_eq!(
+                a.resample(c).unwrap(),
+                b.resample(c).unwrap(),
+                "{sampling:?}"
+            );
+            assert_eq!(
+                a.describe(c).unwrap(),
+                b.describe(c).unwrap(),
+                "{sampling:?}"
+            );
+        }
+    }
+}
+
+/// A refused correlation changes nothing in the correlator: after refusals of every kind
+/// (length, non-finite value, norm; in either argument) by `correlate` and by
+/// `correlate_below` with and without a bound, it gives bit for bit the results of a twin that
+/// never saw them, pruned or not.
+#[test]
+fn a_refused_correlation_leaves_the_correlator_as_it_was() {
+    let mut ex = ex();
+    let fds: Vec<Vec<Complex64>> = [
+        star(3, 80, 10.0),
+        star(4, 80, 10.0),
+        vec![(0.0, 0.0), (9.0, 0.0), (9.0, 4.0), (0.0, 4.0)],
+        vec![(0.0, 0.0), (8.0, 1.0), (3.0, 6.0)],
+    ]
+    .iter()
+    .map(|c| ex.describe(c).unwrap().fd)
+    .collect();
+    let (mut a, mut b) = (
+        Correlator::new(25, 256).unwrap(),
+        Correlator::new(25, 256).unwrap(),
+    );
+    // Both warm.
+    a.correlate(&fds[0], &fds[1]).unwrap();
+    b.correlate(&fds[0], &fds[1]).unwrap();
+    let good = &fds[2];
+    let mut nan = good.clone();
+    nan[7].re = f64::NAN;
+    let mut inf = good.clone();
+    inf[0].im = f64::INFINITY;
+    let doubled: Vec<Complex64> = good.iter().map(|c| c * 2.0).collect();
+    let short = good[..10].to_vec();
+    let long: Vec<Complex64> = good
+        .iter()
+        .copied()
+        .chain([Complex64::new(0.0, 0.0)])
+        .collect();
+    for x in [&nan, &inf, &doubled, &short, &long] {
+        for (p, q) in [(good, x), (x, good), (x, x)] {
+            assert!(a.correlate(p, q).is_err());
+            for bound in [0.05, f64::INFINITY] {
+                assert!(a.correlate_below(p, q, bound).is_err());
+            }
+        }
+    }
+    // A NaN bound, on valid descriptors: refused by name (+∞ is the way to say "no bound").
+    for (p, q) in [(good, good), (&fds[0], &fds[1])] {
+        assert!(matches!(
+            a.correlate_below(p, q, f64::NAN),
+            Err(FdError::InvalidParameter {
+                name: "max_error",
+                ..
+            })
+        ));
+        assert!(a.correlate_below(p, q, f64::INFINITY).unwrap().is_some());
+        b.correlate_below(p, q, f64::INFINITY).unwrap();
+    }
+    assert_eq!(a.grid(), b.grid());
+    let mut pruned = 0;
+    for x in &fds {
+        for y in &fds {
+            assert_eq!(a.correlate(x, y).unwrap(), b.correlate(x, y).unwrap());
+            for bound in [1e-3, 0.05, 0.5] {
+                let r = a.correlate_below(x, y, bound).unwrap();
+                pruned += usize::from(r.is_none());
+                assert_eq!(r, b.correlate_below(x, y, bound).unwrap());
+            }
+        }
+    }
+    // Both outcomes of the bound were compared.
+    assert!(pruned > 0 && pruned < 3 * fds.len() * fds.len(), "{pruned}");
 }

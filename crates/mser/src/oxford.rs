@@ -49,11 +49,8 @@ fn ellipse_fault(e: &Ellipse) -> Option<&'static str> {
     }
 }
 
-/// Writes ellipses without descriptors. The numbers are written with Rust's shortest
-/// round-trip formatting, so [`read_regions`] gets the same `f64` values back. An ellipse
-/// [`read_regions`] would refuse (a non-finite number, not positive definite) is an
-/// [`MserError::InvalidParameter`] before anything is written.
-pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+/// The first ellipse a region file may not hold, as the writers' [`MserError::InvalidParameter`].
+fn check_ellipses(ellipses: &[Ellipse]) -> Result<()> {
     for (i, e) in ellipses.iter().enumerate() {
         if let Some(fault) = ellipse_fault(e) {
             return Err(MserError::InvalidParameter {
@@ -62,6 +59,15 @@ pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
             });
         }
     }
+    Ok(())
+}
+
+/// Writes ellipses without descriptors. The numbers are written with Rust's shortest
+/// round-trip formatting, so [`read_regions`] gets the same `f64` values back. An ellipse
+/// [`read_regions`] would refuse (a non-finite number, not positive definite) is an
+/// [`MserError::InvalidParameter`] before anything is written.
+pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+    check_ellipses(ellipses)?;
     writeln!(w, "1.0")?;
     writeln!(w, "{}", ellipses.len())?;
     for e in ellipses {
@@ -71,11 +77,15 @@ pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
     Ok(())
 }
 
-/// Writes ellipses to a file; see [`write_regions`] (an ellipse it refuses leaves `path`
-/// untouched). The file is written under a temporary
-/// name beside `path` and renamed over it only when everything was written, so a failed write
-/// leaves no partial file (and an existing file at `path` unchanged).
+/// Writes ellipses to a file; see [`write_regions`]. An ellipse it refuses is refused before
+/// any file is created, with the same [`MserError::InvalidParameter`] whatever the folder: no
+/// file is touched. The file is written under a temporary name beside `path` and renamed over
+/// it only when everything was written, so a failed write leaves no partial file (and an
+/// existing file at `path` unchanged).
 pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> {
+    // Before the temporary file exists: a refused ellipse touches no file (and is reported as
+    // such, not as whatever I/O error the folder would have given).
+    check_ellipses(ellipses)?;
     let path = path.as_ref();
     let name = path
         .file_name()

@@ -201,3 +201,60 @@ fn unreadable_ellipses_are_not_written() {
         ));
     }
 }
+
+/// `save_regions` checked the ellipses only inside `write_regions`, after creating its
+/// temporary file: a refused ellipse in a missing folder came back as an `Io` error instead of
+/// the refusal, and a file already at the temporary name was truncated and deleted. The
+/// ellipses are now checked before any file is touched.
+#[test]
+fn a_refused_save_touches_no_file() {
+    let dir = std::env::temp_dir().join(format!("mser-refused-save-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = Ellipse {
+        u: 1.5,
+        v: 2.25,
+        a: 0.1,
+        b: -0.01,
+        c: 0.2,
+    };
+    let bad = Ellipse {
+        a: f64::NAN,
+        ..good
+    };
+    let refused = |r: mser::Result<()>| {
+        matches!(
+            r,
+            Err(MserError::InvalidParameter {
+                name: "ellipses",
+                ..
+            })
+        )
+    };
+    // A missing folder: still the refusal, and nothing is created.
+    assert!(refused(mser::save_regions(
+        dir.join("missing/x.mser"),
+        &[good, bad]
+    )));
+    // Whatever is in the folder, the temporary file's name included, stays as it was.
+    let stale = dir.join(format!(".x.mser.partial-{}", std::process::id()));
+    std::fs::write(&stale, b"someone else's").unwrap();
+    let listing = |d: &std::path::Path| {
+        let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap_or_default(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing(&dir);
+    assert!(refused(mser::save_regions(dir.join("x.mser"), &[bad])));
+    assert_eq!(listing(&dir), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
