@@ -351,8 +351,9 @@ fn a_failed_write_leaves_no_partial_file() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A sequence `read` would refuse is refused by `write`, before anything is written; a frame
-/// number past `u64::MAX` used to overflow in `to_string` (a panic, or frame 0 in release).
+/// A sequence `read` would refuse is refused by `write`, before anything is written (not even
+/// the folder is created); a frame number past `u64::MAX` used to overflow in `to_string` (a
+/// panic, or frame 0 in release).
 #[test]
 fn unreadable_sequences_are_not_written() {
     let dir = temp_dir("unreadable");
@@ -378,7 +379,8 @@ fn unreadable_sequences_are_not_written() {
     ] {
         let e = csv::write(&dir, &s).unwrap_err();
         assert!(format!("{e:?}").starts_with(what), "{e:?}");
-        assert!(!dir.join("bad.csv").exists());
+        // Nothing at all: not even the folder, which a valid write creates.
+        assert!(!dir.exists(), "{what}: a refused write created {dir:?}");
     }
     // The text of an overflowing sequence names the true frame numbers, which reading refuses.
     let text = csv::to_string(&one(u64::MAX, [1.0, 2.0], 2));
