@@ -218,9 +218,10 @@ impl ApproachState {
 
     /// Executes `y` (already rounded with [`Approach::round`]) on `plant` with the
     /// unidirectional approach: checks it, sends the pre-position if one is needed, then `y`.
-    /// Returns the pre-position. A `y` that fails the check ([`check_command`]) is refused
-    /// before anything is sent and changes no state; on an error of the plant (a move may have
-    /// been made) every joint counts as unseated.
+    /// Returns the pre-position. A `y` or a pre-position that fails the check
+    /// ([`check_command`]; a pre-position fails it only where `y ∓ overshoot` overflows on a plant
+    /// without bounds) is refused before anything is sent and changes no state; on an error of the
+    /// plant (a move may have been made) every joint counts as unseated.
     pub fn execute<P: Plant + ?Sized>(
         &mut self,
         plant: &mut P,
@@ -230,10 +231,13 @@ impl ApproachState {
     ) -> Result<Option<Vec<f64>>> {
         check_command(&*plant, y)?;
         let pre = self.pre_position(&*plant, approach, y, reseat);
+        if let Some(p) = &pre {
+            check_command(&*plant, p)?;
+        }
+        // Checked: from here on a move may be made.
         self.seated.clear();
         self.last = None;
         if let Some(p) = &pre {
-            check_command(&*plant, p)?;
             plant.act(p)?;
         }
         plant.act(y)?;

@@ -502,9 +502,19 @@ mod tests {
         assert!(check.judge(&[1.0; 3], &[100.0, 100.0]).is_err());
         assert!(check.judge(&[1.0; 4], &[100.0]).is_err());
         assert!(check.judge(&[f64::NAN; 4], &[100.0, 100.0]).is_err());
+        // A refused percept or command is not remembered, whichever check refuses it.
         let mut c = check.clone();
-        assert!(c.remember(&[1.0; 4], &[f64::INFINITY, 0.0]).is_err());
-        assert_eq!(c, check, "nothing remembered on an error");
+        for (x, y) in [
+            (vec![1.0; 4], vec![f64::INFINITY, 0.0]),
+            (vec![1.0; 4], vec![100.0]),
+            (vec![1.0; 4], vec![100.0, 100.0, 100.0]),
+            (vec![1.0; 3], vec![100.0, 100.0]),
+            (vec![1.0; 5], vec![100.0, 100.0]),
+            (vec![1.0, f64::NAN, 1.0, 1.0], vec![100.0, 100.0]),
+        ] {
+            assert!(c.remember(&x, &y).is_err(), "{x:?} {y:?}: accepted");
+            assert_eq!(c, check, "{x:?} {y:?}: remembered");
+        }
     }
 
     #[test]

@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, ServoError, check_finite, check_len};
 use crate::inverse::InverseModel;
-use crate::plant::{Observation, Plant};
+use crate::plant::{Observation, Plant, check_command};
 use crate::stats::quantile_linear;
 
 /// Settings of [`TemporalCheck::learn`].
@@ -403,7 +403,11 @@ impl<P: Plant> Plant for TemporalPlant<P> {
         self.plant.command_range(j)
     }
 
+    /// Checks `y` ([`check_command`]) and executes it on the wrapped plant. A refused `y`
+    /// reaches no plant and changes no state; on an error of the wrapped plant (a move may have
+    /// been made) the pending command is forgotten, so the next percept is not judged.
     fn act(&mut self, y: &[f64]) -> Result<()> {
+        check_command(&*self, y)?;
         self.pending = None;
         self.plant.act(y)?;
         self.pending = Some(y.to_vec());

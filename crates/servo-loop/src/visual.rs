@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, ServoError};
 use crate::learn::RandomCommands;
 use crate::motion::MotionCheck;
-use crate::plant::{Observation, Plant};
+use crate::plant::{Observation, Plant, check_command};
 use crate::recognition::TrainingView;
 use crate::recognition::{
     Localisation, PerceptUse, Recogniser, SilhouetteConfig, SilhouetteReport, TipModel, TipRule,
@@ -193,7 +193,9 @@ pub fn capture_training_views<R: Robot>(
 /// each of that many further random poses teaches the `Learned` tip rule's correction
 /// ([`TipModel::learn_correction`]), and with two or more cameras the same poses' tips teach
 /// the cross-camera consistency ([`TipModel::learn_consistency`]; skipped when the poses are
-/// too few or degenerate). Leaves the gripper at its `rest` set-point.
+/// too few or degenerate). Leaves the gripper at its `rest` set-point. Errors, before the robot
+/// moves: invalid `config` settings (those [`TipModel::learn`] refuses), and those of
+/// [`capture_training_views`]; then robot and learning errors.
 pub fn learn_recognition<R: Robot>(
     robot: &mut R,
     space: &ControlSpace,
@@ -202,6 +204,8 @@ pub fn learn_recognition<R: Robot>(
     seed: u64,
     config: &SilhouetteConfig,
 ) -> Result<(TipModel, SilhouetteReport)> {
+    // Every setting is checked before the first move: a refused session moves nothing.
+    config.validate()?;
     let training = capture_training_views(robot, space, explore, views, seed)?;
     let (mut model, mut report) = TipModel::learn(config, &training)?;
     drop(training);
@@ -587,9 +591,15 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
         self.robot.servo_range(self.space.controlled[j])
     }
 
+    /// Checks `y` ([`check_command`]: one finite value per controlled servo, inside its
+    /// range) and sends the full command. A refused `y` sends nothing and changes no state; on
+    /// a robot error (a move may have been made) the plant forgets its last command, so the
+    /// next percept is not judged by the motion check.
     fn act(&mut self, y: &[f64]) -> Result<()> {
+        check_command(&*self, y)?;
+        let command = self.space.full_command(y)?;
         self.last_command = None;
-        send(&mut self.robot, &self.space.full_command(y)?)?;
+        send(&mut self.robot, &command)?;
         self.last_command = Some(y.to_vec());
         Ok(())
     }

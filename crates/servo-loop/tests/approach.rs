@@ -550,3 +550,66 @@ fn execute_errors_leave_the_state_as_documented() {
         "every joint unseated"
     );
 }
+
+/// A plant without bounds on its commands, counting them.
+struct Unbounded {
+    acts: usize,
+}
+
+impl Plant for Unbounded {
+    fn percept_dim(&self) -> usize {
+        2
+    }
+    fn command_dim(&self) -> usize {
+        2
+    }
+    fn command_range(&self, _: usize) -> [f64; 2] {
+        [f64::NEG_INFINITY, f64::INFINITY]
+    }
+    fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
+        self.acts += 1;
+        Ok(())
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        Ok(Observation {
+            x: vec![0.0, 0.0],
+            certainty: 1.0,
+        })
+    }
+}
+
+/// `ApproachState::execute`: a pre-position the check refuses (a finite command whose
+/// pre-position overflows to −∞ on a plant without a lower bound) is refused before anything
+/// is sent and changes no state, as a refused command does. (It used to forget the last command
+/// and unseat every joint first.)
+#[test]
+fn a_refused_pre_position_changes_no_state() {
+    let a = Approach {
+        overshoot: 1e308,
+        direction: ApproachDirection::Up,
+        resolution: 0.0,
+    };
+    a.validate().unwrap();
+    let mut plant = Unbounded { acts: 0 };
+    let mut state = ApproachState::new();
+    state.execute(&mut plant, &a, &[0.0, 0.0], false).unwrap();
+    let (before, acts) = (state.clone(), plant.acts);
+    assert_eq!(acts, 2, "a pre-position and the command");
+    let e = state
+        .execute(&mut plant, &a, &[-1e308, 0.0], false)
+        .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ServoError::NonFinite {
+                what: "command",
+                index: 0
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(state, before, "state changed");
+    assert_eq!(plant.acts, acts, "sent");
+    // Still seated: a move up in every joint goes straight there.
+    assert_eq!(state.pre_position(&plant, &a, &[1.0, 1.0], false), None);
+}

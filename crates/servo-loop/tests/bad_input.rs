@@ -75,9 +75,11 @@ fn percept_bounds_shorter_than_the_percept_are_a_typed_error() {
     ));
 }
 
-/// A three-servo robot (two controlled, one gripper) that counts its commands.
+/// A three-servo robot (two controlled, one gripper) that counts its commands and captures.
+#[derive(Default)]
 struct Counting {
     commands: usize,
+    captures: usize,
 }
 
 impl servo_loop::Robot for Counting {
@@ -93,6 +95,7 @@ impl servo_loop::Robot for Counting {
         Ok(())
     }
     fn capture(&mut self) -> Result<Vec<image::GrayImage>, String> {
+        self.captures += 1;
         Ok(vec![image::GrayImage::new(4, 4)])
     }
 }
@@ -109,7 +112,7 @@ fn training_views_refuse_explore_ranges_that_do_not_fit() {
         rest: vec![50.0; 3],
         gripper: Some((2, [10.0, 90.0])),
     };
-    let mut robot = Counting { commands: 0 };
+    let mut robot = Counting::default();
     for (explore, dims) in [
         (vec![[0.0, 100.0]], true),
         (vec![[0.0, 100.0]; 3], true),
@@ -146,6 +149,93 @@ fn training_views_refuse_explore_ranges_that_do_not_fit() {
     assert_eq!(robot.commands, 0);
     let views = capture_training_views(&mut robot, &space, &[[0.0, 100.0]; 2], 3, 1).unwrap();
     assert_eq!((views.len(), robot.commands), (3, 9));
+}
+
+/// A recognition session refused for its settings or its control space moves nothing and
+/// captures nothing: `learn_recognition` checks the recogniser's settings before the training
+/// moves (an invalid `SilhouetteConfig` used to be refused only by `TipModel::learn`, after
+/// every training move and capture had been made).
+#[test]
+fn a_refused_recognition_session_moves_nothing() {
+    use servo_loop::{ControlSpace, SilhouetteConfig, capture_training_views, learn_recognition};
+    let space = ControlSpace {
+        controlled: vec![0, 1],
+        rest: vec![50.0; 3],
+        gripper: Some((2, [10.0, 90.0])),
+    };
+    let explore = [[0.0, 100.0]; 2];
+    let ok = SilhouetteConfig::default();
+    for (name, config) in [
+        (
+            "noise_multiple",
+            SilhouetteConfig {
+                noise_multiple: f32::NAN,
+                ..ok.clone()
+            },
+        ),
+        (
+            "min_threshold",
+            SilhouetteConfig {
+                min_threshold: -1.0,
+                ..ok.clone()
+            },
+        ),
+        (
+            "min_certainty",
+            SilhouetteConfig {
+                min_certainty: 1.5,
+                ..ok.clone()
+            },
+        ),
+        (
+            "face_gate",
+            SilhouetteConfig {
+                face_gate: f64::INFINITY,
+                ..ok.clone()
+            },
+        ),
+        (
+            "spread_scale",
+            SilhouetteConfig {
+                spread_scale: -0.5,
+                ..ok.clone()
+            },
+        ),
+    ] {
+        let mut robot = Counting::default();
+        let e = learn_recognition(&mut robot, &space, &explore, 3, 1, &config).unwrap_err();
+        assert!(
+            matches!(&e, ServoError::InvalidParameter { name: n, .. } if *n == name),
+            "{name}: {e}"
+        );
+        assert_eq!(
+            (robot.commands, robot.captures),
+            (0, 0),
+            "{name}: robot used"
+        );
+    }
+    let no_gripper = ControlSpace {
+        gripper: None,
+        ..space.clone()
+    };
+    let short_rest = ControlSpace {
+        rest: vec![50.0; 2],
+        ..space.clone()
+    };
+    let repeated = ControlSpace {
+        controlled: vec![0, 0],
+        ..space.clone()
+    };
+    for bad in [no_gripper, short_rest, repeated] {
+        let mut robot = Counting::default();
+        assert!(capture_training_views(&mut robot, &bad, &explore, 3, 1).is_err());
+        assert!(learn_recognition(&mut robot, &bad, &explore, 3, 1, &ok).is_err());
+        assert_eq!(
+            (robot.commands, robot.captures),
+            (0, 0),
+            "{bad:?}: robot used"
+        );
+    }
 }
 
 /// The image error of a percept and a target of different lengths used to be taken over the
@@ -454,7 +544,7 @@ fn inverse_model_settings_and_inputs_are_checked() {
 #[test]
 fn control_spaces_that_do_not_fit_the_robot_are_refused() {
     use servo_loop::ControlSpace;
-    let robot = Counting { commands: 0 };
+    let robot = Counting::default();
     let ok = ControlSpace {
         controlled: vec![0, 1],
         rest: vec![50.0; 3],

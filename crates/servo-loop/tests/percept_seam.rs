@@ -419,6 +419,133 @@ fn a_gross_percept_the_cameras_agree_on_is_refused_by_the_motion_check() {
     ));
 }
 
+/// `VisualPlant::act` refuses a command that does not fit the controlled servos (its length,
+/// a non-finite value, a value outside a servo's range) before anything is sent, and the
+/// refusal changes no state: the next percept is judged by the motion check against the last
+/// executed command, as on a twin plant that never saw the bad command. (A command of another
+/// length used to forget the last executed command, so the next percept went unjudged and
+/// unremembered; a NaN or out-of-range one reached the robot.)
+#[test]
+fn a_refused_command_changes_nothing_in_the_visual_plant() {
+    let mut p = plant(0);
+    let samples = toy_samples(&mut p, 300);
+    let check = MotionCheck::learn(&samples, &MotionConfig::default()).unwrap();
+    let mut twin = plant(0);
+    for q in [&mut p, &mut twin] {
+        q.set_motion_check(Some(check.clone())).unwrap();
+        q.act(&[100.0, 120.0]).unwrap();
+    }
+    let commands = p.robot().commands;
+    for bad in [
+        vec![100.0],
+        vec![100.0, 120.0, 5.0],
+        vec![f64::NAN, 120.0],
+        vec![100.0, 250.5],
+        vec![-1.0, 120.0],
+    ] {
+        assert!(p.act(&bad).is_err(), "{bad:?}: accepted");
+        assert_eq!(p.robot().commands, commands, "{bad:?}: sent");
+        assert_eq!(p.robot().y, [100.0, 120.0], "{bad:?}: moved");
+    }
+    // The next percept is judged and remembered as on the twin, a gross one refused alike.
+    assert_eq!(p.observe().unwrap(), twin.observe().unwrap());
+    let remembered = |q: &VisualPlant<Toy, Reader>| q.motion_check().map(|c| c.remembered());
+    assert_eq!(remembered(&p), remembered(&twin), "percepts remembered");
+    assert!(
+        p.motion_check() == twin.motion_check(),
+        "motion check differs"
+    );
+    assert_eq!(p.last_localisations(), twin.last_localisations());
+    assert!(p.act(&[f64::INFINITY, 0.0]).is_err());
+    p.robot_mut().gross = 10;
+    twin.robot_mut().gross = 10;
+    let (a, b) = (p.observe().unwrap_err(), twin.observe().unwrap_err());
+    assert!(matches!(a, ServoError::PerceptInconsistent { .. }), "{a}");
+    assert_eq!(a, b);
+    assert_eq!(
+        (p.inconsistent(), p.recaptured(), p.refused()),
+        (twin.inconsistent(), twin.recaptured(), twin.refused())
+    );
+}
+
+/// Refused settings change nothing: `set_captures(0)` and an invalid policy keep the policy, a
+/// motion check of another dimension keeps the check (and every percept it remembered), and
+/// `observe_checked` with an invalid policy grabs, locates and counts nothing.
+#[test]
+fn refused_settings_change_nothing_in_the_visual_plant() {
+    let mut p = plant(0);
+    let samples = toy_samples(&mut p, 300);
+    let check = MotionCheck::learn(&samples, &MotionConfig::default()).unwrap();
+    p.set_motion_check(Some(check.clone())).unwrap();
+    let policy = PerceptPolicy {
+        captures: 2,
+        min_certainty: 0.1,
+        recaptures: 2,
+        used: PerceptUse::Servo,
+    };
+    p.set_policy(policy).unwrap();
+    assert!(matches!(
+        p.set_captures(0),
+        Err(ServoError::InvalidParameter {
+            name: "captures",
+            ..
+        })
+    ));
+    assert_eq!(*p.policy(), policy, "set_captures(0)");
+    let bad_policies = [
+        PerceptPolicy {
+            captures: 0,
+            ..policy
+        },
+        PerceptPolicy {
+            min_certainty: -0.1,
+            ..policy
+        },
+        PerceptPolicy {
+            min_certainty: f64::NAN,
+            ..policy
+        },
+    ];
+    for bad in bad_policies {
+        assert!(p.set_policy(bad).is_err(), "{bad:?}: accepted");
+        assert_eq!(*p.policy(), policy, "{bad:?}: policy changed");
+    }
+    let two: Vec<(Vec<f64>, Vec<f64>)> = samples
+        .iter()
+        .map(|(x, y)| (x[..2].to_vec(), y.clone()))
+        .collect();
+    let other = MotionCheck::learn(&two, &MotionConfig::default()).unwrap();
+    assert!(p.set_motion_check(Some(other)).is_err());
+    assert!(p.motion_check() == Some(&check), "check replaced");
+    assert_eq!(
+        (p.inconsistent(), p.recaptured(), p.refused()),
+        (0, 0, 0),
+        "counters"
+    );
+    for bad in bad_policies {
+        let (mut grabbed, mut located, mut recaptures) = (0, 0, 0);
+        let e = observe_checked(
+            &Reader,
+            &bad,
+            || {
+                grabbed += 1;
+                Ok(vec![
+                    reader_image(0, 1, 1, false),
+                    reader_image(1, 1, 1, false),
+                ])
+            },
+            |imgs| {
+                located += 1;
+                Reader.locate_all(imgs)
+            },
+            || recaptures += 1,
+        )
+        .unwrap_err();
+        assert!(matches!(e, ServoError::InvalidParameter { .. }), "{e}");
+        assert_eq!((grabbed, located, recaptures), (0, 0, 0), "{bad:?}");
+    }
+}
+
 /// The servo loop never moves on a percept the motion check refused: the run stops with the
 /// typed error after the first guess.
 #[test]

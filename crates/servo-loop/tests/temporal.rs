@@ -233,6 +233,45 @@ fn unchecked_plants_pass_everything_and_bad_settings_are_errors() {
     assert!(TemporalPlant::new(arm(), three, check).is_err());
 }
 
+/// `TemporalPlant::act` refuses a command the plant cannot take (its length, a non-finite
+/// value, a value outside the range) before the wrapped plant sees it, and the refusal changes
+/// no state: the next percept is judged against the last accepted one, as on a twin plant that
+/// never saw the bad command. (It used to forget the pending command first, so the next
+/// percept went unjudged and did not become the reference.)
+#[test]
+fn a_refused_command_changes_nothing_in_the_temporal_plant() {
+    let (model, samples) = trained();
+    let check = TemporalCheck::learn(&model, &samples, &config()).unwrap();
+    let mut p = TemporalPlant::new(arm(), model.clone(), check.clone()).unwrap();
+    let mut twin = TemporalPlant::new(arm(), model, check).unwrap();
+    for q in [&mut p, &mut twin] {
+        q.act(&[0.8, 1.0]).unwrap();
+        q.observe().unwrap();
+        q.act(&[0.85, 0.97]).unwrap();
+    }
+    for bad in [
+        vec![0.8],
+        vec![0.8, 1.0, 0.1],
+        vec![f64::NAN, 1.0],
+        vec![0.8, 100.0],
+    ] {
+        assert!(p.act(&bad).is_err(), "{bad:?}: accepted");
+        assert_eq!(p.plant().y, vec![0.85, 0.97], "{bad:?}: sent");
+    }
+    assert_eq!(p.observe().unwrap(), twin.observe().unwrap());
+    assert_eq!((p.judged(), p.refused()), (twin.judged(), twin.refused()));
+    assert_eq!(twin.judged(), 1, "the short move was judged");
+    // The reference moved on alike: a wrong percept after the next move is refused by both.
+    for q in [&mut p, &mut twin] {
+        q.act(&[0.9, 0.95]).unwrap();
+        q.plant_mut().offset = Some([25.0, -25.0]);
+    }
+    assert!(p.act(&[0.9]).is_err());
+    let (a, b) = (p.observe().unwrap_err(), twin.observe().unwrap_err());
+    assert!(matches!(a, ServoError::PerceptInconsistent { .. }), "{a}");
+    assert_eq!(a, b);
+}
+
 /// A saved check reads back unchanged (same text, same verdicts); one whose settings
 /// [`TemporalCheck::learn`] would refuse, or whose threshold line is negative, is an error when
 /// it is read. (A factor of −3 used to load and refuse every percept, a true one included.)

@@ -107,7 +107,9 @@ impl Default for SilhouetteConfig {
 }
 
 impl SilhouetteConfig {
-    fn validate(&self) -> Result<()> {
+    /// The checks [`TipModel::learn`] applies (also before any training move of
+    /// [`learn_recognition`](crate::learn_recognition)).
+    pub(crate) fn validate(&self) -> Result<()> {
         if !(self.noise_multiple.is_finite() && self.noise_multiple > 0.0) {
             return Err(ServoError::invalid(
                 "noise_multiple",
