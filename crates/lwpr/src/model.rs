@@ -291,12 +291,24 @@ impl Lwpr {
         Ok(out)
     }
 
+    /// The checks [`update`](Self::update) applies to a sample before it learns anything from
+    /// it: `x` of `n_in` and `y` of `n_out` finite values, each within [`MAX_ABS_VALUE`] raw and
+    /// divided by its normalisation factor (tiny factors could overflow). For callers that must
+    /// refuse a batch before learning any of it.
+    pub fn check_sample(&self, x: &[f64], y: &[f64]) -> Result<()> {
+        check_vec("x", x, self.params.n_in)?;
+        check_vec("y", y, self.params.n_out)?;
+        check_range("x", x, None)?;
+        check_range("x / norm_in", x, Some(&self.params.norm_in))?;
+        check_range("y", y, None)?;
+        check_range("y / norm_out", y, Some(&self.params.norm_out))
+    }
+
     /// [`update`](Self::update) writing the prediction into `y_pred` (`m` values); performs no
     /// heap allocation unless a receptive field or PLS direction is added.
     pub fn update_into(&mut self, x: &[f64], y: &[f64], y_pred: &mut [f64]) -> Result<()> {
         let (n, m) = (self.params.n_in, self.params.n_out);
-        check_vec("x", x, n)?;
-        check_vec("y", y, m)?;
+        self.check_sample(x, y)?;
         if y_pred.len() != m {
             return Err(LwprError::DimensionMismatch {
                 what: "y_pred",
@@ -304,11 +316,6 @@ impl Lwpr {
                 got: y_pred.len(),
             });
         }
-        // Raw and normalised values within MAX_ABS_VALUE (tiny norm factors could overflow).
-        check_range("x", x, None)?;
-        check_range("x / norm_in", x, Some(&self.params.norm_in))?;
-        check_range("y", y, None)?;
-        check_range("y / norm_out", y, Some(&self.params.norm_out))?;
 
         // Global statistics of the raw inputs (inspection only).
         let nd = self.n_data as f64;

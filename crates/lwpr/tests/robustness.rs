@@ -476,3 +476,30 @@ fn refused_calls_leave_the_callers_output_buffers_unchanged() {
     assert_eq!(bits(&a), bits(&b));
     assert_eq!(m, twin);
 }
+
+/// `check_sample` refuses exactly what `update` refuses, with the same error, and `update`
+/// accepts what it accepts: the one home of a sample's checks, for callers that refuse a batch
+/// before learning any of it.
+#[test]
+fn check_sample_refuses_what_update_refuses() {
+    let mut m = LwprBuilder::new(2, 1)
+        .norm_in(&[1e-10, 1.0])
+        .build()
+        .unwrap();
+    let samples: [(&[f64], &[f64]); 9] = [
+        (&[0.1, 0.2], &[0.3]),
+        (&[0.1], &[0.3]),
+        (&[0.1, 0.2], &[0.3, 0.4]),
+        (&[f64::NAN, 0.2], &[0.3]),
+        (&[0.1, 0.2], &[f64::INFINITY]),
+        (&[1e31, 0.2], &[0.3]),
+        (&[1e21, 0.2], &[0.3]),
+        (&[0.1, 1e21], &[0.3]),
+        (&[0.1, 0.2], &[-1e31]),
+    ];
+    for (x, y) in samples {
+        let checked = m.check_sample(x, y).map_err(|e| e.to_string());
+        let updated = m.update(x, y).map(drop).map_err(|e| e.to_string());
+        assert_eq!(checked, updated, "{x:?} {y:?}");
+    }
+}

@@ -132,8 +132,9 @@ impl PyLwpr {
 
     /// Trains on the rows of ``X`` (``(k, n_in)``) and ``Y`` (``(k, n_out)``) in order, exactly
     /// as ``k`` calls of :meth:`update`, without the GIL. Every sample is checked first: on
-    /// ``ValueError`` (NaN, infinity, wrong shape) the model is unchanged. Returns the ``(k,
-    /// n_out)`` predictions made while learning.
+    /// ``ValueError`` naming the row (wrong shape, NaN, infinity, or a value beyond LWPR's bound
+    /// of 1e30, raw or normalised: what :meth:`update` refuses) the model is unchanged. Returns
+    /// the ``(k, n_out)`` predictions made while learning.
     fn update_batch<'py>(
         &mut self,
         py: Python<'py>,
@@ -146,15 +147,13 @@ impl PyLwpr {
         if k != ky {
             return Err(value_error(format!("X has {k} rows, Y has {ky}")));
         }
-        for (name, v) in [("X", &xs), ("Y", &ys)] {
-            if let Some(i) = v.iter().position(|v| !v.is_finite()) {
-                let d = if name == "X" { n } else { m };
-                return Err(value_error(format!(
-                    "non-finite value in {name} at row {}, column {}",
-                    i / d,
-                    i % d
-                )));
-            }
+        // Every row as `update` checks it (finite, within LWPR's bound raw and normalised),
+        // before any row is learned: a row it would refuse in the middle of the batch used to
+        // be refused after the rows before it were learned.
+        for (row, (xr, yr)) in xs.chunks_exact(n).zip(ys.chunks_exact(m)).enumerate() {
+            self.model
+                .check_sample(xr, yr)
+                .map_err(|e| value_error(format!("row {row}: {e}")))?;
         }
         let model = &mut self.model;
         let out = py

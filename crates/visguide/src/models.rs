@@ -42,16 +42,42 @@ fn read_checked(path: &Path, format: &str) -> Result<String> {
     let text = std::fs::read_to_string(path).map_err(io(path))?;
     let h: Header = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
     match (h.format.as_deref(), h.version) {
-        (Some(f), _) if f != format => Err(bad(format!("it is a `{f}` file, expected `{format}`"))),
         (None, _) => Err(bad(format!(
             "no `format` field; expected a `{format}` file"
         ))),
-        (_, Some(v)) if v != MODEL_VERSION => Err(bad(format!(
-            "version {v}, but this visguide reads version {MODEL_VERSION}"
-        ))),
+        (Some(f), v) if f != format => Err(bad(envelope_fault(f, v.unwrap_or(0), format).unwrap())),
         (_, None) => Err(bad("no `version` field".into())),
-        _ => Ok(text),
+        (Some(f), Some(v)) => envelope_fault(f, v, format).map_or(Ok(text), |r| Err(bad(r))),
     }
+}
+
+/// What is wrong with a file's envelope (`format`, `version`) for a `want` file, if anything.
+fn envelope_fault(format: &str, version: u32, want: &str) -> Option<String> {
+    if format != want {
+        Some(format!("it is a `{format}` file, expected `{want}`"))
+    } else if version != MODEL_VERSION {
+        Some(format!(
+            "version {version}, but this visguide reads version {MODEL_VERSION}"
+        ))
+    } else {
+        None
+    }
+}
+
+/// Refuses to save what loading would refuse (the fields are public): the envelope, then
+/// `contents`' own check.
+fn check_saved(
+    format: &str,
+    version: u32,
+    want: &str,
+    contents: impl FnOnce() -> std::result::Result<(), String>,
+) -> Result<()> {
+    envelope_fault(format, version, want)
+        .map_or_else(contents, Err)
+        .map_err(|reason| VisguideError::Invalid {
+            name: "model",
+            reason,
+        })
 }
 
 /// A saved LWPR model with its column names.
@@ -85,13 +111,33 @@ impl LwprFile {
         })
     }
 
-    /// Saves atomically.
+    /// Saves atomically. What [`Self::load`] would refuse (the fields are public: another
+    /// format or version, a model `lwpr` does not read, column names of another count) is
+    /// refused first ([`VisguideError::Invalid`] naming `model`), and no file is touched.
     pub fn save(&self, path: &Path) -> Result<()> {
+        check_saved(&self.format, self.version, LWPR_FORMAT, || {
+            self.decode().map(drop)
+        })?;
         let text = serde_json::to_string(self).map_err(|e| VisguideError::Invalid {
             name: "model",
             reason: e.to_string(),
         })?;
         write_bytes(path, text.as_bytes())
+    }
+
+    /// The model, decoded and checked against the column names.
+    fn decode(&self) -> std::result::Result<lwpr::Lwpr, String> {
+        let model = lwpr::Lwpr::from_json(&self.model.to_string()).map_err(|e| e.to_string())?;
+        if model.n_in() != self.inputs.len() || model.n_out() != self.outputs.len() {
+            return Err(format!(
+                "{} input and {} output names for a {}→{} model",
+                self.inputs.len(),
+                self.outputs.len(),
+                model.n_in(),
+                model.n_out()
+            ));
+        }
+        Ok(model)
     }
 
     /// Loads and checks a file; returns it with the decoded model.
@@ -102,17 +148,7 @@ impl LwprFile {
             reason,
         };
         let file: LwprFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        let model =
-            lwpr::Lwpr::from_json(&file.model.to_string()).map_err(|e| bad(e.to_string()))?;
-        if model.n_in() != file.inputs.len() || model.n_out() != file.outputs.len() {
-            return Err(bad(format!(
-                "{} input and {} output names for a {}→{} model",
-                file.inputs.len(),
-                file.outputs.len(),
-                model.n_in(),
-                model.n_out()
-            )));
-        }
+        let model = file.decode().map_err(bad)?;
         Ok((file, model))
     }
 }
@@ -206,8 +242,12 @@ impl TrackModelFile {
         Ok(())
     }
 
-    /// Saves atomically.
+    /// Saves atomically. What [`Self::load`] would refuse (the fields are public: another
+    /// format or version, or what [`Self::validate`] refuses) is refused first
+    /// ([`VisguideError::Invalid`]), and no file is touched.
     pub fn save(&self, path: &Path) -> Result<()> {
+        check_saved(&self.format, self.version, CBT_FORMAT, || Ok(()))?;
+        self.validate()?;
         let text = serde_json::to_string(self).map_err(|e| VisguideError::Invalid {
             name: "model",
             reason: e.to_string(),
@@ -325,6 +365,78 @@ mod tests {
                 .contains("not JSON")
         );
         assert!(TrackModelFile::load(&dir).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Saving refuses what loading would refuse (the fields are public), before any file is
+    /// touched: each used to be written, over a good file too, as a file that did not load.
+    #[test]
+    fn a_file_that_would_not_load_is_not_saved() {
+        let dir = std::env::temp_dir().join(format!("visguide-unsaved-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let listing = || {
+            let mut v: Vec<_> = std::fs::read_dir(&dir)
+                .unwrap()
+                .map(|e| {
+                    let p = e.unwrap().path();
+                    (p.clone(), std::fs::read(p).unwrap())
+                })
+                .collect();
+            v.sort();
+            v
+        };
+        let m = lwpr::LwprBuilder::new(2, 1).build().unwrap();
+        let good = LwprFile::new(vec!["a".into(), "b".into()], vec!["y".into()], &m).unwrap();
+        let (lp, tp) = (dir.join("m.json"), dir.join("t.json"));
+        good.save(&lp).unwrap();
+        assert!(LwprFile::load(&lp).is_ok());
+        let track = track_file();
+        track.save(&tp).unwrap();
+        assert!(TrackModelFile::load(&tp).is_ok());
+        let before = listing();
+        let mut bad_lwpr = Vec::new();
+        for edit in [
+            |f: &mut LwprFile| f.format = CBT_FORMAT.into(),
+            |f: &mut LwprFile| f.version = 7,
+            |f: &mut LwprFile| f.inputs.pop().map(drop).unwrap(),
+            |f: &mut LwprFile| f.outputs.push("z".into()),
+            |f: &mut LwprFile| f.model = serde_json::json!({"not": "a model"}),
+        ] {
+            let mut f = good.clone();
+            edit(&mut f);
+            bad_lwpr.push(f);
+        }
+        for f in &bad_lwpr {
+            for path in [&lp, &dir.join("new.json")] {
+                let e = f.save(path).unwrap_err();
+                assert!(
+                    matches!(e, VisguideError::Invalid { name: "model", .. }),
+                    "{e}"
+                );
+            }
+        }
+        let mut bad_track = Vec::new();
+        for edit in [
+            |f: &mut TrackModelFile| f.format = LWPR_FORMAT.into(),
+            |f: &mut TrackModelFile| f.version = 0,
+            |f: &mut TrackModelFile| f.extent = [100.0, 0.0, 0.0, 80.0],
+            |f: &mut TrackModelFile| f.extent[3] = f64::NAN,
+        ] {
+            let mut f = track.clone();
+            edit(&mut f);
+            bad_track.push(f);
+        }
+        for f in &bad_track {
+            for path in [&tp, &dir.join("new.json")] {
+                assert!(
+                    matches!(f.save(path), Err(VisguideError::Invalid { .. })),
+                    "{:?}",
+                    f.extent
+                );
+            }
+        }
+        assert_eq!(listing(), before, "a refused save touched a file");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

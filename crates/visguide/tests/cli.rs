@@ -1019,6 +1019,62 @@ fn a_failed_output_leaves_no_other_output() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A failed `regions` run leaves no output folder it made: `--out` names folders that do not
+/// exist yet (they are made before the images are read, for the staged files), and a missing
+/// or corrupt image, or a good image with a corrupt one, refuses the run. (The folders used to
+/// stay behind, empty.) A folder that was there stays, and a run that succeeds makes them.
+#[test]
+fn a_failed_regions_run_leaves_no_folder_it_made() {
+    let dir = temp("regions-out");
+    let good = dir.join("good.png");
+    scene(&identity(), 120, 90, 3).save(&good).unwrap();
+    let corrupt = dir.join("corrupt.png");
+    std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nthis is not a png").unwrap();
+    let missing = dir.join("missing.png");
+    let new = dir.join("new");
+    let out = new.join("deeper");
+    let listing = || {
+        let mut l: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        l.sort();
+        l
+    };
+    let before = listing();
+    for images in [
+        vec![s(&missing)],
+        vec![s(&corrupt)],
+        vec![s(&good), s(&corrupt)],
+    ] {
+        let mut args = vec!["regions", "--out", s(&out)];
+        args.extend(&images);
+        fails(
+            &args,
+            if images.contains(&s(&missing)) {
+                "missing.png"
+            } else {
+                "corrupt.png"
+            },
+        );
+        assert!(!new.exists(), "{images:?} left {} behind", new.display());
+        assert_eq!(listing(), before, "{images:?}");
+    }
+    // An output folder that was there is kept (empty, as it was).
+    std::fs::create_dir_all(&out).unwrap();
+    fails(
+        &["regions", "--out", s(&out), s(&good), s(&corrupt)],
+        "corrupt.png",
+    );
+    assert!(out.is_dir());
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
+    std::fs::remove_dir_all(&new).unwrap();
+    // A run that succeeds makes the folders.
+    ok(&["regions", "-q", "--out", s(&out), s(&good)]);
+    assert!(out.join("good.mser").is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `--threads` outside 1..=1024 is a usage error (exit 2, one line) before any work: a huge
 /// count used to try to start that many threads (100,000 hung for over a minute).
 #[test]

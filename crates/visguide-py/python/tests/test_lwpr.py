@@ -132,6 +132,36 @@ def test_a_nan_anywhere_in_a_batch_changes_nothing():
     assert model.to_bytes() == before
 
 
+@pytest.mark.parametrize(
+    "where, value",
+    [("X", 1e31), ("X", -1e31), ("Y", 1e31), ("Y", -1e31), ("X / norm_in", 1e21), ("Y / norm_out", 1e21)],
+)
+@pytest.mark.parametrize("row", [0, 1, 9])
+def test_a_value_beyond_the_bound_anywhere_in_a_batch_changes_nothing(where, value, row):
+    """A finite value beyond LWPR's bound of 1e30 (raw, or once normalised) in any row of a
+    batch is refused before any row is learned: the batch used to learn the rows before it,
+    then raise."""
+    model = trained()
+    model.norm_in = [1e-10, 1.0]
+    model.norm_out = [1e-10]
+    before = model.to_bytes()
+    twin = LWPR.from_bytes(before)
+    x = np.random.default_rng(2).uniform(-1, 1, (10, 2))
+    y = x[:, :1].copy()
+    (x if where.startswith("X") else y)[row, 0] = value
+    with pytest.raises(ValueError) as refused:
+        model.update_batch(x, y)
+    assert model.to_bytes() == before
+    assert f"row {row}" in str(refused.value)
+    with pytest.raises(ValueError):
+        model.update(x[row], y[row])
+    assert model.to_bytes() == before
+    # The model learns on as the twin that never saw the refused batch.
+    good_x, good_y = x[:row], y[:row]
+    assert model.update_batch(good_x, good_y).tolist() == twin.update_batch(good_x, good_y).tolist()
+    assert model == twin
+
+
 def test_bad_queries_are_value_errors():
     model = trained()
     for call in [model.predict, model.predict_conf, model.predict_J]:

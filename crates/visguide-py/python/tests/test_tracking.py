@@ -385,3 +385,67 @@ def test_learn_online_adds_a_frame(data):
     assert cbt != before
     with pytest.raises(ValueError):
         cbt.learn_online(np.array([[np.nan, 1.0]]), dets)
+
+
+@pytest.mark.parametrize("make", [make_kalman, make_pf, None])
+def test_refused_calls_keep_the_state_and_every_later_estimate(data, make):
+    """``step``, ``step_on_grid`` and ``reset`` refuse bad input (a NaN position, a negative or
+    NaN weight, a wrong column count, a NaN start; CBT also a start off its grid) with a
+    ``ValueError`` and leave the tracker exactly as it was: its JSON (the particle filter's
+    random state included) and every later estimate equal a twin's that never saw them."""
+    _, train, test = data
+    t = make() if make else CBT.learn(train, 320.0, 240.0, spacing=10.0)
+    start = tuple(test[0][0][0])
+    t.reset(start)
+    for _, d in test[1:5]:
+        t.step(d)
+    twin = type(t).from_json(t.to_json())
+    before = t.to_json()
+    bad_frames = [
+        np.array([[np.nan, 1.0]]),
+        np.array([[1.0, np.inf, 1.0]]),
+        np.array([[1.0, 2.0, -1.0]]),
+        np.array([[1.0, 2.0, np.nan]]),
+        np.zeros((2, 4)),
+    ]
+    for k, (_, d) in enumerate(test[5:9]):
+        for bad in bad_frames:
+            for call in [t.step, t.step_on_grid]:
+                with pytest.raises(ValueError):
+                    call(np.vstack([d[:, : bad.shape[1]], bad]) if bad.shape[1] <= 3 else bad)
+        for bad_start in [(np.nan, 0.0), (0.0, np.inf)] + ([(1e6, 1e6)] if make is None else []):
+            with pytest.raises(ValueError):
+                t.reset(bad_start)
+        # (Compared once per frame: a refused call's change would stay to the end.)
+        assert t.to_json() == before, k
+        assert t.step(d) == twin.step(d), k
+        assert t == twin
+        before = t.to_json()
+
+
+def test_a_refused_online_frame_changes_nothing(data):
+    """``learn_online`` with a NaN or off-grid truth, or a bad detection, raises and leaves both
+    models as they were: the tracker learns and tracks on as a twin that never saw it."""
+    _, train, test = data
+    cbt = CBT.learn(train, 320.0, 240.0)
+    twin = CBT.from_json(cbt.to_json())
+    before = cbt.to_json()
+    truths, dets = test[1]
+    for bad_truths, bad_dets in [
+        (np.array([[np.nan, 1.0]]), dets),
+        (np.array([[1e6, 1e6]]), dets),
+        (truths, np.array([[np.nan, 1.0, 1.0]])),
+        (truths, np.array([[1.0, 2.0, -1.0]])),
+        (truths, np.vstack([dets, [[1e6, 1e6, 1.0]]])),
+    ]:
+        with pytest.raises(ValueError):
+            cbt.learn_online(bad_truths, bad_dets)
+        assert cbt.to_json() == before
+    for t, d in test[1:4]:
+        cbt.learn_online(t, d)
+        twin.learn_online(t, d)
+    assert cbt == twin
+    start = tuple(test[0][0][0])
+    cbt.reset(start)
+    twin.reset(start)
+    assert [cbt.step(d) for _, d in test[4:10]] == [twin.step(d) for _, d in test[4:10]]

@@ -81,11 +81,31 @@ pub fn output_for(dir: &Path, image: &Path, suffix: &str) -> PathBuf {
     dir.join(format!("{stem}{suffix}"))
 }
 
-/// Fails unless `dir` exists as a directory (creating it when missing).
-pub fn ensure_dir(dir: &Path) -> CliResult {
+/// Fails unless `dir` exists as a directory (creating it when missing). Returns the folders it
+/// made, outermost first, for [`remove_made`] to take away when the run fails; on an error it
+/// leaves none of them.
+pub fn ensure_dir(dir: &Path) -> CliResult<Vec<PathBuf>> {
     if dir.exists() && !dir.is_dir() {
         return Err(format!("{}: exists and is not a directory", dir.display()).into());
     }
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    Ok(())
+    let mut made: Vec<PathBuf> = dir
+        .ancestors()
+        .filter(|d| !d.as_os_str().is_empty())
+        .take_while(|d| !d.exists())
+        .map(Path::to_path_buf)
+        .collect();
+    made.reverse();
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        remove_made(&made);
+        return Err(format!("{}: {e}", dir.display()).into());
+    }
+    Ok(made)
+}
+
+/// Removes the folders [`ensure_dir`] made, innermost first, each only if it is empty (a
+/// failed run leaves no folder it made; anything written into one keeps it).
+pub fn remove_made(made: &[PathBuf]) {
+    for d in made.iter().rev() {
+        let _ = std::fs::remove_dir(d);
+    }
 }

@@ -23,7 +23,7 @@ use visguide::output::regions::{Format, write};
 use visguide::{Features, GrayReader};
 
 use super::CliResult;
-use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for};
+use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for, remove_made};
 
 /// The staged files of one image (staging name, final name) and its region count.
 type Staged = (Vec<(PathBuf, PathBuf)>, usize);
@@ -100,11 +100,22 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         )
         .into());
     }
-    ensure_dir(&a.out)?;
+    // The output folder is made for the staged files; a run that fails takes away the
+    // folders it made, as it leaves no file.
+    let made = ensure_dir(&a.out)?;
+    let result = detect_and_write(a, ui, &images);
+    if result.is_err() {
+        remove_made(&made);
+    }
+    result
+}
+
+/// [`run`] once the images are listed and the output folder exists.
+fn detect_and_write(a: &RegionsArgs, ui: Ui, images: &[PathBuf]) -> CliResult {
     let format: Format = a.format.into();
     // An output name taken by a directory is refused before any work: its rename would fail
     // only after the other images' files were already in place.
-    for path in &images {
+    for path in images {
         let mut targets = vec![output_for(
             &a.out,
             path,

@@ -156,6 +156,9 @@ fn werr(e: std::io::Error) -> VisguideError {
 
 /// Writes the regions of one image in `format` (`with_contours`: JSON and CSV only; the Oxford
 /// format has no place for them).
+///
+/// Errors: a region without an ellipse (moments no pixel set has), found before anything is
+/// written, so `w` is left as it was; an I/O error of `w` itself.
 pub fn write(
     w: &mut dyn Write,
     format: Format,
@@ -185,8 +188,10 @@ pub fn write(
             writeln!(w).map_err(werr)?;
         }
         Format::Csv => {
+            // Every record before the header: a refused region leaves `w` as it was.
+            let records = records(f, with_contours)?;
             writeln!(w, "{CSV_HEADER}").map_err(werr)?;
-            for (k, r) in records(f, with_contours)?.iter().enumerate() {
+            for (k, r) in records.iter().enumerate() {
                 let contour = r.contour.as_ref().map_or(String::new(), |c| {
                     c.iter()
                         .map(|(x, y)| format!("{x} {y}"))
@@ -228,4 +233,69 @@ fn records(f: &Features, with_contours: bool) -> Result<Vec<RegionRecord>> {
             RegionRecord::new(r, c)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A region found by the detector, and one whose moments no pixel set has (`Features`'
+    /// fields are public): the second has no ellipse.
+    fn features_with_a_bad_region() -> (Features, MserParams) {
+        let img = image::GrayImage::from_fn(40, 30, |x, y| {
+            image::Luma([if (10..25).contains(&x) && (8..20).contains(&y) {
+                30
+            } else {
+                220
+            }])
+        });
+        let params = MserParams::default();
+        let mut f = crate::features::detect(&img, &params).unwrap();
+        assert!(!f.is_empty(), "the square is a region");
+        let mut bad = f.regions[0].clone();
+        bad.moments = mser::Moments {
+            n: 0,
+            sx: 0,
+            sy: 0,
+            sxx: 0,
+            sxy: 0,
+            syy: 0,
+        };
+        assert!(bad.ellipse().is_err());
+        f.regions.push(bad);
+        f.frames.push(f.frames[0]);
+        f.contours.push(f.contours[0].clone());
+        (f, params)
+    }
+
+    /// A region without an ellipse is refused in every format, with or without contours, and
+    /// nothing is written to the writer: what it held stays as it was. (The CSV header used to
+    /// be written before the regions were checked, so a refused call left it in the output.)
+    #[test]
+    fn a_refused_write_leaves_the_writer_as_it_was() {
+        let (f, params) = features_with_a_bad_region();
+        for format in [Format::Oxford, Format::Json, Format::Csv] {
+            for contours in [false, true] {
+                let mut out = b"kept\n".to_vec();
+                let r = write(&mut out, format, "a.png", (40, 30), &params, &f, contours);
+                assert!(r.is_err(), "{format:?}, contours {contours}");
+                assert_eq!(
+                    String::from_utf8_lossy(&out),
+                    "kept\n",
+                    "{format:?}, contours {contours}"
+                );
+            }
+        }
+        // Without the bad region every format writes.
+        let good = Features {
+            regions: f.regions[..1].to_vec(),
+            frames: f.frames[..1].to_vec(),
+            contours: f.contours[..1].to_vec(),
+        };
+        for format in [Format::Oxford, Format::Json, Format::Csv] {
+            let mut out = Vec::new();
+            write(&mut out, format, "a.png", (40, 30), &params, &good, true).unwrap();
+            assert!(!out.is_empty(), "{format:?}");
+        }
+    }
 }

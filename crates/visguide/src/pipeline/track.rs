@@ -1061,6 +1061,66 @@ mod tests {
         assert!(p.locate_all(&[f]).is_ok());
     }
 
+    /// Every refused capture leaves the tracks exactly as they were, the tracker's posterior
+    /// included (which `offsets` does not show): a percept that saw refused captures between
+    /// its frames (images of another count or size, settings out of range, parts that no
+    /// longer fit) localises every later frame bit for bit as a twin that never saw them.
+    #[test]
+    fn refused_captures_change_no_later_localisation() {
+        let p = percept().with_motion(motion()).unwrap();
+        let twin = p.fresh();
+        let (mut n, mut m) = (p.notifier(50.0).unwrap(), twin.notifier(50.0).unwrap());
+        let size = p.fd.size;
+        let small = GrayImage::new(size[0] / 2, size[1] / 2);
+        let large = GrayImage::new(size[0] * 2, size[1]);
+        /// A refused capture of `p`, by one change of what it is given or holds.
+        type Bad = fn(&mut FdCbtRecogniser, &GrayImage, &GrayImage) -> bool;
+        let bad: [(&str, Bad); 6] = [
+            ("no image", |p, _, _| p.locate_all(&[]).is_err()),
+            ("two images", |p, _, _| {
+                let [f] = frame(5.0);
+                p.locate_all(&[f.clone(), f]).is_err()
+            }),
+            ("a small image", |p, small, _| {
+                p.locate_all(std::slice::from_ref(small)).is_err()
+            }),
+            ("a large image", |p, _, large| {
+                p.locate_all(std::slice::from_ref(large)).is_err()
+            }),
+            ("a NaN kernel width", |p, _, _| {
+                p.fd.config.mode_sigma_px = f64::NAN;
+                let refused = p.locate_all(&frame(5.0)).is_err();
+                p.fd.config = PerceptConfig::default();
+                refused
+            }),
+            ("a percept size the models do not fit", |p, small, _| {
+                let size = p.fd.size;
+                p.fd.size = [small.width(), small.height()];
+                let refused = p.locate_all(std::slice::from_ref(small)).is_err();
+                p.fd.size = size;
+                refused
+            }),
+        ];
+        let mut p = p;
+        for (k, dx) in [5.0, 6.0, 6.5, 7.5, 8.0, 9.0, 9.5].into_iter().enumerate() {
+            let command = [1500.0 + 2.0 * k as f64];
+            n.commanded(&command).unwrap();
+            m.commanded(&command).unwrap();
+            let got = p.locate_all(&frame(dx));
+            let want = twin.locate_all(&frame(dx));
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "frame {k}");
+            assert!(got.is_ok(), "frame {k}: {got:?}");
+            for (what, refuse) in &bad {
+                assert!(
+                    refuse(&mut p, &small, &large),
+                    "frame {k}: {what} was taken"
+                );
+                assert_eq!(p.offsets(), twin.offsets(), "frame {k}: {what}");
+                assert_eq!(p.predicted(), twin.predicted(), "frame {k}: {what}");
+            }
+        }
+    }
+
     /// A command that is not finite (or empty, or of another length than the last) is refused
     /// by the notifier, and nothing changes. A NaN set-point used to be taken: with a forward
     /// model the prior lost its centre, and every later move compared with the NaN looked
