@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::approach::{Approach, ApproachDirection, ApproachState};
 use crate::error::{Result, ServoError};
 use crate::inverse::InverseModel;
-use crate::plant::{Plant, check_command};
+use crate::plant::{Plant, check_command, checked_range};
 
 /// Settings of a learning session.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -193,7 +193,7 @@ pub fn learn_control_chained<P: Plant + ?Sized>(
     }
     let mut commands = RandomCommands::new(&config.explore, config.seed)?;
     for (j, &[lo, hi]) in config.explore.iter().enumerate() {
-        let [min, max] = plant.command_range(j);
+        let [min, max] = checked_range(plant, j)?;
         if lo < min || hi > max {
             return Err(ServoError::InvalidParameter {
                 name: "explore",

@@ -21,7 +21,8 @@ pub trait Plant {
     fn percept_dim(&self) -> usize;
     /// Number of controlled set-points `y`.
     fn command_dim(&self) -> usize;
-    /// Valid range `[min, max]` of controlled set-point `j`.
+    /// Valid range `[min, max]` of controlled set-point `j`, `min ≤ max` (infinite ends allowed;
+    /// a NaN end or `min > max` is refused by the loops, see [`check_command`]).
     fn command_range(&self, j: usize) -> [f64; 2];
     /// Executes the command `y` (controlled set-points only). Implementations may assume that
     /// `y` was checked with [`check_command`].
@@ -36,12 +37,14 @@ pub trait Plant {
 }
 
 /// Validates a command against the plant: length, finiteness and servo range
-/// ([`ServoError::OutOfServoRange`] names the first joint outside).
+/// ([`ServoError::OutOfServoRange`] names the first joint outside). A plant whose range is not
+/// a range (a NaN end, or `min > max`) is an [`ServoError::InvalidParameter`] naming
+/// `command_range` (see [`checked_range`]).
 pub fn check_command<P: Plant + ?Sized>(plant: &P, y: &[f64]) -> Result<()> {
     check_len("command", y, plant.command_dim())?;
     check_finite("command", y)?;
     for (joint, &value) in y.iter().enumerate() {
-        let [min, max] = plant.command_range(joint);
+        let [min, max] = checked_range(plant, joint)?;
         if value < min || value > max {
             return Err(ServoError::OutOfServoRange {
                 joint,
@@ -52,6 +55,21 @@ pub fn check_command<P: Plant + ?Sized>(plant: &P, y: &[f64]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The plant's range of set-point `joint`, refused when it is not a range: a NaN end, or
+/// `min > max` ([`ServoError::InvalidParameter`] naming `command_range`). It comes from the
+/// plant's own code, and clamping to it (`f64::clamp`) would panic.
+pub(crate) fn checked_range<P: Plant + ?Sized>(plant: &P, joint: usize) -> Result<[f64; 2]> {
+    let [min, max] = plant.command_range(joint);
+    if min <= max {
+        Ok([min, max])
+    } else {
+        Err(ServoError::InvalidParameter {
+            name: "command_range",
+            reason: format!("the plant's range of joint {joint} is [{min}, {max}], not a range"),
+        })
+    }
 }
 
 /// Validates a target percept: length, finiteness and (if the plant knows them) the percept

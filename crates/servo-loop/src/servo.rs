@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::approach::{Approach, ApproachState};
 use crate::error::{Result, ServoError, check_finite, check_len};
 use crate::inverse::InverseModel;
-use crate::plant::{Observation, Plant, check_command, check_target};
+use crate::plant::{Observation, Plant, check_command, check_target, checked_range};
 use crate::recovery::{Recovery, RefusedMove};
 
 /// Where the learned Jacobian is evaluated.
@@ -307,7 +307,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         }
         if self.config.range == RangePolicy::Clamp {
             for (j, v) in y.iter_mut().enumerate() {
-                let [lo, hi] = self.plant.command_range(j);
+                let [lo, hi] = checked_range(&*self.plant, j)?;
                 if v.is_finite() {
                     *v = v.clamp(lo, hi);
                 }

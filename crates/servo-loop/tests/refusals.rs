@@ -10,8 +10,9 @@ use rectified::{Rectified, learned, model_config};
 use serde_json::json;
 use servo_loop::{
     Approach, BroydenConfig, CorrectionSample, InverseModel, LearnConfig, Observation, Plant,
-    Recovery, ServoConfig, ServoResult, TipModel, learn_control, learn_control_chained,
-    open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
+    RangePolicy, Recovery, ServoConfig, ServoError, ServoResult, TipModel, check_command,
+    learn_control, learn_control_chained, open_loop_with, servo_broyden, servo_image_jacobian,
+    servo_lwpr,
 };
 
 /// The one-camera rectified plant in a 640 × 480 image, counting every call that could change
@@ -364,5 +365,94 @@ fn a_refused_recogniser_update_leaves_the_tip_model_as_it_was() {
             "{what}: accepted"
         );
         assert_eq!(model, before, "{what}: consistency changed");
+    }
+}
+
+/// The watched plant with joint 0's range replaced by one that is not a range.
+struct BrokenRange {
+    inner: Watched,
+    range: [f64; 2],
+}
+
+impl Plant for BrokenRange {
+    fn percept_dim(&self) -> usize {
+        self.inner.percept_dim()
+    }
+    fn command_dim(&self) -> usize {
+        self.inner.command_dim()
+    }
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        if j == 0 {
+            self.range
+        } else {
+            self.inner.command_range(j)
+        }
+    }
+    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.inner.act(y)
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        self.inner.observe()
+    }
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        self.inner.percept_bounds()
+    }
+}
+
+/// A plant whose own range is not a range (a NaN end, or `min > max`) is a typed error naming
+/// `command_range`, in the command check, the servo loops (with the clamping range policy and
+/// with an approach, whose clamps used to panic in `f64::clamp`) and learning, and nothing is
+/// sent to it.
+#[test]
+fn a_plant_range_that_is_not_a_range_is_refused_not_panicked_on() {
+    let trained = learned(1, 300, 5);
+    let target = Rectified::at(1, [0.5, 0.5]).percept(&[0.4, 0.6]);
+    let is_range_error = |e: &ServoError| {
+        matches!(
+            e,
+            ServoError::InvalidParameter {
+                name: "command_range",
+                ..
+            }
+        )
+    };
+    for range in [[f64::NAN, 1.0], [0.0, f64::NAN], [0.6, 0.4]] {
+        let mut plant = BrokenRange {
+            inner: Watched::new(),
+            range,
+        };
+        let e = check_command(&plant, &[0.5, 0.5]).unwrap_err();
+        assert!(is_range_error(&e), "{range:?}: {e}");
+        for config in [
+            ServoConfig {
+                range: RangePolicy::Clamp,
+                ..ServoConfig::default()
+            },
+            ServoConfig {
+                approach: Some(Approach::hobby_servo()),
+                ..ServoConfig::default()
+            },
+            ServoConfig::default(),
+        ] {
+            let mut m = trained.clone();
+            let abort = servo_lwpr(&mut plant, &mut m, &target, &config)
+                .expect_err(&format!("{range:?}: accepted"));
+            assert!(is_range_error(&abort.error), "{range:?}: {}", abort.error);
+            assert_eq!(m, trained, "{range:?}: model changed");
+            plant.inner.assert_untouched(&format!("{range:?}"));
+        }
+        let config = LearnConfig {
+            moves: 5,
+            explore: vec![[0.0, 1.0]; 2],
+            seed: 3,
+            approach: None,
+        };
+        let mut m = trained.clone();
+        let e = learn_control(&mut plant, &mut m, &config, |_, _| {}).unwrap_err();
+        assert!(is_range_error(&e), "{range:?}: {e}");
+        assert_eq!(m, trained);
+        plant
+            .inner
+            .assert_untouched(&format!("{range:?}, learning"));
     }
 }
