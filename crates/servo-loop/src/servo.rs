@@ -163,7 +163,9 @@ impl ServoRun {
     }
 
     /// Moves made: executed commands, observed (pre-positions not counted), whether their
-    /// percept was accepted or refused.
+    /// percept was accepted or refused. A move whose observation failed otherwise (a plant
+    /// error, or a percept of the wrong length or not finite) ends the run with that error and
+    /// is in neither list, so it is not counted here.
     pub fn moves(&self) -> usize {
         self.steps.len() + self.refused.len()
     }

@@ -456,3 +456,54 @@ fn a_plant_range_that_is_not_a_range_is_refused_not_panicked_on() {
             .assert_untouched(&format!("{range:?}, learning"));
     }
 }
+
+/// The watched plant, whose observations give a percept of one value too few.
+struct ShortPercept(Watched);
+
+impl Plant for ShortPercept {
+    fn percept_dim(&self) -> usize {
+        self.0.percept_dim()
+    }
+    fn command_dim(&self) -> usize {
+        self.0.command_dim()
+    }
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        self.0.command_range(j)
+    }
+    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
+        self.0.act(y)
+    }
+    fn observe(&mut self) -> servo_loop::Result<Observation> {
+        let mut o = self.0.observe()?;
+        o.x.pop();
+        Ok(o)
+    }
+    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
+        self.0.percept_bounds()
+    }
+}
+
+/// A move whose observation fails otherwise than by a refused percept (here a percept of the
+/// wrong length) ends the run with that error, and is in neither of the run's lists, as
+/// `ServoRun::moves` says: the move was made, and is not counted.
+#[test]
+fn a_move_whose_observation_fails_ends_the_run_uncounted() {
+    let trained = learned(1, 300, 5);
+    let target = Rectified::at(1, [0.5, 0.5]).percept(&[0.4, 0.6]);
+    let mut plant = ShortPercept(Watched::new());
+    let mut m = trained.clone();
+    let abort = servo_lwpr(&mut plant, &mut m, &target, &ServoConfig::default())
+        .expect_err("a short percept was taken");
+    assert!(
+        matches!(abort.error, ServoError::DimensionMismatch { .. }),
+        "{}",
+        abort.error
+    );
+    assert_eq!(
+        (plant.0.acts, plant.0.observes),
+        (1, 1),
+        "the move was made"
+    );
+    assert!(abort.run.steps.is_empty() && abort.run.refused.is_empty());
+    assert_eq!(abort.run.moves(), 0);
+}
