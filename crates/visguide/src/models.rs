@@ -41,14 +41,19 @@ fn read_checked(path: &Path, format: &str) -> Result<String> {
     }
     let text = std::fs::read_to_string(path).map_err(io(path))?;
     let h: Header = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
-    match (h.format.as_deref(), h.version) {
-        (None, _) => Err(bad(format!(
+    let Some(f) = h.format.as_deref() else {
+        return Err(bad(format!(
             "no `format` field; expected a `{format}` file"
-        ))),
-        (Some(f), v) if f != format => Err(bad(envelope_fault(f, v.unwrap_or(0), format).unwrap())),
-        (_, None) => Err(bad("no `version` field".into())),
-        (Some(f), Some(v)) => envelope_fault(f, v, format).map_or(Ok(text), |r| Err(bad(r))),
+        )));
+    };
+    // Another format is named before a missing version.
+    if let Some(reason) = envelope_fault(f, h.version.unwrap_or(MODEL_VERSION), format) {
+        return Err(bad(reason));
     }
+    if h.version.is_none() {
+        return Err(bad("no `version` field".into()));
+    }
+    Ok(text)
 }
 
 /// What is wrong with a file's envelope (`format`, `version`) for a `want` file, if anything.
@@ -357,6 +362,16 @@ mod tests {
                 .to_string()
                 .contains("visguide-cbt")
         );
+        // A missing field is named; another format is named before a missing version.
+        for (text, want) in [
+            ("{\"format\":\"visguide-lwpr\"}", "no `version` field"),
+            ("{\"version\":1}", "no `format` field"),
+            ("{\"format\":\"visguide-cbt\"}", "`visguide-cbt` file"),
+        ] {
+            std::fs::write(&p, text).unwrap();
+            let e = LwprFile::load(&p).unwrap_err().to_string();
+            assert!(e.contains(want), "{text}: {e}");
+        }
         std::fs::write(&p, "garbage").unwrap();
         assert!(
             LwprFile::load(&p)
