@@ -39,7 +39,7 @@ pub trait Plant {
 /// Validates a command against the plant: length, finiteness and servo range
 /// ([`ServoError::OutOfServoRange`] names the first joint outside). A plant whose range is not
 /// a range (a NaN end, or `min > max`) is an [`ServoError::InvalidParameter`] naming
-/// `command_range` (see [`checked_range`]).
+/// `command_range`.
 pub fn check_command<P: Plant + ?Sized>(plant: &P, y: &[f64]) -> Result<()> {
     check_len("command", y, plant.command_dim())?;
     check_finite("command", y)?;
