@@ -4,16 +4,17 @@
 
 #[path = "common/rectified.rs"]
 mod rectified;
+#[path = "common/tip_model.rs"]
+mod tip_model;
 
 use nalgebra::DMatrix;
 use rectified::{Rectified, learned, model_config};
-use serde_json::json;
 use servo_loop::{
     Approach, BroydenConfig, CorrectionSample, InverseModel, LearnConfig, Observation, Plant,
-    RangePolicy, Recovery, ServoConfig, ServoError, ServoResult, TipModel, check_command,
-    learn_control, learn_control_chained, open_loop_with, servo_broyden, servo_image_jacobian,
-    servo_lwpr,
+    RangePolicy, Recovery, ServoConfig, ServoError, ServoResult, check_command, learn_control,
+    learn_control_chained, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
+use tip_model::{rectified, tip_model};
 
 /// The one-camera rectified plant in a 640 × 480 image, counting every call that could change
 /// it or the world.
@@ -286,26 +287,6 @@ fn a_refused_servo_run_moves_nothing_and_learns_nothing() {
     }
 }
 
-/// A two-camera tip model of 16 × 12 cameras (far-end rule) with a learned consistency, as
-/// saved.
-fn tip_model() -> TipModel {
-    let camera = json!({
-        "width": 16, "height": 12,
-        "background": vec![40.0f32; 16 * 12], "half_background": vec![40.0f32; 8 * 6],
-        "noise_sigma": 1.5, "root": [0.5, 6.0], "end_length": 8.0, "end_area": 12.0
-    });
-    serde_json::from_value(json!({
-        "config": {
-            "noise_multiple": 5.0, "min_threshold": 8.0, "min_pixels": 4, "min_certainty": 0.3,
-            "tip": "far_end", "correction_poses": 100, "cross_camera_choice": false,
-            "face_gate": 0.0, "spread_scale": 0.0, "cap_training": true
-        },
-        "cameras": vec![camera; 2],
-        "consistency": [{ "f": [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], "sigma": 0.5 }]
-    }))
-    .unwrap()
-}
-
 /// `n` correction poses of the two cameras, each with an end face 1.1 px from its far end.
 fn correction_samples(n: usize) -> Vec<CorrectionSample> {
     (0..n)
@@ -332,7 +313,7 @@ fn correction_samples(n: usize) -> Vec<CorrectionSample> {
 /// consistency included).
 #[test]
 fn a_refused_recogniser_update_leaves_the_tip_model_as_it_was() {
-    let mut model = tip_model();
+    let mut model = tip_model(2, vec![rectified()]);
     model.learn_correction(&correction_samples(40)).unwrap();
     assert!(model.correction().is_some() && model.consistency().len() == 1);
     let before = model.clone();
