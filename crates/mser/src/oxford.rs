@@ -66,8 +66,13 @@ fn check_ellipses(ellipses: &[Ellipse]) -> Result<()> {
 /// round-trip formatting, so [`read_regions`] gets the same `f64` values back. An ellipse
 /// [`read_regions`] would refuse (a non-finite number, not positive definite) is an
 /// [`MserError::InvalidParameter`] before anything is written.
-pub fn write_regions<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+pub fn write_regions<W: Write>(w: W, ellipses: &[Ellipse]) -> Result<()> {
     check_ellipses(ellipses)?;
+    write_checked(w, ellipses)
+}
+
+/// [`write_regions`] of ellipses already checked ([`check_ellipses`]).
+fn write_checked<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
     writeln!(w, "1.0")?;
     writeln!(w, "{}", ellipses.len())?;
     for e in ellipses {
@@ -94,7 +99,7 @@ pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> 
     let result = (|| {
         let f = std::fs::File::create(&tmp)?;
         let mut w = std::io::BufWriter::new(f);
-        write_regions(&mut w, ellipses)?;
+        write_checked(&mut w, ellipses)?;
         let f = w
             .into_inner()
             .map_err(|e| MserError::from(e.into_error()))?;
