@@ -17,54 +17,45 @@ use cbt_tracker::{
 };
 
 mod common;
-use common::{H, W, data, stationary_spacing};
+use common::{H, W, data, model, stationary_spacing};
 
 /// One model per kind of tracker state: every layout and order, the velocity per position,
 /// and a periodic input (whose time index is part of the state).
 fn models(train: &[Sequence]) -> Vec<(String, CbtModel)> {
-    let fine = stationary_spacing(train);
     let mut out = Vec::new();
     for layout in [Layout::Separable, Layout::SparseJoint, Layout::Stationary] {
         for order in [Order::First, Order::Second] {
-            let (base, spacing) = if layout == Layout::Stationary {
-                (CbtConfig::stationary(), fine)
-            } else {
-                (CbtConfig::default(), 8.0)
-            };
-            let cfg = CbtConfig {
-                layout,
-                order,
-                ..base
-            };
-            out.push((format!("{layout:?} {order:?}"), cfg, spacing));
+            out.push((format!("{layout:?} {order:?}"), model(train, layout, order)));
         }
     }
+    let learn = |cfg, spacing| {
+        CbtModel::learn_sequences(Space::image(W, H, spacing).unwrap(), cfg, train).unwrap()
+    };
     out.push((
         "Stationary per-position velocity".into(),
-        CbtConfig {
-            velocity: Velocity::PerPosition,
-            ..CbtConfig::stationary()
-        },
-        fine,
+        learn(
+            CbtConfig {
+                velocity: Velocity::PerPosition,
+                ..CbtConfig::stationary()
+            },
+            stationary_spacing(train),
+        ),
     ));
     out.push((
         "Separable First periodic input".into(),
-        CbtConfig {
-            order: Order::First,
-            input: Some(PeriodicInput {
-                omega: 1.2,
-                channels: 12,
-            }),
-            ..CbtConfig::default()
-        },
-        8.0,
+        learn(
+            CbtConfig {
+                order: Order::First,
+                input: Some(PeriodicInput {
+                    omega: 1.2,
+                    channels: 12,
+                }),
+                ..CbtConfig::default()
+            },
+            8.0,
+        ),
     ));
-    out.into_iter()
-        .map(|(what, cfg, spacing)| {
-            let space = Space::image(W, H, spacing).unwrap();
-            (what, CbtModel::learn_sequences(space, cfg, train).unwrap())
-        })
-        .collect()
+    out
 }
 
 /// A call that must be refused: its name, and the call on the tracker.

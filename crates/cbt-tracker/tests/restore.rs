@@ -2,28 +2,11 @@
 //! original, and both continue bit-identically on the same frames — for every layout and
 //! order, with and without self-learning (whose online-learning history is part of the state).
 
-use cbt_tracker::{
-    CbtConfig, CbtModel, CbtTracker, Layout, Order, Sequence, Space, TrackError, Tracker,
-};
+use cbt_tracker::{CbtTracker, Layout, Order, Sequence, TrackError, Tracker};
 use serde_json::Value;
 
 mod common;
-use common::{H, W, data, stationary_spacing};
-
-fn model(train: &[Sequence], layout: Layout, order: Order) -> CbtModel {
-    let (cfg, spacing) = if layout == Layout::Stationary {
-        let s = stationary_spacing(train);
-        (CbtConfig::stationary(), s)
-    } else {
-        (CbtConfig::default(), 8.0)
-    };
-    let cfg = CbtConfig {
-        layout,
-        order,
-        ..cfg
-    };
-    CbtModel::learn_sequences(Space::image(W, H, spacing).unwrap(), cfg, train).unwrap()
-}
+use common::{data, model};
 
 fn round_trip(t: &CbtTracker) -> CbtTracker {
     let json = serde_json::to_string(t).unwrap();

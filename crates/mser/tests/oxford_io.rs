@@ -157,16 +157,19 @@ fn a_failed_save_leaves_no_partial_file() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A valid ellipse (positive definite), the base of the refused ones.
+const GOOD: Ellipse = Ellipse {
+    u: 1.5,
+    v: 2.25,
+    a: 0.1,
+    b: -0.01,
+    c: 0.2,
+};
+
 /// The writer refuses exactly what the reader refuses, before writing a byte.
 #[test]
 fn unreadable_ellipses_are_not_written() {
-    let good = Ellipse {
-        u: 1.5,
-        v: 2.25,
-        a: 0.1,
-        b: -0.01,
-        c: 0.2,
-    };
+    let good = GOOD;
     for bad in [
         Ellipse {
             u: f64::NAN,
@@ -211,13 +214,7 @@ fn a_refused_save_touches_no_file() {
     let dir = std::env::temp_dir().join(format!("mser-refused-save-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let good = Ellipse {
-        u: 1.5,
-        v: 2.25,
-        a: 0.1,
-        b: -0.01,
-        c: 0.2,
-    };
+    let good = GOOD;
     let bad = Ellipse {
         a: f64::NAN,
         ..good

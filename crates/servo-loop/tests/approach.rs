@@ -476,10 +476,12 @@ fn deserialised_approaches_are_validated() {
     assert!(err.to_string().contains("resolution"), "{err}");
 }
 
-/// A plant that refuses its commands when told to (a robot error).
+/// A plant of command range `range` that refuses its commands when told to (a robot error),
+/// counting them.
 struct Unplugged {
     fail: bool,
     acts: usize,
+    range: [f64; 2],
 }
 
 impl Plant for Unplugged {
@@ -490,7 +492,7 @@ impl Plant for Unplugged {
         2
     }
     fn command_range(&self, _: usize) -> [f64; 2] {
-        RANGE
+        self.range
     }
     fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
         self.acts += 1;
@@ -519,6 +521,7 @@ fn execute_errors_leave_the_state_as_documented() {
     let mut plant = Unplugged {
         fail: false,
         acts: 0,
+        range: RANGE,
     };
     let mut state = ApproachState::new();
     state
@@ -551,33 +554,6 @@ fn execute_errors_leave_the_state_as_documented() {
     );
 }
 
-/// A plant without bounds on its commands, counting them.
-struct Unbounded {
-    acts: usize,
-}
-
-impl Plant for Unbounded {
-    fn percept_dim(&self) -> usize {
-        2
-    }
-    fn command_dim(&self) -> usize {
-        2
-    }
-    fn command_range(&self, _: usize) -> [f64; 2] {
-        [f64::NEG_INFINITY, f64::INFINITY]
-    }
-    fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
-        self.acts += 1;
-        Ok(())
-    }
-    fn observe(&mut self) -> servo_loop::Result<Observation> {
-        Ok(Observation {
-            x: vec![0.0, 0.0],
-            certainty: 1.0,
-        })
-    }
-}
-
 /// `ApproachState::execute`: a pre-position the check refuses (a finite command whose
 /// pre-position overflows to −∞ on a plant without a lower bound) is refused before anything
 /// is sent and changes no state, as a refused command does. (It used to forget the last command
@@ -590,7 +566,12 @@ fn a_refused_pre_position_changes_no_state() {
         resolution: 0.0,
     };
     a.validate().unwrap();
-    let mut plant = Unbounded { acts: 0 };
+    // Without bounds on its commands.
+    let mut plant = Unplugged {
+        fail: false,
+        acts: 0,
+        range: [f64::NEG_INFINITY, f64::INFINITY],
+    };
     let mut state = ApproachState::new();
     state.execute(&mut plant, &a, &[0.0, 0.0], false).unwrap();
     let (before, acts) = (state.clone(), plant.acts);

@@ -17,11 +17,15 @@ use servo_loop::{
 use tip_model::{rectified, tip_model};
 
 /// The one-camera rectified plant in a 640 × 480 image, counting every call that could change
-/// it or the world.
+/// it or the world; optionally misbehaving, as a user's plant might.
 struct Watched {
     inner: Rectified,
     acts: usize,
     observes: usize,
+    /// Joint 0's range in place of the plant's (one that is not a range).
+    range0: Option<[f64; 2]>,
+    /// Whether its percepts lack their last value.
+    short_percept: bool,
 }
 
 impl Watched {
@@ -32,6 +36,8 @@ impl Watched {
             inner,
             acts: 0,
             observes: 0,
+            range0: None,
+            short_percept: false,
         }
     }
 
@@ -50,7 +56,10 @@ impl Plant for Watched {
         self.inner.command_dim()
     }
     fn command_range(&self, j: usize) -> [f64; 2] {
-        self.inner.command_range(j)
+        match self.range0 {
+            Some(r) if j == 0 => r,
+            _ => self.inner.command_range(j),
+        }
     }
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
         self.acts += 1;
@@ -58,7 +67,11 @@ impl Plant for Watched {
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
         self.observes += 1;
-        self.inner.observe()
+        let mut o = self.inner.observe()?;
+        if self.short_percept {
+            o.x.pop();
+        }
+        Ok(o)
     }
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
         self.inner.percept_bounds()
@@ -349,37 +362,6 @@ fn a_refused_recogniser_update_leaves_the_tip_model_as_it_was() {
     }
 }
 
-/// The watched plant with joint 0's range replaced by one that is not a range.
-struct BrokenRange {
-    inner: Watched,
-    range: [f64; 2],
-}
-
-impl Plant for BrokenRange {
-    fn percept_dim(&self) -> usize {
-        self.inner.percept_dim()
-    }
-    fn command_dim(&self) -> usize {
-        self.inner.command_dim()
-    }
-    fn command_range(&self, j: usize) -> [f64; 2] {
-        if j == 0 {
-            self.range
-        } else {
-            self.inner.command_range(j)
-        }
-    }
-    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
-        self.inner.act(y)
-    }
-    fn observe(&mut self) -> servo_loop::Result<Observation> {
-        self.inner.observe()
-    }
-    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
-        self.inner.percept_bounds()
-    }
-}
-
 /// A plant whose own range is not a range (a NaN end, or `min > max`) is a typed error naming
 /// `command_range`, in the command check, the servo loops (with the clamping range policy and
 /// with an approach, whose clamps used to panic in `f64::clamp`) and learning, and nothing is
@@ -398,9 +380,9 @@ fn a_plant_range_that_is_not_a_range_is_refused_not_panicked_on() {
         )
     };
     for range in [[f64::NAN, 1.0], [0.0, f64::NAN], [0.6, 0.4]] {
-        let mut plant = BrokenRange {
-            inner: Watched::new(),
-            range,
+        let mut plant = Watched {
+            range0: Some(range),
+            ..Watched::new()
         };
         let e = check_command(&plant, &[0.5, 0.5]).unwrap_err();
         assert!(is_range_error(&e), "{range:?}: {e}");
@@ -420,7 +402,7 @@ fn a_plant_range_that_is_not_a_range_is_refused_not_panicked_on() {
                 .expect_err(&format!("{range:?}: accepted"));
             assert!(is_range_error(&abort.error), "{range:?}: {}", abort.error);
             assert_eq!(m, trained, "{range:?}: model changed");
-            plant.inner.assert_untouched(&format!("{range:?}"));
+            plant.assert_untouched(&format!("{range:?}"));
         }
         let config = LearnConfig {
             moves: 5,
@@ -432,35 +414,7 @@ fn a_plant_range_that_is_not_a_range_is_refused_not_panicked_on() {
         let e = learn_control(&mut plant, &mut m, &config, |_, _| {}).unwrap_err();
         assert!(is_range_error(&e), "{range:?}: {e}");
         assert_eq!(m, trained);
-        plant
-            .inner
-            .assert_untouched(&format!("{range:?}, learning"));
-    }
-}
-
-/// The watched plant, whose observations give a percept of one value too few.
-struct ShortPercept(Watched);
-
-impl Plant for ShortPercept {
-    fn percept_dim(&self) -> usize {
-        self.0.percept_dim()
-    }
-    fn command_dim(&self) -> usize {
-        self.0.command_dim()
-    }
-    fn command_range(&self, j: usize) -> [f64; 2] {
-        self.0.command_range(j)
-    }
-    fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
-        self.0.act(y)
-    }
-    fn observe(&mut self) -> servo_loop::Result<Observation> {
-        let mut o = self.0.observe()?;
-        o.x.pop();
-        Ok(o)
-    }
-    fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {
-        self.0.percept_bounds()
+        plant.assert_untouched(&format!("{range:?}, learning"));
     }
 }
 
@@ -471,7 +425,10 @@ impl Plant for ShortPercept {
 fn a_move_whose_observation_fails_ends_the_run_uncounted() {
     let trained = learned(1, 300, 5);
     let target = Rectified::at(1, [0.5, 0.5]).percept(&[0.4, 0.6]);
-    let mut plant = ShortPercept(Watched::new());
+    let mut plant = Watched {
+        short_percept: true,
+        ..Watched::new()
+    };
     let mut m = trained.clone();
     let abort = servo_lwpr(&mut plant, &mut m, &target, &ServoConfig::default())
         .expect_err("a short percept was taken");
@@ -480,11 +437,7 @@ fn a_move_whose_observation_fails_ends_the_run_uncounted() {
         "{}",
         abort.error
     );
-    assert_eq!(
-        (plant.0.acts, plant.0.observes),
-        (1, 1),
-        "the move was made"
-    );
+    assert_eq!((plant.acts, plant.observes), (1, 1), "the move was made");
     assert!(abort.run.steps.is_empty() && abort.run.refused.is_empty());
     assert_eq!(abort.run.moves(), 0);
 }

@@ -253,14 +253,8 @@ mod tests {
         let mut f = crate::features::detect(&img, &params).unwrap();
         assert!(!f.is_empty(), "the square is a region");
         let mut bad = f.regions[0].clone();
-        bad.moments = mser::Moments {
-            n: 0,
-            sx: 0,
-            sy: 0,
-            sxx: 0,
-            sxy: 0,
-            syy: 0,
-        };
+        // The moments of no pixel at all.
+        bad.moments = mser::Moments::of_pixels(&[]).unwrap();
         assert!(bad.ellipse().is_err());
         f.regions.push(bad);
         f.frames.push(f.frames[0]);
