@@ -20,6 +20,7 @@
 
 mod arm_sim;
 mod chan_repr;
+mod in_order;
 mod lwpr;
 pub(crate) mod paper_a;
 mod pipeline;

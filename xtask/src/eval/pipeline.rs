@@ -43,9 +43,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::eval::in_order;
 use arm_sim::{ArmSim, SimConfig};
 use clap::Args;
-use rayon::prelude::*;
 use serde::Serialize;
 use servo_loop::{
     Approach, ControlSpace, InverseModel, InverseModelConfig, JacobianAt, LearnConfig,
@@ -583,10 +583,7 @@ fn scene_study(
 ) -> Result<SceneOutcome> {
     const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
     let l = learn(name, role, config, args)?;
-    let outcomes = seeds
-        .par_iter()
-        .map(|&seed| seed_study(config, &l, seed))
-        .collect::<Result<Vec<_>>>()?;
+    let outcomes = in_order::try_map(seeds, |&seed| seed_study(config, &l, seed))?;
     let mut errors: [[Errors; 2]; 3] = Default::default();
     let mut seconds = [0.0; 3];
     let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
@@ -684,10 +681,9 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
     // Scenes and seeds run at once on rayon's pool; each seed's work is independent of the
     // others' (its own simulators, LWPR and percept copy), and the results are gathered in
     // order, so the figures do not depend on the number of threads.
-    let studied = scenes
-        .par_iter()
-        .map(|(name, config, role)| scene_study(name, *role, config, seeds, args))
-        .collect::<Result<Vec<_>>>()?;
+    let studied = in_order::try_map(&scenes, |(name, config, role)| {
+        scene_study(name, *role, config, seeds, args)
+    })?;
     for s in studied {
         let captures = (seeds.len() * WALKS * STEPS) as f64;
         println!(

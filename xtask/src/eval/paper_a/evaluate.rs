@@ -2,9 +2,9 @@
 //! samplings, compute each pair's ground truth, match with every combination (with and
 //! without preselection) and sweep the ratio threshold.
 
+use crate::eval::in_order;
 use fd_match::{DescriptorSet, Sampling};
 use mser::MserParams;
-use rayon::prelude::*;
 use serde::Serialize;
 
 use visguide::matching::{describe, match_regions, preselected};
@@ -176,15 +176,11 @@ fn score(
 pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Result<SequenceResult> {
     let n_img = seq.images.len();
     let bar = progress.bar(n_img as u64, &format!("{}: regions", seq.name));
-    let features: Vec<Features> = seq
-        .images
-        .par_iter()
-        .map(|img| {
-            let f = visguide::detect(img, &plan.mser);
-            bar.inc(1);
-            f
-        })
-        .collect::<visguide::Result<_>>()?;
+    let features: Vec<Features> = in_order::try_map(&seq.images, |img| {
+        let f = visguide::detect(img, &plan.mser);
+        bar.inc(1);
+        f
+    })?;
     bar.finish_and_clear();
 
     let needed: Vec<bool> = SAMPLINGS

@@ -10,8 +10,8 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::eval::in_order;
 use arm_sim::SimConfig;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
 
@@ -184,10 +184,9 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .iter()
         .flat_map(|(n, c)| seeds.iter().map(move |&s| (n.as_str(), c, s)))
         .collect();
-    let results = jobs
-        .par_iter()
-        .map(|&(name, config, seed)| run_seed(name, config, seed, args))
-        .collect::<Result<Vec<_>>>()?;
+    let results = in_order::try_map(&jobs, |&(name, config, seed)| {
+        run_seed(name, config, seed, args)
+    })?;
     // The study's percept settings, as every seed's protocol has them.
     let mut p = Protocol::default_for(0);
     args.apply_settings(&mut p);

@@ -25,11 +25,11 @@ use crate::markdown::Table;
 use std::fmt::Write;
 use std::path::Path;
 
+use crate::eval::in_order;
 use cbt_tracker::metrics::Score;
 use cbt_tracker::sim::{observe, rng_for};
 use cbt_tracker::{Frame, Sequence};
 use rand::seq::SliceRandom;
-use rayon::prelude::*;
 use serde::Serialize;
 
 use super::Difficulty;
@@ -273,10 +273,9 @@ pub fn run(scenes: &[Scene], only: &Only) -> Result<Vec<FoldResult>> {
                 .flat_map(move |scene| (0..3).map(move |level| Job { scene, level, few }))
         })
         .collect();
-    let folds = jobs
-        .par_iter()
-        .map(|j| run_fold(scenes, j, area, only.trackers.as_deref()))
-        .collect::<Result<Vec<FoldResult>>>()?;
+    let folds: Vec<FoldResult> = in_order::try_map(&jobs, |j| {
+        run_fold(scenes, j, area, only.trackers.as_deref())
+    })?;
     // Time per frame, on stderr only (fixtures hold no timings; noisy when run in parallel).
     if let Some(f) = folds.first() {
         for (ti, t) in f.trackers.iter().enumerate() {
