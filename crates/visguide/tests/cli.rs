@@ -1075,6 +1075,49 @@ fn a_failed_regions_run_leaves_no_folder_it_made() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// With several bad images, the error names the first of them in the order given, at any
+/// number of threads, as on one. Three slow images come before the first bad one and the second
+/// bad one right after it, so with two threads the second fails while the first has not
+/// started: the first bad image used to be skipped then, and the error named the second.
+#[test]
+fn the_error_names_the_first_bad_image_at_any_thread_count() {
+    let dir = temp("first-bad");
+    let mut images = Vec::new();
+    for (i, name) in [
+        "a.png",
+        "b.png",
+        "c.png",
+        "d-bad.png",
+        "e-bad.png",
+        "f.png",
+        "g.png",
+        "h.png",
+    ]
+    .iter()
+    .enumerate()
+    {
+        let p = dir.join(name);
+        if name.contains("bad") {
+            std::fs::write(&p, b"\x89PNG\r\n\x1a\nthis is not a png").unwrap();
+        } else if i < 3 {
+            scene(&identity(), 320, 240, i as u32).save(&p).unwrap();
+        } else {
+            scene(&identity(), 40, 40, i as u32).save(&p).unwrap();
+        }
+        images.push(p);
+    }
+    let out = dir.join("out");
+    // Two threads twice: that is where the old scheduling went wrong.
+    for threads in ["1", "2", "2", "4"] {
+        let mut args = vec!["regions", "-q", "--threads", threads, "--out", s(&out)];
+        args.extend(images.iter().map(|p| s(p)));
+        let err = fails(&args, "d-bad.png");
+        assert!(!err.contains("e-bad.png"), "{threads} threads: {err}");
+        assert!(!out.exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `--threads` outside 1..=1024 is a usage error (exit 2, one line) before any work: a huge
 /// count used to try to start that many threads (100,000 hung for over a minute).
 #[test]

@@ -11,7 +11,7 @@
 //! written by `Display`: `mser`'s `oxford` module docs.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
@@ -130,16 +130,20 @@ fn detect_and_write(a: &RegionsArgs, ui: Ui, images: &[PathBuf]) -> CliResult {
     }
     let settings = a.mser.settings();
     let bar = ui.bar(images.len() as u64, "regions");
-    let failed = AtomicBool::new(false);
+    // The first image, in the order given, that failed so far. An image after it is not
+    // started (`None`); one before it still is, so the error reported is always the first
+    // failing image's, as on one thread, whatever the number of threads.
+    let first_failed = AtomicUsize::new(usize::MAX);
     // Which threads processed an image.
     let workers = AtomicU64::new(0);
     // Every file is first written under a staging name and renamed only when all images
     // succeeded, so a failed run leaves no output at all.
-    let results: Vec<CliResult<Staged>> = images
+    let results: Vec<Option<CliResult<Staged>>> = images
         .par_iter()
-        .map(|path| {
-            if failed.load(Ordering::Relaxed) {
-                return Err("skipped".into());
+        .enumerate()
+        .map(|(i, path)| {
+            if i > first_failed.load(Ordering::Relaxed) {
+                return None;
             }
             // Bit i: pool thread i; bit 63: a thread outside the pool (rayon runs a
             // single-image job on the caller).
@@ -147,23 +151,22 @@ fn detect_and_write(a: &RegionsArgs, ui: Ui, images: &[PathBuf]) -> CliResult {
             workers.fetch_or(1 << bit, Ordering::Relaxed);
             let r = one(a, &settings, format, path);
             if r.is_err() {
-                failed.store(true, Ordering::Relaxed);
+                first_failed.fetch_min(i, Ordering::Relaxed);
             }
             bar.inc(1);
-            r
+            Some(r)
         })
         .collect();
     bar.finish_and_clear();
     let mut total = 0;
     let mut staged = Vec::new();
     let mut first_error = None;
-    for r in results {
+    for r in results.into_iter().flatten() {
         match r {
             Ok((files, n)) => {
                 total += n;
                 staged.extend(files);
             }
-            Err(e) if e.to_string() == "skipped" => {}
             Err(e) => {
                 first_error.get_or_insert(e);
             }
