@@ -233,7 +233,7 @@ pub use oxford::{
 };
 pub use params::{MserParams, Polarities, Variation};
 pub use pixels::flood_pixels;
-pub use region::{BoundingBox, Ellipse, Moments, Polarity, Region};
+pub use region::{BoundingBox, EXACT_CENTRING_FROM, Ellipse, Moments, Polarity, Region};
 pub use region_pixels::RegionsWithPixels;
 pub use thresholds::{Ratio, Variations, variations_by_thresholds};
 

@@ -161,14 +161,37 @@ impl Moments {
 
     /// Second central moments of the pixel centres `[σxx, σxy, σyy]` (divided by the area), as
     /// VLFeat and OpenCV compute them. Singular for collinear pixels.
+    ///
+    /// Near the origin the exact integer sums are centred in `f64`, `Σx²/n − x̄²`: the
+    /// cancellation costs a few ulps of `x̄²`, under 2⁻¹⁸ pixel² while the centroid lies within
+    /// [`EXACT_CENTRING_FROM`] pixels of the origin (every image of the benchmarks). Farther
+    /// out, that error grows with `x̄²` (a two-pixel region at x = 2²⁶ came out with σxx = 0
+    /// instead of 0.25), so the sums are centred exactly in integers, `(nΣx² − (Σx)²)/n²`, and
+    /// rounded once.
     pub fn covariance(&self) -> [f64; 3] {
         let n = self.n as f64;
         let (mx, my) = self.centroid();
-        // Centre in f64 after an exact integer sum; the cancellation error is far below a pixel².
+        if mx.max(my) < EXACT_CENTRING_FROM {
+            return [
+                self.sxx as f64 / n - mx * mx,
+                self.sxy as f64 / n - mx * my,
+                self.syy as f64 / n - my * my,
+            ];
+        }
+        // Within i128 for any region of an image (n ≤ 2^28: |nΣab| ≤ 2^92, |ΣaΣb| ≤ 2^120);
+        // moments built by hand beyond that are centred in f64.
+        let n2 = n * n;
+        let centred = |sab: u64, sa: u64, sb: u64| {
+            let wide = |a: u64, b: u64| i128::from(a).checked_mul(i128::from(b));
+            match (wide(self.n, sab), wide(sa, sb)) {
+                (Some(p), Some(q)) => (p - q) as f64 / n2,
+                _ => sab as f64 / n - (sa as f64 / n) * (sb as f64 / n),
+            }
+        };
         [
-            self.sxx as f64 / n - mx * mx,
-            self.sxy as f64 / n - mx * my,
-            self.syy as f64 / n - my * my,
+            centred(self.sxx, self.sx, self.sx),
+            centred(self.sxy, self.sx, self.sy),
+            centred(self.syy, self.sy, self.sy),
         ]
     }
 
@@ -180,6 +203,10 @@ impl Moments {
         [xx + 1.0 / 12.0, xy, yy + 1.0 / 12.0]
     }
 }
+
+/// How far from the origin (in pixels, the larger centroid coordinate) [`Moments::covariance`]
+/// centres its sums exactly in integers rather than in `f64`.
+pub const EXACT_CENTRING_FROM: f64 = 65536.0;
 
 /// An ellipse `a (x − u)² + 2 b (x − u)(y − v) + c (y − v)² = 1`, the convention of the Oxford
 /// affine benchmark's region files (docs/methods.md § MSER); `(u, v)` in 0-based pixel coordinates,

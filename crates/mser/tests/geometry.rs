@@ -1,7 +1,11 @@
 //! Exact geometry on hand-checkable regions: the ellipse convention and the contour's start,
-//! orientation and corner handling.
+//! orientation and corner handling; and, on random inputs, contours against a count of their
+//! points at the grid vertices, moments and ellipses against a two-pass computation.
 
-use mser::{GrayView, MserParams, Polarities, detect};
+mod common;
+
+use mser::{GrayView, MserParams, Polarities, Polarity, detect};
+use proptest::prelude::*;
 
 fn one_dark_region(px: &[u8], w: usize, h: usize) -> (GrayView<'_>, mser::Region) {
     let img = GrayView::packed(px, w, h).unwrap();
@@ -219,4 +223,205 @@ fn contours_of_one_pixel_wide_regions_retrace_and_have_zero_area() {
     let c = r.contour(&img).unwrap();
     assert_eq!(c, vec![(1, 1), (1, 2), (2, 2), (2, 1)]);
     assert!(shoelace(&c) < 0);
+}
+
+/// The multiset of points an outer contour lists, counted without following it: every vertex of
+/// the pixel grid whose four pixels hold region pixels and outside ones (all outside pixels at a
+/// vertex are 8-adjacent, so they are the outer background or none is) is passed by the walk
+/// once per pair of boundary cracks it joins there. With the region on the left (counter-
+/// clockwise on screen, y down: region above a horizontal crack means walking east, below
+/// west; left of a vertical crack north, right of it south), a vertex with two 4-adjacent
+/// region pixels moves on to the one ahead, a vertex with three (one outside corner) moves
+/// diagonally to the far one, a vertex with one region pixel or two diagonal ones (a pinch)
+/// only turns around a pixel. Each move lists its target once; a one-pixel region, which has no
+/// move, lists its pixel once.
+fn expected_contour_counts(
+    pixels: &[(u32, u32)],
+    w: usize,
+    h: usize,
+) -> std::collections::BTreeMap<(u32, u32), usize> {
+    let (pw, ph) = (w + 2, h + 2);
+    let mut m = vec![false; pw * ph];
+    for &(x, y) in pixels {
+        m[(y as usize + 1) * pw + x as usize + 1] = true;
+    }
+    // The outer background: 8-connected through the padding.
+    let mut out = vec![false; pw * ph];
+    out[0] = true;
+    let mut todo = vec![(0i64, 0i64)];
+    while let Some((x, y)) = todo.pop() {
+        for (dx, dy) in (-1..=1).flat_map(|dx| (-1..=1).map(move |dy| (dx, dy))) {
+            let (nx, ny) = (x + dx, y + dy);
+            if nx >= 0 && ny >= 0 && (nx as usize) < pw && (ny as usize) < ph {
+                let n = ny as usize * pw + nx as usize;
+                if !m[n] && !out[n] {
+                    out[n] = true;
+                    todo.push((nx, ny));
+                }
+            }
+        }
+    }
+    let mut counts = std::collections::BTreeMap::new();
+    // Vertex (i, j) in padded coordinates is the top-left corner of padded pixel (i, j).
+    for j in 1..ph {
+        for i in 1..pw {
+            let px = |x: usize, y: usize| (x as u32 - 1, y as u32 - 1);
+            let (nw, ne, sw, se) = ((i - 1, j - 1), (i, j - 1), (i - 1, j), (i, j));
+            let r = |(x, y): (usize, usize)| m[y * pw + x];
+            let o = |(x, y): (usize, usize)| out[y * pw + x];
+            if ![nw, ne, sw, se].into_iter().any(o) {
+                continue;
+            }
+            let target = match (r(nw), r(ne), r(sw), r(se)) {
+                (true, true, false, false) => Some(ne),
+                (false, false, true, true) => Some(sw),
+                (true, false, true, false) => Some(nw),
+                (false, true, false, true) => Some(se),
+                (true, true, true, false) => Some(ne),
+                (true, true, false, true) => Some(se),
+                (true, false, true, true) => Some(nw),
+                (false, true, true, true) => Some(sw),
+                _ => None,
+            };
+            if let Some((x, y)) = target {
+                *counts.entry(px(x, y)).or_insert(0) += 1;
+            }
+        }
+    }
+    if counts.is_empty() {
+        counts.insert(pixels[0], 1);
+    }
+    counts
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
+        ..ProptestConfig::default()
+    })]
+
+    /// `trace_outer_contour` (and `Region::contour`, `Region::contour_f64`) on every kind of
+    /// component, not only selected regions: any threshold, both polarities, components touching
+    /// the border, one pixel wide, with holes and pinches, on single rows and columns. Against
+    /// the contour checker (points, set, start, 8-adjacency, orientation) and the number of times
+    /// each pixel is listed, counted at the grid vertices (`expected_contour_counts`).
+    #[test]
+    fn contours_of_any_component_list_each_pixel_as_often_as_the_boundary_passes_it(
+        (w, h, px) in (1usize..=9, 1usize..=9).prop_flat_map(|(w, h)| {
+            (Just(w), Just(h), proptest::collection::vec(prop_oneof![Just(10u8), Just(20), Just(30)], w * h))
+        }),
+        at in any::<proptest::sample::Index>(),
+        bright in any::<bool>(),
+        level_pick in 0u8..3,
+    ) {
+        let img = GrayView::packed(&px, w, h).unwrap();
+        let q = at.index(w * h);
+        let g = px[q];
+        let polarity = if bright { Polarity::Bright } else { Polarity::Dark };
+        // A level that the picked pixel passes.
+        let level = match polarity {
+            Polarity::Dark => g.max(10 * (level_pick + 1)),
+            Polarity::Bright => g.min(10 * (level_pick + 1)),
+        };
+        let pixels = common::component(&px, w, h, ((q % w) as u32, (q / w) as u32), level, polarity);
+        let seed = pixels[0];
+        let c = mser::trace_outer_contour(&img, seed, level, polarity).unwrap();
+        common::check_contour(&c, &pixels, w, h);
+        let mut got = std::collections::BTreeMap::new();
+        for &p in &c {
+            *got.entry(p).or_insert(0usize) += 1;
+        }
+        prop_assert_eq!(got, expected_contour_counts(&pixels, w, h));
+        // The region's methods trace the same chain.
+        let r = mser::Region {
+            polarity,
+            level,
+            seed,
+            area: pixels.len() as u32,
+            variation: 0.0,
+            bbox: mser::BoundingBox { x_min: 0, y_min: 0, x_max: w as u32 - 1, y_max: h as u32 - 1 },
+            moments: mser::Moments::of_pixels(&pixels).unwrap(),
+        };
+        prop_assert_eq!(&r.contour(&img).unwrap(), &c);
+        let f: Vec<(f64, f64)> = c.iter().map(|&(x, y)| (x as f64, y as f64)).collect();
+        prop_assert_eq!(r.contour_f64(&img).unwrap(), f);
+        prop_assert_eq!(r.pixels(&img).unwrap(), pixels);
+    }
+
+    /// `Moments::centroid`, `covariance`, `area_covariance` and `Region::ellipse_scaled` on
+    /// arbitrary pixel sets (correlated, anti-correlated, collinear, single pixels, near the
+    /// origin and as far from it as `u32` coordinates reach) against the centred sums computed
+    /// exactly in integers, `Σ(n·x − Σx)(n·y − Σy) / n³`, and the matrix algebra of the
+    /// definition: `M · k²Σ = I`, semi-axes `k √λ(Σ)`, area `π k² √det Σ`.
+    #[test]
+    fn moments_and_ellipses_equal_a_two_pass_computation(
+        pixels in proptest::collection::btree_set((0u32..12, 0u32..12), 1..30),
+        far in prop_oneof![Just(0u32), Just(1000), Just(1 << 14), Just(1 << 20), Just(1 << 26), Just(250_000_000)],
+        k in prop_oneof![Just(1.0), Just(2.0), 0.25f64..5.0],
+    ) {
+        let pixels: Vec<(u32, u32)> = pixels.into_iter().map(|(x, y)| (x + far, y + 3 * far)).collect();
+        let n = pixels.len() as f64;
+        let (n_i, sx, sy) = pixels.iter().fold((0i128, 0i128, 0i128), |(n, sx, sy), &(x, y)| {
+            (n + 1, sx + i128::from(x), sy + i128::from(y))
+        });
+        let (mx, my) = (sx as f64 / n, sy as f64 / n);
+        let c = |f: &dyn Fn(i128, i128) -> i128| {
+            let sum: i128 = pixels.iter().map(|&(x, y)| f(n_i * i128::from(x) - sx, n_i * i128::from(y) - sy)).sum();
+            sum as f64 / (n * n * n)
+        };
+        let (sxx, sxy, syy) = (c(&|x, _| x * x), c(&|x, y| x * y), c(&|_, y| y * y));
+        let m = mser::Moments::of_pixels(&pixels).unwrap();
+        let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * (1.0 + b.abs());
+        let (cx, cy) = m.centroid();
+        prop_assert!(close(cx, mx, 1e-12) && close(cy, my, 1e-12), "{cx} {cy} vs {mx} {my}");
+        // Near the origin the sums are centred in `f64`: a few ulps of the squared centroid
+        // (under 2^-18 pixel² below `EXACT_CENTRING_FROM`). Beyond, exactly: a few ulps of the
+        // result.
+        let tol = if mx.max(my) < mser::EXACT_CENTRING_FROM {
+            1e-12 + 4.0 * f64::EPSILON * (mx * mx + my * my)
+        } else {
+            1e-12
+        };
+        let [vxx, vxy, vyy] = m.covariance();
+        let near = |a: f64, b: f64| (a - b).abs() <= tol;
+        prop_assert!(near(vxx, sxx) && near(vxy, sxy) && near(vyy, syy),
+            "{:?} vs {:?}", [vxx, vxy, vyy], [sxx, sxy, syy]);
+        let [axx, axy, ayy] = m.area_covariance();
+        prop_assert_eq!([axx, axy, ayy], [vxx + 1.0 / 12.0, vxy, vyy + 1.0 / 12.0]);
+        let r = mser::Region {
+            polarity: Polarity::Dark,
+            level: 0,
+            seed: pixels[0],
+            area: pixels.len() as u32,
+            variation: 0.0,
+            bbox: mser::BoundingBox { x_min: 0, y_min: 0, x_max: 0, y_max: 0 },
+            moments: m,
+        };
+        let e = r.ellipse_scaled(k).unwrap();
+        prop_assert_eq!(r.ellipse_scaled(2.0).unwrap(), r.ellipse().unwrap());
+        prop_assert_eq!((e.u, e.v), (cx, cy));
+        // The plane figure's Σ (checked above), scaled: M · k²Σ = I.
+        let (s11, s12, s22) = (k * k * axx, k * k * axy, k * k * ayy);
+        let eye = [e.a * s11 + e.b * s12, e.a * s12 + e.b * s22, e.b * s11 + e.c * s12, e.b * s12 + e.c * s22];
+        let itol = 1e-9;
+        prop_assert!(close(eye[0], 1.0, itol) && eye[1].abs() < itol && eye[2].abs() < itol && close(eye[3], 1.0, itol),
+            "M·k²Σ = {eye:?} for {e:?}");
+        let half_tr = 0.5 * (s11 + s22);
+        let disc = (0.25 * (s11 - s22).powi(2) + s12 * s12).sqrt();
+        let (l_max, l_min) = e.semi_axes();
+        prop_assert!(close(l_max, (half_tr + disc).sqrt(), itol) && close(l_min, (half_tr - disc).sqrt(), itol),
+            "{l_max} {l_min} vs {} {}", (half_tr + disc).sqrt(), (half_tr - disc).sqrt());
+        let area = std::f64::consts::PI * (s11 * s22 - s12 * s12).sqrt();
+        prop_assert!(close(e.area(), area, itol));
+        // The long axis: its end, just inside and just outside.
+        let (vx, vy) = if s12.abs() > 1e-12 * half_tr {
+            let lam = half_tr + disc;
+            let (vx, vy) = (s12, lam - s11);
+            let nrm = (vx * vx + vy * vy).sqrt();
+            (vx / nrm, vy / nrm)
+        } else if s11 >= s22 { (1.0, 0.0) } else { (0.0, 1.0) };
+        prop_assert!(e.contains(e.u + 0.999 * l_max * vx, e.v + 0.999 * l_max * vy));
+        prop_assert!(!e.contains(e.u + 1.001 * l_max * vx, e.v + 1.001 * l_max * vy));
+    }
 }

@@ -63,3 +63,34 @@ fn to_gray_keeps_grey_scales_16_bits_and_ignores_alpha() {
     assert_eq!(to_gray(&DynamicImage::ImageRgba8(rgba)), want);
     assert_eq!(want.as_raw(), &[76, 150, luminance(12, 200, 99)]);
 }
+
+/// `GrayView::inverted` of a window of a strided buffer: a packed image of the window's size
+/// whose every pixel is `255 − g` of the view's pixel there (the bytes outside the window, in the
+/// stride's padding and beside it, play no part), down to a 1 × 1 window.
+#[test]
+fn inverted_is_255_minus_each_pixel_of_the_view() {
+    let (bw, bh) = (11usize, 7usize);
+    let buf: Vec<u8> = (0..bw * bh).map(|i| (i * 37 % 256) as u8).collect();
+    let big = mser::GrayView::new(&buf, 9, bh, bw).unwrap();
+    for (x0, y0, w, h) in [
+        (0, 0, 9, 7),
+        (2, 1, 5, 4),
+        (8, 6, 1, 1),
+        (3, 0, 1, 7),
+        (0, 5, 9, 1),
+    ] {
+        let view = big.window(x0, y0, w, h).unwrap();
+        let inv = view.inverted();
+        assert_eq!((inv.width() as usize, inv.height() as usize), (w, h));
+        for y in 0..h {
+            for x in 0..w {
+                let g = buf[(y0 + y) * bw + x0 + x];
+                assert_eq!(
+                    inv.get_pixel(x as u32, y as u32)[0],
+                    255 - g,
+                    "({x}, {y}) of {w}x{h}"
+                );
+            }
+        }
+    }
+}

@@ -1,8 +1,11 @@
 //! `Mser::detect_with_pixels`: the pixel lists are the regions' pixels (as `Region::pixels`
 //! floods them) on images of several sizes in turn with one detector (its buffers are reused),
-//! and the parallel variant gives the same result.
+//! and the parallel variant gives the same result; `flood_pixels` from any seed against labelling.
+
+mod common;
 
 use mser::{GrayView, Mser, MserParams, Polarities, Region};
+use proptest::prelude::*;
 
 fn pattern(w: usize, h: usize, seed: u32) -> Vec<u8> {
     (0..w * h)
@@ -191,4 +194,56 @@ fn regions_with_pixels_refuse_an_index_past_the_end() {
     let with = det.detect_with_pixels(&img).unwrap();
     assert!(!with.is_empty());
     let _ = with.pixels(with.len());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
+        ..ProptestConfig::default()
+    })]
+
+    /// `flood_pixels` from any pixel of a component (not only its first in raster order), at any
+    /// level that pixel passes, both polarities, with the component's own box, the whole image or
+    /// a box reaching far outside it (clipped), on a strided view: exactly the component that
+    /// labelling the whole thresholded image gives, in raster order.
+    #[test]
+    fn flood_pixels_from_any_seed_is_the_labelled_component(
+        (w, h, px) in (1usize..=9, 1usize..=9).prop_flat_map(|(w, h)| {
+            (Just(w), Just(h), proptest::collection::vec(prop_oneof![Just(0u8), Just(90), Just(160), Just(255)], w * h))
+        }),
+        at in any::<proptest::sample::Index>(),
+        bright in any::<bool>(),
+        bump in any::<u8>(),
+        boxing in 0u8..3,
+        pad in 0usize..3,
+    ) {
+        use mser::{BoundingBox, Polarity};
+        let q = at.index(w * h);
+        let seed = ((q % w) as u32, (q / w) as u32);
+        let polarity = if bright { Polarity::Bright } else { Polarity::Dark };
+        let level = match polarity {
+            Polarity::Dark => px[q].saturating_add(bump % 100),
+            Polarity::Bright => px[q].saturating_sub(bump % 100),
+        };
+        let want = common::component(&px, w, h, seed, level, polarity);
+        let bbox = match boxing {
+            0 => BoundingBox {
+                x_min: want.iter().map(|p| p.0).min().unwrap(),
+                y_min: want[0].1,
+                x_max: want.iter().map(|p| p.0).max().unwrap(),
+                y_max: want[want.len() - 1].1,
+            },
+            1 => BoundingBox { x_min: 0, y_min: 0, x_max: w as u32 - 1, y_max: h as u32 - 1 },
+            _ => BoundingBox { x_min: 0, y_min: 0, x_max: u32::MAX, y_max: u32::MAX },
+        };
+        // The same pixels behind a stride, with bytes that would join the component if read.
+        let stride = w + pad;
+        let mut strided = vec![if bright { 255u8 } else { 0 }; stride * h];
+        for y in 0..h {
+            strided[y * stride..][..w].copy_from_slice(&px[y * w..][..w]);
+        }
+        let img = GrayView::new(&strided, w, h, stride).unwrap();
+        prop_assert_eq!(mser::flood_pixels(&img, seed, level, polarity, bbox).unwrap(), want);
+    }
 }

@@ -48,6 +48,30 @@ fn label(img: &[u8], w: usize, h: usize, t: u8) -> Vec<usize> {
 /// Dark regions of `img` by the definitions in the crate docs, computed by thresholding at every
 /// level and labelling components: no flood, no stack, no incremental anything.
 fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Vec<usize>)> {
+    reference_dark_detail(img, w, h, p)
+        .into_iter()
+        .map(|d| (d.level, d.pixels))
+        .collect()
+}
+
+/// A region of the reference with its variation and its parent's, as exact ratios
+/// `(numerator, denominator)` of pixel counts; levels on the dark scale until
+/// [`reference_detail`] maps them back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefDetail {
+    pub polarity: Polarity,
+    pub level: u8,
+    /// Pixel indices `y * w + x`, in raster order.
+    pub pixels: Vec<usize>,
+    pub var: (u64, u64),
+    pub parent_level: u8,
+    pub parent_area: u64,
+    pub parent_var: (u64, u64),
+}
+
+/// [`reference_dark`] with every selected region's variation and its parent's level, area and
+/// variation.
+fn reference_dark_detail(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<RefDetail> {
     // Every extremal region (distinct component over all thresholds), keyed by its pixel set.
     let mut id_of: HashMap<Vec<usize>, usize> = HashMap::new();
     let mut sets: Vec<Vec<usize>> = Vec::new();
@@ -112,7 +136,7 @@ fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Ve
             .max_by(|&a, &b| area[a].cmp(&area[b]).then(first[b].cmp(&first[a])))
     };
     let delta = p.delta as usize;
-    let var = |s: usize| -> f64 {
+    let ratio = |s: usize| -> (u64, u64) {
         let g = level[s] as usize;
         let up = area[q_at(s, g + delta)];
         let lower = match p.variation {
@@ -129,9 +153,10 @@ fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Ve
                 }
             }
         };
-        (up - lower) as f64 / area[s] as f64
+        ((up - lower) as u64, area[s] as u64)
     };
-    let vars: Vec<f64> = (0..n).map(var).collect();
+    let ratios: Vec<(u64, u64)> = (0..n).map(ratio).collect();
+    let vars: Vec<f64> = ratios.iter().map(|&(a, b)| a as f64 / b as f64).collect();
     let cand: Vec<bool> = (0..n)
         .map(|s| {
             let Some(q) = parent[s] else { return false };
@@ -158,11 +183,63 @@ fn reference_dark(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<(u8, Ve
                 && ((area[s] - area[d]) as f64 / area[s] as f64) < p.min_diversity
         });
         if !similar {
-            out.push((level[s], sets[s].clone()));
+            let q = parent[s].expect("candidates have a parent");
+            out.push(RefDetail {
+                polarity: Polarity::Dark,
+                level: level[s],
+                pixels: sets[s].clone(),
+                var: ratios[s],
+                parent_level: level[q],
+                parent_area: area[q] as u64,
+                parent_var: ratios[q],
+            });
         }
     }
-    out.sort_by_key(|(l, s)| (*l, s[0]));
+    out.sort_by_key(|d| (d.level, d.pixels[0]));
     out
+}
+
+/// The reference detector with variations: all regions in the crate's order, levels on the
+/// image's scale, pixels as indices `y * w + x` in raster order.
+pub fn reference_detail(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<RefDetail> {
+    let mut out = Vec::new();
+    if matches!(p.polarities, Polarities::Dark | Polarities::Both) {
+        out.extend(reference_dark_detail(img, w, h, p));
+    }
+    if matches!(p.polarities, Polarities::Bright | Polarities::Both) {
+        let inv: Vec<u8> = img.iter().map(|&g| 255 - g).collect();
+        for mut d in reference_dark_detail(&inv, w, h, p) {
+            d.polarity = Polarity::Bright;
+            d.level = 255 - d.level;
+            d.parent_level = 255 - d.parent_level;
+            out.push(d);
+        }
+    }
+    out
+}
+
+/// The pixels `(x, y)`, in raster order, of the 4-connected component through `seed` of the
+/// pixels that pass `polarity`'s threshold at `level`: labels of the whole thresholded image,
+/// no flood from the seed.
+pub fn component(
+    img: &[u8],
+    w: usize,
+    h: usize,
+    seed: (u32, u32),
+    level: u8,
+    polarity: Polarity,
+) -> Vec<(u32, u32)> {
+    let (img, t): (Vec<u8>, u8) = match polarity {
+        Polarity::Dark => (img.to_vec(), level),
+        Polarity::Bright => (img.iter().map(|&g| 255 - g).collect(), 255 - level),
+    };
+    let lab = label(&img, w, h, t);
+    let l = lab[seed.1 as usize * w + seed.0 as usize];
+    assert_ne!(l, usize::MAX, "seed does not pass the threshold");
+    (0..w * h)
+        .filter(|&q| lab[q] == l)
+        .map(|q| ((q % w) as u32, (q / w) as u32))
+        .collect()
 }
 
 /// The reference detector: all regions in the crate's order, pixels in raster order.
