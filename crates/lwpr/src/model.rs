@@ -15,14 +15,31 @@ use crate::workspace::Workspace;
 /// the CPU has `$feature`, evaluates `$call` (an `unsafe` call of a function compiled with
 /// `#[target_feature(enable = …)]` for it) and returns its value from the enclosing function;
 /// otherwise does nothing and the plain code after it runs. Compiled on x86-64 only (elsewhere
-/// the plain code always runs); the standard library caches the CPU check.
+/// the plain code always runs); the standard library caches the CPU check. The crate's unit
+/// tests can make a thread take the plain code (`plain_only`), to compare the two builds.
 macro_rules! avx_first {
     ($feature:tt, $call:expr) => {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!($feature) {
+        if std::arch::is_x86_feature_detected!($feature) && !plain_only() {
             return $call;
         }
     };
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by a unit test: `avx_first!` takes the plain code on this thread.
+    static PLAIN_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether `avx_first!` must take the plain code: only in a unit test that asked for it.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn plain_only() -> bool {
+    #[cfg(test)]
+    return PLAIN_ONLY.with(std::cell::Cell::get);
+    #[cfg(not(test))]
+    false
 }
 
 /// Receptive fields of one output dimension.
@@ -859,5 +876,133 @@ impl Lwpr {
             }
         }
         Ok(PredictionWithJacobian { y, jacobian })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The AVX builds of the update and the prediction (`avx_first!`) against the plain code
+    //! they replace: the docs promise "the same bits either way", so every prediction an update
+    //! returns, every learned number and every prediction must be bit-identical.
+    use super::*;
+    use crate::params::LwprBuilder;
+
+    /// `f` with `avx_first!` taking the plain code on this thread.
+    fn plain<R>(f: impl FnOnce() -> R) -> R {
+        PLAIN_ONLY.with(|p| p.set(true));
+        let r = f();
+        PLAIN_ONLY.with(|p| p.set(false));
+        r
+    }
+
+    /// Inputs in `[-1, 1]^n` from a small LCG, and a smooth two-output target.
+    fn samples(n: usize, k: usize, seed: u64) -> Vec<(Vec<f64>, [f64; 2])> {
+        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        (0..k)
+            .map(|_| {
+                let x: Vec<f64> = (0..n)
+                    .map(|_| {
+                        s = s
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+                    })
+                    .collect();
+                let y = [
+                    (2.0 * x[0]).sin() + x[1] * x[n / 2],
+                    0.5 * x[n - 1] * x[n - 1] - x[2],
+                ];
+                (x, y)
+            })
+            .collect()
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|a| a.to_bits()).collect()
+    }
+
+    /// Input dimensions from 5 (below, the update and prediction are compiled per dimension and
+    /// not dispatched), full and diagonal metrics, meta learning on and off, both arithmetics
+    /// and kernels, pruning, two outputs, normalised inputs and outputs.
+    #[test]
+    fn avx_update_and_prediction_are_bit_identical_to_the_plain_path() {
+        #[cfg(target_arch = "x86_64")]
+        let have_avx = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let have_avx = false;
+        if !have_avx {
+            eprintln!("no AVX2 on this CPU: both models take the plain code");
+        }
+        use {Arithmetic::*, Kernel::*};
+        for (n, diag, meta, arithmetic, kernel, w_prune) in [
+            (5, false, true, Fast, Gaussian, 0.8),
+            (5, false, false, Reference, BiSquare, 1.0),
+            (6, true, true, Fast, Gaussian, 0.8),
+            (7, false, false, Fast, BiSquare, 0.8),
+            (9, false, true, Reference, Gaussian, 0.8),
+            (11, true, false, Reference, BiSquare, 1.0),
+            (13, false, true, Fast, Gaussian, 1.0),
+        ] {
+            let label = format!(
+                "n = {n}, diag_only = {diag}, meta = {meta}, {arithmetic:?}, {kernel:?}, \
+                 w_prune = {w_prune}"
+            );
+            let norm_in: Vec<f64> = (0..n).map(|i| 0.5 + 0.25 * i as f64).collect();
+            let build = || {
+                LwprBuilder::new(n, 2)
+                    .init_d_spherical(if kernel == BiSquare { 0.5 } else { 2.0 })
+                    .init_alpha(100.0)
+                    .w_gen(0.2)
+                    .w_prune(w_prune)
+                    .diag_only(diag)
+                    .meta(meta)
+                    .kernel(kernel)
+                    .arithmetic(arithmetic)
+                    .norm_in(&norm_in)
+                    .norm_out(&[1.0, 3.0])
+                    .build()
+                    .unwrap()
+            };
+            let (mut dispatched, mut reference) = (build(), build());
+            for (x, y) in samples(n, 400, n as u64) {
+                let a = dispatched.update(&x, &y).unwrap();
+                let b = plain(|| reference.update(&x, &y).unwrap());
+                assert_eq!(bits(&a), bits(&b), "{label}: update");
+            }
+            assert_eq!(dispatched, reference, "{label}: learned model");
+            let nrf = reference.num_rfs();
+            assert!(
+                nrf.iter().all(|&k| k > 1)
+                    && reference
+                        .sub
+                        .iter()
+                        .all(|s| s.rfs.iter().any(|rf| rf.trustworthy)),
+                "{label}: several fields, some trustworthy: {nrf:?}"
+            );
+            // Prediction at training-like and far-away inputs, with and without the early stop
+            // of the distance, with and without the largest activation.
+            let mut active = 0;
+            for (x, _) in samples(n, 150, 1000 + n as u64) {
+                for (scale, cutoff) in [(1.0, 0.001), (1.0, 0.0), (1.0, 0.3), (3.0, 0.001)] {
+                    let x: Vec<f64> = x.iter().map(|v| scale * v).collect();
+                    let a = reference.predict_with_max_activation(&x, cutoff).unwrap();
+                    let b = plain(|| reference.predict_with_max_activation(&x, cutoff).unwrap());
+                    assert_eq!(
+                        (bits(&a.0), bits(&a.1)),
+                        (bits(&b.0), bits(&b.1)),
+                        "{label}: prediction with the largest activation at {x:?}, cutoff {cutoff}"
+                    );
+                    let a = reference.predict(&x, cutoff).unwrap();
+                    let b = plain(|| reference.predict(&x, cutoff).unwrap());
+                    assert_eq!(
+                        bits(&a),
+                        bits(&b),
+                        "{label}: prediction at {x:?}, cutoff {cutoff}"
+                    );
+                    active += usize::from(a[0] != 0.0);
+                }
+            }
+            assert!(active > 100, "{label}: {active} active predictions");
+        }
     }
 }

@@ -12,11 +12,12 @@ use lwpr::{Arithmetic, Lwpr};
 use std::path::Path;
 
 /// Trains `model` and the reference on `(x, y)` and compares every update's prediction and,
-/// at the end, the receptive-field counts and the predictions at the test points `gx`.
-fn compare(mut model: Lwpr, x: &[f64], y: &[f64], gx: &[f64], label: &str) {
+/// at the end, the receptive-field counts and the predictions at the test points `gx`; returns
+/// the trained model (untrained when the reference cannot be built and the check is skipped).
+fn compare(mut model: Lwpr, x: &[f64], y: &[f64], gx: &[f64], label: &str) -> Lwpr {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let Some(driver) = peer_or_skip(&root, label) else {
-        return;
+        return model;
     };
     let n = model.n_in();
     let peer = run_peer(&driver, &PeerSettings::of(&model), x, y, gx, &[x.len() / n])
@@ -45,6 +46,7 @@ fn compare(mut model: Lwpr, x: &[f64], y: &[f64], gx: &[f64], label: &str) {
         "{label}: largest prediction difference {worst:e}"
     );
     eprintln!("{label}: {nrf:?} receptive fields, largest grid difference {worst:e}");
+    model
 }
 
 #[test]
@@ -135,4 +137,102 @@ fn cross_25d_fast_arithmetic_stays_within_rounding_of_reference() {
         "25-D fast arithmetic: {nrf:?} receptive fields, largest grid difference {worst:e}, \
          largest update difference {worst_update:e}"
     );
+}
+
+/// The update compiled for n = 1, 3 and 4 (constant-length loops; n = 2 is covered above):
+/// bit-identical to the reference too, with a full metric, meta learning and pruning (n = 1, 3)
+/// and with the BiSquare kernel, two outputs and `norm_in`/`norm_out` (n = 4).
+#[test]
+fn compiled_small_dimensions_match_reference() {
+    let (x2, y1) = cross_samples(9, 3_000, 0.1);
+    let (g2, _) = cross_grid();
+    // n = 1: the cross function seen along its first input only (the second acts as noise).
+    let x1: Vec<f64> = x2.chunks(2).map(|p| p[0]).collect();
+    let g1: Vec<f64> = (0..=100).map(|i| -1.0 + 0.02 * i as f64).collect();
+    let model = lwpr::LwprBuilder::new(1, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.4)
+        .diag_only(false)
+        .meta(true)
+        .build()
+        .unwrap();
+    let trained = compare(
+        model,
+        &x1,
+        &y1,
+        &g1,
+        "n = 1, full metric + meta, w_prune 0.4",
+    );
+    let pruned = trained.num_pruned()[0];
+    // n = 3: the cross rotated into three dimensions.
+    let q3 = random_rotation(3, 11);
+    let model = lwpr::LwprBuilder::new(3, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.4)
+        .diag_only(false)
+        .meta(true)
+        .build()
+        .unwrap();
+    let trained = compare(
+        model,
+        &embed(&x2, &q3, 3),
+        &y1,
+        &embed(&g2, &q3, 3),
+        "n = 3, full metric + meta, w_prune 0.4",
+    );
+    if trained.n_data() > 0 {
+        assert!(
+            pruned > 0 && trained.num_pruned()[0] > 0,
+            "pruning fires (n = 1: {pruned}, n = 3: {:?})",
+            trained.num_pruned()
+        );
+    }
+    // n = 4: BiSquare, two outputs, normalised, diagonal metric.
+    let q4 = random_rotation(4, 12);
+    let model = lwpr::LwprBuilder::new(4, 2)
+        .init_d_spherical(10.0)
+        .w_gen(0.2)
+        .kernel(lwpr::Kernel::BiSquare)
+        .norm_in(&[2.0, 1.0, 0.5, 1.5])
+        .norm_out(&[1.0, 10.0])
+        .build()
+        .unwrap();
+    compare(
+        model,
+        &embed(&x2, &q4, 4),
+        &two_outputs(&x2, &y1),
+        &embed(&g2, &q4, 4),
+        "n = 4, BiSquare, diagonal, 2 outputs, norm_in/out",
+    );
+}
+
+/// A diagonal metric beyond the compiled dimensions (n = 6, the any-n update with its AVX
+/// build), with meta learning and pruning: bit-identical to the reference as well.
+#[test]
+fn diagonal_metric_in_six_dimensions_matches_reference() {
+    let (x2, y) = cross_samples(10, 3_000, 0.1);
+    let q = random_rotation(6, 13);
+    let model = lwpr::LwprBuilder::new(6, 1)
+        .init_d_spherical(25.0)
+        .init_alpha(250.0)
+        .w_gen(0.2)
+        .w_prune(0.4)
+        .meta(true)
+        .build()
+        .unwrap();
+    assert!(model.params().diag_only);
+    let trained = compare(
+        model,
+        &embed(&x2, &q, 6),
+        &y,
+        &embed(&cross_grid().0, &q, 6),
+        "n = 6, diagonal metric + meta, w_prune 0.4",
+    );
+    if trained.n_data() > 0 {
+        assert!(trained.num_pruned()[0] > 0, "pruning fires");
+    }
 }
