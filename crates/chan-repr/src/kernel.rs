@@ -282,9 +282,12 @@ impl Kernel {
     }
 
     /// The most channels one encoded value can touch in a basis of unbounded length: those
-    /// strictly inside the support, `⌊2r⌋ + 1` for support radius `r` (saturating).
+    /// strictly inside the support, at most `⌈2r⌉` for support radius `r` (an open interval of
+    /// length `2r` holds that many integers, and some position reaches it), saturating: `m` for
+    /// cos², 3 for the B-spline.
     pub fn max_active(&self) -> usize {
-        let span = (2.0 * self.support_radius()).floor() + 1.0;
+        // (`⌊2r⌋ + 1` was used before: one too many when `2r` is an integer.)
+        let span = (2.0 * self.support_radius()).ceil();
         if span >= usize::MAX as f64 {
             usize::MAX
         } else {

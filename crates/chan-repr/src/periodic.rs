@@ -23,7 +23,8 @@ pub const PERIODIC_MAX_TURNS: f64 = 1e6;
 ///
 /// The kernel's support must not wrap onto itself: `N ≥ 2·r` for support radius `r` (in
 /// channel spacings) and `N ≥ W`, the decoding window; e.g. cos² with `m = 3` needs 3
-/// channels, a Gaussian with `σ = 1` needs 8.
+/// channels, a Gaussian with `σ = 1` needs 8. The quadratic B-spline needs 5: with 3 or 4, a
+/// window sees one value from both sides of the circle and decodes a spurious mode.
 ///
 /// ```
 /// use chan_repr::{Kernel, PeriodicBasis};
@@ -87,7 +88,15 @@ impl PeriodicBasis {
         }
         let needed = kernel
             .window()
-            .max((2.0 * kernel.support_radius()).ceil() as usize);
+            .max((2.0 * kernel.support_radius()).ceil() as usize)
+            .max(match kernel {
+                // A B-spline window of 3 channels spans 2 spacings and a value's support 3, so
+                // with fewer than 5 channels a window sees the value from both sides of the
+                // circle and its ratio decoder reports a spurious valid estimate (with 3
+                // channels as certain as the true one, half a turn away).
+                Kernel::BSpline2 => 5,
+                _ => 0,
+            });
         if n < needed {
             return Err(ChanError::TooFewChannels { got: n, needed });
         }

@@ -103,13 +103,13 @@ fn grids_of_very_many_dimensions_are_refused_not_left_to_hang() {
             "{dims} dimensions"
         );
     }
-    // Wide Gaussian channels: a small window, but one value would touch 33² = 1,089 channels
-    // per pair of dimensions, 33⁵ ≈ 3.9e7 > 2²⁴ in five.
+    // Wide Gaussian channels: a small window, but one value would touch 32² = 1,024 channels
+    // (strictly inside 4σ = 16) per pair of dimensions, 32⁵ ≈ 3.4e7 > 2²⁴ in five.
     let g = ChannelBasis::integer(40, Kernel::Gaussian { sigma: 4.0 }).unwrap();
     assert!(ChannelGrid::new(vec![g.clone(); 4]).is_ok());
     assert!(matches!(
         ChannelGrid::new(vec![g; 5]),
-        Err(ChanError::GridTooLarge { what, got, .. }) if what.contains("touches") && got == 33usize.pow(5)
+        Err(ChanError::GridTooLarge { what, got, .. }) if what.contains("touches") && got == 32usize.pow(5)
     ));
     // The largest grid allowed still works end to end, quickly.
     let grid = ChannelGrid::new(vec![b.clone(); 7]).unwrap();

@@ -55,6 +55,14 @@ impl Extractor {
     /// for [`Sampling::Canonical`]). Useful for plotting the canonical frame.
     pub fn resample<P: ContourPoint>(&mut self, contour: &[P]) -> Result<&[Complex64], FdError> {
         let exponent = self.resample_scaled(contour)?;
+        if self.config.sampling == Sampling::AffineArcLength {
+            // The affine sampler works relative to the area centroid (the descriptors drop
+            // `C(0)`); put its samples back in the input's coordinates.
+            let c = self.sampler.affine_centroid();
+            for s in self.samples.iter_mut() {
+                *s += c;
+            }
+        }
         if exponent != 0 && self.config.sampling != Sampling::Canonical {
             for c in self.samples.iter_mut() {
                 *c = Complex64::new(scale_pow2(c.re, -exponent), scale_pow2(c.im, -exponent));

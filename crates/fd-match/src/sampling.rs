@@ -110,6 +110,9 @@ pub(crate) struct Sampler {
     fwd: Arc<dyn Fft<f64>>,
     inv: Arc<dyn Fft<f64>>,
     sigma: f64,
+    /// Area centroid of the last polygon resampled by [`Sampling::AffineArcLength`], whose
+    /// samples are relative to it.
+    centroid: Complex64,
 }
 
 impl Sampler {
@@ -132,6 +135,7 @@ impl Sampler {
             fwd,
             inv,
             sigma,
+            centroid: z,
         }
     }
 
@@ -173,8 +177,15 @@ impl Sampler {
         sample_arc_length(&self.frame, &self.cum, start, out);
     }
 
+    /// The area centroid the samples of the last [`Sampling::AffineArcLength`] resampling are
+    /// relative to (the samples plus it are in the polygon's coordinates).
+    pub(crate) fn affine_centroid(&self) -> Complex64 {
+        self.centroid
+    }
+
     fn affine(&mut self, poly: &[Complex64], sigma: f64, out: &mut [Complex64]) {
         let m = moments(poly);
+        self.centroid = m.centroid;
         cumulative(poly, &mut self.cum);
         let l0 = self.dense.len();
         let per = self.cum[poly.len()];
