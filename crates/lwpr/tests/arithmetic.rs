@@ -60,7 +60,7 @@ fn small_inputs_and_diagonal_metrics_are_bit_identical_either_way() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(12))]
+    #![proptest_config(ProptestConfig { cases: 12, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
 
     /// Full metric, n = 5..12: every prediction returned by `update` agrees to 1e-9 and the
     /// receptive fields are the same in number, centre and PLS dimension.
