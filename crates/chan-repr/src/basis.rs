@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{ChanError, Kernel};
 
-/// Slack (channel spacings) on the representable-range test.
+/// Least slack (channel spacings) on the representable-range test ([`ChannelBasis::range_slack`]).
 const RANGE_SLACK: f64 = 1e-9;
 
 /// Most channels one basis may have (2²⁴ ≈ 16.8 million, 128 MiB as a dense `f64` vector):
@@ -199,6 +199,16 @@ impl ChannelBasis {
         (half - 1.0, self.n as f64 - half)
     }
 
+    /// Slack (channel spacings) on the representable-range test, so that the ends given to
+    /// [`covering`](Self::covering) are accepted whatever the rounding of `first`, `spacing` and
+    /// `(x − first)/spacing`: 1e-9, plus a few ulps of the index of a value as far from 0 as the
+    /// basis reaches. The second term matters only for channels finer than about 1e-6 of the
+    /// coordinates' magnitude (an axis at x ≈ −664 with spacing 2e-5 refused its own end).
+    fn range_slack(&self) -> f64 {
+        let far = self.first.abs().max(self.from_index(self.n as f64).abs());
+        RANGE_SLACK + 4.0 * f64::EPSILON * far / self.spacing
+    }
+
     /// Representable range in value space: values that encode and decode exactly.
     pub fn representable_range(&self) -> (f64, f64) {
         let (lo, hi) = self.representable_index_range();
@@ -213,11 +223,11 @@ impl ChannelBasis {
                 value: x,
             });
         }
-        // Tested in index space with a slack of 1e-9 channel spacings, so that the ends given
-        // to `covering` are accepted whatever the rounding of `first` and `spacing`.
+        // Tested in index space with a slack (`range_slack`).
         let (tlo, thi) = self.representable_index_range();
         let t = self.to_index(x);
-        if t < tlo - RANGE_SLACK || t > thi + RANGE_SLACK {
+        let slack = self.range_slack();
+        if t < tlo - slack || t > thi + slack {
             let (lo, hi) = self.representable_range();
             return Err(ChanError::OutOfRange { value: x, lo, hi });
         }
@@ -230,7 +240,8 @@ impl ChannelBasis {
     /// a small fraction of encoding it.
     pub fn check_all(&self, xs: &[f64]) -> Result<(), ChanError> {
         let (tlo, thi) = self.representable_index_range();
-        let (lo, hi) = (tlo - RANGE_SLACK, thi + RANGE_SLACK);
+        let slack = self.range_slack();
+        let (lo, hi) = (tlo - slack, thi + slack);
         // A non-finite value gives a non-finite or NaN index, which fails `lo <= t && t <= hi`
         // (every comparison with NaN is false), so this one test covers both refusals.
         let all_ok = xs.chunks(64).all(|chunk| {

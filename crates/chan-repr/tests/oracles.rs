@@ -397,3 +397,56 @@ fn periodic_b_splines_with_fewer_than_5_channels_are_refused() {
         assert!(d.min(360.0 - d) < 1e-9, "x = {x}: {modes:?}");
     }
 }
+
+/// A basis covering `[lo, hi]` accepts both ends however fine its channels are next to the
+/// coordinates' magnitude: the index `(x − first)/spacing` of a far value rounds by a few ulps
+/// of `|x|/spacing` channels, more than the range test's 1e-9 once channels are finer than
+/// about 1e-6 of the coordinates (an axis at −664 with channels of 2e-5 refused its own end).
+#[test]
+fn a_covering_basis_accepts_its_ends_at_any_magnitude() {
+    let mut s = 0x2545_F491_4F6C_DD1Du64;
+    let mut uniform = |lo: f64, hi: f64| {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    let kernels = [
+        Kernel::Cos2 { m: 3 },
+        Kernel::BSpline2,
+        Kernel::Gaussian { sigma: 1.5 },
+    ];
+    for i in 0..2000 {
+        let magnitude = 10f64.powf(uniform(0.0, 12.0));
+        let lo = uniform(-1.0, 1.0) * magnitude;
+        let n = 5 + (uniform(0.0, 300.0) as usize);
+        let width = magnitude * 10f64.powf(uniform(-9.0, 0.0)) * n as f64;
+        let hi = lo + width;
+        if hi <= lo {
+            continue;
+        }
+        let kernel = kernels[i % kernels.len()];
+        let Ok(b) = ChannelBasis::covering(lo, hi, n, kernel) else {
+            continue;
+        };
+        assert!(
+            b.checked_index(lo).is_ok() && b.checked_index(hi).is_ok(),
+            "covering({lo:e}, {hi:e}, {n}, {kernel:?}): {:?} {:?}",
+            b.checked_index(lo),
+            b.checked_index(hi)
+        );
+        // Beyond the ends by a part in a million of the width: still refused.
+        assert!(
+            b.checked_index(hi + 1e-6 * width).is_err(),
+            "{lo:e} {hi:e} {n}"
+        );
+    }
+    let b = ChannelBasis::covering(
+        -664.4752303073518,
+        -664.4679115648704,
+        350,
+        Kernel::Gaussian { sigma: 1.5 },
+    )
+    .unwrap();
+    assert!(b.checked_index(-664.4679115648704).is_ok());
+}
