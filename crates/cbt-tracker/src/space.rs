@@ -207,11 +207,12 @@ fn outside(bases: &[ChannelBasis], p: &Point, what: &'static str) -> TrackError 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Scales {
     /// RMS of the truth's second differences (the part of the motion a constant-velocity
-    /// extrapolation cannot predict), largest over the axes.
+    /// extrapolation cannot predict), over both axes' differences pooled: one scale for both
+    /// axes, as the spacing is one for both.
     pub accel: f64,
     /// Robust standard deviation (1.4826 · median absolute residual) of the detection nearest
-    /// to the truth, largest over the axes (residuals beyond 1/10 of the extent are ignored as
-    /// clutter).
+    /// to the truth, over both axes' residuals pooled; the median is the upper one of an even
+    /// count (residuals beyond 1/10 of the extent are ignored as clutter).
     pub noise: f64,
 }
 
