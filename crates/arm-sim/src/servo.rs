@@ -125,7 +125,22 @@ impl ServoState {
 
     /// Forces the output to `angle` (a mechanical stop or the table), keeping the motor consistent
     /// with the backlash side.
-    pub fn stall_at(&mut self, cfg: &ServoConfig, angle: f64) {
+    ///
+    /// # Errors
+    /// [`ArmSimError::NonFinite`] for an angle that is not finite (it used to become the
+    /// servo's output); the state is then unchanged.
+    pub fn stall_at(&mut self, cfg: &ServoConfig, angle: f64) -> Result<()> {
+        if !angle.is_finite() {
+            return Err(ArmSimError::NonFinite {
+                what: "stall angle",
+            });
+        }
+        self.stall_at_checked(cfg, angle);
+        Ok(())
+    }
+
+    /// [`stall_at`](Self::stall_at) at an angle already known to be finite.
+    pub(crate) fn stall_at_checked(&mut self, cfg: &ServoConfig, angle: f64) {
         self.output_deg = angle;
         self.motor_deg = angle + self.direction * 0.5 * cfg.backlash_deg;
     }

@@ -146,7 +146,7 @@ impl ArmSim {
             }
             let stalled = lerp(&previous, &target, lo);
             for (i, s) in self.servos.iter_mut().enumerate() {
-                s.stall_at(&self.config.servos[i], stalled[i]);
+                s.stall_at_checked(&self.config.servos[i], stalled[i]);
             }
             report.table_contact = true;
             report.executed_fraction = lo;
@@ -210,7 +210,7 @@ impl ArmSim {
             let clamped = out.clamp(lo, hi);
             if clamped != out {
                 limited[i] = true;
-                self.servos[i].stall_at(&self.config.servos[i], clamped);
+                self.servos[i].stall_at_checked(&self.config.servos[i], clamped);
             }
             clamped
         })

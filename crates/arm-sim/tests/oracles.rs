@@ -233,7 +233,7 @@ fn servos_follow_the_documented_recurrence_in_both_mountings() {
             if step % 37 == 36 {
                 // A mechanical stop a little short of where the output went.
                 let stop = output - dir * 0.3;
-                s.stall_at(&c, stop);
+                s.stall_at(&c, stop).unwrap();
                 assert_eq!(s.output_deg, stop);
                 // The motor keeps the backlash side: output = motor − dir·b/2.
                 motor = stop + dir * 0.5 * c.backlash_deg;

@@ -211,6 +211,28 @@ fn servo_step_refuses_bad_input_and_keeps_its_state() {
     }
 }
 
+/// A stall at an angle that is not finite is refused and changes nothing (it used to become the
+/// servo's output); a finite one puts the output there.
+#[test]
+fn stall_at_refuses_an_angle_that_is_not_finite() {
+    let cfg = SimConfig::default().servos[2].clone();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+    let mut s = ServoState::at_rest(&cfg, 1500.0);
+    assert!(s.step(&cfg, 1700.0, &mut rng).unwrap());
+    let before = s.clone();
+    for angle in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        assert!(matches!(
+            s.stall_at(&cfg, angle),
+            Err(arm_sim::ArmSimError::NonFinite {
+                what: "stall angle"
+            })
+        ));
+        assert_eq!(s, before);
+    }
+    s.stall_at(&cfg, 12.5).unwrap();
+    assert_eq!(s.output_deg, 12.5);
+}
+
 #[test]
 fn nominal_angles_refuse_what_command_refuses() {
     let mut sim = sim_with(|_| {});
