@@ -80,9 +80,7 @@ mod tests {
                     try_map(&jobs, |&j| match j {
                         3 => {
                             let start = Instant::now();
-                            while !seven_failed.load(Ordering::SeqCst)
-                                && start.elapsed() < wait
-                            {
+                            while !seven_failed.load(Ordering::SeqCst) && start.elapsed() < wait {
                                 std::thread::yield_now();
                             }
                             Err(format!("job {j}"))
