@@ -251,9 +251,10 @@ pub struct CbtConfig {
     /// Lost-track recovery: the prior is mixed `(1 − γ)·p + γ·uniform` before every update.
     /// Default 1e-3.
     pub mixing: f64,
-    /// Pruning of the prediction: the lightest cells of each previous posterior holding
-    /// together at most this share of its mass are skipped, and the mass of every skipped
-    /// pair is spread uniformly over the grid (as the lost-track mixing does). This drops the
+    /// Pruning of the prediction: the cells of each previous posterior lighter than this share
+    /// of its mean cell (`prune · mass / cells`) are skipped, so that together they hold at
+    /// most this share of its mass, and the mass of every skipped cell or pair is spread
+    /// uniformly over the grid (as the lost-track mixing does). This drops the
     /// uniform floor the mixing leaves everywhere, so the cost follows the posterior's spread
     /// instead of the grid size. 0 disables pruning (exact sums). Default 0.01.
     pub prune: f64,
