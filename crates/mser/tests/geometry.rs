@@ -240,27 +240,7 @@ fn expected_contour_counts(
     w: usize,
     h: usize,
 ) -> std::collections::BTreeMap<(u32, u32), usize> {
-    let (pw, ph) = (w + 2, h + 2);
-    let mut m = vec![false; pw * ph];
-    for &(x, y) in pixels {
-        m[(y as usize + 1) * pw + x as usize + 1] = true;
-    }
-    // The outer background: 8-connected through the padding.
-    let mut out = vec![false; pw * ph];
-    out[0] = true;
-    let mut todo = vec![(0i64, 0i64)];
-    while let Some((x, y)) = todo.pop() {
-        for (dx, dy) in (-1..=1).flat_map(|dx| (-1..=1).map(move |dy| (dx, dy))) {
-            let (nx, ny) = (x + dx, y + dy);
-            if nx >= 0 && ny >= 0 && (nx as usize) < pw && (ny as usize) < ph {
-                let n = ny as usize * pw + nx as usize;
-                if !m[n] && !out[n] {
-                    out[n] = true;
-                    todo.push((nx, ny));
-                }
-            }
-        }
-    }
+    let common::Padded { m, out, pw, ph } = common::padded(pixels, w, h);
     let mut counts = std::collections::BTreeMap::new();
     // Vertex (i, j) in padded coordinates is the top-left corner of padded pixel (i, j).
     for j in 1..ph {

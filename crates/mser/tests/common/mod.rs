@@ -264,17 +264,24 @@ pub fn reference(img: &[u8], w: usize, h: usize, p: &MserParams) -> Vec<RefRegio
     out
 }
 
-/// Checks every promise of `Region::contour` against the region's pixel set; panics with a
-/// message on the first failure.
-pub fn check_contour(contour: &[(u32, u32)], pixels: &[(u32, u32)], w: usize, h: usize) {
-    assert!(!contour.is_empty(), "empty contour");
-    // Padded mask: 1 = region.
+/// A region's pixels in a mask padded by one pixel on every side, and the outer background.
+pub struct Padded {
+    /// `m[(y + 1) · pw + x + 1]`: pixel `(x, y)` is in the region.
+    pub m: Vec<bool>,
+    /// The outer background: the complement's 8-connected component through the padding.
+    pub out: Vec<bool>,
+    /// Padded width and height (`w + 2`, `h + 2`).
+    pub pw: usize,
+    pub ph: usize,
+}
+
+/// [`Padded`] for `pixels` of a `w × h` image.
+pub fn padded(pixels: &[(u32, u32)], w: usize, h: usize) -> Padded {
     let (pw, ph) = (w + 2, h + 2);
     let mut m = vec![false; pw * ph];
     for &(x, y) in pixels {
         m[(y as usize + 1) * pw + x as usize + 1] = true;
     }
-    // Outside = 8-connected component of the complement through the padding.
     let mut out = vec![false; pw * ph];
     out[0] = true;
     let mut q = vec![0usize];
@@ -294,6 +301,14 @@ pub fn check_contour(contour: &[(u32, u32)], pixels: &[(u32, u32)], w: usize, h:
             }
         }
     }
+    Padded { m, out, pw, ph }
+}
+
+/// Checks every promise of `Region::contour` against the region's pixel set; panics with a
+/// message on the first failure.
+pub fn check_contour(contour: &[(u32, u32)], pixels: &[(u32, u32)], w: usize, h: usize) {
+    assert!(!contour.is_empty(), "empty contour");
+    let Padded { m, out, pw, .. } = padded(pixels, w, h);
     let outer_4nb = |x: u32, y: u32| {
         let p = (y as usize + 1) * pw + x as usize + 1;
         out[p - 1] || out[p + 1] || out[p - pw] || out[p + pw]
