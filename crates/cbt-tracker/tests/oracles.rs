@@ -155,14 +155,14 @@ fn scales_follow_their_definitions() {
             }
         })
         .collect();
-    let got = Scales::estimate(
-        &[Sequence {
+    let estimate = |frames: Vec<Frame>| {
+        let one = Sequence {
             frames,
             ..Default::default()
-        }],
-        640.0,
-    )
-    .unwrap();
+        };
+        Scales::estimate(&[one], 640.0).unwrap()
+    };
+    let got = estimate(frames);
     assert!((got.accel - 4.5f64.sqrt()).abs() < 1e-12, "{got:?}");
     // Residuals (0, 0), (4, 0), (4, 0): pooled |r| = 0, 0, 4, 0, 4, 0, upper median 0.
     let frames = [0.0, 4.0, 4.0]
@@ -172,15 +172,7 @@ fn scales_follow_their_definitions() {
             detections: vec![Detection::new(10.0 + r, 10.0)],
         })
         .collect();
-    let got = Scales::estimate(
-        &[Sequence {
-            frames,
-            ..Default::default()
-        }],
-        640.0,
-    )
-    .unwrap();
-    assert_eq!(got.noise, 0.0);
+    assert_eq!(estimate(frames).noise, 0.0);
     let mut checked = 0;
     for seed in 0..600 {
         let all = mirrored_sequences(seed / 2);

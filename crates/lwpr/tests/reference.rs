@@ -149,17 +149,20 @@ fn compiled_small_dimensions_match_reference() {
     // n = 1: the cross function seen along its first input only (the second acts as noise).
     let x1: Vec<f64> = x2.chunks(2).map(|p| p[0]).collect();
     let g1: Vec<f64> = (0..=100).map(|i| -1.0 + 0.02 * i as f64).collect();
-    let model = lwpr::LwprBuilder::new(1, 1)
-        .init_d_spherical(25.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .w_prune(0.4)
-        .diag_only(false)
-        .meta(true)
-        .build()
-        .unwrap();
+    // A full metric with meta learning and pruning, in n input dimensions.
+    let full_meta = |n: usize| {
+        lwpr::LwprBuilder::new(n, 1)
+            .init_d_spherical(25.0)
+            .init_alpha(250.0)
+            .w_gen(0.2)
+            .w_prune(0.4)
+            .diag_only(false)
+            .meta(true)
+            .build()
+            .unwrap()
+    };
     let trained = compare(
-        model,
+        full_meta(1),
         &x1,
         &y1,
         &g1,
@@ -168,17 +171,8 @@ fn compiled_small_dimensions_match_reference() {
     let pruned = trained.num_pruned()[0];
     // n = 3: the cross rotated into three dimensions.
     let q3 = random_rotation(3, 11);
-    let model = lwpr::LwprBuilder::new(3, 1)
-        .init_d_spherical(25.0)
-        .init_alpha(250.0)
-        .w_gen(0.2)
-        .w_prune(0.4)
-        .diag_only(false)
-        .meta(true)
-        .build()
-        .unwrap();
     let trained = compare(
-        model,
+        full_meta(3),
         &embed(&x2, &q3, 3),
         &y1,
         &embed(&g2, &q3, 3),
