@@ -53,7 +53,8 @@
 //!
 //! [`tables`] reads the CSV files of the command line with errors that name the file, line and
 //! what was expected; [`models`] wraps the CBT tracker and LWPR models in a versioned file
-//! format. Every random draw is seeded; nothing depends on the number of threads. Files are
+//! format. Every random draw is seeded; nothing depends on the number of threads, not even which
+//! error a parallel run reports ([`parallel`]). Files are
 //! written atomically ([`output::atomic`]): a failure leaves no partial file.
 #![deny(missing_docs)]
 
@@ -67,6 +68,7 @@ pub mod image_io;
 pub mod matching;
 pub mod models;
 pub mod output;
+pub mod parallel;
 pub mod pipeline;
 pub mod preset;
 pub mod scoring;

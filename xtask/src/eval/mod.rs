@@ -20,7 +20,6 @@
 
 mod arm_sim;
 mod chan_repr;
-mod in_order;
 mod lwpr;
 pub(crate) mod paper_a;
 mod pipeline;

@@ -43,7 +43,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::eval::in_order;
 use arm_sim::{ArmSim, SimConfig};
 use clap::Args;
 use serde::Serialize;
@@ -53,6 +52,7 @@ use servo_loop::{
     VisualPlant, learn_control, learn_recognition, servo_lwpr,
 };
 use visguide::SimRobot;
+use visguide::parallel;
 use visguide::pipeline::{
     ActionProtocol, FdCbtRecogniser, MoveNotifier, Notifying, learn_by_action,
 };
@@ -583,7 +583,7 @@ fn scene_study(
 ) -> Result<SceneOutcome> {
     const NAMES: [&str; 3] = ["heuristic", "fd", "fd+cbt"];
     let l = learn(name, role, config, args)?;
-    let outcomes = in_order::try_map(seeds, |&seed| seed_study(config, &l, seed))?;
+    let outcomes = parallel::try_map(seeds, |&seed| seed_study(config, &l, seed))?;
     let mut errors: [[Errors; 2]; 3] = Default::default();
     let mut seconds = [0.0; 3];
     let mut servo_rows: Vec<(Vec<Option<f64>>, usize, usize)> = vec![(Vec::new(), 0, 0); 2];
@@ -681,7 +681,7 @@ pub fn run(ctx: &EvalContext, args: &PipelineArgs) -> Result<()> {
     // Scenes and seeds run at once on rayon's pool; each seed's work is independent of the
     // others' (its own simulators, LWPR and percept copy), and the results are gathered in
     // order, so the figures do not depend on the number of threads.
-    let studied = in_order::try_map(&scenes, |(name, config, role)| {
+    let studied = parallel::try_map(&scenes, |(name, config, role)| {
         scene_study(name, *role, config, seeds, args)
     })?;
     for s in studied {

@@ -11,10 +11,9 @@
 //! written by `Display`: `mser`'s `oxford` module docs.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
-use rayon::prelude::*;
 use visguide::output::atomic::{
     check_file_target, remove_staged, rename_staged, save_png, write_synced,
 };
@@ -130,33 +129,20 @@ fn detect_and_write(a: &RegionsArgs, ui: Ui, images: &[PathBuf]) -> CliResult {
     }
     let settings = a.mser.settings();
     let bar = ui.bar(images.len() as u64, "regions");
-    // The first image, in the order given, that failed so far. An image after it is not
-    // started (`None`); one before it still is, so the error reported is always the first
-    // failing image's, as on one thread, whatever the number of threads.
-    let first_failed = AtomicUsize::new(usize::MAX);
     // Which threads processed an image.
     let workers = AtomicU64::new(0);
     // Every file is first written under a staging name and renamed only when all images
-    // succeeded, so a failed run leaves no output at all.
-    let results: Vec<Option<CliResult<Staged>>> = images
-        .par_iter()
-        .enumerate()
-        .map(|(i, path)| {
-            if i > first_failed.load(Ordering::Relaxed) {
-                return None;
-            }
-            // Bit i: pool thread i; bit 63: a thread outside the pool (rayon runs a
-            // single-image job on the caller).
-            let bit = rayon::current_thread_index().map_or(63, |i| i.min(62));
-            workers.fetch_or(1 << bit, Ordering::Relaxed);
-            let r = one(a, &settings, format, path);
-            if r.is_err() {
-                first_failed.fetch_min(i, Ordering::Relaxed);
-            }
-            bar.inc(1);
-            Some(r)
-        })
-        .collect();
+    // succeeded, so a failed run leaves no output at all. An image after a failed one is not
+    // started, and the error reported is the first failing image's, at any thread count.
+    let results = visguide::parallel::map_until_failure(images, |path| {
+        // Bit i: pool thread i; bit 63: a thread outside the pool (rayon runs a
+        // single-image job on the caller).
+        let bit = rayon::current_thread_index().map_or(63, |i| i.min(62));
+        workers.fetch_or(1 << bit, Ordering::Relaxed);
+        let r = one(a, &settings, format, path);
+        bar.inc(1);
+        r
+    });
     bar.finish_and_clear();
     let mut total = 0;
     let mut staged = Vec::new();

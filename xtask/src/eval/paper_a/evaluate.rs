@@ -2,12 +2,12 @@
 //! samplings, compute each pair's ground truth, match with every combination (with and
 //! without preselection) and sweep the ratio threshold.
 
-use crate::eval::in_order;
 use fd_match::{DescriptorSet, Sampling};
 use mser::MserParams;
 use serde::Serialize;
 
 use visguide::matching::{describe, match_regions, preselected};
+use visguide::parallel;
 use visguide::scoring::{PAPER_T_R, PairTruth, PrCurve, Scored, pair_truth, sweep};
 use visguide::{Combination, Features};
 
@@ -176,7 +176,7 @@ fn score(
 pub fn evaluate(seq: &Sequence, plan: &Plan, progress: &Progress) -> crate::Result<SequenceResult> {
     let n_img = seq.images.len();
     let bar = progress.bar(n_img as u64, &format!("{}: regions", seq.name));
-    let features: Vec<Features> = in_order::try_map(&seq.images, |img| {
+    let features: Vec<Features> = parallel::try_map(&seq.images, |img| {
         let f = visguide::detect(img, &plan.mser);
         bar.inc(1);
         f

@@ -8,12 +8,12 @@
 //! candidates (the 0.5 px learned tip or the end face). Rules are then compared offline (how the
 //! learned tip's gate was chosen: docs/methods.md, *Gated learned tip*).
 
-use crate::eval::in_order;
 use arm_sim::{ArmSim, SimConfig};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 use servo_loop::RandomCommands;
+use visguide::parallel;
 
 use super::seeds::{DEVELOPMENT_SEEDS, RECOGNITION_TESTS, shipped_arms};
 use super::{Protocol, learn_recogniser};
@@ -125,7 +125,7 @@ pub fn run() -> Result<()> {
             jobs.push((name.clone(), config.clone(), s));
         }
     }
-    let all = in_order::try_map(&jobs, |(n, c, s)| one(n, c, *s))?;
+    let all = parallel::try_map(&jobs, |(n, c, s)| one(n, c, *s))?;
     for c in all.iter().flatten() {
         println!("{}", serde_json::to_string(c)?);
     }

@@ -10,10 +10,10 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::eval::in_order;
 use arm_sim::SimConfig;
 use serde::{Deserialize, Serialize};
 use servo_loop::{EpipolarReport, PerceptPolicy, Plant, RandomCommands, ServoError};
+use visguide::parallel;
 
 use super::{
     Actions, Protocol, ServoArgs, Target, TargetResult, learn_motion, learn_recogniser,
@@ -184,7 +184,7 @@ pub fn run_all(args: &ServoArgs) -> Result<SeedStudy> {
         .iter()
         .flat_map(|(n, c)| seeds.iter().map(move |&s| (n.as_str(), c, s)))
         .collect();
-    let results = in_order::try_map(&jobs, |&(name, config, seed)| {
+    let results = parallel::try_map(&jobs, |&(name, config, seed)| {
         run_seed(name, config, seed, args)
     })?;
     // The study's percept settings, as every seed's protocol has them.

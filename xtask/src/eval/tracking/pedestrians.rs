@@ -25,12 +25,12 @@ use crate::markdown::Table;
 use std::fmt::Write;
 use std::path::Path;
 
-use crate::eval::in_order;
 use cbt_tracker::metrics::Score;
 use cbt_tracker::sim::{observe, rng_for};
 use cbt_tracker::{Frame, Sequence};
 use rand::seq::SliceRandom;
 use serde::Serialize;
+use visguide::parallel;
 
 use super::Difficulty;
 use super::study::{SetKind, SetSpec, Trackers, run_one};
@@ -273,7 +273,7 @@ pub fn run(scenes: &[Scene], only: &Only) -> Result<Vec<FoldResult>> {
                 .flat_map(move |scene| (0..3).map(move |level| Job { scene, level, few }))
         })
         .collect();
-    let folds: Vec<FoldResult> = in_order::try_map(&jobs, |j| {
+    let folds: Vec<FoldResult> = parallel::try_map(&jobs, |j| {
         run_fold(scenes, j, area, only.trackers.as_deref())
     })?;
     // Time per frame, on stderr only (fixtures hold no timings; noisy when run in parallel).
