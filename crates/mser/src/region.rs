@@ -171,27 +171,28 @@ impl Moments {
     pub fn covariance(&self) -> [f64; 3] {
         let n = self.n as f64;
         let (mx, my) = self.centroid();
+        let in_f64 = |sab: u64, ma: f64, mb: f64| sab as f64 / n - ma * mb;
         if mx.max(my) < EXACT_CENTRING_FROM {
             return [
-                self.sxx as f64 / n - mx * mx,
-                self.sxy as f64 / n - mx * my,
-                self.syy as f64 / n - my * my,
+                in_f64(self.sxx, mx, mx),
+                in_f64(self.sxy, mx, my),
+                in_f64(self.syy, my, my),
             ];
         }
         // Within i128 for any region of an image (n ≤ 2^28: |nΣab| ≤ 2^92, |ΣaΣb| ≤ 2^120);
         // moments built by hand beyond that are centred in f64.
         let n2 = n * n;
-        let centred = |sab: u64, sa: u64, sb: u64| {
+        let centred = |sab: u64, sa: u64, sb: u64, ma: f64, mb: f64| {
             let wide = |a: u64, b: u64| i128::from(a).checked_mul(i128::from(b));
             match (wide(self.n, sab), wide(sa, sb)) {
                 (Some(p), Some(q)) => (p - q) as f64 / n2,
-                _ => sab as f64 / n - (sa as f64 / n) * (sb as f64 / n),
+                _ => in_f64(sab, ma, mb),
             }
         };
         [
-            centred(self.sxx, self.sx, self.sx),
-            centred(self.sxy, self.sx, self.sy),
-            centred(self.syy, self.sy, self.sy),
+            centred(self.sxx, self.sx, self.sx, mx, mx),
+            centred(self.sxy, self.sx, self.sy, mx, my),
+            centred(self.syy, self.sy, self.sy, my, my),
         ]
     }
 
