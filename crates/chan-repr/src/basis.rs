@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{ChanError, Kernel};
 
-/// Least slack (channel spacings) on the representable-range test ([`ChannelBasis::range_slack`]).
+/// Least slack (channel spacings) on the representable-range test (`ChannelBasis::slack`).
 const RANGE_SLACK: f64 = 1e-9;
 
 /// Most channels one basis may have (2²⁴ ≈ 16.8 million, 128 MiB as a dense `f64` vector):
@@ -42,6 +42,13 @@ pub struct ChannelBasis {
     /// `(cos, sin)` of the cos² kernel's phase step `2a = 2π/m` between neighbouring channels
     /// (unused by the other kernels): encoding evaluates one `sin_cos` per value, not per channel.
     step: (f64, f64),
+    /// Slack (channel spacings) on the representable-range test, so that the ends given to
+    /// [`covering`](Self::covering) are accepted whatever the rounding of `first`, `spacing` and
+    /// `(x − first)/spacing`: 1e-9, plus a few ulps of the index of a value as far from 0 as the
+    /// basis reaches. The second term matters only for channels finer than about 1e-6 of the
+    /// coordinates' magnitude (an axis at x ≈ −664 with spacing 2e-5 refused its own end).
+    /// Derived from the fields above when the basis is made, as `step` is.
+    slack: f64,
 }
 
 /// The serialised form of a [`ChannelBasis`], validated on deserialisation.
@@ -122,6 +129,9 @@ impl ChannelBasis {
             first,
             spacing,
             step: kernel.phase_step(),
+            slack: RANGE_SLACK
+                + 4.0 * f64::EPSILON * first.abs().max((first + n as f64 * spacing).abs())
+                    / spacing,
         })
     }
 
@@ -199,16 +209,6 @@ impl ChannelBasis {
         (half - 1.0, self.n as f64 - half)
     }
 
-    /// Slack (channel spacings) on the representable-range test, so that the ends given to
-    /// [`covering`](Self::covering) are accepted whatever the rounding of `first`, `spacing` and
-    /// `(x − first)/spacing`: 1e-9, plus a few ulps of the index of a value as far from 0 as the
-    /// basis reaches. The second term matters only for channels finer than about 1e-6 of the
-    /// coordinates' magnitude (an axis at x ≈ −664 with spacing 2e-5 refused its own end).
-    fn range_slack(&self) -> f64 {
-        let far = self.first.abs().max(self.from_index(self.n as f64).abs());
-        RANGE_SLACK + 4.0 * f64::EPSILON * far / self.spacing
-    }
-
     /// Representable range in value space: values that encode and decode exactly.
     pub fn representable_range(&self) -> (f64, f64) {
         let (lo, hi) = self.representable_index_range();
@@ -223,11 +223,10 @@ impl ChannelBasis {
                 value: x,
             });
         }
-        // Tested in index space with a slack (`range_slack`).
+        // Tested in index space with a slack (`slack`).
         let (tlo, thi) = self.representable_index_range();
         let t = self.to_index(x);
-        let slack = self.range_slack();
-        if t < tlo - slack || t > thi + slack {
+        if t < tlo - self.slack || t > thi + self.slack {
             let (lo, hi) = self.representable_range();
             return Err(ChanError::OutOfRange { value: x, lo, hi });
         }
@@ -240,8 +239,7 @@ impl ChannelBasis {
     /// a small fraction of encoding it.
     pub fn check_all(&self, xs: &[f64]) -> Result<(), ChanError> {
         let (tlo, thi) = self.representable_index_range();
-        let slack = self.range_slack();
-        let (lo, hi) = (tlo - slack, thi + slack);
+        let (lo, hi) = (tlo - self.slack, thi + self.slack);
         // A non-finite value gives a non-finite or NaN index, which fails `lo <= t && t <= hi`
         // (every comparison with NaN is false), so this one test covers both refusals.
         let all_ok = xs.chunks(64).all(|chunk| {
