@@ -288,7 +288,7 @@ pub struct CbtConfig {
     /// what files without this field mean) or chosen from the training data by held-out
     /// likelihood ([`Smoothing::HeldOut`], module `smoothing`; stationary layout only).
     /// Written only when not `Fixed`, so a default tracker saves the same text as before the
-    /// option existed (`tests/saved_form.rs`).
+    /// option existed (`tests/integration/saved_form.rs`).
     #[serde(default, skip_serializing_if = "Smoothing::is_fixed")]
     pub smoothing: Smoothing,
     /// The first prediction after a start ([`StartMotion`]; stationary layout only). Written

@@ -40,7 +40,7 @@
 //!
 //! **Measured** (pedestrian study, validation scenes `biwi_hotel` and `crowds_zara02` only;
 //! synthetic RC-car development seeds 7000 + level). On generated detections it finds the
-//! detection probability and the clutter level (tests/observation_smoothing.rs); on the
+//! detection probability and the clutter level (tests/integration/observation_smoothing.rs); on the
 //! walkers it picks `P` 0.7 / 0.9 / 0.995 at the hard / medium / easy level (the simulated
 //! 0.7 / 0.9 / 1) and a sharper kernel, `s = 0.7`, on every fold trained on the other scenes
 //! (0.6–0.8 on five tracks). Mean RMSE px easy/medium/hard against

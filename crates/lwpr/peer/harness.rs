@@ -1,6 +1,6 @@
-//! Shared by `tests/reference.rs` and `cargo xtask bench lwpr` (included with `#[path]`, not part
-//! of the library): the cross-function data of the reference's benchmark, and building and
-//! running the reference C library (LGPL, from `../shared/peers/lwpr`, built under
+//! Shared by `tests/integration/reference.rs` and `cargo xtask bench lwpr` (included with
+//! `#[path]`, not part of the library): the cross-function data of the reference's benchmark, and
+//! building and running the reference C library (LGPL, from `../shared/peers/lwpr`, built under
 //! `target/peers/lwpr`, never copied into this repository) through `peer/lwpr_peer.c`.
 #![allow(dead_code)]
 

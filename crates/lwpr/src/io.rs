@@ -670,9 +670,9 @@ impl Lwpr {
     }
 }
 
-/// The 5-D model the save/load tests share with `tests/xml.rs`.
+/// The 5-D model the save/load tests share with `tests/integration/xml.rs`.
 #[cfg(test)]
-#[path = "../tests/common/five_d.rs"]
+#[path = "../tests/integration/common/five_d.rs"]
 mod five_d;
 
 #[cfg(test)]

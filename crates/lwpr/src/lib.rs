@@ -31,8 +31,8 @@
 //! (including its dot-product order: blocks of four, remainder backwards; see `linalg`), so with
 //! the same parameters and samples the learned model is **bit-identical** to the C library's:
 //! every prediction returned by `update` is equal, the receptive-field counts are equal and grid
-//! predictions agree to ~4e-16 (`tests/reference.rs`: cross setting A; full metric with meta
-//! learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
+//! predictions agree to ~4e-16 (`tests/integration/reference.rs`: cross setting A; full metric with
+//! meta learning; BiSquare with two outputs and `norm_in`/`norm_out`; the 25-D rotation with full
 //! metric, meta learning and pruning; also `cargo xtask bench lwpr`, which fails if that breaks).
 //! Tests and bench build the reference with `cc -O3` (`PEER_CFLAGS` in `peer/harness.rs`), the
 //! optimisation level of our release build, for the same baseline x86-64 target, no fast-math;
@@ -77,9 +77,9 @@
 //! 54–56; seed 5: `0.44551127449819067` vs `0.44551127449819056`). The differences
 //! stay at rounding level: on the 25-D cross benchmark (20 000 samples, seeds 1–8, both pruning
 //! rules) the same receptive-field count as the reference in every case, nMSE equal to six
-//! digits, grid predictions within 1e-12 (`tests/reference.rs` checks 1e-6 against the C
-//! library; `tests/arithmetic.rs` checks 1e-9 against [`Arithmetic::Reference`] for n = 5–12).
-//! The 25-D update takes about half the CPU time of the exact order.
+//! digits, grid predictions within 1e-12 (`tests/integration/reference.rs` checks 1e-6 against the
+//! C library; `tests/integration/arithmetic.rs` checks 1e-9 against [`Arithmetic::Reference`]
+//! for n = 5–12). The 25-D update takes about half the CPU time of the exact order.
 //!
 //! Deliberate differences:
 //! - **Pruning** follows the reference library, not the published algorithm, by default; see
@@ -126,9 +126,9 @@
 //! [`Lwpr::predict_with_confidence`] returns the reference's bound (docs/methods.md § LWPR); it
 //! includes the noise level, and on the cross function (setting A) the noise-free target lies
 //! within ±2 bounds of the prediction on at least 90 % of the test grid (measured: 100 %;
-//! `tests/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and the analytic
-//! `m × n` Jacobian (docs/methods.md § LWPR), which matches central finite differences
-//! (`tests/jacobian.rs`); servo-loop uses it as the inverse image Jacobian.
+//! `tests/integration/confidence.rs`). [`Lwpr::predict_with_jacobian`] returns the prediction and
+//! the analytic `m × n` Jacobian (docs/methods.md § LWPR), which matches central finite
+//! differences (`tests/integration/jacobian.rs`); servo-loop uses it as the inverse image Jacobian.
 //!
 //! ## Robustness
 //! Non-finite or wrongly sized inputs and invalid parameters return [`LwprError`] and leave the
@@ -138,7 +138,7 @@
 //! values could overflow the squares and products in the model's statistics). Models save to
 //! JSON or a compact checksummed binary form with a format version ([`Lwpr::to_json`],
 //! [`Lwpr::to_binary`]), and to the reference library's XML model files ([`Lwpr::to_xml`],
-//! [`Lwpr::from_xml`]: read and written by the C library too, `tests/xml.rs`); loading
+//! [`Lwpr::from_xml`]: read and written by the C library too, `tests/integration/xml.rs`); loading
 //! validates everything, and so does plain serde
 //! deserialisation of an [`Lwpr`] or [`Params`] (the same checks, through `try_from`):
 //! sizes, finiteness, ranges of the parameters and statistics, and each receptive field's

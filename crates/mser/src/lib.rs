@@ -72,10 +72,10 @@
 //! first pixel. A region is identified by its polarity, level and [`Region::seed`] (first pixel in
 //! raster order); its pixels are the component of the threshold set through the seed.
 //!
-//! These definitions are checked literally: `tests/reference.rs` thresholds random small images
-//! at every level, labels components, builds the tree from the sets and applies 1–3; on 2,000
-//! random images and parameter sets the detector returns exactly the same regions in the same
-//! order, with the same areas, moments, bounding boxes and seeds.
+//! These definitions are checked literally: `tests/integration/reference.rs` thresholds random
+//! small images at every level, labels components, builds the tree from the sets and applies 1–3;
+//! on 2,000 random images and parameter sets the detector returns exactly the same regions in the
+//! same order, with the same areas, moments, bounding boxes and seeds.
 //!
 //! # Algorithm and cost
 //!
@@ -155,8 +155,8 @@
 //!
 //! [`MserParams::default`] has the meaning and values of OpenCV's `MSER::create(delta = 5,
 //! min_area = 60, max_area = 14400, max_variation = 0.25, min_diversity = 0.2)`. With feature
-//! `opencv`, `tests/opencv_crosscheck.rs` compares pixel sets with OpenCV 4.6 on graf, boat and
-//! leuven img1 (OpenCV linked here: 4.6.0). Systematic differences, all explained:
+//! `opencv`, `tests/integration/opencv_crosscheck.rs` compares pixel sets with OpenCV 4.6 on graf,
+//! boat and leuven img1 (OpenCV linked here: 4.6.0). Systematic differences, all explained:
 //!
 //! - **Image border.** OpenCV 4.x marks the outermost pixel ring as a wall and never puts it into a
 //!   region; we flood every pixel. Regions touching the border therefore differ. Every one of our
@@ -179,8 +179,8 @@
 //!   [`variations_by_thresholds`] recomputes a region's and its parent's variation from the
 //!   image by thresholding, as exact ratios; `cargo xtask bench mser` and `bench cli` excuse a
 //!   region of ours that OpenCV lacks only when it shows such a tie, region by region, and fail
-//!   on any other difference (`tests/opencv_crosscheck.rs` does the same on two crops;
-//!   `tests/variation_ties.rs` builds a tie). OpenCV also computes variations in
+//!   on any other difference (`tests/integration/opencv_crosscheck.rs` does the same on two crops;
+//!   `tests/integration/variation_ties.rs` builds a tie). OpenCV also computes variations in
 //!   32-bit floats, so two different variations that round to the same float tie for it too
 //!   (not seen in the images here). And it can report its root, the whole flooded image, when
 //!   `max_area` allows; by definition 1 the root is never a region here.
@@ -191,13 +191,13 @@
 //!
 //! - `rayon`: `Mser::detect_parallel` and `Mser::detect_with_pixels_parallel` (the two
 //!   polarities on two tasks) and `detect_many` (many images); results equal the sequential
-//!   ones (`tests/parallel.rs`, `tests/pixels.rs`). Plain [`Mser::detect`] is single-threaded.
-//!   Two tasks on one image gain little: the join waits for the later polarity, and a task may
-//!   start late (the other core waking) or be held off its core (in one run of `bench mser` on
-//!   the 2-core VM the second task started 2.3 ms after the first, and the first had 6.9 ms of
-//!   CPU in 11.1 ms wall; the bench prints each task's start delay, CPU and wall time). A batch
-//!   of images (`detect_many`) keeps every core busy, so image strips are not built. Speed-ups:
-//!   `docs/performance.md`, *mser*.
+//!   ones (`tests/integration/parallel.rs`, `tests/integration/pixels.rs`). Plain [`Mser::detect`]
+//!   is single-threaded. Two tasks on one image gain little: the join waits for the later polarity,
+//!   and a task may start late (the other core waking) or be held off its core (in one run of
+//!   `bench mser` on the 2-core VM the second task started 2.3 ms after the first, and the first
+//!   had 6.9 ms of CPU in 11.1 ms wall; the bench prints each task's start delay, CPU and wall
+//!   time). A batch of images (`detect_many`) keeps every core busy, so image strips are not built.
+//!   Speed-ups: `docs/performance.md`, *mser*.
 //! - `opencv`: `OpenCvMser`, OpenCV's detector with our parameters, for cross-checks and
 //!   benchmarks (needs libopencv-dev 4.x and libclang).
 //!

@@ -2,9 +2,9 @@
 //! (no component tree): the witness for OpenCV's parent-tie rule (crate docs, "OpenCV").
 //!
 //! OpenCV 4.x drops a region whose positive variation equals its parent's; we keep it. A
-//! comparison with OpenCV (`tests/opencv_crosscheck.rs`, `cargo xtask bench mser`) excuses a
-//! region of ours that OpenCV lacks only when [`variations_by_thresholds`] shows such a tie, as
-//! exact ratios of pixel counts. Cost: a few flood fills over the region's and its parent's
+//! comparison with OpenCV (`tests/integration/opencv_crosscheck.rs`, `cargo xtask bench mser`)
+//! excuses a region of ours that OpenCV lacks only when [`variations_by_thresholds`] shows such a
+//! tie, as exact ratios of pixel counts. Cost: a few flood fills over the region's and its parent's
 //! neighbourhood per level walked, O(Δ · |Q_{g+Δ}|) plus one copy of the image; meant for
 //! checks, not detection.
 

@@ -195,7 +195,7 @@ fn lwpr_cases() -> Value {
         .norm_out(&[1.0, 3.0])
         .build()
         .unwrap();
-    // A model file written by the reference C library (see crates/lwpr/tests/xml.rs).
+    // A model file written by the reference C library (see crates/lwpr/tests/integration/xml.rs).
     let file = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../lwpr/tests/data/reference_setting_a.xml"

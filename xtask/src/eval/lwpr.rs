@@ -5,7 +5,8 @@
 //!
 //! Deterministic (seeded data, no timings). The reference library's curve is not in the
 //! fixture (building C code is not part of `eval`); `cargo xtask bench lwpr` prints both curves
-//! side by side, and `crates/lwpr/tests/reference.rs` checks that ours is bit-identical to it.
+//! side by side, and `crates/lwpr/tests/integration/reference.rs` checks that ours is bit-identical
+//! to it.
 
 // Included by both the bench and the eval module (it is also the tests' harness).
 #[allow(clippy::duplicate_mod)]

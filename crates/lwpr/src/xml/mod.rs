@@ -16,7 +16,8 @@
 //! longer satisfy `D = MᵀM` to [`METRIC_TOLERANCE`](crate::METRIC_TOLERANCE). Reading such a
 //! file keeps `D` (what the reference's predictions use) and recomputes `M` as its Cholesky
 //! factor, so predictions from the file agree with the reference's predictions from the same
-//! file to rounding (`tests/xml.rs` measures it); `init_M` is always recomputed from `init_D`.
+//! file to rounding (`tests/integration/xml.rs` measures it); `init_M` is always recomputed from
+//! `init_D`.
 //!
 //! Reading is stricter than the reference's reader: every field must be present exactly once
 //! with the size its element declares and the model's dimensions require, every number finite,

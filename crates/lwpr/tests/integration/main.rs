@@ -1,0 +1,21 @@
+//! `lwpr`'s integration tests: one module per concern, all in one test binary, so
+//! the crate and its dependencies are linked once rather than once per file. One module:
+//! `cargo test -p lwpr --test integration MODULE::`.
+
+// `common/five_d.rs` is also compiled into `src/io.rs`'s unit tests, so it names the model types
+// as `crate::Lwpr` and `crate::LwprBuilder`: here they are imported at the root.
+use lwpr::{Lwpr, LwprBuilder};
+
+mod accuracy;
+mod arithmetic;
+mod common;
+mod confidence;
+#[path = "../../peer/harness.rs"]
+mod harness;
+mod hostile;
+mod io;
+mod jacobian;
+mod prediction;
+mod reference;
+mod robustness;
+mod xml;
