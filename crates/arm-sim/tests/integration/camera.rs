@@ -47,7 +47,7 @@ fn projection_without_distortion_is_pinhole() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(256))]
     #[test]
     fn undistort_round_trip(u in -0.5f64..639.5, v in -0.5f64..479.5) {
         let cam = overhead();

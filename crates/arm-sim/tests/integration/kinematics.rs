@@ -144,7 +144,7 @@ mod properties {
     use proptest::prelude::*;
 
     proptest! {
-        #![proptest_config(ProptestConfig { cases: 128, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+        #![proptest_config(crate::seeded(128))]
         /// Rigid links: joint distances are the link lengths for any angles, the hand frame is
         /// orthonormal, and the tip's horizontal direction is the base yaw.
         #[test]

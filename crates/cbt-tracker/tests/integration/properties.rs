@@ -60,7 +60,7 @@ fn config(order: bool, joint: bool, clutter: u8) -> CbtConfig {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(24))]
 
     #[test]
     fn posterior_is_a_probability_vector(

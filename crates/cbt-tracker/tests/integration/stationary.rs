@@ -322,7 +322,7 @@ fn serde_round_trip_continues_identically() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(12))]
 
     /// Shifting all training and test data by a whole number of channels shifts every
     /// estimate by the same amount (the models depend on displacements only; the data stay

@@ -9,7 +9,6 @@ use std::f64::consts::PI;
 
 use chan_repr::{ChannelBasis, ChannelGrid, Kernel, PeriodicBasis, SoftHistogram, SparseHistogram};
 use proptest::prelude::*;
-use proptest::test_runner::RngSeed;
 
 /// `B(d)` from the docs, written out here: cos²(π/m·d) for `|d| < m/2`, the quadratic B-spline
 /// `¾ − d²` / `½(|d| − 3/2)²` for `|d| < 3/2`, `exp(−d²/2σ²)` for `|d| < 4σ`; 0 elsewhere.
@@ -133,10 +132,8 @@ fn next(idx: &mut [usize], lens: &[usize]) -> bool {
 
 fn config(cases: u32) -> ProptestConfig {
     ProptestConfig {
-        cases,
-        rng_seed: RngSeed::Fixed(2009),
         failure_persistence: None,
-        ..ProptestConfig::default()
+        ..crate::seeded(cases)
     }
 }
 

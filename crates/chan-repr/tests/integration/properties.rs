@@ -23,7 +23,7 @@ fn close(a: f64, b: f64, scale: f64) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(256))]
 
     #[test]
     fn one_d_round_trip(b in basis(), u in 0.0f64..=1.0, w in 0.01f64..100.0) {
@@ -115,7 +115,7 @@ fn unit_or_end() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(256))]
 
     /// Every histogram built by adding values passes `from_counts` with its own total (and so
     /// the serde round trip), and each single value's channel mass lies in the grid's bounds.
@@ -158,7 +158,7 @@ fn probe(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(256))]
 
     /// The batch check refuses exactly what the value-by-value check refuses, with the error of
     /// the first refused value.
@@ -175,7 +175,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(256))]
 
     /// A batch equals its values added one by one: exactly for the Gaussian, which shares the
     /// per-value path, up to rounding for the batch paths of the quadratic B-spline (closed

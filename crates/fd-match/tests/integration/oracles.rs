@@ -310,11 +310,7 @@ fn unit_fd(rng: &mut StdRng, k: usize, decay: f64) -> Vec<Complex64> {
 
 proptest! {
     // Fixed seed, as the crate's other property tests.
-    #![proptest_config(ProptestConfig {
-        cases: 128,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(128))]
 
     /// For `K` from 1, any `L > K`, the default, an odd, a coarser-than-default and a larger grid:
     /// the peak is the maximum of `|r₁₂|` on a dense grid (to that grid's slack), the error is
@@ -492,11 +488,7 @@ fn naive_ratio(two: &[(usize, f64)]) -> Option<f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 64,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(64))]
 
     /// `best_two` (and its stats), `best_two_brute_force`, `min_errors_within`, `preselect`,
     /// `mutual_matches` and `match_sets` against an exhaustive sort of every pair error, for

@@ -24,11 +24,7 @@ fn corr(cfg: DescriptorConfig, a: &[(f64, f64)], b: &[(f64, f64)]) -> Correlatio
 
 proptest! {
     // Fixed seed: the same 48 cases in every run (and CI); saved regressions run first.
-    #![proptest_config(ProptestConfig {
-        cases: 48,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(48))]
 
     /// Uniform arc length: a rotated, scaled, translated and start-shifted copy matches with
     /// error ≈ 0, and φ and Δl are recovered.

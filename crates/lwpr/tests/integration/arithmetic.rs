@@ -3,7 +3,7 @@
 //! n ≥ 5), with and without meta learning and pruning.
 
 use lwpr::{Arithmetic, Lwpr, LwprBuilder};
-use proptest::prelude::{ProptestConfig, prop_assert, prop_assert_eq, proptest};
+use proptest::prelude::{prop_assert, prop_assert_eq, proptest};
 
 /// A smooth target in `n` dimensions.
 fn target(x: &[f64]) -> f64 {
@@ -60,7 +60,7 @@ fn small_inputs_and_diagonal_metrics_are_bit_identical_either_way() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(12))]
 
     /// Full metric, n = 5..12: every prediction returned by `update` agrees to 1e-9 and the
     /// receptive fields are the same in number, centre and PLS dimension.

@@ -6,7 +6,7 @@ use crate::harness;
 
 use harness::*;
 use lwpr::{Kernel, Lwpr, LwprBuilder};
-use proptest::prelude::{ProptestConfig, prop_assert, proptest};
+use proptest::prelude::{prop_assert, proptest};
 use std::sync::OnceLock;
 
 fn models() -> &'static [Lwpr] {
@@ -44,7 +44,7 @@ fn models() -> &'static [Lwpr] {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(64))]
     #[test]
     fn jacobian_matches_central_differences(k in 0usize..3, a in -0.9f64..0.9, b in -0.9f64..0.9) {
         let m = &models()[k];

@@ -188,7 +188,7 @@ fn any_params() -> impl Strategy<Value = MserParams> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(400))]
 
     #[test]
     fn fuzz_detector_and_contours(

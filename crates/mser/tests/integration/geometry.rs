@@ -275,11 +275,7 @@ fn expected_contour_counts(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 256,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(256))]
 
     /// `trace_outer_contour` (and `Region::contour`, `Region::contour_f64`) on every kind of
     /// component, not only selected regions: any threshold, both polarities, components touching

@@ -30,7 +30,7 @@ fn images() -> impl Strategy<Value = (usize, usize, Vec<u8>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 300, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(300))]
 
     #[test]
     fn inverting_swaps_polarities((w, h, k) in images(), sym in any::<bool>()) {

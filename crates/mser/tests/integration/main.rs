@@ -14,3 +14,13 @@ mod pixels;
 mod reference;
 mod snapshot;
 mod variation_ties;
+
+/// The property tests' configuration: `cases` cases drawn from a fixed seed, so every run
+/// tests the same inputs and a failure reproduces.
+fn seeded(cases: u32) -> proptest::test_runner::Config {
+    proptest::test_runner::Config {
+        cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
+        ..Default::default()
+    }
+}

@@ -197,11 +197,7 @@ fn regions_with_pixels_refuse_an_index_past_the_end() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 256,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(256))]
 
     /// `flood_pixels` from any pixel of a component (not only its first in raster order), at any
     /// level that pixel passes, both polarities, with the component's own box, the whole image or

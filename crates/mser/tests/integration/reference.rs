@@ -46,7 +46,7 @@ fn image_strategy() -> impl Strategy<Value = (usize, usize, Vec<u8>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(2000))]
 
     #[test]
     fn fast_detector_equals_brute_force_reference((w, h, px) in image_strategy(), p in params_strategy()) {
@@ -161,11 +161,7 @@ fn view_strategy() -> impl Strategy<Value = (usize, usize, Vec<u8>, usize, usize
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 192,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(2009),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(crate::seeded(192))]
 
     /// The unusual inputs the docs allow, against the brute-force reference: windows of a
     /// strided buffer, 0/255 walls, Δ up to 255, unlimited `max_area`, one polarity alone, a

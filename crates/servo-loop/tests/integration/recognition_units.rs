@@ -21,7 +21,7 @@ fn coordinates_round_trip() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, rng_seed: proptest::test_runner::RngSeed::Fixed(2009), ..ProptestConfig::default() })]
+    #![proptest_config(crate::seeded(12))]
     /// Shifting the image by a whole spatial channel (2·block full pixels) shifts the map by
     /// one channel, away from the borders.
     #[test]
