@@ -1,7 +1,7 @@
 //! Models and data that several of the integration tests train on, each written once here
-//! (the cross-function stream and the reference's settings are in `peer/harness.rs`, which every
-//! test includes as `harness`; `five_d.rs`, the 5-D model of the save/load tests, is included
-//! by `xml.rs` and by the unit tests of `src/io.rs`).
+//! (the cross-function stream and the reference's settings are in `peer/harness.rs`, which the
+//! tests' `main.rs` includes as `harness`; `five_d.rs`, the 5-D model of the save/load tests, is
+//! used by `xml.rs` and included by the unit tests of `src/io.rs`).
 
 use crate::harness::{cross_samples, embed, random_rotation, setting_25d};
 use lwpr::{Kernel, LwprBuilder, PruneRule};

@@ -1,6 +1,6 @@
 //! A linear two-joint plant seen by `cams` rectified cameras: camera `c` sees the point at
 //! `(100 + 20c + 200 y₀, 100 + 150 y₁)`, every camera in the same image row; commands in
-//! `[0, 1]` (included with `#[path]`, not part of the library).
+//! `[0, 1]` (a test module, not part of the library).
 
 use servo_loop::{
     InverseModel, InverseModelConfig, LearnConfig, Observation, Plant, learn_control,

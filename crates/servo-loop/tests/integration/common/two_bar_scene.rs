@@ -1,5 +1,5 @@
 //! The recognition tests' synthetic scene: a deterministic low-contrast texture with a bright
-//! two-bar object, and training views of it opening (included with `#[path]`, not part of the
+//! two-bar object, and training views of it opening (a test module, not part of the
 //! library).
 
 use image::{GrayImage, Luma};

@@ -1,6 +1,6 @@
 //! The analytic plant of servo-loop's tests: a planar two-link arm (links `L1`, `L2`) seen by
 //! an ideal camera (`PX` pixels per unit length, origin at (320, 240)), commands in `RANGE`
-//! (included with `#[path]`, not part of the library).
+//! (a test module, not part of the library).
 
 use nalgebra::Matrix2;
 

@@ -1,6 +1,5 @@
 //! The control space and exploration box of the default arm, and its heuristic percept as the
-//! tests learn it, shared by the tests that drive `servo-loop` on `arm-sim` (included with
-//! `#[path]`).
+//! tests learn it, shared by the tests that drive `servo-loop` on `arm-sim`.
 
 use servo_loop::{ControlSpace, Robot, SilhouetteConfig, TipModel, learn_recognition};
 
