@@ -2,7 +2,8 @@
 //!
 //! A crate's integration tests are the modules of one binary, `tests/integration/main.rs`:
 //! cargo builds each file directly under `tests/` as a binary of its own, linked against the
-//! crate and all its dependencies, and those links were most of CI's build time. A file stays a
+//! crate and all its dependencies, and 88 such binaries took over a quarter of CI's clean build
+//! (502 of 1,825 s of build time; 237 s as one binary per crate). A file stays a
 //! binary of its own only when it needs a process of its own (it installs a `#[global_allocator]`
 //! to count allocations), or when it is the crate's only test target.
 //!
