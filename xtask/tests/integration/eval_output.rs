@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
+use crate::metadata::workspace_root;
+use crate::walk::entries_below;
+
 /// The xtask binary; `VISGUIDE_XTASK_BIN` overrides it (a target folder shared by several
 /// checkouts holds one `debug/xtask`, whichever was linked last).
 fn xtask_bin() -> String {
@@ -23,22 +26,13 @@ fn scratch(tag: &str) -> PathBuf {
 
 /// Every entry below `dir` with its contents, sorted: a byte-exact picture of a folder.
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Option<Vec<u8>>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-            if p.is_dir() {
-                out.push((rel, None));
-                stack.push(p);
-            } else {
-                out.push((rel, Some(std::fs::read(&p).unwrap())));
-            }
-        }
-    }
-    out.sort();
-    out
+    entries_below(dir)
+        .into_iter()
+        .map(|p| {
+            let contents = (!p.is_dir()).then(|| std::fs::read(&p).unwrap());
+            (p.strip_prefix(dir).unwrap().to_path_buf(), contents)
+        })
+        .collect()
 }
 
 fn copy_dir(from: &Path, to: &Path) {
@@ -88,13 +82,6 @@ fn run(mut c: Command) -> (bool, String) {
         status.success(),
         String::from_utf8_lossy(&stderr).into_owned(),
     )
-}
-
-fn workspace() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
 }
 
 /// Issue 24: `eval tracking --train EMPTY --test EMPTY --out DIR` wiped DIR and then failed.
@@ -151,7 +138,7 @@ fn the_current_folder_and_the_repository_are_refused() {
     let d = scratch("cwd");
     std::fs::write(d.join("notes.txt"), "mine").unwrap();
     let before = snapshot(&d);
-    let repo = workspace().display().to_string();
+    let repo = workspace_root().display().to_string();
     for args in [
         vec!["eval", "chan-repr", "--out", "."],
         vec!["eval", "chan-repr", "--out", ".."],
@@ -233,7 +220,7 @@ enum Moment {
 fn an_interrupted_eval_leaves_its_folder_as_it_was() {
     let d = scratch("sigint");
     let out = d.join("arm-sim");
-    let committed = workspace().join("fixtures/arm-sim");
+    let committed = workspace_root().join("fixtures/arm-sim");
     copy_dir(&committed, &out);
     // A file only the old folder has: tells the old contents from a complete new run's.
     std::fs::write(out.join("from-an-earlier-run.txt"), "old\n").unwrap();

@@ -6,3 +6,4 @@ mod eval_output;
 mod layering;
 mod metadata;
 mod test_targets;
+mod walk;

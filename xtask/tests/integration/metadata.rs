@@ -1,5 +1,5 @@
-//! The workspace's manifests as `cargo metadata --no-deps` reads them, for the checks on the
-//! workspace's shape (`layering`, `test_targets`).
+//! The workspace's root folder, and its manifests as `cargo metadata --no-deps` reads them (for
+//! the checks on the workspace's shape, `layering` and `test_targets`).
 
 use std::path::Path;
 

@@ -16,6 +16,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use crate::metadata::{cargo_metadata, workspace_root};
+use crate::walk::entries_below;
 
 /// The `mod name;` declarations of a Rust file: (name, the `#[path]` given, if any). Inline
 /// modules (`mod name { ... }`) are not followed.
@@ -49,12 +50,12 @@ fn module_tree(root: &Path) -> BTreeSet<PathBuf> {
     // (file, whether its children live beside it: a crate root, `main.rs` or `mod.rs`)
     let mut stack = vec![(root.to_path_buf(), true)];
     while let Some((file, owns_dir)) = stack.pop() {
-        let Ok(text) = std::fs::read_to_string(&file) else {
-            continue;
-        };
         if !seen.insert(file.clone()) {
             continue;
         }
+        let Ok(text) = std::fs::read_to_string(&file) else {
+            continue;
+        };
         let dir = file.parent().unwrap().to_path_buf();
         for (name, path) in declared_modules(&text) {
             if let Some(p) = path {
@@ -77,25 +78,15 @@ fn module_tree(root: &Path) -> BTreeSet<PathBuf> {
     seen
 }
 
-/// Every `.rs` file under `dir`, recursively.
+/// Every `.rs` file under `dir`, recursively (none if there is no `dir`).
 fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&d) else {
-            continue;
-        };
-        for e in entries {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                out.push(p);
-            }
-        }
+    if !dir.is_dir() {
+        return Vec::new();
     }
-    out.sort();
-    out
+    entries_below(dir)
+        .into_iter()
+        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x == "rs"))
+        .collect()
 }
 
 /// One package as the check sees it: its folder and its test targets (name, root file).
@@ -156,9 +147,10 @@ fn violations(packages: &[Package]) -> Vec<String> {
                 }
             }
         }
-        let reached: BTreeSet<PathBuf> = p.roots.iter().flat_map(|r| module_tree(r)).collect();
-        let reached: BTreeSet<PathBuf> = reached
+        let reached: BTreeSet<PathBuf> = p
+            .roots
             .iter()
+            .flat_map(|r| module_tree(r))
             .filter_map(|f| std::fs::canonicalize(f).ok())
             .collect();
         for f in rust_files(&p.dir.join("tests")) {
