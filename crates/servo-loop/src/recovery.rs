@@ -140,7 +140,9 @@ fn splitmix(mut z: u64) -> u64 {
 }
 
 /// A move made whose percept was refused: nothing was learned from it and the loop did not
-/// compute a command from it (the next move, if any, was a recovery move).
+/// compute a command from it (the next move, if any, was a recovery move). The same record
+/// holds the move a run ended on when its observation failed otherwise
+/// ([`crate::ServoRun::failed_move`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RefusedMove {
     /// Index of the move among all moves made in the run (0 = the first guess).
@@ -150,7 +152,7 @@ pub struct RefusedMove {
     /// The pre-position sent before it, with an approach (not observed).
     #[serde(default)]
     pub pre_position: Option<Vec<f64>>,
-    /// Why the percept was refused (the error's message).
+    /// Why the percept was refused, or the observation failed (the error's message).
     pub reason: String,
 }
 

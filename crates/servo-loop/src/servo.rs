@@ -21,6 +21,8 @@
 //! ([`crate::recovery`]); such moves are recorded ([`ServoRun::refused`],
 //! [`ServoRun::recovery_moves`]) and count against the same budget: a run makes at most
 //! `max_iterations` moves after the first guess, corrections and recovery moves together.
+//! A run that fails after sending a command records that move apart
+//! ([`ServoRun::failed_move`]), so the caller knows where the arm may stand.
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -154,6 +156,13 @@ pub struct ServoRun {
     /// `steps` when its percept was accepted, in `refused` otherwise).
     #[serde(default)]
     pub recovery_moves: usize,
+    /// The move the run ended on when it failed after the command was sent: a plant error
+    /// while moving or observing, or a percept of the wrong length or not finite. The arm may
+    /// stand there, and nothing seen there was accepted or refused; [`RefusedMove::reason`]
+    /// holds the error's message. `None` when the run ended otherwise (a command refused
+    /// before it was sent, for one, moved nothing). Not counted in [`ServoRun::moves`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed_move: Option<Box<RefusedMove>>,
 }
 
 impl ServoRun {
@@ -165,7 +174,7 @@ impl ServoRun {
     /// Moves made: executed commands, observed (pre-positions not counted), whether their
     /// percept was accepted or refused. A move whose observation failed otherwise (a plant
     /// error, or a percept of the wrong length or not finite) ends the run with that error and
-    /// is in neither list, so it is not counted here.
+    /// is in neither list, so it is not counted here: it is [`ServoRun::failed_move`].
     pub fn moves(&self) -> usize {
         self.steps.len() + self.refused.len()
     }
@@ -197,12 +206,16 @@ impl ServoRun {
 
 /// A run that stopped on an error, with everything executed up to that point.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("servoing stopped after {} move(s): {error}", run.moves())]
+#[error(
+    "servoing stopped after {} move(s){}: {error}",
+    run.moves(),
+    if run.failed_move.is_some() { " and a failed one" } else { "" }
+)]
 pub struct ServoAbort {
     /// Why it stopped.
     pub error: ServoError,
-    /// The moves executed before.
-    pub run: ServoRun,
+    /// The moves executed before (boxed: the error stays small).
+    pub run: Box<ServoRun>,
 }
 
 /// Result of a servo run.
@@ -247,7 +260,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
     fn abort(self, error: ServoError) -> ServoAbort {
         ServoAbort {
             error,
-            run: self.run,
+            run: Box::new(self.run),
         }
     }
 
@@ -316,34 +329,45 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
             }
         }
         check_command(&*self.plant, &y)?;
-        let pre_position = match &self.config.approach {
-            Some(a) => {
-                // An unchanged command while still above the tolerance: re-seat every joint
-                // (a fresh draw of the servos' end noise) instead of stalling.
-                let reseat = self.approach.last() == Some(&y[..]);
-                self.approach.execute(&mut *self.plant, a, &y, reseat)?
-            }
-            None => {
-                self.plant.act(&y)?;
-                None
-            }
+        // An unchanged command while still above the tolerance: re-seat every joint (a fresh
+        // draw of the servos' end noise) instead of stalling.
+        let reseat = self.approach.last() == Some(&y[..]);
+        let planned = match &self.config.approach {
+            Some(a) => self.approach.pre_position(&*self.plant, a, &y, reseat),
+            None => None,
+        };
+        if let Some(p) = &planned {
+            // Refused here, the pre-position sends nothing (as in `ApproachState::execute`).
+            check_command(&*self.plant, p)?;
+        }
+        // From here on the command is sent: an error ends the run with it recorded.
+        let sent = match &self.config.approach {
+            Some(a) => self.approach.execute(&mut *self.plant, a, &y, reseat),
+            None => self.plant.act(&y).map(|()| None),
+        };
+        let pre_position = match sent {
+            Ok(pre) => pre,
+            Err(e) => return Err(self.failed(y, planned, e)),
         };
         let obs = match self.plant.observe() {
             Ok(obs) => obs,
-            Err(e) => {
-                if e.is_refused_percept() {
-                    self.run.refused.push(RefusedMove {
-                        at_move: self.run.moves(),
-                        command: y,
-                        pre_position,
-                        reason: e.to_string(),
-                    });
-                }
+            Err(e) if e.is_refused_percept() => {
+                self.run.refused.push(RefusedMove {
+                    at_move: self.run.moves(),
+                    command: y,
+                    pre_position,
+                    reason: e.to_string(),
+                });
                 return Err(e);
             }
+            Err(e) => return Err(self.failed(y, pre_position, e)),
         };
-        check_len("percept", &obs.x, self.x_w.len())?;
-        let error = image_error(&obs.x, self.x_w)?;
+        let error = match check_len("percept", &obs.x, self.x_w.len())
+            .and_then(|()| image_error(&obs.x, self.x_w))
+        {
+            Ok(error) => error,
+            Err(e) => return Err(self.failed(y, pre_position, e)),
+        };
         self.run.steps.push(ServoStep {
             command: y,
             pre_position,
@@ -355,6 +379,18 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
             self.run.converged = true;
         }
         Ok(obs)
+    }
+
+    /// Records `y`, sent, as the move the run ends on ([`ServoRun::failed_move`]) and returns
+    /// `e`.
+    fn failed(&mut self, y: Vec<f64>, pre_position: Option<Vec<f64>>, e: ServoError) -> ServoError {
+        self.run.failed_move = Some(Box::new(RefusedMove {
+            at_move: self.run.moves(),
+            command: y,
+            pre_position,
+            reason: e.to_string(),
+        }));
+        e
     }
 
     fn deviation(&self, x: &[f64]) -> DVector<f64> {
@@ -389,7 +425,7 @@ pub fn open_loop_with<P: Plant + ?Sized>(
     };
     let mut r = Runner::new(plant, x_w, &config).map_err(|e| ServoAbort {
         error: e,
-        run: ServoRun::default(),
+        run: Box::default(),
     })?;
     let y0 = match model.predict(x_w) {
         Ok(y) => y,
@@ -412,7 +448,7 @@ pub fn servo_lwpr<P: Plant + ?Sized>(
 ) -> ServoResult {
     let mut r = Runner::new(plant, x_w, config).map_err(|e| ServoAbort {
         error: e,
-        run: ServoRun::default(),
+        run: Box::default(),
     })?;
     let step = |r: &mut Runner<'_, P>, model: &mut InverseModel, y: Vec<f64>| -> Result<Vec<f64>> {
         let obs = r.execute(y)?;
@@ -465,7 +501,7 @@ where
 {
     let mut r = Runner::new(plant, x_w, config).map_err(|e| ServoAbort {
         error: e,
-        run: ServoRun::default(),
+        run: Box::default(),
     })?;
     let mut x = match r.execute(y0.to_vec()) {
         Ok(o) => o.x,
@@ -517,7 +553,7 @@ pub fn servo_broyden<P: Plant + ?Sized>(
 ) -> ServoResult {
     let mut r = Runner::new(plant, x_w, config).map_err(|e| ServoAbort {
         error: e,
-        run: ServoRun::default(),
+        run: Box::default(),
     })?;
     if !(broyden.probe.is_finite() && broyden.probe > 0.0) {
         return Err(r.abort(ServoError::InvalidParameter {

@@ -24,6 +24,11 @@ struct Watched {
     range0: Option<[f64; 2]>,
     /// Whether its percepts lack their last value.
     short_percept: bool,
+    /// The first call of `act` after this many observations fails, as an unplugged robot's
+    /// would.
+    act_fails_after: Option<usize>,
+    /// Every command `act` was given, the failing one included.
+    sent: Vec<Vec<f64>>,
 }
 
 impl Watched {
@@ -36,6 +41,8 @@ impl Watched {
             observes: 0,
             range0: None,
             short_percept: false,
+            act_fails_after: None,
+            sent: Vec::new(),
         }
     }
 
@@ -61,6 +68,13 @@ impl Plant for Watched {
     }
     fn act(&mut self, y: &[f64]) -> servo_loop::Result<()> {
         self.acts += 1;
+        self.sent.push(y.to_vec());
+        if self.act_fails_after == Some(self.observes) {
+            return Err(ServoError::Robot {
+                during: "command",
+                message: "unplugged".into(),
+            });
+        }
         self.inner.act(y)
     }
     fn observe(&mut self) -> servo_loop::Result<Observation> {
@@ -438,4 +452,94 @@ fn a_move_whose_observation_fails_ends_the_run_uncounted() {
     assert_eq!((plant.acts, plant.observes), (1, 1), "the move was made");
     assert!(abort.run.steps.is_empty() && abort.run.refused.is_empty());
     assert_eq!(abort.run.moves(), 0);
+    // It is recorded apart: the arm stands at its command.
+    let failed = abort
+        .run
+        .failed_move
+        .as_ref()
+        .expect("the failed move recorded");
+    assert_eq!(failed.at_move, 0);
+    assert_eq!(
+        failed.command, plant.inner.y,
+        "the command the arm stands at"
+    );
+    assert_eq!(failed.pre_position, None);
+    assert_eq!(failed.reason, abort.error.to_string());
+    assert!(
+        abort
+            .to_string()
+            .starts_with("servoing stopped after 0 move(s) and a failed one: "),
+        "{abort}"
+    );
+}
+
+/// A robot error while a command is sent, after accepted moves, ends the run with that move
+/// recorded as `ServoRun::failed_move` (with the pre-position sent before it, under an approach),
+/// after the accepted ones; every loop records it alike.
+#[test]
+fn a_move_the_robot_fails_is_recorded_where_it_was_made() {
+    let trained = learned(1, 300, 5);
+    let target = Rectified::at(1, [0.5, 0.5]).percept(&[0.4, 0.6]);
+    let jacobian = |_: &[f64]| Ok(DMatrix::from_row_slice(2, 2, &[200.0, 0.0, 0.0, 150.0]));
+    let approach = ServoConfig {
+        approach: Some(Approach {
+            overshoot: 0.05,
+            resolution: 1e-6,
+            ..Approach::hobby_servo()
+        }),
+        ..ServoConfig::default()
+    };
+    let mut pre_positions = 0;
+    for (config, with_approach) in [(&ServoConfig::default(), false), (&approach, true)] {
+        // No run converges before its third move.
+        let config = &ServoConfig {
+            tolerance: 0.0,
+            damping: 0.5,
+            ..config.clone()
+        };
+        let y0 = [0.45, 0.55];
+        let loops: [&ServoLoop<'_>; 3] = [
+            &|p, m| servo_lwpr(p, m, &target, config),
+            &|p, _| servo_image_jacobian(p, &y0, &target, config, jacobian),
+            &|p, _| servo_broyden(p, &y0, &target, config, &BroydenConfig { probe: 0.02 }),
+        ];
+        for (k, run) in loops.into_iter().enumerate() {
+            // The third move's first act fails (its pre-position's, when it has one).
+            let mut plant = Watched {
+                act_fails_after: Some(2),
+                ..Watched::new()
+            };
+            let mut m = trained.clone();
+            let abort = run(&mut plant, &mut m).expect_err("the robot failed");
+            let what = format!("loop {k}, approach {with_approach}");
+            assert!(
+                matches!(abort.error, ServoError::Robot { .. }),
+                "{what}: {}",
+                abort.error
+            );
+            assert_eq!(abort.run.steps.len(), 2, "{what}");
+            assert_eq!(abort.run.moves(), 2, "{what}");
+            let failed = abort.run.failed_move.as_ref().expect("recorded");
+            assert_eq!(failed.at_move, 2, "{what}");
+            assert_eq!(failed.command.len(), 2, "{what}");
+            assert_ne!(
+                failed.command, abort.run.steps[1].command,
+                "{what}: a new command"
+            );
+            assert!(with_approach || failed.pre_position.is_none(), "{what}");
+            // What the robot was given when it failed: the pre-position, if one was sent.
+            assert_eq!(
+                plant.sent.last(),
+                Some(failed.pre_position.as_ref().unwrap_or(&failed.command)),
+                "{what}"
+            );
+            pre_positions += usize::from(failed.pre_position.is_some());
+            assert!(
+                failed.reason.contains("unplugged"),
+                "{what}: {}",
+                failed.reason
+            );
+        }
+    }
+    assert!(pre_positions > 0, "no failed move had a pre-position");
 }

@@ -43,9 +43,8 @@ use serde::Serialize;
 use servo_loop::{
     Approach, BroydenConfig, ControlSpace, InverseModel, InverseModelConfig, JacobianAt,
     LearnConfig, PerceptPolicy, PerceptUse, RandomCommands, RecognitionConfig, ServoConfig,
-    ServoRun, SilhouetteConfig, TipRule, capture_training_views, learn_control_chained,
-    learn_recognition, observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian,
-    servo_lwpr,
+    SilhouetteConfig, TipRule, capture_training_views, learn_control_chained, learn_recognition,
+    observe_averaged, open_loop_with, servo_broyden, servo_image_jacobian, servo_lwpr,
 };
 
 use super::{EvalContext, write_json};
@@ -525,7 +524,7 @@ pub fn run_method(
                 }),
                 Err(e) => Err(servo_loop::ServoAbort {
                     error: e,
-                    run: ServoRun::default(),
+                    run: Box::default(),
                 }),
             },
             other => return Err(format!("unknown method {other}").into()),
@@ -534,7 +533,7 @@ pub fn run_method(
             Ok(run) => (run, None, false),
             Err(a) => {
                 let refused = a.error.is_refused_percept();
-                (a.run, Some(a.error.to_string()), refused)
+                (*a.run, Some(a.error.to_string()), refused)
             }
         };
         // A recovered run: a refused percept answered by a recovery move, and not stopped by
