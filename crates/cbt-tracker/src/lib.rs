@@ -104,9 +104,10 @@
 //!   them and 2.19/5.16/19.64 with them, trained on the other scenes; 3.24/7.27/22.03 and
 //!   2.36/6.74/20.05 on five tracks. Current figures, PF 1000 beside them and the test
 //!   scenes: `fixtures/paper-b-pedestrians/summary.md`. Online learning
-//!   ([`CbtTracker::with_self_learning`]) is not needed: within 0.1 px of the offline model
-//!   trained on all other scenes, better by up to 0.5 px on five tracks, at about nine
-//!   times the wall time per frame (validation run), so the default stays offline. Known limit: with many misses
+//!   ([`CbtTracker::with_self_learning`]) is not needed: close to the offline model trained on
+//!   all other scenes and better by under 1 px on five tracks (the *CBT 2nd order online* rows
+//!   of that summary), at about nine times the time per frame (`docs/performance.md`,
+//!   *cbt-tracker*), so the default stays offline. Known limit: with many misses
 //!   and much clutter (P_D 0.7, 6 clutter a frame) CBT still loses fast walkers whose first
 //!   frames are missed more often than a particle filter: the factored state (position ×
 //!   per-axis velocity) keeps one velocity distribution for every hypothesis, so a

@@ -79,7 +79,8 @@
 //! rules) the same receptive-field count as the reference in every case, nMSE equal to six
 //! digits, grid predictions within 1e-12 (`tests/integration/reference.rs` checks 1e-6 against the
 //! C library; `tests/integration/arithmetic.rs` checks 1e-9 against [`Arithmetic::Reference`]
-//! for n = 5–12). The 25-D update takes about half the CPU time of the exact order.
+//! for n = 5–12). The 25-D update takes about half the CPU time of the exact order
+//! (`cargo xtask bench lwpr`: `docs/performance.md`, *lwpr*).
 //!
 //! Deliberate differences:
 //! - **Pruning** follows the reference library, not the published algorithm, by default; see

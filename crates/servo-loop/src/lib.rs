@@ -39,8 +39,10 @@
 //! The **channel-coded feature map** recogniser ([`GripperModel`]: spatial B-spline × cos²
 //! orientation channels of image gradients, chan-repr; docs/methods.md § Servoing), learned from
 //! the same gripper moves ([`capture_training_views`]), is an appearance model with a certainty:
-//! matched near the silhouette's tip it finds the fingers' region to 6–16 px, over the whole image
-//! it at times matches clutter (`eval servo` reports both), so the servo pipeline does not use it.
+//! matched near the silhouette's tip it finds only the fingers' region, several pixels off, and
+//! over the whole image it at times matches clutter (`eval servo` reports both:
+//! `fixtures/paper-c/summary.md`, *Gripper recognition*, the `ccfm` rows), so the servo
+//! pipeline does not use it.
 //!
 //! ## 2. Learning to control ([`learn_control`], [`InverseModel`])
 //! `N` random commands `y` (the controlled servos; the redundant ones are held at fixed
@@ -109,7 +111,9 @@
 //! ## 4. Executing moves on hobby servos ([`approach`])
 //! A servo with a deadband and gear backlash ends where the direction it came from says, and
 //! ignores reversing corrections smaller than its deadband: a plain loop stalls there (on
-//! `arm-sim`, lwpr 0.83 px and the true Jacobian 1.00 px after 5 iterations). With
+//! `arm-sim`, `eval servo` without the approach ended at lwpr 0.83 px and the true Jacobian
+//! 1.00 px after 5 iterations: `fixtures/paper-c/summary.md` before commit 5bc3792, which
+//! added it; the current figures, with it, are in that file). With
 //! [`ServoConfig::approach`] (and [`LearnConfig::approach`]) every final approach of a joint
 //! ends moving in one direction, from a pre-position more than deadband + backlash away
 //! (20 µs for hobby servos by their data sheets), set-points are rounded to the controller's

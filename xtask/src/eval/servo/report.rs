@@ -336,8 +336,8 @@ pub fn summary(study: &Study) -> String {
              (the silhouette says where the arm is). Its point is the centroid of the fingers' change, so the fair comparison is with the \
              projected middle of the fingers (half their length behind the finger ends): median {} px per camera over the whole image, \
              {} px near the tip. It finds the fingers' region, not a sub-pixel tip; over the whole image its best match is at times clutter \
-             or another part of the arm, and it costs about 20 times the silhouette recogniser per image, so the servo percept does not use \
-             it (docs/performance.md, `## servo-loop`).\n",
+             or another part of the arm, and it costs over ten times the silhouette recogniser per image, so the servo percept does not \
+             use it (docs/performance.md, `## servo-loop`).\n",
             r.appearance
                 .first()
                 .map_or(f64::NAN, |a| a.median_certainty),
