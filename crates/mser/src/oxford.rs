@@ -68,11 +68,11 @@ fn check_ellipses(ellipses: &[Ellipse]) -> Result<()> {
 /// [`MserError::InvalidParameter`] before anything is written.
 pub fn write_regions<W: Write>(w: W, ellipses: &[Ellipse]) -> Result<()> {
     check_ellipses(ellipses)?;
-    write_checked(w, ellipses)
+    Ok(write_checked(w, ellipses)?)
 }
 
 /// [`write_regions`] of ellipses already checked ([`check_ellipses`]).
-fn write_checked<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
+fn write_checked<W: Write>(mut w: W, ellipses: &[Ellipse]) -> std::io::Result<()> {
     writeln!(w, "1.0")?;
     writeln!(w, "{}", ellipses.len())?;
     for e in ellipses {
@@ -84,33 +84,51 @@ fn write_checked<W: Write>(mut w: W, ellipses: &[Ellipse]) -> Result<()> {
 
 /// Writes ellipses to a file; see [`write_regions`]. An ellipse it refuses is refused before
 /// any file is created, with the same [`MserError::InvalidParameter`] whatever the folder: no
-/// file is touched. The file is written under a temporary name beside `path` and renamed over
-/// it only when everything was written, so a failed write leaves no partial file (and an
-/// existing file at `path` unchanged).
+/// file is touched; so is a path that names no file (`dir/..`). The file is written under a
+/// temporary name beside `path` (unique per process and call, so concurrent saves to one path
+/// do not share it), flushed to disk and renamed over `path` only when everything was written,
+/// so a failed write leaves no partial file (and an existing file at `path` unchanged). An I/O
+/// error is an [`MserError::Io`] whose message names `path`.
 pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static SAVES: AtomicU64 = AtomicU64::new(0);
     // Before the temporary file exists: a refused ellipse touches no file (and is reported as
     // such, not as whatever I/O error the folder would have given).
     check_ellipses(ellipses)?;
     let path = path.as_ref();
-    let name = path
-        .file_name()
-        .map_or_else(|| "regions".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+    let named = |e: std::io::Error| {
+        MserError::Io(std::io::Error::new(
+            e.kind(),
+            format!("{}: {e}", path.display()),
+        ))
+    };
+    let name = path.file_name().ok_or_else(|| {
+        named(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file path",
+        ))
+    })?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(
+        ".partial-{}-{}",
+        std::process::id(),
+        SAVES.fetch_add(1, Ordering::Relaxed)
+    ));
+    let tmp = path.with_file_name(tmp_name);
     let result = (|| {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(f);
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
         write_checked(&mut w, ellipses)?;
-        let f = w
-            .into_inner()
-            .map_err(|e| MserError::from(e.into_error()))?;
+        // `into_inner` flushes and reports a failed flush (dropping the writer would not).
+        let f = w.into_inner().map_err(|e| e.into_error())?;
+        // On disk before the rename: a crash soon after must not leave `path` empty or partial.
         f.sync_all()?;
-        std::fs::rename(&tmp, path)?;
-        Ok(())
+        std::fs::rename(&tmp, path)
     })();
-    if result.is_err() {
+    result.map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-    }
-    result
+        named(e)
+    })
 }
 
 /// Reads a region file. Every ellipse must be finite and positive definite (`a > 0`,

@@ -233,8 +233,9 @@ fn a_refused_save_touches_no_file() {
         dir.join("missing/x.mser"),
         &[good, bad]
     )));
-    // Whatever is in the folder, the temporary file's name included, stays as it was.
-    let stale = dir.join(format!(".x.mser.partial-{}", std::process::id()));
+    // Whatever is in the folder, a file named like the first temporary file included, stays
+    // as it was.
+    let stale = dir.join(format!(".x.mser.partial-{}-0", std::process::id()));
     std::fs::write(&stale, b"someone else's").unwrap();
     let listing = |d: &std::path::Path| {
         let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(d)
@@ -253,5 +254,184 @@ fn a_refused_save_touches_no_file() {
     let before = listing(&dir);
     assert!(refused(mser::save_regions(dir.join("x.mser"), &[bad])));
     assert_eq!(listing(&dir), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A fresh scratch folder for one test.
+fn scratch_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("mser-{what}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// `n` distinct valid ellipses.
+fn ellipses(n: usize) -> Vec<Ellipse> {
+    (0..n)
+        .map(|k| Ellipse {
+            u: 1.5 + k as f64 / 7.0,
+            v: 2.25 * k as f64,
+            ..GOOD
+        })
+        .collect()
+}
+
+/// Set in the child process of [`in_child`]: the test runs its child part.
+const CHILD: &str = "MSER_TEST_WRITE_CHILD";
+
+/// Runs the test `test` of this binary alone in a child process whose working folder is `cwd`
+/// (so the child can save to a bare file name), with [`CHILD`] set; with `limit`, under a file
+/// size limit of one block (`ulimit -f 1`, 512 or 1024 bytes): a write past it fails with
+/// `EFBIG`, like a full disk, even for root, with `SIGXFSZ` ignored so that it is an error
+/// rather than the end of the process. Returns the child's standard output.
+#[cfg(unix)]
+fn in_child(test: &str, cwd: &std::path::Path, limit: bool) -> String {
+    let run = r#"exec "$0" "$@""#;
+    let script = if limit {
+        format!("trap '' XFSZ; ulimit -f 1 && {run}")
+    } else {
+        run.to_string()
+    };
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(std::env::current_exe().unwrap())
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(CHILD, "1")
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the child failed ({}): {stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// A bare file name (`Path::parent()` is `Some("")`) is saved into the working folder, with its
+/// temporary file there too: nothing else is left behind.
+#[cfg(unix)]
+#[test]
+fn a_save_to_a_bare_file_name_lands_in_the_working_folder() {
+    if std::env::var_os(CHILD).is_some() {
+        mser::save_regions("x.mser", &ellipses(3)).unwrap();
+        return;
+    }
+    let dir = scratch_dir("bare");
+    in_child(
+        "oxford_io::a_save_to_a_bare_file_name_lands_in_the_working_folder",
+        &dir,
+        false,
+    );
+    assert_eq!(names_in(&dir), ["x.mser"]);
+    let back = mser::load_regions(dir.join("x.mser")).unwrap();
+    assert_eq!(
+        back.iter().map(|r| r.ellipse).collect::<Vec<_>>(),
+        ellipses(3)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A save whose write fails part-way (a file size limit, as a full disk would) is an `Io`
+/// error naming the file; the file already there keeps every byte, and no temporary file is
+/// left. The text (a few kB) fits in the writer's buffer, so the failure shows only when the
+/// buffer is flushed: a buffer dropped unflushed would swallow it and rename a truncated file
+/// over the old one.
+#[cfg(unix)]
+#[test]
+fn a_save_failing_part_way_keeps_the_old_file_and_leaves_nothing_else() {
+    if std::env::var_os(CHILD).is_some() {
+        match mser::save_regions("x.mser", &ellipses(60)) {
+            Err(e @ MserError::Io(_)) => println!("refused: {e}"),
+            other => panic!("expected an i/o error, got {other:?}"),
+        }
+        return;
+    }
+    let dir = scratch_dir("full");
+    let path = dir.join("x.mser");
+    mser::save_regions(&path, &ellipses(1)).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // Larger than the limit (at most 1024 bytes), smaller than the writer's 8 kB buffer.
+    let mut text = Vec::new();
+    write_regions(&mut text, &ellipses(60)).unwrap();
+    assert!((2048..8192).contains(&text.len()), "{}", text.len());
+    let out = in_child(
+        "oxford_io::a_save_failing_part_way_keeps_the_old_file_and_leaves_nothing_else",
+        &dir,
+        true,
+    );
+    assert!(
+        out.contains("refused: region file I/O: x.mser: File too large"),
+        "{out}"
+    );
+    assert!(std::fs::read(&path).unwrap() == before, "x.mser changed");
+    assert_eq!(names_in(&dir), ["x.mser"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Threads saving to one path at once all succeed and leave one whole file. The temporary name
+/// was the process id only, so threads shared it: one renamed another's half-written file into
+/// place, and the other's rename then failed (`No such file or directory`).
+#[test]
+fn concurrent_saves_to_one_path_all_succeed_and_leave_a_whole_file() {
+    let dir = scratch_dir("concurrent");
+    let path = dir.join("x.mser");
+    let es = ellipses(2000);
+    std::thread::scope(|s| {
+        for _ in 0..4 {
+            s.spawn(|| {
+                for _ in 0..20 {
+                    mser::save_regions(&path, &es).unwrap();
+                }
+            });
+        }
+    });
+    assert_eq!(mser::load_regions(&path).unwrap().len(), es.len());
+    assert_eq!(names_in(&dir), ["x.mser"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A failed save names the file: the target is a folder (the rename fails after everything
+/// was written), the parent is a file, or missing. A path that names no file (`dir/..`, the
+/// empty path) is refused before any file is created (a temporary file used to be written
+/// under a made-up name and removed again).
+#[test]
+fn a_failed_save_names_the_path_and_leaves_no_temporary_file() {
+    let dir = scratch_dir("failed");
+    std::fs::create_dir_all(dir.join("x.mser").join("inside")).unwrap();
+    std::fs::write(dir.join("file"), b"a file, not a folder").unwrap();
+    for path in [
+        dir.join("x.mser"),
+        dir.join("file").join("x.mser"),
+        dir.join("missing").join("x.mser"),
+        dir.join("x.mser").join(".."),
+        std::path::PathBuf::new(),
+    ] {
+        let e = mser::save_regions(&path, &ellipses(3)).unwrap_err();
+        assert!(
+            matches!(&e, MserError::Io(_)) && e.to_string().contains(&path.display().to_string()),
+            "{}: {e}",
+            path.display()
+        );
+    }
+    assert_eq!(names_in(&dir), ["file", "x.mser"]);
+    assert_eq!(names_in(&dir.join("x.mser")), ["inside"]);
+    assert_eq!(
+        std::fs::read(dir.join("file")).unwrap(),
+        b"a file, not a folder"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
