@@ -232,6 +232,9 @@ fn build_driver(workspace: &Path, name: &str, expat: bool) -> Result<PathBuf, St
         return Ok(driver);
     }
     let out = peers.join(format!("{name}.staging-{}", std::process::id()));
+    // Removed however this ends (a failed build script or compile included), so no half-built
+    // staging folder is left in `target/peers`.
+    let _staging = RemoveOnDrop(out.clone());
     let st = Command::new("bash")
         .arg(src.join("build.sh"))
         .arg(&out)
@@ -314,8 +317,17 @@ fn build_driver(workspace: &Path, name: &str, expat: bool) -> Result<PathBuf, St
     let place = |e: std::io::Error| format!("cannot move the driver into place: {e}");
     std::fs::create_dir_all(driver.parent().expect("driver has a folder")).map_err(place)?;
     std::fs::rename(&staged, &driver).map_err(place)?;
-    std::fs::remove_dir_all(&out).ok();
     Ok(driver)
+}
+
+/// A scratch folder removed with everything in it when this goes out of scope, on every path
+/// out of the function that made it.
+struct RemoveOnDrop(PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// `Ok(value)`, or `None` with a printed note when the reference cannot be used; with
@@ -582,6 +594,7 @@ fn run_driver(
     static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let run = RUN.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
     let dir = std::env::temp_dir().join(format!("lwpr-peer-{}-{run}", std::process::id()));
+    let _scratch = RemoveOnDrop(dir.clone());
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
     let (inp, outp) = (dir.join("in.bin"), dir.join("out.bin"));
     std::fs::write(&inp, input).map_err(|e| e.to_string())?;
@@ -593,7 +606,6 @@ fn run_driver(
         .output()
         .map_err(|e| format!("cannot run the driver: {e}"))?;
     if !st.status.success() {
-        let _ = std::fs::remove_dir_all(&dir);
         return Err(format!(
             "the driver {} failed ({}): {}",
             driver.display(),
@@ -601,9 +613,7 @@ fn run_driver(
             String::from_utf8_lossy(&st.stderr)
         ));
     }
-    let o = std::fs::read(&outp).map_err(|e| e.to_string());
-    let _ = std::fs::remove_dir_all(&dir);
-    o
+    std::fs::read(&outp).map_err(|e| e.to_string())
 }
 
 /// Little-endian values of a driver's output, in order.

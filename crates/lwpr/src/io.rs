@@ -376,7 +376,9 @@ pub(crate) fn check_metric(
 /// Writes `bytes` to `path` through a temporary file in the same folder, flushed to disk and
 /// renamed into place, so a failed write leaves neither a partial file nor a damaged old one.
 /// The temporary name is unique per process and call, so concurrent saves to one path do not
-/// share (and rename away) each other's temporary file.
+/// share (and rename away) each other's temporary file. The file is synced (`sync_all`) before
+/// the rename: otherwise a crash soon after could leave the new name on an empty or partial
+/// file on some file systems. An error is an [`LwprError::Io`] naming `path`.
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
     use std::sync::atomic::{AtomicU64, Ordering};
@@ -398,10 +400,10 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
             f.sync_all()
         })
         .and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
+    result.map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-    }
-    Ok(result?)
+        LwprError::Io(format!("{}: {e}", path.display()))
+    })
 }
 
 impl Lwpr {

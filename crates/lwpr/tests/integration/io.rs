@@ -169,3 +169,176 @@ fn save_writes_binary_for_bin_and_json_otherwise() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A fresh scratch folder for one test.
+fn scratch_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("lwpr-io-{what}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Set in the child process of [`in_child`]: the test runs its child part.
+const CHILD: &str = "LWPR_TEST_WRITE_CHILD";
+
+/// Runs the test `test` of this binary alone in a child process whose working folder is `cwd`
+/// (so the child can save to a bare file name), with [`CHILD`] set; with `limit`, under a file
+/// size limit of one block (`ulimit -f 1`, 512 or 1024 bytes): a write past it fails with
+/// `EFBIG`, like a full disk, even for root, with `SIGXFSZ` ignored so that it is an error
+/// rather than the end of the process. Returns the child's standard output.
+#[cfg(unix)]
+fn in_child(test: &str, cwd: &std::path::Path, limit: bool) -> String {
+    let run = r#"exec "$0" "$@""#;
+    let script = if limit {
+        format!("trap '' XFSZ; ulimit -f 1 && {run}")
+    } else {
+        run.to_string()
+    };
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(std::env::current_exe().unwrap())
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(CHILD, "1")
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the child failed ({}): {stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The three files a model is saved to: JSON, binary and XML.
+const FORMS: [&str; 3] = ["model.json", "model.bin", "model.xml"];
+
+/// Saves `m` to `name` in the form its extension says.
+fn save_as(m: &Lwpr, name: impl AsRef<std::path::Path>) -> Result<(), LwprError> {
+    let name = name.as_ref();
+    if name.extension().is_some_and(|e| e == "xml") {
+        m.save_xml(name)
+    } else {
+        m.save(name)
+    }
+}
+
+/// A bare file name (`Path::parent()` is `Some("")`) saves into the working folder, with its
+/// temporary file there too: nothing else is left behind.
+#[cfg(unix)]
+#[test]
+fn saves_to_a_bare_file_name_land_in_the_working_folder() {
+    let m = trained();
+    if std::env::var_os(CHILD).is_some() {
+        for name in FORMS {
+            save_as(&m, name).unwrap();
+        }
+        return;
+    }
+    let dir = scratch_dir("bare");
+    in_child(
+        "io::saves_to_a_bare_file_name_land_in_the_working_folder",
+        &dir,
+        false,
+    );
+    assert_eq!(names_in(&dir), ["model.bin", "model.json", "model.xml"]);
+    for name in FORMS {
+        assert!(Lwpr::load(dir.join(name)).unwrap() == m, "{name}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A save whose write fails part-way (a file size limit, as a full disk would) is an `Io`
+/// error naming the file; the model file already there keeps every byte, and no temporary file
+/// is left behind.
+#[cfg(unix)]
+#[test]
+fn a_save_failing_part_way_keeps_the_old_file_and_leaves_nothing_else() {
+    let m = trained();
+    if std::env::var_os(CHILD).is_some() {
+        for name in FORMS {
+            match save_as(&m, name) {
+                Err(LwprError::Io(msg)) => println!("refused {name}: {msg}"),
+                other => panic!("{name}: expected an i/o error, got {other:?}"),
+            }
+        }
+        return;
+    }
+    let dir = scratch_dir("full");
+    let old = LwprBuilder::new(2, 2).build().unwrap();
+    let mut before = Vec::new();
+    for name in FORMS {
+        save_as(&old, dir.join(name)).unwrap();
+        before.push(std::fs::read(dir.join(name)).unwrap());
+    }
+    // Every form of the new model is larger than the limit (at most 1024 bytes).
+    assert!(m.to_binary().len() > 4096 && m.to_json().len() > 4096 && m.to_xml().len() > 4096);
+    let out = in_child(
+        "io::a_save_failing_part_way_keeps_the_old_file_and_leaves_nothing_else",
+        &dir,
+        true,
+    );
+    for (name, old) in FORMS.iter().zip(&before) {
+        let line = out
+            .lines()
+            .find(|l| l.contains(&format!("refused {name}: ")))
+            .unwrap_or_else(|| panic!("{name} not refused: {out}"));
+        assert!(
+            line.contains(&format!("{name}: File too large")),
+            "the error does not name the file: {line}"
+        );
+        assert!(
+            std::fs::read(dir.join(name)).unwrap() == *old,
+            "{name} changed"
+        );
+    }
+    assert_eq!(names_in(&dir), ["model.bin", "model.json", "model.xml"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A save that fails after everything was written (the target is a folder, so the rename fails)
+/// or before (the parent is a file) is an `Io` error naming the path, and leaves nothing behind:
+/// no temporary file, the folder as it was.
+#[test]
+fn a_failed_save_names_the_path_and_leaves_no_temporary_file() {
+    let m = trained();
+    let dir = scratch_dir("failed");
+    std::fs::create_dir_all(dir.join("model.json").join("inside")).unwrap();
+    std::fs::write(dir.join("file"), b"a file, not a folder").unwrap();
+    for path in [
+        dir.join("model.json"),
+        dir.join("file").join("model.bin"),
+        dir.join("missing").join("model.bin"),
+        // No file name: refused before any file is created.
+        dir.join("model.json").join(".."),
+        std::path::PathBuf::new(),
+    ] {
+        for e in [m.save(&path).unwrap_err(), m.save_xml(&path).unwrap_err()] {
+            assert!(
+                matches!(&e, LwprError::Io(msg) if msg.contains(&path.display().to_string())),
+                "{}: {e}",
+                path.display()
+            );
+        }
+    }
+    assert_eq!(names_in(&dir), ["file", "model.json"]);
+    assert_eq!(names_in(&dir.join("model.json")), ["inside"]);
+    assert_eq!(
+        std::fs::read(dir.join("file")).unwrap(),
+        b"a file, not a folder"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
