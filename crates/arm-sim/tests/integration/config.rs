@@ -259,3 +259,142 @@ fn absurd_arm_sizes_and_sag_are_refused() {
     c.sag.compliance_deg_per_nm = [8.0, 10.0, 12.0];
     c.validate().unwrap();
 }
+
+/// A fresh scratch folder for one test.
+fn scratch_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("arm-sim-{what}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Set in the child process of [`in_child`]: the test runs its child part.
+const CHILD: &str = "ARM_SIM_TEST_WRITE_CHILD";
+
+/// Runs the test `test` of this binary alone in a child process whose working folder is `cwd`
+/// (so the child can write to a bare file name), with [`CHILD`] set; with `limit`, under a file
+/// size limit of one block (`ulimit -f 1`, 512 or 1024 bytes): a write past it fails with
+/// `EFBIG`, like a full disk, even for root, with `SIGXFSZ` ignored so that it is an error
+/// rather than the end of the process. Returns the child's standard output.
+#[cfg(unix)]
+fn in_child(test: &str, cwd: &std::path::Path, limit: bool) -> String {
+    let run = r#"exec "$0" "$@""#;
+    let script = if limit {
+        format!("trap '' XFSZ; ulimit -f 1 && {run}")
+    } else {
+        run.to_string()
+    };
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(std::env::current_exe().unwrap())
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(CHILD, "1")
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the child failed ({}): {stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// A bare file name (`Path::parent()` is `Some("")`) is written into the working folder, with
+/// its temporary file there too: nothing else is left behind.
+#[cfg(unix)]
+#[test]
+fn write_file_to_a_bare_file_name_lands_in_the_working_folder() {
+    if std::env::var_os(CHILD).is_some() {
+        SimConfig::default().write_file("arm.json").unwrap();
+        return;
+    }
+    let dir = scratch_dir("bare");
+    in_child(
+        "config::write_file_to_a_bare_file_name_lands_in_the_working_folder",
+        &dir,
+        false,
+    );
+    assert_eq!(names_in(&dir), ["arm.json"]);
+    assert_eq!(
+        SimConfig::read_file(dir.join("arm.json")).unwrap(),
+        SimConfig::default()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A write that fails part-way (a file size limit, as a full disk would) is a `ConfigIo` error
+/// naming the file; the file already there keeps every byte, and no temporary file is left.
+#[cfg(unix)]
+#[test]
+fn write_file_failing_part_way_keeps_the_old_file_and_leaves_nothing_else() {
+    if std::env::var_os(CHILD).is_some() {
+        match SimConfig::default().write_file("arm.json") {
+            Err(ArmSimError::ConfigIo { path, message }) => {
+                println!("refused: path {path:?}, {message}")
+            }
+            other => panic!("expected ConfigIo, got {other:?}"),
+        }
+        return;
+    }
+    let dir = scratch_dir("full");
+    let path = dir.join("arm.json");
+    SimConfig::ideal().write_file(&path).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // Larger than the limit (at most 1024 bytes).
+    assert!(SimConfig::default().to_json().len() > 2048);
+    let out = in_child(
+        "config::write_file_failing_part_way_keeps_the_old_file_and_leaves_nothing_else",
+        &dir,
+        true,
+    );
+    assert!(
+        out.contains(r#"refused: path "arm.json", File too large"#),
+        "{out}"
+    );
+    assert!(std::fs::read(&path).unwrap() == before, "arm.json changed");
+    assert_eq!(names_in(&dir), ["arm.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A write that fails after everything was written (the target is a folder, so the rename
+/// fails) or before (the parent is a file, or missing) is a `ConfigIo` error naming the path,
+/// and leaves nothing behind: no temporary file, the folder as it was.
+#[test]
+fn a_failed_write_file_names_the_path_and_leaves_no_temporary_file() {
+    let dir = scratch_dir("failed");
+    std::fs::create_dir_all(dir.join("arm.json").join("inside")).unwrap();
+    std::fs::write(dir.join("file"), b"a file, not a folder").unwrap();
+    for path in [
+        dir.join("arm.json"),
+        dir.join("file").join("arm.json"),
+        dir.join("missing").join("arm.json"),
+    ] {
+        let e = SimConfig::default().write_file(&path).unwrap_err();
+        assert!(
+            matches!(&e, ArmSimError::ConfigIo { path: p, .. } if *p == path.display().to_string()),
+            "{}: {e}",
+            path.display()
+        );
+    }
+    assert_eq!(names_in(&dir), ["arm.json", "file"]);
+    assert_eq!(names_in(&dir.join("arm.json")), ["inside"]);
+    assert_eq!(
+        std::fs::read(dir.join("file")).unwrap(),
+        b"a file, not a folder"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
