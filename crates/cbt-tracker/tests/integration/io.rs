@@ -405,3 +405,143 @@ fn unreadable_sequences_are_not_written() {
     assert!(!inner.exists() && !dir.join("escaped.csv").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Set in the child process of [`in_child`]: the test runs its child part.
+const CHILD: &str = "CBT_TRACKER_TEST_WRITE_CHILD";
+
+/// Runs the test `test` of this binary alone in a child process whose working folder is `cwd`
+/// (so the child can write to the working folder, `""`), with [`CHILD`] set; with `limit`,
+/// under a file size limit of one block (`ulimit -f 1`, 512 or 1024 bytes): a write past it
+/// fails with `EFBIG`, like a full disk, even for root, with `SIGXFSZ` ignored so that it is an
+/// error rather than the end of the process. Returns the child's standard output.
+#[cfg(unix)]
+fn in_child(test: &str, cwd: &Path, limit: bool) -> String {
+    let run = r#"exec "$0" "$@""#;
+    let script = if limit {
+        format!("trap '' XFSZ; ulimit -f 1 && {run}")
+    } else {
+        run.to_string()
+    };
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(std::env::current_exe().unwrap())
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(CHILD, "1")
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the child failed ({}): {stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// Two generated sequences of `frames` frames each.
+fn two_sequences(frames: usize) -> Vec<Sequence> {
+    generate(&Scenario::default(), &Level::preset(1), 2, frames, 5).unwrap()
+}
+
+/// The folder `""` (and `.`) is the working folder: the file lands there, with its temporary
+/// file there too, and nothing else is left behind.
+#[cfg(unix)]
+#[test]
+fn a_write_to_the_working_folder_lands_there() {
+    let seqs = two_sequences(20);
+    if std::env::var_os(CHILD).is_some() {
+        let first = csv::write(Path::new(""), &seqs[0]).unwrap();
+        let second = csv::write(Path::new("."), &seqs[1]).unwrap();
+        println!("wrote {first:?} and {second:?}");
+        return;
+    }
+    let dir = temp_dir("working-folder");
+    std::fs::create_dir_all(&dir).unwrap();
+    in_child("io::a_write_to_the_working_folder_lands_there", &dir, false);
+    let mut want: Vec<String> = seqs.iter().map(|s| format!("{}.csv", s.name)).collect();
+    want.sort();
+    assert_eq!(names_in(&dir), want);
+    for s in &seqs {
+        assert_eq!(csv::read(&dir.join(format!("{}.csv", s.name))).unwrap(), *s);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A write that fails part-way (a file size limit, as a full disk would) is an `Io` error
+/// naming the file; the file already there keeps every byte, and no temporary file is left.
+#[cfg(unix)]
+#[test]
+fn a_write_failing_part_way_keeps_the_old_file_and_leaves_nothing_else() {
+    let long = two_sequences(300).remove(0);
+    if std::env::var_os(CHILD).is_some() {
+        match csv::write(Path::new(""), &long) {
+            Err(TrackError::Io { path, reason }) => println!("refused: {path:?}, {reason}"),
+            other => panic!("expected an i/o error, got {other:?}"),
+        }
+        return;
+    }
+    let dir = temp_dir("full");
+    let short = Sequence {
+        frames: long.frames[..3].to_vec(),
+        ..long.clone()
+    };
+    let path = csv::write(&dir, &short).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // Larger than the limit (at most 1024 bytes).
+    assert!(csv::to_string(&long).len() > 4096);
+    let out = in_child(
+        "io::a_write_failing_part_way_keeps_the_old_file_and_leaves_nothing_else",
+        &dir,
+        true,
+    );
+    assert!(
+        out.contains(&format!("refused: \"{}.csv\", File too large", long.name)),
+        "{out}"
+    );
+    assert!(std::fs::read(&path).unwrap() == before, "{path:?} changed");
+    assert_eq!(names_in(&dir), [format!("{}.csv", long.name)]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A write that fails after everything was written (the target is a folder, so the rename
+/// fails) or before (the folder is a file) is an `Io` error naming the path, and leaves
+/// nothing behind.
+#[test]
+fn a_failed_write_names_the_path_and_leaves_no_temporary_file() {
+    let dir = temp_dir("failed-names");
+    let s = two_sequences(20).remove(0);
+    let target = dir.join(format!("{}.csv", s.name));
+    std::fs::create_dir_all(target.join("inside")).unwrap();
+    std::fs::write(dir.join("file"), b"a file, not a folder").unwrap();
+    for (folder, named) in [
+        (dir.clone(), target.clone()),
+        (dir.join("file"), dir.join("file")),
+    ] {
+        match csv::write(&folder, &s) {
+            Err(TrackError::Io { path, .. }) => assert_eq!(path, named),
+            other => panic!("{folder:?}: expected an i/o error, got {other:?}"),
+        }
+    }
+    let mut want = ["file".to_string(), format!("{}.csv", s.name)];
+    want.sort();
+    assert_eq!(names_in(&dir), want);
+    assert_eq!(names_in(&target), ["inside"]);
+    assert_eq!(
+        std::fs::read(dir.join("file")).unwrap(),
+        b"a file, not a folder"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
