@@ -1,5 +1,8 @@
 //! Options shared by several subcommands, progress bars and output helpers.
 
+use std::collections::HashSet;
+use std::ffi::OsString;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -31,12 +34,75 @@ impl Ui {
         bar
     }
 
-    /// A line on stderr unless quiet.
+    /// A line on stderr unless quiet. A stderr that cannot be written (a closed pipe) is
+    /// ignored: `eprintln!` would panic, turning a successful run into exit code 101.
     pub fn say(&self, text: impl AsRef<str>) {
         if !self.quiet {
-            eprintln!("{}", text.as_ref());
+            say_on_stderr(text.as_ref());
         }
     }
+}
+
+/// Writes one line on stderr, ignoring a failure (see [`Ui::say`]).
+pub fn say_on_stderr(line: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
+/// A file's identity for comparing paths: its folder resolved (`.`, `..`, links) and its name.
+/// A path without a file name (`..`) or whose folder does not exist is taken as written.
+fn file_key(p: &Path) -> (PathBuf, Option<OsString>) {
+    let folder = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    (
+        std::fs::canonicalize(&folder).unwrap_or(folder),
+        p.file_name().map(OsString::from),
+    )
+}
+
+/// The output files of a run, checked before any work and before any file is touched, so a
+/// run that cannot write its output fails at once and does not write part of it: each must
+/// not be a directory, its folder must exist (unless `creates_folders`), and none may be one
+/// of `inputs` (its contents would be silently replaced by the output; also when spelt
+/// differently, `./a.csv` for `a.csv`).
+pub fn check_outputs(
+    outputs: &[impl AsRef<Path>],
+    inputs: &[impl AsRef<Path>],
+    creates_folders: bool,
+) -> CliResult {
+    let inputs: HashSet<_> = inputs.iter().map(|p| file_key(p.as_ref())).collect();
+    for out in outputs {
+        let out = out.as_ref();
+        visguide::output::atomic::check_file_target(out)?;
+        if !creates_folders {
+            let folder = out.parent().filter(|d| !d.as_os_str().is_empty());
+            if let Some(d) = folder.filter(|d| !d.is_dir()) {
+                return Err(format!(
+                    "{}: the folder {} does not exist",
+                    out.display(),
+                    d.display()
+                )
+                .into());
+            }
+        }
+        if inputs.contains(&file_key(out)) {
+            return Err(format!(
+                "{}: is also an input of this run, and writing it would replace that input; \
+                 give the output another name",
+                out.display()
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// The files directly in `dir` (for [`check_outputs`]: a folder's files are inputs).
+pub fn files_in(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default()
 }
 
 /// Image files of the arguments: files as given, directories expanded to their image files

@@ -10,7 +10,7 @@ use visguide::scoring::score_matches;
 use visguide::{Combination, Homography, MatchSettings, load_gray, match_images};
 
 use super::CliResult;
-use super::common::{MserArgs, Ui};
+use super::common::{MserArgs, Ui, check_outputs, files_in};
 
 /// Score FD matching on sequence folders in the Oxford layout (img1…imgK, H1toKp).
 ///
@@ -60,6 +60,10 @@ fn image_in(dir: &std::path::Path, k: usize) -> Option<PathBuf> {
 
 /// Runs the subcommand.
 pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
+    // The JSON file is checked before the (long) measurement; a sequence folder's files are
+    // its inputs.
+    let inputs: Vec<PathBuf> = a.sequences.iter().flat_map(|d| files_in(d)).collect();
+    check_outputs(a.out.as_slice(), &inputs, false)?;
     let settings = a.mser.settings();
     let mut rows = Vec::new();
     for dir in &a.sequences {
@@ -133,12 +137,29 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
         }
         bar.finish_and_clear();
     }
+    // The file first, then the table: standard output closed early (`| head`) must not lose
+    // the file. An error on standard output names it.
+    if let Some(p) = &a.out {
+        let text = serde_json::to_string_pretty(&rows)?;
+        write_atomic(p, |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| visguide::VisguideError::Io {
+                    path: p.clone(),
+                    source: e,
+                })
+        })?;
+    }
     let f3 = |v: Option<f64>| v.map_or("–".to_string(), |x| format!("{x:.3}"));
+    let stdout = |e: std::io::Error| visguide::VisguideError::Io {
+        path: "<stdout>".into(),
+        source: e,
+    };
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
         "sequence\tpair\tcombination\texisting\tmatches\tprecision\trecall\tcorner error (px)"
-    )?;
+    )
+    .map_err(stdout)?;
     for r in &rows {
         writeln!(
             out,
@@ -151,17 +172,9 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
             f3(r.precision),
             f3(r.recall),
             r.corner_error.map_or(String::new(), |c| format!("{c:.2}"))
-        )?;
+        )
+        .map_err(stdout)?;
     }
-    if let Some(p) = &a.out {
-        let text = serde_json::to_string_pretty(&rows)?;
-        write_atomic(p, |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| visguide::VisguideError::Io {
-                    path: p.clone(),
-                    source: e,
-                })
-        })?;
-    }
+    out.flush().map_err(stdout)?;
     Ok(())
 }

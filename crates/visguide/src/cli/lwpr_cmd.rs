@@ -9,7 +9,7 @@ use visguide::output::atomic::write_atomic;
 use visguide::tables::{self, cell};
 
 use super::CliResult;
-use super::common::Ui;
+use super::common::{Ui, check_outputs};
 
 /// Learn a regression with LWPR (Vijayakumar et al. 2005), or predict with a learned one.
 #[derive(Args, Debug)]
@@ -95,6 +95,7 @@ pub fn run(a: &LwprArgs, ui: Ui) -> CliResult {
 }
 
 fn fit(a: &FitArgs, ui: Ui) -> CliResult {
+    check_outputs(&[&a.model], &[&a.data], false)?;
     let t = tables::read(&a.data)?;
     let width = t.columns.len();
     if a.inputs == 0 || a.inputs >= width {
@@ -193,6 +194,7 @@ fn fit(a: &FitArgs, ui: Ui) -> CliResult {
 }
 
 fn predict(a: &PredictArgs, ui: Ui) -> CliResult {
+    check_outputs(a.out.as_slice(), &[&a.model, &a.data], false)?;
     let (file, model) = LwprFile::load(&a.model)?;
     let t = tables::read(&a.data)?;
     let n = model.n_in();

@@ -13,7 +13,7 @@ use visguide::scoring::{PairScore, score_matches};
 use visguide::{Combination, Homography, MatchSettings, PairMatches, load_gray, match_images};
 
 use super::CliResult;
-use super::common::{MserArgs, Ui};
+use super::common::{MserArgs, Ui, check_outputs};
 
 /// Descriptor and error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -287,6 +287,12 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
         )
         .into());
     }
+    let outputs: Vec<&PathBuf> = a.out.iter().chain(&a.picture).collect();
+    let inputs: Vec<&PathBuf> = [&a.image1, &a.image2]
+        .into_iter()
+        .chain(&a.homography)
+        .collect();
+    check_outputs(&outputs, &inputs, false)?;
     let known = match &a.homography {
         Some(p) => {
             if p.is_dir() {

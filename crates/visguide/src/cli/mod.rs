@@ -25,9 +25,11 @@ const LONG_ABOUT: &str =
     "The methods of F. Larsson, \"Methods for Visually Guided Robotic Systems: \
 Matching, Tracking and Servoing\" (Linköping 2009) on your own images, tracks and tables.
 
-Every output file is written atomically: a run that fails leaves no partial file behind. Errors \
-are one line on stderr naming the file (and line) and what was expected; the exit code is 0 on \
-success, 1 when the work failed (bad input, unreadable file) and 2 for a usage error.";
+Every output file is written atomically: a run that fails leaves no partial file behind, and an \
+output that names an input (or a directory) is refused before any work. Errors are one line on \
+stderr naming the file (and line) and what was expected (`<stdout>` when standard output was \
+closed early, as by `| head`); the exit code is 0 on success, 1 when the work failed (bad \
+input, unreadable file) and 2 for a usage error.";
 
 const EXAMPLES: &str = "Examples:
   visguide regions --preset opencv --format json --out regions/ photos/
@@ -65,18 +67,20 @@ pub fn main() -> ExitCode {
     let ui = common::Ui { quiet: cli.quiet };
     if let Some(n) = cli.threads {
         if n == 0 {
-            eprintln!("visguide: error: --threads must be at least 1");
+            common::say_on_stderr("visguide: error: --threads must be at least 1");
             return ExitCode::from(2);
         }
         if n > MAX_THREADS {
-            eprintln!("visguide: error: --threads {n} is more than the limit of {MAX_THREADS}");
+            common::say_on_stderr(&format!(
+                "visguide: error: --threads {n} is more than the limit of {MAX_THREADS}"
+            ));
             return ExitCode::from(2);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
         {
-            eprintln!("visguide: error: cannot start {n} threads: {e}");
+            common::say_on_stderr(&format!("visguide: error: cannot start {n} threads: {e}"));
             return ExitCode::FAILURE;
         }
     }
@@ -91,7 +95,7 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             let msg = e.to_string().replace('\n', " ");
-            eprintln!("visguide: error: {msg}");
+            common::say_on_stderr(&format!("visguide: error: {msg}"));
             ExitCode::FAILURE
         }
     }

@@ -14,15 +14,15 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use clap::{Args, ValueEnum};
-use visguide::output::atomic::{
-    check_file_target, remove_staged, rename_staged, save_png, write_synced,
-};
+use visguide::output::atomic::{encode_png, remove_staged, rename_staged, stage};
 use visguide::output::draw;
 use visguide::output::regions::{Format, write};
 use visguide::{Features, GrayReader};
 
 use super::CliResult;
-use super::common::{MserArgs, Ui, ensure_dir, expand_images, output_for, remove_made};
+use super::common::{
+    MserArgs, Ui, check_outputs, ensure_dir, expand_images, output_for, remove_made,
+};
 
 /// The staged files of one image (staging name, final name) and its region count.
 type Staged = (Vec<(PathBuf, PathBuf)>, usize);
@@ -99,6 +99,23 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
         )
         .into());
     }
+    // An output name taken by a directory, or naming one of the images (`a.png` drawn into
+    // `a-regions.png`, itself an input), is refused before any work: the directory's rename
+    // would fail only after the other images' files were in place, and the image would be
+    // replaced.
+    let format: Format = a.format.into();
+    let mut targets = Vec::new();
+    for path in &images {
+        targets.push(output_for(
+            &a.out,
+            path,
+            &format!(".{}", format.extension()),
+        ));
+        if a.draw {
+            targets.push(output_for(&a.out, path, "-regions.png"));
+        }
+    }
+    check_outputs(&targets, &images, true)?;
     // The output folder is made for the staged files; a run that fails takes away the
     // folders it made, as it leaves no file.
     let made = ensure_dir(&a.out)?;
@@ -112,21 +129,6 @@ pub fn run(a: &RegionsArgs, ui: Ui) -> CliResult {
 /// [`run`] once the images are listed and the output folder exists.
 fn detect_and_write(a: &RegionsArgs, ui: Ui, images: &[PathBuf]) -> CliResult {
     let format: Format = a.format.into();
-    // An output name taken by a directory is refused before any work: its rename would fail
-    // only after the other images' files were already in place.
-    for path in images {
-        let mut targets = vec![output_for(
-            &a.out,
-            path,
-            &format!(".{}", format.extension()),
-        )];
-        if a.draw {
-            targets.push(output_for(&a.out, path, "-regions.png"));
-        }
-        for t in &targets {
-            check_file_target(t)?;
-        }
-    }
     let settings = a.mser.settings();
     let bar = ui.bar(images.len() as u64, "regions");
     // Which threads processed an image.
@@ -242,18 +244,24 @@ fn one_with(
         &features,
         a.contours,
     )?;
-    let target = output_for(&a.out, path, &format!(".{}", format.extension()));
-    let mut files = vec![(staging(&target), target)];
-    write_synced(&files[0].0, text)?;
-    if a.draw {
-        let pic = draw::ellipses(img, &ellipses, draw::YELLOW);
+    // The picture is encoded before anything is staged: an error leaves nothing behind.
+    let picture = if a.draw {
         let target = output_for(&a.out, path, "-regions.png");
-        let staged = staging(&target);
-        if let Err(e) = save_png(&staged, &pic) {
-            let _ = std::fs::remove_file(&files[0].0);
-            return Err(e.into());
+        let pic = draw::ellipses(img, &ellipses, draw::YELLOW);
+        Some((encode_png(&target, &pic)?, target))
+    } else {
+        None
+    };
+    let target = output_for(&a.out, path, &format!(".{}", format.extension()));
+    let mut files = vec![(stage(&target, text)?, target)];
+    if let Some((png, target)) = picture {
+        match stage(&target, &png) {
+            Ok(staged) => files.push((staged, target)),
+            Err(e) => {
+                remove_staged(&files);
+                return Err(e.into());
+            }
         }
-        files.push((staged, target));
     }
     Ok((files, features.regions.len()))
 }
@@ -273,12 +281,4 @@ struct Worker {
 
 thread_local! {
     static WORKER: std::cell::Cell<Worker> = std::cell::Cell::new(Worker::default());
-}
-
-/// The staging name of an output file (same folder, hidden).
-fn staging(target: &std::path::Path) -> PathBuf {
-    let name = target
-        .file_name()
-        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
-    target.with_file_name(format!(".{name}.staged-{}", std::process::id()))
 }

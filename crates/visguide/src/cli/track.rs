@@ -13,7 +13,7 @@ use visguide::models::{CBT_FORMAT, MODEL_VERSION, TrackModelFile};
 use visguide::output::atomic::write_atomic;
 
 use super::CliResult;
-use super::common::Ui;
+use super::common::{Ui, check_outputs, files_in};
 
 /// Track one object through a sequence of frame-wise detections with Channel Based Tracking.
 ///
@@ -131,6 +131,7 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
             model,
             input,
         }) => {
+            check_outputs(&[model], &inputs_of(train, &[]), false)?;
             let (m, simulated) = learn(train, input)?;
             m.save(model)?;
             input.say_simulated(simulated, "training sequences", ui);
@@ -151,6 +152,7 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
             input,
             run,
         }) => {
+            check_outputs(run.out.as_slice(), &[model, sequence], false)?;
             let m = TrackModelFile::load(model)?;
             let targets = input.read_file(sequence)?;
             track(&m, sequence, targets, input, run, ui)
@@ -159,6 +161,7 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
             let (Some(train), Some(seq)) = (&a.train, &a.sequence) else {
                 return Err("track needs --train DIR and SEQUENCE (or the subcommands learn / run; see visguide track --help)".into());
             };
+            check_outputs(a.run.out.as_slice(), &inputs_of(train, &[seq]), false)?;
             // The sequence is read first: a bad file fails before any learning.
             let targets = a.input.read_file(seq)?;
             let (m, simulated) = learn(train, &a.input)?;
@@ -167,6 +170,13 @@ pub fn run(a: &TrackArgs, ui: Ui) -> CliResult {
             Ok(())
         }
     }
+}
+
+/// The files a run reads: those in the training folder, and `files`.
+fn inputs_of(train: &Path, files: &[&Path]) -> Vec<PathBuf> {
+    let mut all = files_in(train);
+    all.extend(files.iter().map(|p| p.to_path_buf()));
+    all
 }
 
 impl InputOptions {

@@ -1,24 +1,76 @@
 //! Writing a file so that a failure leaves no partial file: the content goes to a temporary
 //! file beside the target (same folder, so the rename cannot cross file systems), which is
-//! renamed over the target only after everything was written and flushed. On any error the
-//! temporary file is removed and the target is untouched.
+//! renamed over the target only after everything was written and flushed. On any error (or a
+//! panic while the content is produced) the temporary file is removed and the target is
+//! untouched.
 
+use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Result, VisguideError, io};
 
+/// The counter of [`temp_path`].
+static NEXT: AtomicU64 = AtomicU64::new(0);
+
+/// How many taken names [`create_temp`] skips before giving up.
+const TEMP_ATTEMPTS: u32 = 10_000;
+
 /// A temporary name beside `target`, unique to this process and this call (process id and a
 /// counter), so that threads saving to one path at once never write into each other's file.
 fn temp_path(target: &Path) -> PathBuf {
-    static NEXT: AtomicU64 = AtomicU64::new(0);
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
     let k = NEXT.fetch_add(1, Ordering::Relaxed);
     target.with_file_name(format!(".{name}.partial-{}-{k}", std::process::id()))
+}
+
+/// Creates a new temporary file beside `target` ([`temp_path`]). The file must not exist yet
+/// (`create_new`): a name that is taken (left by a process that had the same id, e.g. in
+/// another container writing to a shared folder, or a link someone put there) is skipped, never
+/// truncated, written through or renamed away.
+fn create_temp(target: &Path) -> std::io::Result<(PathBuf, File)> {
+    let mut attempts = 0;
+    loop {
+        let tmp = temp_path(target);
+        match File::options().write(true).create_new(true).open(&tmp) {
+            Ok(file) => return Ok((tmp, file)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                attempts += 1;
+                if attempts >= TEMP_ATTEMPTS {
+                    return Err(e);
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// A temporary file that is removed when dropped unless [`Temp::keep`] was called: on an
+/// error and on a panic alike.
+struct Temp(Option<PathBuf>);
+
+impl Temp {
+    /// The file's path.
+    fn path(&self) -> &Path {
+        self.0.as_deref().expect("not kept yet")
+    }
+
+    /// Keeps the file (it was renamed into place, or is handed on).
+    fn keep(mut self) -> PathBuf {
+        self.0.take().expect("not kept yet")
+    }
+}
+
+impl Drop for Temp {
+    fn drop(&mut self) {
+        if let Some(p) = self.0.take() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
 }
 
 /// Refuses an output path that names an existing directory (its rename would fail only after
@@ -53,35 +105,46 @@ pub fn rename_staged<T: AsRef<Path>>(staged: &[(PathBuf, T)]) -> Result<()> {
     Ok(())
 }
 
-/// Writes `target` with `fill`, atomically.
+/// Writes `target` with `fill`, atomically. The content is flushed (the error checked, not
+/// left to a dropped buffer) and synced to disk before the rename; every error is
+/// [`VisguideError::Io`] naming `target` (or `fill`'s own).
 pub fn write_atomic<F>(target: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut dyn Write) -> Result<()>,
 {
     check_file_target(target)?;
-    let tmp = temp_path(target);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(io(target))?;
-        let mut w = BufWriter::new(file);
-        fill(&mut w)?;
-        w.flush().map_err(io(target))?;
-        let file = w.into_inner().map_err(|e| VisguideError::Io {
-            path: target.to_path_buf(),
-            source: e.into_error(),
-        })?;
-        file.sync_all().map_err(io(target))?;
-        std::fs::rename(&tmp, target).map_err(io(target))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    let (tmp, file) = create_temp(target).map_err(io(target))?;
+    let tmp = Temp(Some(tmp));
+    let mut w = BufWriter::new(file);
+    fill(&mut w)?;
+    w.flush().map_err(io(target))?;
+    let file = w.into_inner().map_err(|e| VisguideError::Io {
+        path: target.to_path_buf(),
+        source: e.into_error(),
+    })?;
+    file.sync_all().map_err(io(target))?;
+    drop(file);
+    std::fs::rename(tmp.path(), target).map_err(io(target))?;
+    tmp.keep();
+    Ok(())
 }
 
-/// Writes `bytes` to a new file `path` with one `write` and flushes it to disk (`fsync`); on
-/// any error the file is removed. For a staging file that is renamed into place later (as
-/// `visguide regions` does once every image succeeded), so it needs no temporary file of its
-/// own; [`write_atomic`] writes a file in place.
+/// Writes `bytes` to a new temporary file beside `target` with one `write` and syncs it to disk;
+/// returns its name, for [`rename_staged`] to move over `target` later (as `visguide regions`
+/// does once every image succeeded). On any error nothing is left and the error names
+/// `target`.
+pub fn stage(target: &Path, bytes: &[u8]) -> Result<PathBuf> {
+    let (tmp, mut file) = create_temp(target).map_err(io(target))?;
+    let tmp = Temp(Some(tmp));
+    file.write_all(bytes).map_err(io(target))?;
+    file.sync_all().map_err(io(target))?;
+    Ok(tmp.keep())
+}
+
+/// Writes `bytes` to the file `path` (created or truncated) with one `write` and flushes it to
+/// disk (`fsync`); on any error the file is removed. For a staging file whose name the caller
+/// chose and that is renamed into place later; [`stage`] picks a name that cannot collide, and
+/// [`write_atomic`] writes a file in place.
 pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
     let result = (|| {
         let mut file = std::fs::File::create(path)?;
@@ -131,19 +194,13 @@ pub fn write_all_atomic(files: &[(&Path, &[u8])]) -> Result<()> {
     }
     let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
     for (target, bytes) in files {
-        let tmp = temp_path(target);
-        if let Err(e) = write_synced(&tmp, bytes) {
-            remove_staged(&staged);
-            // The error names the target, not the temporary file.
-            return Err(match e {
-                VisguideError::Io { source, .. } => VisguideError::Io {
-                    path: target.to_path_buf(),
-                    source,
-                },
-                other => other,
-            });
+        match stage(target, bytes) {
+            Ok(tmp) => staged.push((tmp, target)),
+            Err(e) => {
+                remove_staged(&staged);
+                return Err(e);
+            }
         }
-        staged.push((tmp, target));
     }
     rename_staged(&staged)
 }
@@ -246,6 +303,87 @@ mod tests {
         assert_eq!(std::fs::read(&a).unwrap(), b"new");
         assert_eq!(std::fs::read(&b).unwrap(), b"png");
         assert_eq!(count(), 3);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A temporary name that is already taken (a file left by a process that had the same id,
+    /// e.g. in another container writing to a shared folder, or a link put there) is skipped:
+    /// that file keeps its contents and the save succeeds under the next free name. (With
+    /// `File::create` the file was truncated, written and renamed over the target.)
+    #[test]
+    fn a_taken_temporary_name_is_skipped_and_left_alone() {
+        let dir =
+            std::env::temp_dir().join(format!("visguide-atomic-taken-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let t = dir.join("out.txt");
+        // The next names this process will try (other tests may take a few meanwhile).
+        let next = NEXT.load(Ordering::Relaxed);
+        let planted: Vec<PathBuf> = (next..next + 64)
+            .map(|k| dir.join(format!(".out.txt.partial-{}-{k}", std::process::id())))
+            .collect();
+        for p in &planted {
+            std::fs::write(p, b"someone else's").unwrap();
+        }
+        write_bytes(&t, b"new").unwrap();
+        assert_eq!(std::fs::read(&t).unwrap(), b"new");
+        let (tmp, staged) = (stage(&t, b"staged").unwrap(), dir.join("staged.txt"));
+        rename_staged(&[(tmp, staged.clone())]).unwrap();
+        assert_eq!(std::fs::read(&staged).unwrap(), b"staged");
+        for p in &planted {
+            assert_eq!(
+                std::fs::read(p).unwrap(),
+                b"someone else's",
+                "{}",
+                p.display()
+            );
+        }
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), planted.len() + 2);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A panic while the content is produced (a bug in `fill`) leaves no temporary file and
+    /// the old file as it was (the clean-up used to run on errors only).
+    #[test]
+    fn a_panic_while_writing_leaves_no_temporary_file() {
+        let dir =
+            std::env::temp_dir().join(format!("visguide-atomic-panic-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let t = dir.join("out.txt");
+        write_bytes(&t, b"old").unwrap();
+        let r = std::panic::catch_unwind(|| {
+            write_atomic(&t, |w| {
+                w.write_all(&[b'x'; 20_000]).unwrap();
+                panic!("a bug while writing (expected by this test)")
+            })
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read(&t).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A staging file that cannot be made (its folder is missing, or is a file) is an error
+    /// naming the target, and nothing is left.
+    #[test]
+    fn a_failed_stage_names_the_target_and_leaves_nothing() {
+        let dir =
+            std::env::temp_dir().join(format!("visguide-atomic-stage-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("file"), b"a file").unwrap();
+        for t in [dir.join("missing/out.txt"), dir.join("file/out.txt")] {
+            match stage(&t, b"x") {
+                Err(VisguideError::Io { path, .. }) => assert_eq!(path, t),
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        // A bare file name: the temporary file is beside it, in the current folder.
+        let bare = temp_path(Path::new("out.txt"));
+        assert_eq!(bare.parent(), Some(Path::new("")));
+        assert!(bare.to_string_lossy().starts_with(".out.txt.partial-"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -1229,3 +1229,372 @@ fn usage_errors_exit_with_code_2() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Checks a failed run's output: exit code 1, exactly one line on stderr mentioning
+/// `needle`, no panic.
+fn failed(o: &Output, what: &str, needle: &str) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{what}: {err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "{what}: not one line: {err}"
+    );
+    assert!(err.starts_with("visguide: error: "), "{what}: {err}");
+    assert!(err.contains(needle), "{what}: `{needle}` not in: {err}");
+    err
+}
+
+/// Which standard stream [`run_closed`] closes.
+#[derive(Clone, Copy)]
+enum Closed {
+    Stdout,
+    Stderr,
+}
+
+/// Runs the binary with standard output (or standard error) a pipe whose reading end is
+/// closed before the binary starts, as `visguide … | head -0` (or `2>&1 | head -0`) does at
+/// the latest; closed before the start, so no write of the binary can get in first.
+fn run_closed(args: &[&str], closed: Closed) -> Output {
+    use std::process::Stdio;
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let mut c = bin();
+    c.args(args).stdin(Stdio::null());
+    match closed {
+        Closed::Stdout => c.stdout(writer).stderr(Stdio::piped()),
+        Closed::Stderr => c.stdout(Stdio::piped()).stderr(writer),
+    };
+    let o = c.output().expect("the binary runs");
+    // `c` holds the pipe's writing end until it is dropped.
+    drop(c);
+    o
+}
+
+/// Standard output closed early (`visguide … | head`): every subcommand that writes to it
+/// ends with exit code 1 and one line naming `<stdout>`, never a panic ("failed printing to
+/// stdout", exit code 101, as `println!` gives). `eval --out` writes its file before the table,
+/// so the file is complete although the table could not be printed (it used to print first and
+/// lose the file; its error did not name standard output).
+#[test]
+fn a_closed_standard_output_is_a_clear_error_not_a_panic() {
+    let dir = temp("stdout");
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    ok(&fit_args(&data, &model, "1"));
+    let seq = dir.join("mine");
+    std::fs::create_dir_all(&seq).unwrap();
+    let (img1, img2) = (seq.join("img1.png"), seq.join("img2.png"));
+    scene(&identity(), 160, 120, 5).save(&img1).unwrap();
+    scene(&warp(), 160, 120, 5).save(&img2).unwrap();
+    std::fs::write(seq.join("H1to2p"), warp().to_text()).unwrap();
+    let track_train = dir.join("train");
+    std::fs::create_dir_all(&track_train).unwrap();
+    let walk = |dx: f64| -> String {
+        let mut t = String::from("frame,kind,x,y\n");
+        for f in 0..40 {
+            let (x, y) = (10.0 + dx * f as f64, 20.0 + 0.5 * f as f64);
+            t.push_str(&format!(
+                "{f},truth,{x},{y}\n{f},det,{},{}\n",
+                x + 0.3,
+                y - 0.2
+            ));
+        }
+        t
+    };
+    for (k, dx) in [1.0, 1.5, 2.0].iter().enumerate() {
+        std::fs::write(track_train.join(format!("s{k}.csv")), walk(*dx)).unwrap();
+    }
+    let track_seq = dir.join("seq.csv");
+    std::fs::write(&track_seq, walk(1.2)).unwrap();
+    let json = dir.join("scores.json");
+    for args in [
+        &["lwpr", "predict", "-q", s(&model), s(&data)][..],
+        &["match", "-q", s(&img1), s(&img2)],
+        &["match", "-q", "--format", "csv", s(&img1), s(&img2)],
+        &["track", "-q", "--train", s(&track_train), s(&track_seq)],
+        &["eval", "-q", s(&seq), "--out", s(&json)],
+    ] {
+        let o = run_closed(args, Closed::Stdout);
+        let err = failed(&o, &format!("{args:?}"), "<stdout>: Broken pipe");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(rows.as_array().unwrap().len(), 8);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Standard error closed early: a successful run still exits with 0 (its summary line is
+/// dropped) and a failed one with 1; `eprintln!` panicked on the closed pipe (exit code 101).
+#[test]
+fn a_closed_standard_error_is_no_panic() {
+    let dir = temp("stderr");
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    let loud = [
+        "lwpr",
+        "fit",
+        s(&data),
+        "--inputs",
+        "2",
+        "--model",
+        s(&model),
+    ];
+    let o = run_closed(&loud, Closed::Stderr);
+    assert_eq!(o.status.code(), Some(0), "{loud:?}");
+    assert!(model.is_file());
+    let missing = dir.join("missing.csv");
+    let o = run_closed(
+        &[
+            "lwpr",
+            "fit",
+            s(&missing),
+            "--inputs",
+            "2",
+            "--model",
+            s(&model),
+        ],
+        Closed::Stderr,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let o = run_closed(&["--threads", "0", "lwpr", "fit", s(&data)], Closed::Stderr);
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Runs the binary with every file it writes limited to 512 bytes (`ulimit -f 1`, `SIGXFSZ`
+/// ignored): a write beyond that fails with "File too large" (EFBIG), also for root, so it
+/// stands for a full disk or a quota in the middle of a write.
+#[cfg(unix)]
+fn run_limited(args: &[&str]) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 1; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_visguide"))
+        .args(args)
+        .output()
+        .expect("sh runs")
+}
+
+/// The files of `dir`, sorted, with their contents.
+fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&p).unwrap_or_default())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// A write that fails in the middle (the disk full after 512 bytes) is an error naming the
+/// output file; the file that was there keeps its contents byte for byte and no temporary
+/// file is left, for every way the binary writes: one file through a buffer (`lwpr predict
+/// --out`, whose ~6 KB sit in the buffer until the final flush, which is where it fails), a
+/// model file, a file and a picture written together (`match`), and the staged files of
+/// `regions`.
+#[cfg(unix)]
+#[test]
+fn a_write_that_fails_midway_keeps_the_old_file() {
+    let dir = temp("efbig");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    ok(&fit_args(&data, &model, "1"));
+    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
+    scene(&identity(), 120, 90, 3).save(&a).unwrap();
+    scene(&warp(), 120, 90, 3).save(&b).unwrap();
+    // The predictions fit in the write buffer (8 KiB) but not in the limit: the failure
+    // comes at the flush.
+    let whole = dir.join("whole.csv");
+    ok(&[
+        "lwpr",
+        "predict",
+        "-q",
+        s(&model),
+        s(&data),
+        "--out",
+        s(&whole),
+    ]);
+    let size = std::fs::metadata(&whole).unwrap().len();
+    assert!((1024..8192).contains(&size), "{size} bytes");
+    let (pred, refit, m, pic) = (
+        out.join("p.csv"),
+        out.join("refit.json"),
+        out.join("m.json"),
+        out.join("p.png"),
+    );
+    for p in [&pred, &refit, &m, &pic, &out.join("a.json")] {
+        std::fs::write(p, b"old").unwrap();
+    }
+    let before = contents(&out);
+    let refit_args = fit_args(&data, &refit, "1");
+    let cases: [(&[&str], &Path); 4] = [
+        (
+            &[
+                "lwpr",
+                "predict",
+                "-q",
+                s(&model),
+                s(&data),
+                "--out",
+                s(&pred),
+            ],
+            &pred,
+        ),
+        (&refit_args, &refit),
+        (
+            &[
+                "match",
+                "-q",
+                s(&a),
+                s(&b),
+                "--out",
+                s(&m),
+                "--picture",
+                s(&pic),
+            ],
+            &m,
+        ),
+        (
+            &["regions", "-q", "--format", "json", "--out", s(&out), s(&a)],
+            &out.join("a.json"),
+        ),
+    ];
+    for (args, target) in cases {
+        let o = run_limited(args);
+        let err = failed(&o, &format!("{args:?}"), "File too large");
+        let named = [target, &pic].iter().any(|t| err.contains(s(t)));
+        assert!(named, "{args:?}: the file is not named: {err}");
+        assert_eq!(contents(&out), before, "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An output file that names one of the run's inputs is refused before any work, and the input
+/// is left as it was (it used to be read and then replaced: `lwpr fit d.csv --model d.csv`
+/// turned the table into the model, exit code 0). Also when spelt differently (a bare name in
+/// the current folder, `./`), and for the files of a folder the run reads (training
+/// sequences, an evaluated sequence). An output that is a directory, or in a folder that does
+/// not exist, is refused before any work too.
+#[test]
+fn an_output_that_names_an_input_is_refused() {
+    let dir = temp("in-out");
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    ok(&fit_args(&data, &model, "1"));
+    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
+    scene(&identity(), 120, 90, 3).save(&a).unwrap();
+    scene(&warp(), 120, 90, 3).save(&b).unwrap();
+    let h = dir.join("H1to2p");
+    std::fs::write(&h, warp().to_text()).unwrap();
+    let a_regions = dir.join("a-regions.png");
+    std::fs::copy(&b, &a_regions).unwrap();
+    let train = dir.join("train");
+    std::fs::create_dir_all(&train).unwrap();
+    let walk = "frame,kind,x,y\n0,truth,1,2\n1,truth,2,3\n2,truth,3,4\n";
+    std::fs::write(train.join("s.csv"), walk).unwrap();
+    let seq = dir.join("seq.csv");
+    std::fs::write(&seq, walk).unwrap();
+    let mine = dir.join("mine");
+    std::fs::create_dir_all(&mine).unwrap();
+    std::fs::copy(&a, mine.join("img1.png")).unwrap();
+    let dotted = format!("{}/./d.csv", s(&dir));
+    let before = contents(&dir);
+    let elsewhere = dir.join("no-such-folder").join("p.csv");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (fit_args(&data, &data, "1").to_vec(), "d.csv"),
+        (
+            vec![
+                "lwpr", "fit", "d.csv", "--inputs", "2", "--model", "./d.csv",
+            ],
+            "d.csv",
+        ),
+        (
+            vec!["lwpr", "fit", s(&data), "--inputs", "2", "--model", &dotted],
+            "d.csv",
+        ),
+        (
+            vec!["lwpr", "predict", "m.json", "d.csv", "--out", "m.json"],
+            "m.json",
+        ),
+        (
+            vec!["lwpr", "predict", s(&model), s(&data), "--out", s(&data)],
+            "d.csv",
+        ),
+        (
+            vec!["lwpr", "predict", s(&model), s(&data), "--out", s(&dir)],
+            "is a directory",
+        ),
+        (
+            vec![
+                "lwpr",
+                "predict",
+                s(&model),
+                s(&data),
+                "--out",
+                s(&elsewhere),
+            ],
+            "does not exist",
+        ),
+        (vec!["match", s(&a), s(&b), "--out", s(&a)], "a.png"),
+        (vec!["match", s(&a), s(&b), "--picture", "b.png"], "b.png"),
+        (
+            vec![
+                "match",
+                s(&a),
+                s(&b),
+                "--homography",
+                "H1to2p",
+                "--out",
+                "H1to2p",
+            ],
+            "H1to2p",
+        ),
+        (
+            vec!["regions", "--draw", "--out", s(&dir), s(&a), s(&a_regions)],
+            "a-regions.png",
+        ),
+        (
+            vec![
+                "track",
+                "learn",
+                "--train",
+                s(&train),
+                "--model",
+                "train/s.csv",
+            ],
+            "s.csv",
+        ),
+        (
+            vec!["track", "run", s(&model), s(&seq), "--out", s(&model)],
+            "m.json",
+        ),
+        (
+            vec!["track", "--train", s(&train), s(&seq), "--out", "seq.csv"],
+            "seq.csv",
+        ),
+        (vec!["eval", s(&mine), "--out", "mine/img1.png"], "img1.png"),
+    ];
+    for (args, needle) in &cases {
+        let o = bin().args(args).current_dir(&dir).output().unwrap();
+        let err = failed(&o, &format!("{args:?}"), needle);
+        let reason = ["is also an input", "is a directory", "does not exist"];
+        assert!(reason.iter().any(|r| err.contains(r)), "{args:?}: {err}");
+        assert_eq!(contents(&dir), before, "{args:?} changed a file");
+    }
+    // A bare output name in the current folder that is not an input is fine.
+    let o = bin()
+        .args(["lwpr", "predict", "-q", "m.json", "d.csv", "--out", "p.csv"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.join("p.csv").is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
