@@ -166,9 +166,10 @@ pub fn run(args: &BenchArgs) -> Result<Vec<BenchRow>> {
     Ok(rows)
 }
 
-/// Mean RMSE against mean time per frame, one point per tracker (image sets).
+/// Mean RMSE against mean time per frame, one point per tracker (image sets). Drawn in memory
+/// and written atomically ([`crate::output::write_svg`]): a failed drawing or write leaves the
+/// previous picture, never a part of one.
 fn plot(image: &[SetResult], path: &std::path::Path) -> Result<()> {
-    std::fs::create_dir_all(path.parent().expect("a file in a folder"))?;
     let names = image[0].trackers.clone();
     let pts: Vec<(String, f64, f64)> = names
         .iter()
@@ -183,34 +184,34 @@ fn plot(image: &[SetResult], path: &std::path::Path) -> Result<()> {
     let (emin, emax) = pts
         .iter()
         .fold((f64::INFINITY, 0.0f64), |a, p| (a.0.min(p.2), a.1.max(p.2)));
-    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Cost against accuracy (all synthetic image sets)",
-            ("sans-serif", 16),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(50)
-        .build_cartesian_2d(
-            (tmin * 0.5..tmax * 2.0).log_scale(),
-            (emin * 0.8..emax * 1.25).log_scale(),
-        )?;
-    chart
-        .configure_mesh()
-        .x_desc("time per frame (µs, this machine, under load)")
-        .y_desc("mean RMSE (px)")
-        .draw()?;
-    for (i, (name, t, e)) in pts.iter().enumerate() {
-        let c = crate::palette::series(i).to_rgba();
-        chart.draw_series(std::iter::once(Circle::new((*t, *e), 5, c.filled())))?;
-        chart.draw_series(std::iter::once(Text::new(
-            name.clone(),
-            (*t * 1.1, *e),
-            ("sans-serif", 12),
-        )))?;
-    }
-    root.present()?;
-    Ok(())
+    crate::output::write_svg(path, (720, 480), |root| {
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                "Cost against accuracy (all synthetic image sets)",
+                ("sans-serif", 16),
+            )
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(
+                (tmin * 0.5..tmax * 2.0).log_scale(),
+                (emin * 0.8..emax * 1.25).log_scale(),
+            )?;
+        chart
+            .configure_mesh()
+            .x_desc("time per frame (µs, this machine, under load)")
+            .y_desc("mean RMSE (px)")
+            .draw()?;
+        for (i, (name, t, e)) in pts.iter().enumerate() {
+            let c = crate::palette::series(i).to_rgba();
+            chart.draw_series(std::iter::once(Circle::new((*t, *e), 5, c.filled())))?;
+            chart.draw_series(std::iter::once(Text::new(
+                name.clone(),
+                (*t * 1.1, *e),
+                ("sans-serif", 12),
+            )))?;
+        }
+        Ok(())
+    })
 }

@@ -58,13 +58,22 @@ pub fn unpack(stream: impl Read, dir: &Path) -> crate::Result<Unpacked> {
         entry.read_to_end(&mut bytes)?;
         if let Some(n) = image_number(&name) {
             let img = decode_image(Path::new(&name), &bytes)?;
-            img.save_with_format(dir.join(format!("img{n}.png")), image::ImageFormat::Png)?;
+            // Encoded in memory and written with the error checked (`save_with_format` leaves
+            // the file's end to a dropped buffer, which ignores a failed write).
+            let png = dir.join(format!("img{n}.png"));
+            let mut encoded = Vec::new();
+            img.write_to(
+                &mut std::io::Cursor::new(&mut encoded),
+                image::ImageFormat::Png,
+            )?;
+            std::fs::write(&png, &encoded).map_err(|e| format!("{}: {e}", png.display()))?;
             out.images.push(n);
         } else if let Some(n) = homography_number(&name) {
             let text =
                 String::from_utf8(bytes.clone()).map_err(|_| format!("{name} is not text"))?;
             Homography::parse(&text).map_err(|e| format!("{name}: {e}"))?;
-            std::fs::write(dir.join(&name), &bytes)?;
+            let h = dir.join(&name);
+            std::fs::write(&h, &bytes).map_err(|e| format!("{}: {e}", h.display()))?;
             out.homographies.push(n);
         }
     }

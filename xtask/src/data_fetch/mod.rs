@@ -139,12 +139,17 @@ pub fn fetch_sequence(base_url: &str, data_dir: &Path, name: &str) -> Result<Fet
         })?;
         return Ok(Fetched::Present(n));
     }
-    std::fs::create_dir_all(&root)?;
+    // Every file-system error names its path.
+    let named = |p: &Path| {
+        let p = p.display().to_string();
+        move |e: std::io::Error| format!("{p}: {e}")
+    };
+    std::fs::create_dir_all(&root).map_err(named(&root))?;
     let temp = root.join(format!(".{name}.partial-{}", std::process::id()));
     if temp.exists() {
-        std::fs::remove_dir_all(&temp)?;
+        std::fs::remove_dir_all(&temp).map_err(named(&temp))?;
     }
-    std::fs::create_dir(&temp)?;
+    std::fs::create_dir(&temp).map_err(named(&temp))?;
     let mut guard = TempDir(Some(temp.clone()));
     let url = format!("{}/{name}.tar.gz", base_url.trim_end_matches('/'));
     let agent: ureq::Agent = ureq::Agent::config_builder()
@@ -159,7 +164,7 @@ pub fn fetch_sequence(base_url: &str, data_dir: &Path, name: &str) -> Result<Fet
     let reader = response.into_body().into_reader();
     let unpacked = archive::unpack(reader, &temp).map_err(|e| format!("{url}: {e}"))?;
     archive::verify(&temp)?;
-    std::fs::rename(&temp, &target)?;
+    std::fs::rename(&temp, &target).map_err(named(&target))?;
     guard.0 = None;
     Ok(Fetched::Downloaded(
         unpacked.images.len(),

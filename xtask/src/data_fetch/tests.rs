@@ -202,3 +202,43 @@ fn missing_archive_and_bad_contents_leave_nothing_behind() {
     assert!(fetch_sequence(&base, &dir, "../escape").is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A folder that cannot be made, or a final rename that fails, is an error naming the path
+/// (it used to be the bare system message, "Not a directory (os error 20)"), and no temporary
+/// folder is left: the data folder is a file; the sequence's name is taken by a dangling
+/// symbolic link (`exists()` does not see it, so the download runs and the rename fails).
+#[test]
+fn a_failed_folder_or_rename_names_the_path_and_leaves_nothing() {
+    let dir = data_dir("names");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("a-file");
+    std::fs::write(&file, "not a folder").unwrap();
+    let e = fetch_sequence("http://127.0.0.1:9", &file, "tiny")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&file.join("oxford-affine").display().to_string()),
+        "{e}"
+    );
+    #[cfg(unix)]
+    {
+        let (files, _) = good_files();
+        let mut routes = HashMap::new();
+        routes.insert(
+            "/affine/tiny.tar.gz".into(),
+            Reply::Full(archive("", &files)),
+        );
+        let base = serve(routes, 1);
+        let data = dir.join("data");
+        let seq = data.join("oxford-affine").join("tiny");
+        std::fs::create_dir_all(seq.parent().unwrap()).unwrap();
+        std::os::unix::fs::symlink(dir.join("nowhere"), &seq).unwrap();
+        let e = fetch_sequence(&base, &data, "tiny")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&seq.display().to_string()), "{e}");
+        assert_eq!(listing(&data), vec!["tiny"], "left behind");
+        assert!(seq.symlink_metadata().unwrap().file_type().is_symlink());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -66,7 +66,7 @@ pub fn run(ctx: &EvalContext) -> Result<()> {
             Rgb([g, g, g])
         });
         mark(&mut rgb, *tip);
-        rgb.save(ctx.out_dir.join(format!("camera-{i}.png")))?;
+        crate::output::write_png(&ctx.out_dir.join(format!("camera-{i}.png")), &rgb)?;
     }
     let tip = inspect.tip();
     let mut summary = Summary {

@@ -14,7 +14,8 @@
 //!   destination exactly as it was, or (when the signal came during the final swap) exactly as
 //!   the complete new output.
 //!
-//! [`write_file`] is the same for a single file (temporary file, then rename).
+//! [`write_file`] is the same for a single file (temporary file, then rename); [`write_png`]
+//! and [`write_svg`] encode or draw a picture in memory and write it with it.
 
 pub mod interrupt;
 
@@ -265,23 +266,66 @@ pub fn commit_all(staged: Vec<Staged>) -> Result<()> {
     Ok(())
 }
 
-/// Writes a file atomically: into `PATH.partial-PID` beside it, then renamed over `path`;
-/// creates the parent folder. A failure leaves no partial file.
+/// Writes a file atomically with `visguide`'s writer ([`visguide::output::atomic::write_bytes`]):
+/// into a new temporary file beside it (`.NAME.partial-PID-K`, unique per call, never an
+/// existing file), flushed and synced, then renamed over `path`; creates the parent folder. A
+/// failure leaves no partial file and the old file as it was; the error names `path`.
 pub fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| format!("{}: not a file name", path.display()))?
-        .to_string_lossy();
+    if path.file_name().is_none() {
+        return Err(format!("{}: not a file name", path.display()).into());
+    }
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
     }
-    let temp = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
-    let result = std::fs::write(&temp, contents).and_then(|()| std::fs::rename(&temp, path));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&temp);
-        return Err(format!("{}: {e}", path.display()).into());
-    }
+    visguide::output::atomic::write_bytes(path, contents.as_ref())?;
     Ok(())
+}
+
+/// The bytes of a PNG file of `img`, encoded in memory: `image`'s own `save` leaves the end of
+/// the file to a dropped buffer (and the PNG's last chunk to a dropped encoder), which ignore
+/// a failed write, so a full disk gives a truncated file and `Ok`. The bytes are the same as
+/// `save`'s.
+pub fn png_bytes<P>(img: &image::ImageBuffer<P, Vec<P::Subpixel>>) -> Result<Vec<u8>>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+{
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )?;
+    Ok(bytes)
+}
+
+/// Writes `img` as a PNG file: [`png_bytes`], then [`write_file`].
+pub fn write_png<P>(path: &Path, img: &image::ImageBuffer<P, Vec<P::Subpixel>>) -> Result<()>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+{
+    let bytes = png_bytes(img).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_file(path, bytes)
+}
+
+/// Draws an SVG picture of `size` with `draw` (which fills the drawing area it is given) and
+/// writes it with [`write_file`]. The picture is drawn into memory: plotters' own file backend
+/// creates the file as it saves and, when dropped after a failed drawing, writes the part
+/// drawn so far to the path.
+pub fn write_svg<F>(path: &Path, size: (u32, u32), draw: F) -> Result<()>
+where
+    F: FnOnce(
+        &plotters::drawing::DrawingArea<plotters::prelude::SVGBackend<'_>, plotters::coord::Shift>,
+    ) -> Result<()>,
+{
+    use plotters::prelude::IntoDrawingArea;
+    let mut text = String::new();
+    {
+        let root = plotters::prelude::SVGBackend::with_string(&mut text, size).into_drawing_area();
+        draw(&root)?;
+        root.present()?;
+    }
+    write_file(path, text)
 }
 
 #[cfg(test)]

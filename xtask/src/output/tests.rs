@@ -195,3 +195,104 @@ fn a_staged_folder_holding_only_the_marker_is_unused() {
     drop(stage);
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Threads writing one file at once each use a temporary file of their own: every write
+/// succeeds and the file is one of the whole contents. (With one temporary name per process,
+/// `PATH.partial-PID`, a thread renamed another's half-written file into place, or found its
+/// own renamed away: "No such file or directory".)
+#[test]
+fn write_file_from_many_threads_at_once_gives_one_whole_content() {
+    let d = scratch("file-threads");
+    let p = d.join("bench/x.json");
+    let contents: Vec<Vec<u8>> = (0..8u8).map(|k| vec![b'a' + k; 300_000]).collect();
+    std::thread::scope(|s| {
+        for c in &contents {
+            let p = &p;
+            s.spawn(move || {
+                for _ in 0..5 {
+                    write_file(p, c).unwrap();
+                }
+            });
+        }
+    });
+    assert!(contents.contains(&std::fs::read(&p).unwrap()));
+    assert_eq!(std::fs::read_dir(d.join("bench")).unwrap().count(), 1);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A drawing that fails half-way leaves the old picture byte for byte and no other file
+/// (plotters' file backend, dropped after the failure, wrote the part drawn so far over it);
+/// one that succeeds replaces it with exactly what the file backend writes.
+#[test]
+fn write_svg_is_all_or_nothing_and_draws_what_the_file_backend_draws() {
+    use plotters::prelude::*;
+    let d = scratch("svg");
+    let p = d.join("plot.svg");
+    std::fs::write(&p, "old").unwrap();
+    let e = write_svg(&p, (200, 100), |root| {
+        root.fill(&WHITE)?;
+        root.draw(&Circle::new((50, 50), 20, RED.filled()))?;
+        Err("the drawing failed half-way".into())
+    })
+    .unwrap_err();
+    assert!(e.to_string().contains("half-way"), "{e}");
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), "old");
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    let draw = |root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>| -> Result<()> {
+        root.fill(&WHITE)?;
+        root.draw(&Circle::new((50, 50), 20, RED.filled()))?;
+        root.draw(&Text::new("µs", (10, 10), ("sans-serif", 12)))?;
+        Ok(())
+    };
+    write_svg(&p, (200, 100), draw).unwrap();
+    let direct = d.join("direct.svg");
+    {
+        let root = SVGBackend::new(&direct, (200, 100)).into_drawing_area();
+        draw(&root).unwrap();
+        root.present().unwrap();
+    }
+    assert_eq!(std::fs::read(&p).unwrap(), std::fs::read(&direct).unwrap());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `write_png` writes the very bytes `image`'s own `save` writes (the fixtures' pictures are
+/// unchanged by using it), and a folder in the way is an error naming the path with nothing
+/// left.
+#[test]
+fn write_png_writes_what_save_writes() {
+    let d = scratch("png");
+    let rgb = image::RgbImage::from_fn(37, 23, |x, y| image::Rgb([x as u8 * 7, y as u8 * 11, 99]));
+    let grey = image::GrayImage::from_fn(19, 41, |x, y| image::Luma([(x * y) as u8]));
+    rgb.save(d.join("rgb-save.png")).unwrap();
+    grey.save(d.join("grey-save.png")).unwrap();
+    write_png(&d.join("rgb.png"), &rgb).unwrap();
+    write_png(&d.join("grey.png"), &grey).unwrap();
+    for n in ["rgb", "grey"] {
+        let ours = std::fs::read(d.join(format!("{n}.png"))).unwrap();
+        assert_eq!(
+            ours,
+            std::fs::read(d.join(format!("{n}-save.png"))).unwrap(),
+            "{n}"
+        );
+    }
+    std::fs::create_dir(d.join("dir.png")).unwrap();
+    let e = write_png(&d.join("dir.png"), &rgb).unwrap_err().to_string();
+    assert!(e.contains("dir.png"), "{e}");
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), 5);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Why [`write_png`] exists: `image`'s own `save` reports success when the disk is full
+/// (`/dev/full` refuses every write), because the end of the file is left to a dropped buffer.
+/// If this starts failing, `image` checks its final write and `save` is safe to use again.
+#[cfg(target_os = "linux")]
+#[test]
+fn image_save_ignores_a_failed_final_write() {
+    let full = Path::new("/dev/full");
+    if !full.exists() {
+        return;
+    }
+    let tiny = image::RgbImage::new(2, 2);
+    assert!(tiny.save_with_format(full, image::ImageFormat::Png).is_ok());
+    assert!(std::fs::write(full, png_bytes(&tiny).unwrap()).is_err());
+}

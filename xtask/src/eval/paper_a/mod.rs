@@ -74,7 +74,9 @@ pub struct PaperAArgs {
     #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME…]")]
     pub sequences: Vec<String>,
     /// Where the match pictures of real data go (they show the benchmark's images, which are
-    /// never written into fixtures/). Default: target/paper-a-matches/.
+    /// never written into fixtures/). Default: target/paper-a-matches/. Unlike the staged
+    /// output folder, each picture is written (atomically) as its sequence is evaluated: a run
+    /// that fails later keeps the pictures already written, and older pictures stay.
     #[arg(long, value_name = "DIR")]
     pub matches_dir: Option<PathBuf>,
     /// Skip the sensitivity table (delta × diversity, and max variation).

@@ -35,12 +35,14 @@ pub fn picture(seq: &Sequence, result: &SequenceResult, k: usize) -> RgbImage {
     draw::matches(&seq.images[0], &seq.images[k - 1], &pairs, MAX_WIDTH)
 }
 
-/// Writes `<name>-img1-vs-imgK.png` for every pair into `dir`.
+/// Writes `<name>-img1-vs-imgK.png` for every pair into `dir`, each atomically
+/// ([`crate::output::write_png`]): `dir` may be outside the staged output (real data's
+/// pictures go to `--matches-dir`), so a failed write must leave the previous picture whole.
 pub fn write_all(seq: &Sequence, result: &SequenceResult, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     for k in seq.pairs() {
         let path = dir.join(format!("{}-img1-vs-img{k}.png", seq.name));
-        picture(seq, result, k).save(&path)?;
+        crate::output::write_png(&path, &picture(seq, result, k))?;
     }
     Ok(())
 }

@@ -935,7 +935,7 @@ pub fn write_all(ctx: &EvalContext, study: &Study, seeds: Option<&SeedStudy>) ->
     plot_iterations(&ctx.out_dir.join("error-per-iteration.svg"), study)?;
     plot_curve(&ctx.out_dir.join("error-vs-training.svg"), study)?;
     if let Some(strip) = &study.strip {
-        strip.save(ctx.out_dir.join("servo-run.png"))?;
+        crate::output::write_png(&ctx.out_dir.join("servo-run.png"), strip)?;
     }
     Ok(())
 }
