@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{ChanError, Kernel};
+use crate::{ChanError, Kernel, MAX_WINDOW_CHANNELS};
 
 /// Least slack (channel spacings) on the representable-range test (`ChannelBasis::slack`).
 const RANGE_SLACK: f64 = 1e-9;
@@ -80,7 +80,10 @@ impl From<ChannelBasis> for BasisSpec {
 }
 
 impl ChannelBasis {
-    /// `n` channels centred at `first, first + spacing, …`.
+    /// `n` channels centred at `first, first + spacing, …`. Errors: an invalid kernel,
+    /// first centre or spacing; fewer channels than one decoding window or more than
+    /// [`MAX_CHANNELS`]; a decoding window of more than [`crate::MAX_WINDOW_CHANNELS`] channels
+    /// ([`ChanError::GridTooLarge`], as for a 1-D [`crate::ChannelGrid`]).
     pub fn new(first: f64, spacing: f64, n: usize, kernel: Kernel) -> Result<Self, ChanError> {
         kernel.validate()?;
         if !first.is_finite() {
@@ -109,6 +112,16 @@ impl ChannelBasis {
             return Err(ChanError::TooManyChannels {
                 got: n,
                 max: MAX_CHANNELS,
+            });
+        }
+        // Every basis is a valid 1-D grid (`SoftHistogram::one_d` relies on it): its decoding
+        // window is held to the grid's limit. (A cos² window of m > 4096 used to be accepted
+        // here and made `one_d` panic.)
+        if kernel.window() > MAX_WINDOW_CHANNELS {
+            return Err(ChanError::GridTooLarge {
+                what: "channels in one decoding window",
+                got: kernel.window(),
+                max: MAX_WINDOW_CHANNELS,
             });
         }
         // Every decoded value (valid or not) lies within one window of the centres, so those

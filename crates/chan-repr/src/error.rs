@@ -87,9 +87,10 @@ pub enum ChanError {
         /// The offending number.
         value: f64,
     },
-    /// An n-D grid whose decoding window, or the channels one encoded value touches, would be
-    /// larger than the documented limit (the cost of one window or one added value grows as the
-    /// product over dimensions, so very many dimensions would take practically forever).
+    /// An n-D grid (or a basis, a 1-D grid) whose decoding window, or the channels one
+    /// encoded value touches, would be larger than the documented limit (the cost of one
+    /// window or one added value grows as the product over dimensions, so very many dimensions
+    /// would take practically forever).
     #[error("{what}: {got} channels exceed the limit of {max}")]
     GridTooLarge {
         /// Which product was too large.

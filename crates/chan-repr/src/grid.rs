@@ -9,7 +9,8 @@ use crate::decode::{VALID_SLACK, check_channels, check_mode, sort_modes};
 use crate::{ChanError, ChannelBasis};
 
 /// The most channels one n-D decoding window may hold (the product of the bases' windows:
-/// e.g. 7 dimensions of cos² with `m = 3`, or 5 with `m = 5`). Decoding costs this many reads
+/// e.g. 7 dimensions of cos² with `m = 3`, or 5 with `m = 5`; a single [`ChannelBasis`] is
+/// held to it too, so that every basis makes a 1-D grid). Decoding costs this many reads
 /// per window, and a sparse histogram's decoding up to its square per stored channel, so grids
 /// of more dimensions are refused by [`ChannelGrid::new`] rather than left to run for hours.
 pub const MAX_WINDOW_CHANNELS: usize = 1 << 12;
@@ -315,6 +316,7 @@ impl ChannelGrid {
         let counts: Vec<usize> = self
             .bases
             .iter()
+            // Every basis has at least one window of channels (`ChannelBasis::new`).
             .map(|b| b.len() - b.kernel().window() + 1)
             .collect();
         let mut modes = Vec::new();

@@ -103,9 +103,11 @@ impl SoftHistogram {
     }
 
     /// An empty 1-D histogram over `basis` (never too large: a basis has at most
-    /// [`crate::MAX_CHANNELS`] channels).
+    /// [`crate::MAX_CHANNELS`] channels and a decoding window of at most
+    /// [`crate::MAX_WINDOW_CHANNELS`], both checked by [`ChannelBasis::new`]).
     pub fn one_d(basis: ChannelBasis) -> Self {
-        let grid = ChannelGrid::new(vec![basis]).expect("one dimension is a valid grid");
+        let grid = ChannelGrid::new(vec![basis])
+            .expect("a basis is a valid 1-D grid (ChannelBasis::new bounds its window)");
         SoftHistogram::new(grid).expect("a basis fits in a dense vector")
     }
 

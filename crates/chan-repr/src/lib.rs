@@ -62,7 +62,9 @@
 //! **Limits** (checked before anything is allocated or added): at most [`MAX_CHANNELS`]
 //! (2²⁴) channels per basis and per dense vector or histogram (sparse histograms may span
 //! larger grids), and per encoded value of an n-D grid; at most [`MAX_WINDOW_CHANNELS`]
-//! (2¹²) channels per n-D decoding window, which bounds the number of dimensions; weights, coefficients and histogram totals at most [`MAX_MASS`] (1e200), so
+//! (2¹²) channels per decoding window of a basis or an n-D grid, which bounds the number of
+//! dimensions (and the cos² window `m` of a [`ChannelBasis`]); weights, coefficients and
+//! histogram totals at most [`MAX_MASS`] (1e200), so
 //! that no window sum can overflow. A rejected value leaves a histogram unchanged.
 //!
 //! **Deserialisation** runs the same checks as the constructors: a basis, grid, histogram or

@@ -203,7 +203,8 @@ impl PeriodicBasis {
         let lo = (t - r).ceil() as i64;
         let hi = (t + r).floor() as i64;
         // `N ≥ 2r`: the open support covers fewer than N + 1 integers, no channel twice.
-        let hi = hi.min(lo + n - 1);
+        // Saturating: far outside `[0, N)` the saturated `lo` plus `N − 1` overflowed.
+        let hi = hi.min(lo.saturating_add(n - 1));
         self.kernel
             .for_each_in(self.step, t, lo, hi, |k, v| f(k.rem_euclid(n) as usize, v));
     }

@@ -448,3 +448,83 @@ fn a_refused_accumulate_leaves_the_output_unchanged() {
     }
     assert_eq!(out, twin);
 }
+
+#[test]
+fn every_basis_fits_a_one_dimensional_histogram() {
+    // `SoftHistogram::one_d` builds a 1-D grid of any basis and expected that never to fail,
+    // but a cos² window wider than `MAX_WINDOW_CHANNELS` (m = 4097, so at least 4097
+    // channels) made `ChannelGrid::new` refuse the grid: `one_d` panicked. Such bases are now
+    // refused where they are made, with the grid's error.
+    use chan_repr::{MAX_WINDOW_CHANNELS, SoftHistogram};
+    let widest = MAX_WINDOW_CHANNELS as u32;
+    for m in [widest, widest + 1, 2 * widest] {
+        if let Ok(b) = ChannelBasis::integer(m as usize + 2, Kernel::Cos2 { m }) {
+            let _ = SoftHistogram::one_d(b);
+        }
+    }
+    let refused = |r: Result<ChannelBasis, ChanError>| {
+        matches!(
+            r,
+            Err(ChanError::GridTooLarge { got, max, .. })
+                if got == widest as usize + 1 && max == MAX_WINDOW_CHANNELS
+        )
+    };
+    let m = widest + 1;
+    assert!(refused(ChannelBasis::integer(
+        m as usize + 2,
+        Kernel::Cos2 { m }
+    )));
+    assert!(refused(ChannelBasis::covering(
+        0.0,
+        1.0,
+        m as usize + 2,
+        Kernel::Cos2 { m }
+    )));
+    let json = format!(
+        r#"{{"kernel":{{"cos2":{{"m":{m}}}}},"channels":{},"first_centre":0.0,"spacing":1.0}}"#,
+        m + 2
+    );
+    let err = serde_json::from_str::<ChannelBasis>(&json).unwrap_err();
+    assert!(err.to_string().contains("decoding window"), "{err}");
+    // The kernel itself is still valid (periodic bases do not make grids), and the widest
+    // window accepted works end to end.
+    assert!(Kernel::Cos2 { m }.validate().is_ok());
+    let b = ChannelBasis::integer(widest as usize + 2, Kernel::Cos2 { m: widest }).unwrap();
+    let mut h = SoftHistogram::one_d(b.clone());
+    let x = b.representable_range().0 + 0.25;
+    h.add(&[x], 1.0).unwrap();
+    let modes = h.decode().unwrap();
+    assert!((modes[0].value[0] - x).abs() < 1e-6, "{modes:?}");
+}
+
+#[test]
+fn periodic_active_channels_of_huge_coordinates_do_not_overflow() {
+    // `PeriodicBasis::for_each_active` takes an unvalidated coordinate; beyond about 9.2e18
+    // the saturated first channel plus N − 1 overflowed (a panic in debug builds, nothing
+    // visited after wrapping in release builds). Out of its domain it now visits at most N
+    // channels, each once; inside it nothing changed.
+    use std::f64::consts::TAU;
+    for kernel in [Kernel::Cos2 { m: 3 }, Kernel::BSpline2] {
+        let p = PeriodicBasis::new(TAU, 8, kernel).unwrap();
+        for t in [
+            9.3e18,
+            1e300,
+            f64::MAX,
+            f64::INFINITY,
+            -1e300,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ] {
+            let mut seen = Vec::new();
+            p.for_each_active(t, |k, v| seen.push((k, v)));
+            assert!(seen.len() <= 8, "{kernel:?} at {t}: {seen:?}");
+        }
+        let mut inside = Vec::new();
+        p.for_each_active(p.to_index(1.0), |k, v| inside.push((k, v)));
+        let c = p.encode(1.0).unwrap();
+        assert!(!inside.is_empty());
+        for (k, v) in inside {
+            assert_eq!(c[k], v);
+        }
+    }
+}
