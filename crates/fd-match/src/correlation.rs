@@ -39,7 +39,7 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-use crate::descriptor::{MAX_SAMPLES, UNIT_NORM_TOLERANCE, fd_frequency};
+use crate::descriptor::{MAX_SAMPLES, UNIT_NORM_TOLERANCE, fd_frequency_unchecked};
 use crate::error::FdError;
 
 /// The rigid part of a correlation match: `c₂(l) ≈ e^{iφ} c₁(l − Δl)` after normalisation.
@@ -224,7 +224,7 @@ impl Correlator {
         let z = Complex64::new(0.0, 0.0);
         let bins = |m: usize| -> Vec<usize> {
             (0..2 * k)
-                .map(|i| fd_frequency(i, k).rem_euclid(m as isize) as usize)
+                .map(|i| fd_frequency_unchecked(i, k).rem_euclid(m as isize) as usize)
                 .collect()
         };
         Ok(Correlator {
@@ -241,7 +241,7 @@ impl Correlator {
             pow: vec![0.0; m],
             pos: bins(m),
             freq: (0..2 * k)
-                .map(|i| fd_frequency(i, k).unsigned_abs() as f64)
+                .map(|i| fd_frequency_unchecked(i, k).unsigned_abs() as f64)
                 .collect(),
             coarse: vec![z; m0],
             coarse_pos: bins(m0),
@@ -631,7 +631,9 @@ mod tests {
         };
         let mut v: Vec<Complex64> = (0..2 * k)
             .map(|i| {
-                let n = crate::descriptor::fd_frequency(i, k).unsigned_abs() as f64;
+                let n = crate::descriptor::fd_frequency(i, k)
+                    .unwrap()
+                    .unsigned_abs() as f64;
                 Complex64::from_polar((0.2 + next()) * n.powf(-decay), 2.0 * PI * next())
             })
             .collect();
@@ -720,7 +722,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(|(i, c)| {
-                let n = crate::descriptor::fd_frequency(i, k) as f64;
+                let n = crate::descriptor::fd_frequency(i, k).unwrap() as f64;
                 c * Complex64::from_polar(1.0, phi - 2.0 * PI * n * dl / l as f64)
             })
             .collect();

@@ -161,20 +161,58 @@ pub(crate) fn fd_index(n: isize, k: usize) -> usize {
 }
 
 /// Frequency `n` of the `i`-th stored FD coefficient (`i < 2K`): `−K, …, −1, 1, …, K`.
-pub fn fd_frequency(i: usize, k: usize) -> isize {
+///
+/// Errors: [`FdError::IndexOutOfRange`] for a position `i ≥ 2K`, where no coefficient is
+/// stored (`len` is `2K`); [`FdError::InvalidParameter`] `k` for a `K` of
+/// [`MAX_SAMPLES`] or more, which no descriptor has (`K < L ≤ MAX_SAMPLES`). Both used to
+/// give a number: a frequency no descriptor stores, or, near `isize::MAX`, an overflow.
+///
+/// ```
+/// use fd_match::{fd_frequency, FdError};
+/// assert_eq!(fd_frequency(0, 25), Ok(-25));
+/// assert_eq!(fd_frequency(25, 25), Ok(1));
+/// assert_eq!(fd_frequency(50, 25), Err(FdError::IndexOutOfRange { index: 50, len: 50 }));
+/// ```
+pub fn fd_frequency(i: usize, k: usize) -> Result<isize, FdError> {
+    check_layout(i, k, 2 * k.min(MAX_SAMPLES))?;
+    Ok(fd_frequency_unchecked(i, k))
+}
+
+/// Frequency `k` of the `i`-th AFD entry (`i < 2K − 1`): `−K, …, −1, 2, …, K`. Errors as
+/// [`fd_frequency`], for `i ≥ 2K − 1` (`len` is `2K − 1`, 0 for `K = 0`).
+pub fn afd_frequency(i: usize, k: usize) -> Result<isize, FdError> {
+    check_layout(i, k, (2 * k.min(MAX_SAMPLES)).saturating_sub(1))?;
+    Ok(if i < k {
+        i as isize - k as isize
+    } else {
+        i as isize - k as isize + 2
+    })
+}
+
+/// The checks of [`fd_frequency`] and [`afd_frequency`]: `k` below [`MAX_SAMPLES`] and `i`
+/// below `len` (the layout's length for that `k`).
+fn check_layout(i: usize, k: usize, len: usize) -> Result<(), FdError> {
+    if k >= MAX_SAMPLES {
+        return Err(FdError::InvalidParameter {
+            name: "k",
+            value: k as f64,
+            reason: "no descriptor has K >= MAX_SAMPLES frequencies",
+        });
+    }
+    if i >= len {
+        return Err(FdError::IndexOutOfRange { index: i, len });
+    }
+    Ok(())
+}
+
+/// [`fd_frequency`] for `i < 2K` and `K < MAX_SAMPLES`, known by the caller (the extractor's
+/// and correlator's loops over `0..2K` of a validated configuration).
+#[inline]
+pub(crate) fn fd_frequency_unchecked(i: usize, k: usize) -> isize {
     if i < k {
         i as isize - k as isize
     } else {
         i as isize - k as isize + 1
-    }
-}
-
-/// Frequency `k` of the `i`-th AFD entry (`i < 2K − 1`): `−K, …, −1, 2, …, K`.
-pub fn afd_frequency(i: usize, k: usize) -> isize {
-    if i < k {
-        i as isize - k as isize
-    } else {
-        i as isize - k as isize + 2
     }
 }
 
@@ -425,12 +463,12 @@ mod tests {
     fn index_and_frequency_layouts_are_inverse() {
         let k = 25;
         for i in 0..2 * k {
-            assert_eq!(fd_index(fd_frequency(i, k), k), i);
+            assert_eq!(fd_index(fd_frequency(i, k).unwrap(), k), i);
         }
-        assert_eq!(fd_frequency(0, k), -25);
-        assert_eq!(fd_frequency(25, k), 1);
-        assert_eq!(afd_frequency(25, k), 2);
-        assert_eq!(afd_frequency(2 * k - 2, k), 25);
+        assert_eq!(fd_frequency(0, k), Ok(-25));
+        assert_eq!(fd_frequency(25, k), Ok(1));
+        assert_eq!(afd_frequency(25, k), Ok(2));
+        assert_eq!(afd_frequency(2 * k - 2, k), Ok(25));
     }
 
     #[test]

@@ -122,7 +122,7 @@ impl Extractor {
         let (fd, mag, afd0, afd1) = set.push_slot(source);
         // C(n) = S[n mod L] / L (eq. 2); the 1/L cancels in the normalisation.
         for (i, c) in fd.iter_mut().take(2 * k).enumerate() {
-            let n = crate::descriptor::fd_frequency(i, k);
+            let n = crate::descriptor::fd_frequency_unchecked(i, k);
             *c = self.spectrum[n.rem_euclid(l as isize) as usize];
         }
         let fd = &mut fd[..2 * k];

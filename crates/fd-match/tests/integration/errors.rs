@@ -402,7 +402,7 @@ fn coarse_grids_find_the_global_peak() {
                 let theta = std::f64::consts::TAU * j as f64 / 4096.0;
                 (0..2 * k)
                     .map(|i| {
-                        let n = fd_frequency(i, k) as f64;
+                        let n = fd_frequency(i, k).unwrap() as f64;
                         a[i].conj() * b[i] * Complex64::from_polar(1.0, n * theta)
                     })
                     .sum::<Complex64>()
@@ -763,4 +763,48 @@ fn a_refused_correlation_leaves_the_correlator_as_it_was() {
     }
     // Both outcomes of the bound were compared.
     assert!(pruned > 0 && pruned < 3 * fds.len() * fds.len(), "{pruned}");
+}
+
+/// `fd_frequency` and `afd_frequency` computed `i − K (+1 or +2)` of any position and `K`:
+/// positions near `isize::MAX` overflowed (a panic in debug builds, a wrapped frequency in
+/// release builds), and every position `i ≥ 2K` gave a frequency that no descriptor stores.
+#[test]
+fn frequency_layouts_refuse_positions_outside_the_descriptor() {
+    use fd_match::{MAX_SAMPLES, afd_frequency, fd_frequency};
+    let out = |index, len| Err(FdError::IndexOutOfRange { index, len });
+    // Near isize::MAX (the overflow) and just past the layout (a frequency above K).
+    assert_eq!(
+        fd_frequency(isize::MAX as usize, 0),
+        out(isize::MAX as usize, 0)
+    );
+    assert_eq!(
+        afd_frequency(isize::MAX as usize - 1, 0),
+        out(isize::MAX as usize - 1, 0)
+    );
+    assert_eq!(fd_frequency(usize::MAX, 25), out(usize::MAX, 50));
+    assert_eq!(fd_frequency(50, 25), out(50, 50));
+    assert_eq!(afd_frequency(49, 25), out(49, 49));
+    assert_eq!(afd_frequency(0, 0), out(0, 0));
+    for k in [MAX_SAMPLES, usize::MAX / 2 + 1, usize::MAX] {
+        for r in [fd_frequency(0, k), afd_frequency(0, k)] {
+            assert!(
+                matches!(r, Err(FdError::InvalidParameter { name: "k", .. })),
+                "{k}: {r:?}"
+            );
+        }
+    }
+    // Every position of the layouts, as before; the largest K a descriptor can have.
+    for k in [1, 2, 25, MAX_SAMPLES - 1] {
+        let ends = [0, k - 1, k, 2 * k - 1];
+        let fd: Vec<isize> = ends.iter().map(|&i| fd_frequency(i, k).unwrap()).collect();
+        let k_i = k as isize;
+        assert_eq!(fd, [-k_i, -1, 1, k_i]);
+        if k >= 2 {
+            let afd: Vec<isize> = [0, k - 1, k, 2 * k - 2]
+                .iter()
+                .map(|&i| afd_frequency(i, k).unwrap())
+                .collect();
+            assert_eq!(afd, [-k_i, -1, 2, k_i]);
+        }
+    }
 }

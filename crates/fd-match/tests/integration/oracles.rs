@@ -147,7 +147,7 @@ fn descriptors_are_the_normalised_dft_of_the_samples_and_the_documented_afds() {
             let dfd = max_diff(&d.fd, &want);
             assert!(dfd < 1e-12, "{cfg:?} {contour:?}: FD differs by {dfd:e}");
             for (i, c) in d.fd.iter().enumerate() {
-                assert_eq!(fd_frequency(i, k), {
+                assert_eq!(fd_frequency(i, k).unwrap(), {
                     let ki = k as isize;
                     if (i as isize) < ki {
                         i as isize - ki
@@ -188,10 +188,12 @@ fn afd_frequencies_list_every_k_but_0_and_1_in_order() {
     for k in 2..8usize {
         let ki = k as isize;
         let want: Vec<isize> = (-ki..=ki).filter(|&n| n != 0 && n != 1).collect();
-        let got: Vec<isize> = (0..2 * k - 1).map(|i| afd_frequency(i, k)).collect();
+        let got: Vec<isize> = (0..2 * k - 1)
+            .map(|i| afd_frequency(i, k).unwrap())
+            .collect();
         assert_eq!(got, want, "K = {k}");
         let want: Vec<isize> = (-ki..=ki).filter(|&n| n != 0).collect();
-        let got: Vec<isize> = (0..2 * k).map(|i| fd_frequency(i, k)).collect();
+        let got: Vec<isize> = (0..2 * k).map(|i| fd_frequency(i, k).unwrap()).collect();
         assert_eq!(got, want, "K = {k}");
     }
 }
@@ -285,14 +287,18 @@ fn arc_length_resampling_walks_the_oriented_polygon() {
 /// `r₁₂(θ) = Σ conj(C₁(n)) C₂(n) e^{inθ}` (eq. 9), summed directly.
 fn r12(a: &[Complex64], b: &[Complex64], k: usize, theta: f64) -> Complex64 {
     (0..2 * k)
-        .map(|i| a[i].conj() * b[i] * Complex64::from_polar(1.0, fd_frequency(i, k) as f64 * theta))
+        .map(|i| {
+            a[i].conj()
+                * b[i]
+                * Complex64::from_polar(1.0, fd_frequency(i, k).unwrap() as f64 * theta)
+        })
         .sum()
 }
 
 fn unit_fd(rng: &mut StdRng, k: usize, decay: f64) -> Vec<Complex64> {
     let mut v: Vec<Complex64> = (0..2 * k)
         .map(|i| {
-            let n = fd_frequency(i, k).unsigned_abs() as f64;
+            let n = fd_frequency(i, k).unwrap().unsigned_abs() as f64;
             Complex64::from_polar(
                 rng.random_range(0.0..1.0) * n.powf(-decay),
                 rng.random_range(0.0..TAU),
@@ -336,7 +342,7 @@ proptest! {
             let (phi, dl) = (rng.random_range(-PI..PI), rng.random_range(0.0..samples as f64));
             (0..2 * k)
                 .map(|i| {
-                    let n = fd_frequency(i, k) as f64;
+                    let n = fd_frequency(i, k).unwrap() as f64;
                     a[i] * Complex64::from_polar(1.0, phi - TAU * n * dl / samples as f64)
                 })
                 .collect()
@@ -408,7 +414,10 @@ fn descriptor(rng: &mut StdRng, cfg: DescriptorConfig, pool: &[Descriptor]) -> D
             1 => {
                 let (phi, theta) = (rng.random_range(-PI..PI), rng.random_range(0.0..TAU));
                 for (i, c) in d.fd.iter_mut().enumerate() {
-                    *c *= Complex64::from_polar(1.0, phi - fd_frequency(i, k) as f64 * theta);
+                    *c *= Complex64::from_polar(
+                        1.0,
+                        phi - fd_frequency(i, k).unwrap() as f64 * theta,
+                    );
                 }
             }
             _ => {

@@ -151,12 +151,14 @@ fn figure1_magnitude_matching_is_blind_to_phase() {
     let mut fd_a = vec![Complex64::new(0.0, 0.0); 2 * k];
     let coeffs = [(1isize, 1.0), (-1, 0.35), (2, 0.3), (-3, 0.25), (4, 0.1)];
     for &(n, m) in &coeffs {
-        let i = (0..2 * k).find(|&i| fd_frequency(i, k) == n).unwrap();
+        let i = (0..2 * k)
+            .find(|&i| fd_frequency(i, k).unwrap() == n)
+            .unwrap();
         fd_a[i] = Complex64::new(m, 0.0);
     }
     let mut fd_b = fd_a.clone();
     for (i, c) in fd_b.iter_mut().enumerate() {
-        let n = fd_frequency(i, k);
+        let n = fd_frequency(i, k).unwrap();
         if n == 2 || n == -3 {
             *c *= Complex64::from_polar(1.0, 2.0); // phase change in two components only
         }
@@ -183,7 +185,9 @@ fn figure1_magnitude_matching_is_blind_to_phase() {
                 let z: Complex64 = fd
                     .iter()
                     .enumerate()
-                    .map(|(i, c)| c * Complex64::from_polar(10.0, fd_frequency(i, k) as f64 * t))
+                    .map(|(i, c)| {
+                        c * Complex64::from_polar(10.0, fd_frequency(i, k).unwrap() as f64 * t)
+                    })
                     .sum();
                 (z.re, z.im)
             })

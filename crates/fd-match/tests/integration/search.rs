@@ -233,7 +233,7 @@ fn random_descriptor(rng: &mut StdRng, cfg: DescriptorConfig, decay: f64) -> Des
     let k = cfg.max_frequency();
     let mut fd: Vec<Complex64> = (0..2 * k)
         .map(|i| {
-            let n = fd_frequency(i, k).unsigned_abs() as f64;
+            let n = fd_frequency(i, k).unwrap().unsigned_abs() as f64;
             Complex64::from_polar(
                 (0.2 + rng.random_range(0.0..1.0)) * n.powf(-decay),
                 rng.random_range(0.0..std::f64::consts::TAU),
@@ -256,7 +256,7 @@ fn normalise(fd: &mut [Complex64]) {
 fn modulated(d: &Descriptor, k: usize, phi: f64, theta: f64) -> Descriptor {
     let mut d = d.clone();
     for (i, c) in d.fd.iter_mut().enumerate() {
-        *c *= Complex64::from_polar(1.0, phi - fd_frequency(i, k) as f64 * theta);
+        *c *= Complex64::from_polar(1.0, phi - fd_frequency(i, k).unwrap() as f64 * theta);
     }
     normalise(&mut d.fd);
     d
@@ -267,7 +267,7 @@ fn modulated(d: &Descriptor, k: usize, phi: f64, theta: f64) -> Descriptor {
 fn rephased(rng: &mut StdRng, d: &Descriptor, k: usize, band: usize) -> Descriptor {
     let mut d = d.clone();
     for (i, c) in d.fd.iter_mut().enumerate() {
-        if fd_frequency(i, k).unsigned_abs() > band {
+        if fd_frequency(i, k).unwrap().unsigned_abs() > band {
             *c = Complex64::from_polar(c.norm(), rng.random_range(0.0..std::f64::consts::TAU));
         }
     }
