@@ -188,19 +188,25 @@ impl ApproachState {
         self.last.as_deref()
     }
 
-    /// The pre-position for moving to `y` (already rounded and in range), or `None` when every
-    /// joint can move straight there. `reseat` approaches every joint anew.
+    /// The pre-position for moving to `y` (already rounded), or `None` when every joint can
+    /// move straight there. `reseat` approaches every joint anew. Errors: a `y` that fails
+    /// [`check_command`] (another length than the plant's command, not finite, outside the
+    /// range, or a plant range that is not a range), checked first: the pre-position is
+    /// clamped into the plant's range, and `f64::clamp` panics on a range that is not one.
     pub fn pre_position<P: Plant + ?Sized>(
         &self,
         plant: &P,
         approach: &Approach,
         y: &[f64],
         reseat: bool,
-    ) -> Option<Vec<f64>> {
+    ) -> Result<Option<Vec<f64>>> {
+        check_command(plant, y)?;
         let s = approach.direction.sign();
         let mut pre = y.to_vec();
         let mut any = false;
         for (j, v) in pre.iter_mut().enumerate() {
+            // `seated` and `last` are set together from one command (`execute`): a joint with a
+            // seat has a last set-point, so `last[j]` is in bounds.
             let straight = !reseat
                 && self.seated.get(j).copied().flatten() == Some(approach.direction)
                 && self
@@ -208,12 +214,13 @@ impl ApproachState {
                     .as_ref()
                     .is_some_and(|last| s * (y[j] - last[j]) >= 0.0);
             if !straight {
+                // A range (`lo ≤ hi`, no NaN): `check_command` above refused any other.
                 let [lo, hi] = plant.command_range(j);
                 *v = (y[j] - s * approach.overshoot).clamp(lo, hi);
                 any = true;
             }
         }
-        any.then_some(pre)
+        Ok(any.then_some(pre))
     }
 
     /// Executes `y` (already rounded with [`Approach::round`]) on `plant` with the
@@ -229,8 +236,8 @@ impl ApproachState {
         y: &[f64],
         reseat: bool,
     ) -> Result<Option<Vec<f64>>> {
-        check_command(&*plant, y)?;
-        let pre = self.pre_position(&*plant, approach, y, reseat);
+        // Checks `y` (`check_command`) before planning.
+        let pre = self.pre_position(&*plant, approach, y, reseat)?;
         if let Some(p) = &pre {
             check_command(&*plant, p)?;
         }

@@ -187,8 +187,9 @@ pub fn learn_control_chained<P: Plant + ?Sized>(
     if model.percept_dim() != plant.percept_dim() || model.command_dim() != plant.command_dim() {
         return Err(ServoError::DimensionMismatch {
             what: "inverse model (percept × command)",
-            expected: plant.percept_dim() * plant.command_dim(),
-            got: model.percept_dim() * model.command_dim(),
+            // Saturating: a plant's own dimensions may be absurd (this overflowed).
+            expected: plant.percept_dim().saturating_mul(plant.command_dim()),
+            got: model.percept_dim().saturating_mul(model.command_dim()),
         });
     }
     let mut commands = RandomCommands::new(&config.explore, config.seed)?;
@@ -211,7 +212,8 @@ pub fn learn_control_chained<P: Plant + ?Sized>(
         let mut y = match (&config.approach, chain_block) {
             (Some(a), block) if block > 1 => {
                 if queue.is_empty() {
-                    let n = block.min(config.moves + 1 - k);
+                    // The moves left, `k ≤ moves` (`moves + 1 − k` overflowed for usize::MAX).
+                    let n = block.min(config.moves - k + 1);
                     let drawn = (0..n).map(|_| a.round(&commands.next_command())).collect();
                     queue = chain_order(drawn, a.direction).into();
                 }

@@ -142,7 +142,8 @@ fn check_dims(config: &MotionConfig, percept_dim: usize, command_dim: usize) -> 
             "percepts of 2 coordinates per camera and a non-empty command",
         ));
     }
-    if config.neighbours < command_dim + 2 {
+    // Saturating: a saved check's `command_dim` may be anything (`usize::MAX` overflowed).
+    if config.neighbours < command_dim.saturating_add(2) {
         return Err(ServoError::invalid(
             "neighbours",
             "at least the command dimension + 2 (a local linear fit)",
@@ -161,7 +162,8 @@ fn check_samples(
         if x.len() != percept_dim || y.len() != command_dim {
             return Err(ServoError::DimensionMismatch {
                 what: "motion check sample (percept + command)",
-                expected: percept_dim + command_dim,
+                // Saturating: a saved check's dimensions may be anything (they overflowed).
+                expected: percept_dim.saturating_add(command_dim),
                 got: x.len() + y.len(),
             });
         }

@@ -22,7 +22,9 @@ pub trait Plant {
     /// Number of controlled set-points `y`.
     fn command_dim(&self) -> usize;
     /// Valid range `[min, max]` of controlled set-point `j`, `min ≤ max` (infinite ends allowed;
-    /// a NaN end or `min > max` is refused by the loops, see [`check_command`]).
+    /// a NaN end or `min > max` is refused by the loops, see [`check_command`]). Only asked for
+    /// `j < command_dim()` (the loops check a command's length first); an implementation may
+    /// panic beyond it, as [`crate::VisualPlant`]'s does, like slice indexing.
     fn command_range(&self, j: usize) -> [f64; 2];
     /// Executes the command `y` (controlled set-points only). Implementations may assume that
     /// `y` was checked with [`check_command`].

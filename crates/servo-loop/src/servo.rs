@@ -321,6 +321,9 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
             y = a.round(&y);
         }
         if self.config.range == RangePolicy::Clamp {
+            // The length first: the plant's range is asked for its own joints only (a longer
+            // command asked for joints it does not have; a plant may panic there).
+            check_len("command", &y, self.plant.command_dim())?;
             for (j, v) in y.iter_mut().enumerate() {
                 let [lo, hi] = checked_range(&*self.plant, j)?;
                 if v.is_finite() {
@@ -333,7 +336,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         // draw of the servos' end noise) instead of stalling.
         let reseat = self.approach.last() == Some(&y[..]);
         let planned = match &self.config.approach {
-            Some(a) => self.approach.pre_position(&*self.plant, a, &y, reseat),
+            Some(a) => self.approach.pre_position(&*self.plant, a, &y, reseat)?,
             None => None,
         };
         if let Some(p) = &planned {
@@ -398,6 +401,7 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
     }
 
     fn last_command(&self) -> DVector<f64> {
+        // Called after `execute` succeeded: an accepted percept pushes its step first.
         DVector::from_column_slice(&self.run.steps.last().expect("a step was executed").command)
     }
 }

@@ -43,7 +43,7 @@ pub struct TemporalConfig {
     pub quantile: f64,
     /// Factor `κ > 0` on the fitted quantile line.
     pub factor: f64,
-    /// Distance bins over `(0, max_move]` (at least 2).
+    /// Distance bins over `(0, max_move]` (at least 2, at most [`TemporalConfig::MAX_BINS`]).
     pub bins: usize,
 }
 
@@ -65,6 +65,12 @@ impl Default for TemporalConfig {
 }
 
 impl TemporalConfig {
+    /// Most distance bins accepted (2¹⁶): learning allocates every bin before it sees a
+    /// sample, and a bin counts only with [`TemporalCheck::MIN_PAIRS_PER_BIN`] pairs, so more
+    /// bins would need more than 650,000 training pairs within `max_move` to fill. (`usize::MAX`
+    /// bins used to be a capacity-overflow panic, a few billion an allocation failure.)
+    pub const MAX_BINS: usize = 1 << 16;
+
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
         if !(self.max_move.is_finite() && self.max_move > 0.0) {
@@ -81,6 +87,12 @@ impl TemporalConfig {
         }
         if self.bins < 2 {
             return Err(ServoError::invalid("bins", "at least 2 distance bins"));
+        }
+        if self.bins > Self::MAX_BINS {
+            return Err(ServoError::invalid(
+                "bins",
+                "at most TemporalConfig::MAX_BINS = 2^16 distance bins",
+            ));
         }
         Ok(())
     }
@@ -342,8 +354,9 @@ impl<P: Plant> TemporalPlant<P> {
         {
             return Err(ServoError::DimensionMismatch {
                 what: "temporal check model (percept × command)",
-                expected: plant.percept_dim() * plant.command_dim(),
-                got: model.percept_dim() * model.command_dim(),
+                // Saturating: a plant's own dimensions may be absurd (this overflowed).
+                expected: plant.percept_dim().saturating_mul(plant.command_dim()),
+                got: model.percept_dim().saturating_mul(model.command_dim()),
             });
         }
         Ok(TemporalPlant {

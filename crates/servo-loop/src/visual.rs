@@ -553,8 +553,9 @@ where
     L: FnMut(&[GrayImage]) -> Result<Vec<Localisation>>,
 {
     policy.validate()?;
-    let attempts = policy.recaptures + 1;
-    for attempt in 1..=attempts {
+    // Attempts `0..=recaptures` (counting `recaptures + 1` of them overflowed for
+    // `usize::MAX`, and in release builds then made none).
+    for attempt in 0..=policy.recaptures {
         let (locs, images) =
             observe_averaged_by(model, policy.captures, &mut grab_images, &mut locate)?;
         let (camera, certainty) = locs
@@ -565,17 +566,18 @@ where
         if certainty >= policy.min_certainty {
             return Ok((locs, images));
         }
-        if attempt == attempts {
+        if attempt == policy.recaptures {
             return Err(ServoError::PerceptRefused {
                 camera,
                 certainty,
                 min: policy.min_certainty,
-                captures: attempts * policy.captures,
+                // The captures made (saturating: no count of them can overflow in practice).
+                captures: attempt.saturating_add(1).saturating_mul(policy.captures),
             });
         }
         on_recapture();
     }
-    unreachable!("the last attempt returns")
+    unreachable!("the range 0..=recaptures is not empty and its last attempt returns")
 }
 
 impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
@@ -588,6 +590,7 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
     }
 
     fn command_range(&self, j: usize) -> [f64; 2] {
+        // `j < command_dim()` by the trait's contract (panics beyond it, like indexing).
         self.robot.servo_range(self.space.controlled[j])
     }
 
@@ -607,12 +610,9 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
     fn observe(&mut self) -> Result<Observation> {
         let judged = self.policy.used == PerceptUse::Servo && self.motion.is_some();
         let command = self.last_command.clone();
-        let attempts = if judged {
-            self.policy.recaptures + 1
-        } else {
-            1
-        };
-        for attempt in 1..=attempts {
+        // Attempts `0..=recaptures` (as in `observe_checked`: `recaptures + 1` overflowed).
+        let recaptures = if judged { self.policy.recaptures } else { 0 };
+        for attempt in 0..=recaptures {
             let (locs, images) = self.observe_certain()?;
             let x: Vec<f64> = locs.iter().flat_map(|l| l.position).collect();
             if let (true, Some(y), Some(check)) = (judged, &command, &mut self.motion) {
@@ -621,7 +621,7 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
                     threshold,
                 } = check.judge(&x, y)?
                 {
-                    if attempt == attempts {
+                    if attempt == recaptures {
                         self.inconsistent += 1;
                         return Err(ServoError::PerceptInconsistent {
                             residual,
@@ -638,7 +638,7 @@ impl<R: Robot, Q: Recogniser> Plant for VisualPlant<R, Q> {
             self.last_localisations = locs;
             return Ok(Observation { x, certainty });
         }
-        unreachable!("the last attempt returns")
+        unreachable!("the range 0..=recaptures is not empty and its last attempt returns")
     }
 
     fn percept_bounds(&self) -> Option<Vec<[f64; 2]>> {

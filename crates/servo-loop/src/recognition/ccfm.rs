@@ -87,6 +87,24 @@ impl RecognitionConfig {
                 "cells and prototypes must be at least 1",
             ));
         }
+        // A descriptor holds `cells² × channels` values (`FeatureMap::descriptor`): sizes
+        // whose product overflows are refused here (learning sized descriptors by it).
+        let Some(channels) = self.feature_params().channels() else {
+            return Err(ServoError::invalid(
+                "intensities",
+                "too many channels per cell",
+            ));
+        };
+        if channels
+            .checked_mul(self.cells)
+            .and_then(|n| n.checked_mul(self.cells))
+            .is_none()
+        {
+            return Err(ServoError::invalid(
+                "cells",
+                "a descriptor of cells² × channels values overflows",
+            ));
+        }
         if !(0.0..=1.0).contains(&self.min_certainty) {
             return Err(ServoError::invalid("min_certainty", "must lie in [0, 1]"));
         }

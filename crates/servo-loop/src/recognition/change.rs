@@ -7,6 +7,7 @@
 //! estimate of the unchanged pixels' difference noise, keep the largest 8-connected component,
 //! and return its difference-weighted centroid (the *gripper point*).
 
+use crate::recognition::features::check_image;
 use crate::recognition::image::{FloatImage, half_to_full};
 
 /// The changed region.
@@ -26,9 +27,9 @@ pub const NOISE_MULTIPLE: f32 = 6.0;
 pub const MIN_THRESHOLD: f32 = 8.0;
 
 /// The largest changed region between `a` and `b`, or `None` when fewer than `min_pixels`
-/// pixels changed (or the sizes differ).
+/// pixels changed (or the sizes differ, or an image's `data` is not `width × height` values).
 pub fn changed_region(a: &FloatImage, b: &FloatImage, min_pixels: usize) -> Option<ChangeRegion> {
-    if a.width != b.width || a.height != b.height || a.width < 3 || a.height < 3 {
+    if !comparable(a, b) {
         return None;
     }
     let (w, h) = (a.width, a.height);
@@ -84,13 +85,25 @@ pub fn changed_region(a: &FloatImage, b: &FloatImage, min_pixels: usize) -> Opti
 }
 
 /// The pixels that changed between `a` and `b` (same rule as [`changed_region`], every
-/// component), or `None` when the sizes differ or the images are smaller than 3×3.
+/// component), or `None` when the sizes differ, the images are smaller than 3×3 or an image's
+/// `data` is not `width × height` values.
 pub fn changed_mask(a: &FloatImage, b: &FloatImage) -> Option<Vec<bool>> {
-    if a.width != b.width || a.height != b.height || a.width < 3 || a.height < 3 {
+    if !comparable(a, b) {
         return None;
     }
     let (smooth, threshold) = smoothed_difference(a, b);
     Some(smooth.iter().map(|&v| v > threshold).collect())
+}
+
+/// Two images of one size, at least 3×3, each holding its `width × height` values (a
+/// `FloatImage`'s fields are public: shorter data was indexed past its end).
+fn comparable(a: &FloatImage, b: &FloatImage) -> bool {
+    a.width == b.width
+        && a.height == b.height
+        && a.width >= 3
+        && a.height >= 3
+        && check_image(a).is_ok()
+        && check_image(b).is_ok()
 }
 
 /// Gain-compensated, 3×3-smoothed absolute difference and its robust threshold.

@@ -70,6 +70,22 @@ fn orientation_channels(
     (oc, n)
 }
 
+/// Checks that `img` holds `width × height` values (its fields are public).
+pub(crate) fn check_image(img: &FloatImage) -> Result<()> {
+    if img.width.checked_mul(img.height) != Some(img.data.len()) {
+        return Err(ServoError::InvalidParameter {
+            name: "image",
+            reason: format!(
+                "{} values for a {} × {} image",
+                img.data.len(),
+                img.width,
+                img.height
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// A dense channel-coded feature map: `blocks_y × blocks_x × channels` values (the
 /// orientation channels, then the grey-level channels).
 #[derive(Debug, Clone, PartialEq)]
@@ -87,8 +103,12 @@ pub struct FeatureMap {
 }
 
 impl FeatureMap {
-    /// Computes the map of a half-resolution image (see the module doc).
+    /// Computes the map of a half-resolution image (see the module doc). Errors: an image
+    /// whose `data` is not `width × height` values ([`ServoError::InvalidParameter`] `image`;
+    /// it was indexed past its end), too many channels per cell, or a map of more values than
+    /// memory can address.
     pub fn compute(img: &FloatImage, p: &FeatureParams) -> Result<FeatureMap> {
+        check_image(img)?;
         let (w, h, b, no0) = (img.width, img.height, p.block.max(1), p.orientations.max(3));
         let ni = p.intensities;
         let no = p
@@ -122,13 +142,18 @@ impl FeatureMap {
             (v, c)
         };
         let col_w: Vec<_> = (0..w).map(|x| weights(&sx, tcoord(x), bx)).collect();
-        let mut data = vec![0.0f32; bx * by * no];
+        let size = bx
+            .checked_mul(by)
+            .and_then(|n| n.checked_mul(no))
+            .ok_or_else(|| ServoError::invalid("intensities", "too many channels per map"))?;
+        let mut data = vec![0.0f32; size];
         let mut row = vec![0.0f32; bx * no];
         for y in 1..h.saturating_sub(1) {
             row.iter_mut().for_each(|v| *v = 0.0);
             let mut any = false;
             #[allow(clippy::needless_range_loop)]
-            for x in 1..w - 1 {
+            // Saturating: an image 0 pixels wide (and at least 3 high) underflowed.
+            for x in 1..w.saturating_sub(1) {
                 let gx = 0.5 * (img.at(x + 1, y) - img.at(x - 1, y));
                 let gy = 0.5 * (img.at(x, y + 1) - img.at(x, y - 1));
                 let (xw, nxw) = &col_w[x];

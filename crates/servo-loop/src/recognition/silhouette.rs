@@ -182,7 +182,7 @@ pub(super) fn learn_root(
                     let db = (b[0] - rx).powi(2) + (b[1] - ry).powi(2);
                     da.total_cmp(&db)
                 })
-                .expect("non-empty");
+                .expect("`samples` keeps only views with a non-empty `pts`");
             let d = (f64::from(far[0]) - g[0]).hypot(f64::from(far[1]) - g[1]);
             cost += d.min(cap);
         }

@@ -280,7 +280,9 @@ fn pre_positions_follow_the_approach_direction() {
     let mut state = ApproachState::new();
     // Nothing known: every joint comes from 20 µs below.
     assert_eq!(
-        state.pre_position(&arm, &a, &[1500.0, 1500.0], false),
+        state
+            .pre_position(&arm, &a, &[1500.0, 1500.0], false)
+            .unwrap(),
         Some(vec![1480.0, 1480.0])
     );
     assert_eq!(
@@ -291,18 +293,29 @@ fn pre_positions_follow_the_approach_direction() {
     );
     assert_eq!(arm.acts, 2);
     // Up (or unchanged) moves go straight; a joint going down is pre-positioned alone.
-    assert_eq!(state.pre_position(&arm, &a, &[1503.0, 1500.0], false), None);
     assert_eq!(
-        state.pre_position(&arm, &a, &[1503.0, 1499.0], false),
+        state
+            .pre_position(&arm, &a, &[1503.0, 1500.0], false)
+            .unwrap(),
+        None
+    );
+    assert_eq!(
+        state
+            .pre_position(&arm, &a, &[1503.0, 1499.0], false)
+            .unwrap(),
         Some(vec![1503.0, 1479.0])
     );
     // Re-seating approaches every joint anew; pre-positions stay in the servo range.
     assert_eq!(
-        state.pre_position(&arm, &a, &[1500.0, 1500.0], true),
+        state
+            .pre_position(&arm, &a, &[1500.0, 1500.0], true)
+            .unwrap(),
         Some(vec![1480.0, 1480.0])
     );
     assert_eq!(
-        state.pre_position(&arm, &a, &[510.0, 1500.0], true),
+        state
+            .pre_position(&arm, &a, &[510.0, 1500.0], true)
+            .unwrap(),
         Some(vec![500.0, 1480.0])
     );
     let down = Approach {
@@ -310,7 +323,9 @@ fn pre_positions_follow_the_approach_direction() {
         ..a.clone()
     };
     assert_eq!(
-        state.pre_position(&arm, &down, &[1503.0, 1500.0], false),
+        state
+            .pre_position(&arm, &down, &[1503.0, 1500.0], false)
+            .unwrap(),
         Some(vec![1523.0, 1520.0])
     );
     // The joints really end on the approach side: from below, deadband/2 + backlash/2 short.
@@ -528,7 +543,9 @@ fn execute_errors_leave_the_state_as_documented() {
         .execute(&mut plant, &a, &[1500.0, 1500.0], false)
         .unwrap();
     assert_eq!(
-        state.pre_position(&plant, &a, &[1503.0, 1500.0], false),
+        state
+            .pre_position(&plant, &a, &[1503.0, 1500.0], false)
+            .unwrap(),
         None
     );
     let (before, acts) = (state.clone(), plant.acts);
@@ -548,7 +565,9 @@ fn execute_errors_leave_the_state_as_documented() {
     plant.fail = false;
     assert_eq!(state.last(), None);
     assert_eq!(
-        state.pre_position(&plant, &a, &[1503.0, 1500.0], false),
+        state
+            .pre_position(&plant, &a, &[1503.0, 1500.0], false)
+            .unwrap(),
         Some(vec![1483.0, 1480.0]),
         "every joint unseated"
     );
@@ -592,5 +611,8 @@ fn a_refused_pre_position_changes_no_state() {
     assert_eq!(state, before, "state changed");
     assert_eq!(plant.acts, acts, "sent");
     // Still seated: a move up in every joint goes straight there.
-    assert_eq!(state.pre_position(&plant, &a, &[1.0, 1.0], false), None);
+    assert_eq!(
+        state.pre_position(&plant, &a, &[1.0, 1.0], false).unwrap(),
+        None
+    );
 }

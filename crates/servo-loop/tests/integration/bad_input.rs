@@ -704,3 +704,470 @@ fn servo_settings_are_checked_before_anything_is_sent() {
         assert_eq!(plant.y, vec![0.25, 0.25], "nothing sent");
     }
 }
+
+/// A one- or two-joint plant whose `command_range(j)` indexes its ranges, as
+/// [`servo_loop::VisualPlant`] indexes its controlled servos: asked for a joint it does not
+/// have, it panics (the library must never ask). Its reported range can be any pair.
+struct Indexed {
+    ranges: Vec<[f64; 2]>,
+    acts: usize,
+}
+
+impl Indexed {
+    fn new(ranges: Vec<[f64; 2]>) -> Self {
+        Indexed { ranges, acts: 0 }
+    }
+}
+
+impl servo_loop::Plant for Indexed {
+    fn percept_dim(&self) -> usize {
+        2
+    }
+    fn command_dim(&self) -> usize {
+        self.ranges.len()
+    }
+    fn command_range(&self, j: usize) -> [f64; 2] {
+        self.ranges[j]
+    }
+    fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
+        self.acts += 1;
+        Ok(())
+    }
+    fn observe(&mut self) -> servo_loop::Result<servo_loop::Observation> {
+        Ok(servo_loop::Observation {
+            x: vec![100.0, 100.0],
+            certainty: 1.0,
+        })
+    }
+}
+
+/// `ApproachState::pre_position` clamped the pre-position into the plant's range with
+/// `f64::clamp`, which panics for a range that is not one (a NaN end, `min > max`), and asked
+/// for the range of every joint of `y`, also beyond the plant's.
+#[test]
+fn pre_positions_check_the_command_and_the_plant_range() {
+    use servo_loop::{Approach, ApproachState};
+    let a = Approach::hobby_servo();
+    let state = ApproachState::new();
+    for (ranges, y) in [
+        (vec![[f64::NAN, 2000.0]], vec![1500.0]),
+        (vec![[2000.0, 1000.0]], vec![1500.0]),
+        (vec![[1000.0, 2000.0]], vec![1500.0, 1500.0]),
+    ] {
+        let plant = Indexed::new(ranges.clone());
+        let e = state.pre_position(&plant, &a, &y, false).unwrap_err();
+        let expected = if y.len() == ranges.len() {
+            matches!(
+                e,
+                ServoError::InvalidParameter {
+                    name: "command_range",
+                    ..
+                }
+            )
+        } else {
+            matches!(
+                e,
+                ServoError::DimensionMismatch {
+                    what: "command",
+                    ..
+                }
+            )
+        };
+        assert!(expected, "{ranges:?} {y:?}: {e}");
+    }
+    // A command outside a good range is refused as `execute` refuses it; inside, planned.
+    let plant = Indexed::new(vec![[1000.0, 2000.0]]);
+    assert!(matches!(
+        state.pre_position(&plant, &a, &[2500.0], false),
+        Err(ServoError::OutOfServoRange { joint: 0, .. })
+    ));
+    assert_eq!(
+        state.pre_position(&plant, &a, &[1500.0], false).unwrap(),
+        Some(vec![1480.0])
+    );
+    assert_eq!(
+        state.pre_position(&plant, &a, &[1010.0], false).unwrap(),
+        Some(vec![1000.0])
+    );
+}
+
+/// With `RangePolicy::Clamp` the loops clamped every component of a command into the plant's
+/// range before checking its length: a command longer than the plant's asked for the range of
+/// a joint the plant does not have.
+#[test]
+fn clamped_commands_of_another_length_are_refused_before_the_plant_is_asked() {
+    use servo_loop::{
+        BroydenConfig, RangePolicy, ServoConfig, servo_broyden, servo_image_jacobian,
+    };
+    let config = ServoConfig {
+        range: RangePolicy::Clamp,
+        ..ServoConfig::default()
+    };
+    let y0 = [0.5, 0.5, 0.5];
+    let x_w = [120.0, 130.0];
+    let refused = |abort: servo_loop::ServoAbort, plant: &Indexed| {
+        assert!(
+            matches!(
+                abort.error,
+                ServoError::DimensionMismatch {
+                    what: "command",
+                    expected: 2,
+                    got: 3
+                }
+            ),
+            "{}",
+            abort.error
+        );
+        assert!(abort.run.steps.is_empty() && abort.run.failed_move.is_none());
+        assert_eq!(plant.acts, 0, "nothing sent");
+    };
+    let mut plant = Indexed::new(vec![[0.0, 1.0]; 2]);
+    let abort = servo_image_jacobian(&mut plant, &y0, &x_w, &config, |_| {
+        Ok(nalgebra::DMatrix::identity(2, 2))
+    })
+    .unwrap_err();
+    refused(abort, &plant);
+    let mut plant = Indexed::new(vec![[0.0, 1.0]; 2]);
+    let abort =
+        servo_broyden(&mut plant, &y0, &x_w, &config, &BroydenConfig::default()).unwrap_err();
+    refused(abort, &plant);
+    // A command of the plant's length is clamped and sent, as before.
+    let mut plant = Indexed::new(vec![[0.0, 1.0]; 2]);
+    let run = servo_image_jacobian(&mut plant, &[1.5, 0.5], &x_w, &config, |_| {
+        Ok(nalgebra::DMatrix::identity(2, 2))
+    });
+    assert!(plant.acts >= 1, "{run:?}");
+}
+
+/// `learn_control_chained` sized a block as `moves + 1 − k`: for `moves = usize::MAX` that
+/// overflowed on the first move (a panic in debug builds).
+#[test]
+fn a_learning_session_of_usize_max_moves_does_not_overflow() {
+    use servo_loop::{
+        Approach, ApproachDirection, LearnConfig, Observation, Plant, learn_control_chained,
+    };
+    /// One joint in [0, 1]; every move fails.
+    struct Unplugged;
+    impl Plant for Unplugged {
+        fn percept_dim(&self) -> usize {
+            2
+        }
+        fn command_dim(&self) -> usize {
+            1
+        }
+        fn command_range(&self, _: usize) -> [f64; 2] {
+            [0.0, 1.0]
+        }
+        fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
+            Err(ServoError::Robot {
+                during: "command",
+                message: "unplugged".into(),
+            })
+        }
+        fn observe(&mut self) -> servo_loop::Result<Observation> {
+            unreachable!("nothing moved")
+        }
+    }
+    let mut model = InverseModel::new(2, 1, &InverseModelConfig::default()).unwrap();
+    let config = LearnConfig {
+        moves: usize::MAX,
+        explore: vec![[0.0, 1.0]],
+        seed: 7,
+        approach: Some(Approach {
+            overshoot: 0.1,
+            direction: ApproachDirection::Up,
+            resolution: 0.0,
+        }),
+    };
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        learn_control_chained(&mut Unplugged, &mut model, &config, 4, |_, _| {})
+    }));
+    let e = r.expect("learning panicked").unwrap_err();
+    assert!(matches!(e, ServoError::Robot { .. }), "{e}");
+    assert_eq!(model.n_data(), 0);
+}
+
+/// A plant whose percept has `usize::MAX` components (its own code says so): the dimension
+/// errors of `learn_control` and `TemporalPlant::new` multiplied its dimensions and
+/// overflowed (a panic in debug builds, a wrapped count in release builds).
+#[test]
+fn dimension_errors_of_absurd_plants_do_not_overflow() {
+    use servo_loop::{
+        LearnConfig, Observation, Plant, TemporalCheck, TemporalPlant, learn_control,
+    };
+    struct Absurd;
+    impl Plant for Absurd {
+        fn percept_dim(&self) -> usize {
+            usize::MAX
+        }
+        fn command_dim(&self) -> usize {
+            2
+        }
+        fn command_range(&self, _: usize) -> [f64; 2] {
+            [0.0, 1.0]
+        }
+        fn act(&mut self, _: &[f64]) -> servo_loop::Result<()> {
+            Ok(())
+        }
+        fn observe(&mut self) -> servo_loop::Result<Observation> {
+            unreachable!("nothing moved")
+        }
+    }
+    let model = || InverseModel::new(2, 2, &InverseModelConfig::default()).unwrap();
+    let config = LearnConfig {
+        moves: 3,
+        explore: vec![[0.0, 1.0]; 2],
+        seed: 7,
+        approach: None,
+    };
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        learn_control(&mut Absurd, &mut model(), &config, |_, _| {})
+    }));
+    let e = r.expect("learn_control panicked").unwrap_err();
+    assert!(matches!(e, ServoError::DimensionMismatch { .. }), "{e}");
+    let check: TemporalCheck = serde_json::from_str(
+        r#"{"config":{"max_move":60.0,"quantile":0.5,"factor":4.0,"bins":4},
+            "offset":1.0,"slope":0.1,"pairs":40}"#,
+    )
+    .unwrap();
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        TemporalPlant::new(Absurd, model(), check).map(|_| ())
+    }));
+    let e = r.expect("TemporalPlant::new panicked").unwrap_err();
+    assert!(matches!(e, ServoError::DimensionMismatch { .. }), "{e}");
+}
+
+/// One camera; always finds the gripper at (1, 2) with certainty 0.9.
+struct Steady;
+
+impl servo_loop::Recogniser for Steady {
+    fn num_cameras(&self) -> usize {
+        1
+    }
+    fn image_size(&self, _: usize) -> [u32; 2] {
+        [4, 4]
+    }
+    fn locate_all(
+        &self,
+        images: &[image::GrayImage],
+    ) -> servo_loop::Result<Vec<servo_loop::Localisation>> {
+        Ok(images
+            .iter()
+            .map(|_| servo_loop::Localisation {
+                position: [1.0, 2.0],
+                certainty: 0.9,
+            })
+            .collect())
+    }
+}
+
+/// A percept policy of `usize::MAX` re-captures (accepted by `PerceptPolicy::validate`): its
+/// attempts were counted as `recaptures + 1`, which overflowed (a panic in debug builds; in
+/// release builds no attempt was made and `unreachable!` panicked).
+#[test]
+fn percept_policies_of_usize_max_recaptures_do_not_overflow() {
+    use servo_loop::{
+        ControlSpace, MotionCheck, PerceptPolicy, PerceptUse, Plant, VisualPlant, observe_checked,
+    };
+    let policy = PerceptPolicy {
+        captures: 1,
+        min_certainty: 0.5,
+        recaptures: usize::MAX,
+        used: PerceptUse::Servo,
+    };
+    policy.validate().unwrap();
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        observe_checked(
+            &Steady,
+            &policy,
+            || Ok(vec![image::GrayImage::new(4, 4)]),
+            |images| servo_loop::Recogniser::locate_all(&Steady, images),
+            || {},
+        )
+    }));
+    let (locs, _) = r.expect("observe_checked panicked").unwrap();
+    assert_eq!(locs[0].position, [1.0, 2.0]);
+
+    // A visual plant with a motion check (remembering one percept: nothing is judged).
+    let space = ControlSpace {
+        controlled: vec![0, 1],
+        rest: vec![50.0; 3],
+        gripper: None,
+    };
+    let mut plant = VisualPlant::new(Counting::default(), space, Steady).unwrap();
+    plant.set_policy(policy).unwrap();
+    let check: MotionCheck = serde_json::from_str(
+        r#"{"config":{"neighbours":4,"reach":10.0,"quantile":0.5,"factor":4.0},
+            "percept_dim":2,"command_dim":2,"memory":[[[1.0,2.0],[10.0,20.0]]],
+            "trained":1,"scale":1.0}"#,
+    )
+    .unwrap();
+    plant.set_motion_check(Some(check)).unwrap();
+    plant.act(&[10.0, 20.0]).unwrap();
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| plant.observe()));
+    let obs = r.expect("VisualPlant::observe panicked").unwrap();
+    assert_eq!(obs.x, vec![1.0, 2.0]);
+}
+
+/// `TemporalCheck::learn` allocated one bin per `TemporalConfig::bins` before looking at the
+/// samples: `usize::MAX` bins (accepted by `validate`, which only asked for 2 or more) was a
+/// capacity-overflow panic, and a few billion an allocation failure.
+#[test]
+fn temporal_checks_of_absurdly_many_bins_are_refused() {
+    use servo_loop::{TemporalCheck, TemporalConfig};
+    let model = InverseModel::new(2, 2, &InverseModelConfig::default()).unwrap();
+    let samples = vec![(vec![100.0, 100.0], vec![0.5, 0.5]); 3];
+    for bins in [
+        usize::MAX,
+        usize::MAX / 24 + 1,
+        TemporalConfig::MAX_BINS + 1,
+    ] {
+        let config = TemporalConfig {
+            bins,
+            ..TemporalConfig::default()
+        };
+        let e = TemporalCheck::learn(&model, &samples, &config).unwrap_err();
+        assert!(
+            matches!(e, ServoError::InvalidParameter { name: "bins", .. }),
+            "{bins}: {e}"
+        );
+        let json = format!(
+            r#"{{"config":{{"max_move":60.0,"quantile":0.5,"factor":4.0,"bins":{bins}}},
+                "offset":1.0,"slope":0.1,"pairs":40}}"#
+        );
+        assert!(
+            serde_json::from_str::<TemporalCheck>(&json).is_err(),
+            "{bins}"
+        );
+    }
+    // The most bins accepted: learning runs (and finds too few pairs in these samples).
+    let config = TemporalConfig {
+        bins: TemporalConfig::MAX_BINS,
+        ..TemporalConfig::default()
+    };
+    config.validate().unwrap();
+    assert!(matches!(
+        TemporalCheck::learn(&model, &samples, &config),
+        Err(ServoError::NotEnoughData(_))
+    ));
+}
+
+/// A saved motion check of `command_dim = usize::MAX` (or a percept and command dimension
+/// that sum past it): reading it computed `command_dim + 2` and `percept_dim + command_dim`,
+/// which overflowed (a panic in debug builds).
+#[test]
+fn motion_checks_of_absurd_dimensions_are_refused_when_read() {
+    use servo_loop::MotionCheck;
+    let file = |percept: usize, command: usize| {
+        format!(
+            r#"{{"config":{{"neighbours":4,"reach":10.0,"quantile":0.5,"factor":4.0}},
+                "percept_dim":{percept},"command_dim":{command},
+                "memory":[[[1.0,2.0],[10.0,20.0]]],"trained":1,"scale":1.0}}"#
+        )
+    };
+    for (percept, command, what) in [
+        (2, usize::MAX, "neighbours"),
+        (usize::MAX - 1, 2, "motion check sample"),
+    ] {
+        let err = serde_json::from_str::<MotionCheck>(&file(percept, command)).unwrap_err();
+        assert!(
+            err.to_string().contains(what),
+            "{percept} × {command}: {err}"
+        );
+    }
+    assert!(serde_json::from_str::<MotionCheck>(&file(2, 2)).is_ok());
+}
+
+/// `FeatureMap::compute` looped over `1..width − 1`: a half-resolution image 0 pixels wide and
+/// at least 3 high (a full-resolution image 1 pixel wide) underflowed; a `FloatImage` (public
+/// fields) whose data is shorter than `width × height` was indexed past its end, there and in
+/// `changed_region` / `changed_mask`.
+#[test]
+fn feature_maps_and_changes_of_degenerate_images_do_not_panic() {
+    use servo_loop::recognition::change::{changed_mask, changed_region};
+    use servo_loop::recognition::features::{FeatureMap, FeatureParams};
+    use servo_loop::recognition::image::FloatImage;
+    let params = FeatureParams {
+        block: 3,
+        orientations: 8,
+        magnitude_half: 40.0,
+        intensities: 8,
+    };
+    let thin = FloatImage {
+        width: 0,
+        height: 3,
+        data: vec![],
+    };
+    // As wide as a 1- or 2-pixel image: one spatial channel, no gradient.
+    let map = FeatureMap::compute(&thin, &params).unwrap();
+    assert_eq!((map.blocks_x, map.blocks_y), (1, 1));
+    assert!(map.data.iter().all(|v| v.is_finite()));
+    for data in [vec![10.0; 3], vec![10.0; 17]] {
+        let bad = FloatImage {
+            width: 4,
+            height: 4,
+            data,
+        };
+        assert!(matches!(
+            FeatureMap::compute(&bad, &params),
+            Err(ServoError::InvalidParameter { name: "image", .. })
+        ));
+        let good = FloatImage {
+            width: 4,
+            height: 4,
+            data: vec![10.0; 16],
+        };
+        assert_eq!(changed_region(&bad, &good, 1), None);
+        assert_eq!(changed_region(&good, &bad, 1), None);
+        assert_eq!(changed_mask(&bad, &good), None);
+        assert_eq!(changed_mask(&good, &good), Some(vec![false; 16]));
+    }
+}
+
+/// `RecognitionConfig::validate` let through `cells` whose descriptor, `cells² ×` channels
+/// values, overflows: learning then sized its descriptors by an overflowing product (a panic
+/// in debug builds, a wrapped length in release builds).
+#[test]
+fn recognition_settings_whose_descriptor_overflows_are_refused() {
+    use image::{GrayImage, Luma};
+    use servo_loop::recognition::TrainingView;
+    use servo_loop::{GripperModel, RecognitionConfig};
+    // A 10 × 10 block appears between the two images: a changed region to learn from.
+    let before = GrayImage::from_pixel(64, 64, Luma([100]));
+    let mut after = before.clone();
+    for y in 20..30 {
+        for x in 20..30 {
+            after.put_pixel(x, y, Luma([250]));
+        }
+    }
+    let views = vec![TrainingView {
+        before: vec![before],
+        after: vec![after],
+    }];
+    assert!(GripperModel::learn(&RecognitionConfig::default(), &views).is_ok());
+    let config = RecognitionConfig {
+        cells: 1 << 32,
+        ..RecognitionConfig::default()
+    };
+    let e = GripperModel::learn(&config, &views).unwrap_err();
+    assert!(
+        matches!(e, ServoError::InvalidParameter { name: "cells", .. }),
+        "{e}"
+    );
+    let config = RecognitionConfig {
+        orientations: usize::MAX,
+        intensities: 1,
+        ..RecognitionConfig::default()
+    };
+    let e = GripperModel::learn(&config, &views).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ServoError::InvalidParameter {
+                name: "intensities",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
