@@ -51,6 +51,9 @@ impl BenchRow {
 /// Prints the rows as a Markdown table (ready for `docs/performance.md`) and writes them to
 /// `dir/NAME.json` (atomically: a failed write leaves the previous file).
 pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<()> {
+    // The file first: a standard output closed early (`| head`) must not lose it.
+    let path = dir.join(format!("{name}.json"));
+    crate::output::write_file(&path, serde_json::to_string_pretty(rows)? + "\n")?;
     println!("{name}: ours against {peer} (ratio > 1: ours faster or better)\n");
     let mut table = Table::new(["case", "ours", "peer", "unit", "ratio"]).right([1, 2, 4]);
     for r in rows {
@@ -63,8 +66,6 @@ pub fn publish(dir: &Path, name: &str, peer: &str, rows: &[BenchRow]) -> Result<
         ]);
     }
     print!("{table}");
-    let path = dir.join(format!("{name}.json"));
-    crate::output::write_file(&path, serde_json::to_string_pretty(rows)? + "\n")?;
     println!("wrote {}", path.display());
     Ok(())
 }
