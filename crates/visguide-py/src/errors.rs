@@ -25,9 +25,9 @@ pub fn from_lwpr(e: lwpr::LwprError) -> PyErr {
     }
 }
 
-/// An LWPR error reading or writing the file `path`, as [`from_lwpr`] with the file named
-/// first (the crate's I/O errors do not name it: "i/o error: No such file or directory" left
-/// a caller of several files guessing which one).
+/// An LWPR error reading the file `path`, as [`from_lwpr`] with the file named first (the
+/// crate's read errors do not name it: "i/o error: No such file or directory" left a caller of
+/// several files guessing which one; its write errors do, so a save uses [`from_lwpr`]).
 pub fn from_lwpr_file(path: &std::path::Path, e: lwpr::LwprError) -> PyErr {
     let msg = format!("{}: {e}", path.display());
     match e {

@@ -274,7 +274,8 @@ impl PyLwpr {
     /// Writes the model: the crate's binary form if ``path`` ends in ``.bin``, JSON otherwise.
     /// ``OSError`` if the file cannot be written.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        self.model.save(&path).map_err(|e| from_lwpr_file(&path, e))
+        // The crate's write errors name the file themselves.
+        self.model.save(&path).map_err(from_lwpr)
     }
 
     /// Reads a model written by :meth:`save` (``OSError`` for a missing file, ``ValueError``
@@ -293,9 +294,7 @@ impl PyLwpr {
     /// behind).
     #[pyo3(name = "write_XML")]
     fn write_xml(&self, filename: std::path::PathBuf) -> PyResult<()> {
-        self.model
-            .save_xml(&filename)
-            .map_err(|e| from_lwpr_file(&filename, e))
+        self.model.save_xml(&filename).map_err(from_lwpr)
     }
 
     /// Reads an XML model file: one written by :meth:`write_XML` or by the reference library

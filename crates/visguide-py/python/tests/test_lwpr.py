@@ -360,8 +360,9 @@ def test_reference_library_xml_file_predicts_like_the_rust_crate(reference):
 
 
 def test_file_errors_name_the_file(tmp_path):
-    """Every model-file error names its file (the crate's I/O errors did not: "i/o error: No
-    such file or directory" for whichever of several files was missing)."""
+    """Every model-file error names its file, once (the crate's I/O errors did not: "i/o error:
+    No such file or directory" for whichever of several files was missing; its write errors
+    now do, and were then named twice)."""
     missing = tmp_path / "missing-model.bin"
     bad = tmp_path / "corrupt-model.json"
     bad.write_text("{not json")
@@ -374,8 +375,9 @@ def test_file_errors_name_the_file(tmp_path):
         (lambda: trained().save(nowhere), nowhere.name, OSError),
         (lambda: trained().write_XML(nowhere), nowhere.name, OSError),
     ]:
-        with pytest.raises(error, match=name):
+        with pytest.raises(error, match=name) as caught:
             call()
+        assert str(caught.value).count(name) == 1, str(caught.value)
 
 
 def test_xml_errors(tmp_path):
