@@ -55,6 +55,23 @@ pub enum LwprError {
         /// The limit.
         max: usize,
     },
+    /// [`Lwpr::predict_with_confidence`](crate::Lwpr::predict_with_confidence) at an input
+    /// where an active, trustworthy receptive field has no PLS direction with enough data for
+    /// the bound: its only direction (always so with one input) has a discounted data count of
+    /// `2·n_in` or less, as after fast forgetting (a small `final_lambda`), so there is no
+    /// cross-validation error to scale the bound by (the reference library reads before its
+    /// array there). [`Lwpr::predict`](crate::Lwpr::predict) and
+    /// [`Lwpr::predict_with_jacobian`](crate::Lwpr::predict_with_jacobian) do not need it.
+    #[error(
+        "no confidence bound: receptive field {field} of output {output} is trustworthy but \
+         its only PLS direction has too little data"
+    )]
+    NoConfidence {
+        /// The output dimension.
+        output: usize,
+        /// Index of the receptive field among that output's fields.
+        field: usize,
+    },
     /// A saved model could not be read (corrupt, truncated, wrong version or inconsistent).
     #[error("cannot load model: {0}")]
     Format(String),

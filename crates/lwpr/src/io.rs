@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{LwprError, Result};
 use crate::model::{Lwpr, SubModel};
-use crate::params::{Arithmetic, Kernel, MAX_ABS_VALUE, Params, PruneRule};
+use crate::params::{Arithmetic, Kernel, MAX_ABS_VALUE, Params, PruneRule, check_sizes};
 use crate::rf::ReceptiveField;
 use crate::workspace::Workspace;
 
@@ -33,6 +33,14 @@ fn check_version(version: u32) -> Result<()> {
 }
 const MAGIC: &[u8; 8] = b"LWPR-RS\0";
 const JSON_FORMAT: &str = "lwpr-rs";
+
+/// Largest sample count `n_data` a loaded model may carry: far beyond any trained model (and
+/// the largest count an `f64` holds exactly), so that counting on from it cannot overflow.
+const MAX_N_DATA: u64 = 1 << 53;
+
+/// The fewest bytes one receptive field takes in the binary form (`n_reg`, `trustworthy`,
+/// four scalars and the lengths of 22 vectors), to bound a count read from the data.
+const MIN_RF_BYTES: usize = 8 + 1 + 4 * 8 + 22 * 8;
 
 /// The serialised fields of an [`Lwpr`]: plain serde reads this, then `TryFrom` runs every
 /// check of a loaded model (so a deserialised model is as valid as a trained one).
@@ -482,6 +490,10 @@ impl Lwpr {
             pos: 0,
         };
         let params = dec_params(&mut d, version)?;
+        // The sizes before anything is reserved per output (`n_out` = 2^60 overflowed the
+        // capacity); the rest of the parameters are checked with the model.
+        check_sizes(params.n_in, params.n_out)
+            .map_err(|e| fmt_err(format!("invalid parameters: {e}")))?;
         let n_data = d.u64()?;
         let mean_x = d.vec()?;
         let var_x = d.vec()?;
@@ -493,7 +505,9 @@ impl Lwpr {
         for _ in 0..n_sub {
             let n_pruned = d.usize()?;
             let k = d.usize()?;
-            if k > payload.len() {
+            // Bounded by what the rest of the data can hold, not by its length in bytes: each
+            // field takes ~600 bytes in memory, so a 64 MB file asked for 38 GB.
+            if k > (payload.len() - d.pos) / MIN_RF_BYTES {
                 return Err(fmt_err("receptive-field count larger than the data"));
             }
             let mut rfs = Vec::with_capacity(k);
@@ -585,6 +599,24 @@ impl Lwpr {
         if self.sub.len() != m {
             return Err(fmt_err("number of sub-models differs from n_out"));
         }
+        // Counting on from a loaded count must not overflow (`update`): training adds one
+        // sample per update and prunes at most one field per output and update.
+        if self.n_data > MAX_N_DATA {
+            return Err(fmt_err(format!(
+                "sample count n_data = {} beyond 2^53",
+                self.n_data
+            )));
+        }
+        if let Some(dim) = self
+            .sub
+            .iter()
+            .position(|s| s.n_pruned as u64 > self.n_data)
+        {
+            return Err(fmt_err(format!(
+                "output {dim} pruned {} receptive fields in {} samples",
+                self.sub[dim].n_pruned, self.n_data
+            )));
+        }
         for (dim, s) in self.sub.iter_mut().enumerate() {
             for (k, rf) in s.rfs.iter_mut().enumerate() {
                 let bad =
@@ -659,7 +691,8 @@ impl Lwpr {
                 {
                     return Err(bad("negative variance, count or sum of squares"));
                 }
-                // Restore the growth capacity so later updates do not reallocate.
+                // Restore the growth capacity so later updates do not reallocate (`n·r ≤ n²`:
+                // `r ≤ n` was checked above).
                 for v in [&mut rf.sxy, &mut rf.ssx, &mut rf.u, &mut rf.p] {
                     v.reserve_exact(n * n - v.len());
                 }

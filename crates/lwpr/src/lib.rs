@@ -96,6 +96,9 @@
 //! - With one immature PLS direction the reference reads one element before its CV-error array
 //!   (never used afterwards); we use the first element.
 //! - Where no trustworthy field is active, the confidence bound is `+∞` (reference: 1e20).
+//! - Where an active trustworthy field's only PLS direction is immature (possible with one
+//!   input and fast forgetting), the reference's confidence bound reads before its CV-error
+//!   array; [`Lwpr::predict_with_confidence`] returns [`LwprError::NoConfidence`] there.
 //! - `init_D` must be diagonal when `diag_only` is set (the reference silently mixes them).
 //!
 //! ## Pruning: the reference library's rule is the default

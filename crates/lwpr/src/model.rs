@@ -145,6 +145,8 @@ impl<'a> RfView<'a> {
     }
     /// Discounted data count of the first PLS direction.
     pub fn n_data(&self) -> f64 {
+        // Every field has at least one direction (training starts with one or two, loading
+        // refuses `n_reg = 0` and checks the array lengths).
         self.rf.n_data[0]
     }
     /// Input dimension.
@@ -336,6 +338,8 @@ impl Lwpr {
 
         // Global statistics of the raw inputs (inspection only).
         let nd = self.n_data as f64;
+        // No overflow: a model starts at 0 and loading refuses counts above 2^53
+        // (`io::MAX_N_DATA`), 2^64 − 2^53 updates short of the limit.
         self.n_data += 1;
         let inv = 1.0 / self.n_data as f64;
         for i in 0..n {
@@ -532,6 +536,8 @@ impl Lwpr {
                 }
             };
             sub.rfs.swap_remove(prune);
+            // No overflow: at most one pruning per output and update keeps n_pruned ≤ n_data
+            // (loading checks it), and n_data cannot overflow (`update_into`).
             sub.n_pruned += 1;
         }
     }
@@ -753,6 +759,8 @@ impl Lwpr {
         if let Some(index) = xs.iter().position(|v| !v.is_finite()) {
             return Err(LwprError::NonFinite { what: "xs", index });
         }
+        // `k·m` overflows only past 2^64 values: with `m ≤ MAX_OUTPUTS` (2^12) that needs
+        // `xs` of more than 2^52 values (32 PiB), far beyond any memory.
         let mut out = vec![0.0; xs.len() / n * m];
         out.par_chunks_mut(m)
             .zip(xs.par_chunks(n))
@@ -764,6 +772,11 @@ impl Lwpr {
     /// Prediction with the reference's confidence bounds (`lwpr_predict` with `conf`): per
     /// field `σ_k² = E_cv/(W − S_p)·(1 + w Σ s_r²/SSs2_r)`, combined as
     /// `√|Σ w σ_k² + Σ w ŷ_k² − W ŷ²| / W`.
+    ///
+    /// # Errors
+    /// [`LwprError::DimensionMismatch`] / [`LwprError::NonFinite`] for `x` or `cutoff` as
+    /// [`predict`](Self::predict), and [`LwprError::NoConfidence`] where an active trustworthy
+    /// field has no PLS direction mature enough for the bound.
     pub fn predict_with_confidence(
         &self,
         x: &[f64],
@@ -779,7 +792,7 @@ impl Lwpr {
         let mut confidence = vec![0.0; m];
         for dim in 0..m {
             let (mut sum_w, mut sum_wy, mut sum_wyy, mut sum_conf) = (0.0, 0.0, 0.0, 0.0);
-            for rf in &self.sub[dim].rfs {
+            for (field, rf) in self.sub[dim].rfs.iter().enumerate() {
                 for i in 0..n {
                     xc[i] = xn[i] - rf.c[i];
                 }
@@ -790,6 +803,10 @@ impl Lwpr {
                 .0;
                 if w > cutoff && rf.trustworthy {
                     let (yk, s2, nr) = rf.predict_projected(n, &xn, &mut s, &mut xu, &mut z);
+                    if nr == 0 {
+                        // One direction, immature (`n_data ≤ 2n`): `nr − 1` below would be −1.
+                        return Err(LwprError::NoConfidence { output: dim, field });
+                    }
                     let sigma2 =
                         rf.sum_e_cv2[nr - 1] / (rf.sum_w[nr - 1] - rf.ssp) * (1.0 + w * s2);
                     sum_wyy += w * yk * yk;

@@ -389,12 +389,15 @@ impl LwprBuilder {
         }
     }
 
-    /// Starts from a complete parameter set (validated in [`build`](Self::build)).
+    /// Starts from a complete parameter set (validated in [`build`](Self::build)). Sizes
+    /// beyond [`MAX_INPUTS`] or [`MAX_OUTPUTS`] are refused on the spot, as in
+    /// [`new`](Self::new): the setters then allocate nothing and `build` returns
+    /// [`LwprError::TooBig`].
     pub fn from_params(params: Params) -> Self {
-        LwprBuilder {
-            params,
-            error: None,
-        }
+        // Kept like `new`'s: the setters build `n × n` matrices, which for an unchecked `n_in`
+        // overflowed the capacity (panic) or asked for gigabytes.
+        let error = check_sizes(params.n_in, params.n_out).err();
+        LwprBuilder { params, error }
     }
 
     /// `init_D = d·I` (`lwpr_set_init_D_spherical`).

@@ -363,3 +363,208 @@ fn concurrent_saves_to_one_path_all_succeed_and_leave_a_whole_file() {
     assert_eq!(left.len(), 1, "temporary files left behind");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn builder_setters_after_from_params_of_impossible_sizes_allocate_nothing() {
+    // `LwprBuilder::from_params` did not check the sizes that `new` checks, so the setters
+    // that build n × n matrices ran on them: `init_d_spherical` with 2^31 inputs asked for
+    // 2^62 elements and panicked (capacity overflow; 100 000 inputs would ask for 80 GB).
+    for n_in in [1usize << 31, MAX_INPUTS + 1] {
+        let e = LwprBuilder::from_params(lwpr::Params::defaults(n_in, 1))
+            .init_d_spherical(2.0)
+            .init_alpha(10.0)
+            .init_d_diagonal(&[1.0])
+            .build()
+            .unwrap_err();
+        assert_eq!(
+            e,
+            LwprError::TooBig {
+                what: "n_in",
+                got: n_in,
+                max: MAX_INPUTS
+            }
+        );
+    }
+    let e = LwprBuilder::from_params(lwpr::Params::defaults(2, MAX_OUTPUTS + 1))
+        .init_alpha(10.0)
+        .build()
+        .unwrap_err();
+    assert!(
+        matches!(e, LwprError::TooBig { what: "n_out", .. }),
+        "{e:?}"
+    );
+}
+
+/// A 1-D model with two receptive fields (at 0 and 0.5) whose next update at 0.25 prunes one
+/// of them (`w_prune` = 0.05, both activations ≈ 0.46).
+fn about_to_prune() -> Lwpr {
+    let mut m = LwprBuilder::new(1, 1).w_prune(0.05).build().unwrap();
+    m.update(&[0.0], &[0.0]).unwrap();
+    m.update(&[0.5], &[0.5]).unwrap();
+    assert_eq!(m.num_rfs(), [2]);
+    let mut probe = m.clone();
+    probe.update(&[0.25], &[0.25]).unwrap();
+    assert_eq!(probe.num_pruned(), [1], "the next update prunes");
+    m
+}
+
+#[test]
+fn sample_and_pruning_counts_beyond_training_are_refused_on_loading() {
+    // A saved `n_data` of u64::MAX loaded, and the next update overflowed it (a panic in debug
+    // builds; in release it wrapped to 0, and 1 / 0 turned the model's input statistics into
+    // ∞ and NaN). The same for a per-output `n_pruned` of usize::MAX and the next pruning.
+    // Training keeps n_pruned ≤ n_data (at most one pruning per output and update), and no
+    // trained model reaches 2^53 samples.
+    let m = about_to_prune();
+    let good = model_json(&m);
+    let edits: Vec<Edit> = vec![
+        (
+            "n_data = u64::MAX",
+            Box::new(|v| v["n_data"] = json!(u64::MAX)),
+        ),
+        (
+            "n_data = 2^53 + 1",
+            Box::new(|v| v["n_data"] = json!((1u64 << 53) + 1)),
+        ),
+        (
+            "n_pruned = u64::MAX",
+            Box::new(|v| v["sub"][0]["n_pruned"] = json!(u64::MAX)),
+        ),
+        (
+            "n_pruned > n_data",
+            Box::new(|v| v["sub"][0]["n_pruned"] = json!(3)),
+        ),
+    ];
+    for (what, edit) in edits {
+        let mut v = good.clone();
+        edit(&mut v);
+        let (a, b) = load_both(&v);
+        if let Ok(mut loaded) = a {
+            // The symptom: the next update (which prunes) overflows a counter.
+            let r = loaded.update(&[0.25], &[0.25]);
+            panic!(
+                "{what}: loaded; the update gave {r:?}, n_data {}, n_pruned {:?}, mean_x {:?}",
+                loaded.n_data(),
+                loaded.num_pruned(),
+                loaded.mean_x()
+            );
+        }
+        assert!(matches!(a, Err(LwprError::Format(_))), "{what}: {a:?}");
+        assert!(b.is_err(), "serde accepted: {what}");
+    }
+    // The XML reader checks the same.
+    let xml = m.to_xml();
+    for (from, to) in [
+        ("'n_data'> 2 <", format!("'n_data'> {} <", u64::MAX)),
+        ("'n_pruned'> 0 <", format!("'n_pruned'> {} <", u64::MAX)),
+    ] {
+        assert_eq!(xml.matches(from).count(), 1, "{from}");
+        let e = Lwpr::from_xml(&xml.replace(from, &to)).unwrap_err();
+        assert!(matches!(e, LwprError::Format(_)), "{e:?}");
+    }
+    // The limits themselves load and train on.
+    let mut v = good.clone();
+    v["n_data"] = json!(1u64 << 53);
+    v["sub"][0]["n_pruned"] = json!(1u64 << 53);
+    let (a, b) = load_both(&v);
+    assert!(b.is_ok());
+    let mut loaded = a.unwrap();
+    loaded.update(&[0.25], &[0.25]).unwrap();
+    assert_eq!(loaded.n_data(), (1 << 53) + 1);
+    assert_eq!(loaded.num_pruned(), [(1 << 53) + 1]);
+}
+
+#[test]
+fn binary_counts_beyond_the_data_fail_before_allocating() {
+    // The binary reader reserved room for `n_out` sub-models before checking `n_out` (a
+    // capacity-overflow panic for 2^60), and for `k` receptive fields of ~600 bytes each when
+    // `k` was at most the payload's length in bytes: a 64 MB file asked for 38 GB and aborted.
+    fn fnv1a(data: &[u8]) -> u64 {
+        data.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    }
+    let frame = |header: &[u8], payload: &[u8]| {
+        let mut out = header[..12].to_vec();
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(payload);
+        out.extend_from_slice(&fnv1a(payload).to_le_bytes());
+        out
+    };
+    let bin = LwprBuilder::new(1, 1).build().unwrap().to_binary();
+    let payload = &bin[20..bin.len() - 8];
+    assert_eq!(frame(&bin, payload), bin);
+    let n = payload.len();
+    // An untrained 1 → 1 model ends with n_sub = 1, n_pruned = 0, k = 0; n_out is its second
+    // number.
+    let word = |at: usize| u64::from_le_bytes(payload[at..at + 8].try_into().unwrap());
+    assert_eq!(
+        (word(8), word(n - 24), word(n - 16), word(n - 8)),
+        (1, 1, 0, 0)
+    );
+
+    let mut huge_out = payload.to_vec();
+    huge_out[8..16].copy_from_slice(&(1u64 << 60).to_le_bytes());
+    huge_out[n - 24..n - 16].copy_from_slice(&(1u64 << 60).to_le_bytes());
+    let e = Lwpr::from_binary(&frame(&bin, &huge_out)).unwrap_err();
+    assert!(matches!(e, LwprError::Format(_)), "{e:?}");
+
+    let pad = 64 << 20;
+    let mut many_rfs = payload.to_vec();
+    many_rfs[n - 8..].copy_from_slice(&(pad as u64).to_le_bytes());
+    many_rfs.resize(n + pad, 0);
+    let e = Lwpr::from_binary(&frame(&bin, &many_rfs)).unwrap_err();
+    assert!(matches!(e, LwprError::Format(_)), "{e:?}");
+}
+
+#[test]
+fn confidence_without_a_mature_pls_direction_is_an_error() {
+    // With one input a field has one PLS direction, used for prediction only while its
+    // discounted data count exceeds 2·n_in = 2. A fast-forgetting model (final_lambda 0.01)
+    // first counts past 2, so the field becomes trustworthy, then forgets back to ≈ 1.01:
+    // `predict_with_confidence` then indexed its CV error at `0 − 1` and panicked (the
+    // reference reads before the array there). A saved model in that state did the same.
+    let mut m = LwprBuilder::new(1, 1)
+        .init_lambda(1.0)
+        .final_lambda(0.01)
+        .tau_lambda(0.9)
+        .build()
+        .unwrap();
+    for _ in 0..60 {
+        m.update(&[0.0], &[1.0]).unwrap();
+    }
+    let rf = m.receptive_fields(0)[0];
+    assert!(rf.trustworthy() && rf.n_data() <= 2.0, "{}", rf.n_data());
+    let before = m.clone();
+    let e = m.predict_with_confidence(&[0.0], 0.001).unwrap_err();
+    assert_eq!(
+        e,
+        LwprError::NoConfidence {
+            output: 0,
+            field: 0
+        }
+    );
+    assert_eq!(m, before);
+    // The other predictions do not need the CV error: the field's offset, slope 0.
+    assert!((m.predict(&[0.0], 0.001).unwrap()[0] - 1.0).abs() < 1e-12);
+    assert!((m.predict_with_jacobian(&[0.0], 0.001).unwrap().y[0] - 1.0).abs() < 1e-12);
+    // Where the field is not active the bound is the usual one (no active field: +∞).
+    let far = m.predict_with_confidence(&[100.0], 0.001).unwrap();
+    assert_eq!(far.confidence, [f64::INFINITY]);
+    // Saved and loaded, the same.
+    let mut v = model_json(&m);
+    assert_eq!(rf_count(&mut v), 1);
+    let (a, b) = load_both(&v);
+    assert_eq!(
+        a.unwrap().predict_with_confidence(&[0.0], 0.001),
+        Err(LwprError::NoConfidence {
+            output: 0,
+            field: 0
+        })
+    );
+    assert!(b.unwrap().predict_with_confidence(&[0.0], 0.001).is_err());
+}
+
+fn rf_count(v: &mut Value) -> usize {
+    v["sub"][0]["rfs"].as_array().unwrap().len()
+}
