@@ -27,6 +27,10 @@ pub const SERVO_NAMES: [&str; NUM_SERVOS] = [
 /// Largest accepted arm dimension (mm): link lengths, finger sizes and radii (10 m; sizes near
 /// `f64::MAX` overflow the kinematics).
 pub const MAX_ARM_SIZE_MM: f64 = 10_000.0;
+/// Largest accepted distance (mm) of the table's edges from the base (1 km). The table's
+/// texture hashes integer lattice coordinates of the table point, which overflowed for
+/// tables reaching ~1e20 mm.
+pub const MAX_TABLE_EXTENT_MM: f64 = 1e6;
 /// Largest accepted gravity sag (degrees) of a pitch joint with the arm stretched out
 /// horizontally, the pose of the largest torques (the default arm: under 2°).
 pub const MAX_SAG_DEG: f64 = 45.0;
@@ -747,6 +751,12 @@ impl SceneConfig {
                 return invalid(
                     &format!("scene.table.{k}"),
                     "need finite min <= 0 < max (the base stands on the table)",
+                );
+            }
+            if r[0] < -MAX_TABLE_EXTENT_MM || r[1] > MAX_TABLE_EXTENT_MM {
+                return invalid(
+                    &format!("scene.table.{k}"),
+                    &format!("unrealistically large (beyond ±{MAX_TABLE_EXTENT_MM} mm)"),
                 );
             }
         }

@@ -122,9 +122,16 @@ pub fn forward_kinematics(g: &ArmGeometry, angles: &JointAngles) -> ArmPose {
     }
 }
 
-/// Gap between the fingers (mm) for the gripper servo angle `q5` (degrees).
+/// Gap between the fingers (mm) for the gripper servo angle `q5` (degrees). NaN for a
+/// geometry with a negative or NaN `max_opening_mm` (which [`crate::SimConfig::validate`]
+/// refuses).
 pub fn gripper_opening(g: &ArmGeometry, q5_deg: f64) -> f64 {
-    (g.max_opening_mm * (q5_deg + 90.0) / 180.0).clamp(0.0, g.max_opening_mm)
+    let max = g.max_opening_mm;
+    if max.is_nan() || max < 0.0 {
+        // `clamp(0, max)` panics for such a bound.
+        return f64::NAN;
+    }
+    (max * (q5_deg + 90.0) / 180.0).clamp(0.0, max)
 }
 
 /// Gravity torques (N·m) on shoulder, elbow and wrist pitch for the pose `angles`; positive

@@ -345,6 +345,7 @@ impl CameraView {
                 Some(st) => match st.row_span(v as f64) {
                     Some((lo, hi)) => (
                         (lo.floor().max(u0 as f64) as usize).min(u1),
+                        // u0 < u1 (`bbox` returns `None` otherwise), so `clamp` cannot panic.
                         ((hi.ceil() + 1.0).max(0.0) as usize).clamp(u0, u1),
                     ),
                     None => continue,

@@ -116,7 +116,8 @@ impl ServoState {
         self.direction = dir;
         let mut out = self.motor_deg - dir * 0.5 * cfg.backlash_deg;
         if cfg.end_noise_deg > 0.0 {
-            let n = Normal::new(0.0, cfg.end_noise_deg).expect("validated sigma");
+            let n = Normal::new(0.0, cfg.end_noise_deg)
+                .expect("end_noise_deg checked finite and >= 0 in `step`");
             out += n.sample(rng);
         }
         self.output_deg = out;

@@ -207,6 +207,8 @@ impl ArmSim {
             } else {
                 [-90.0, 90.0]
             };
+            // `clamp` cannot panic: the configuration's limits were validated finite with
+            // lo < hi (`SimConfig::validate`, in `new`), the gripper's are constants.
             let clamped = out.clamp(lo, hi);
             if clamped != out {
                 limited[i] = true;

@@ -15,6 +15,8 @@ fn lattice(ix: i64, iy: i64, seed: u64) -> f64 {
 /// Smooth value noise in `[-1, 1]` at `(x, y)` (lattice spacing 1).
 pub fn value_noise(x: f64, y: f64, seed: u64) -> f64 {
     let (fx, fy) = (x.floor(), y.floor());
+    // Far inside i64, so `ix + 1` cannot overflow: table points lie within
+    // ±`MAX_TABLE_EXTENT_MM` (checked by `SimConfig::validate`), scaled down here.
     let (ix, iy) = (fx as i64, fy as i64);
     let (tx, ty) = (x - fx, y - fy);
     let (sx, sy) = (tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty));

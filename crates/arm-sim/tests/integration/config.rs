@@ -398,3 +398,44 @@ fn a_failed_write_file_names_the_path_and_leaves_no_temporary_file() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_table_too_large_for_its_texture_is_refused() {
+    // The table's extent only had to be finite. Its texture hashes integer lattice coordinates
+    // (`(x / 28 mm).floor() as i64` and the like): a camera looking along a table that reaches
+    // 1e21 mm saturated them to i64::MAX, and the first capture overflowed `ix + 1` (a panic
+    // in debug builds). An extent beyond ±1 km is refused now, naming the key.
+    for (axis, key) in [(0, "scene.table.x_range_mm"), (1, "scene.table.y_range_mm")] {
+        let far = |reach: f64| {
+            let mut c = SimConfig::default().with_image_scale(0.05);
+            c.cameras.truncate(1);
+            c.cameras[0].position_mm = [0.0, 0.0, 1000.0];
+            c.cameras[0].position_mm[axis] = reach;
+            c.cameras[0].look_at_mm = [0.0; 3];
+            let range = if axis == 0 {
+                &mut c.scene.table.x_range_mm
+            } else {
+                &mut c.scene.table.y_range_mm
+            };
+            range[1] = 2.0 * reach;
+            c
+        };
+        let c = far(1e21);
+        if let Ok(mut sim) = ArmSim::new(c.clone()) {
+            sim.capture();
+            panic!("{key}: a table reaching 2e21 mm was accepted and rendered");
+        }
+        assert_eq!(key_of(c.validate().unwrap_err()), key);
+        assert_eq!(key_of(SimConfig::from_json(&c.to_json()).unwrap_err()), key);
+        let mut c = SimConfig::default();
+        if axis == 0 {
+            c.scene.table.x_range_mm[0] = -2e6;
+        } else {
+            c.scene.table.y_range_mm[0] = -2e6;
+        }
+        assert_eq!(key_of(c.validate().unwrap_err()), key);
+        // At the limit: accepted, and the camera along it renders.
+        let mut sim = ArmSim::new(far(5e5)).unwrap();
+        assert_eq!(sim.capture().len(), 1);
+    }
+}

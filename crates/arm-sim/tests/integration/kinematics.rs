@@ -164,3 +164,39 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn an_impossible_gripper_size_gives_a_nan_opening_not_a_panic() {
+    // `forward_kinematics` (and `gravity_torques`, `apply_sag`, which call it) is public and
+    // takes any `ArmGeometry`: a negative or NaN `max_opening_mm` (which
+    // `SimConfig::validate` refuses) made `f64::clamp(0, max)` panic ("min > max, or either
+    // was NaN"). The opening is now NaN; the rest of the pose does not depend on it.
+    let good = forward_kinematics(&ArmGeometry::default(), &[10.0, 20.0, 70.0, 30.0, 0.0, 0.0]);
+    for bad in [-1.0, f64::NAN, f64::NEG_INFINITY] {
+        let g = ArmGeometry {
+            max_opening_mm: bad,
+            ..ArmGeometry::default()
+        };
+        assert!(gripper_opening(&g, 0.0).is_nan(), "{bad}");
+        let p = forward_kinematics(&g, &[10.0, 20.0, 70.0, 30.0, 0.0, 0.0]);
+        assert!(p.opening_mm.is_nan(), "{bad}");
+        assert_eq!((p.tip, p.approach), (good.tip, good.approach), "{bad}");
+        let sag = SagConfig {
+            compliance_deg_per_nm: [4.0, 5.0, 6.0],
+            masses_kg: [0.035, 0.030, 0.055, 0.060, 0.050],
+        };
+        let q = [0.0, 90.0, 0.0, 0.0, 0.0, 0.0];
+        let default = ArmGeometry::default();
+        assert_eq!(
+            gravity_torques(&g, &sag, &q),
+            gravity_torques(&default, &sag, &q)
+        );
+        assert_eq!(apply_sag(&g, &sag, &q), apply_sag(&default, &sag, &q));
+    }
+    // A gripper that cannot open at all is valid: the opening is 0.
+    let g = ArmGeometry {
+        max_opening_mm: 0.0,
+        ..ArmGeometry::default()
+    };
+    assert_eq!(gripper_opening(&g, 45.0), 0.0);
+}
