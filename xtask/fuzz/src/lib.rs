@@ -213,7 +213,17 @@ pub fn arm_config(data: &[u8]) {
 /// not), and checks that it saves and loads again.
 fn use_lwpr(model: &lwpr::Lwpr) {
     for x in [0.0, 1e3] {
-        let _ = model.predict(&vec![x; model.n_in()], 0.001);
+        let x = vec![x; model.n_in()];
+        let _ = model.predict(&x, 0.001);
+        let _ = model.predict_with_confidence(&x, 0.001);
+        let _ = model.predict_with_jacobian(&x, 0.001);
+    }
+    // A loaded model trains on: its counts and statistics must take a few more updates.
+    let mut trained = model.clone();
+    for k in 0..3 {
+        let x = vec![0.1 * k as f64; trained.n_in()];
+        let y = vec![0.5; trained.n_out()];
+        let _ = trained.update(&x, &y);
     }
     lwpr::Lwpr::from_json(&model.to_json()).expect("a loaded model's JSON loads again");
     lwpr::Lwpr::from_binary(&model.to_binary()).expect("a loaded model's binary loads again");
