@@ -23,7 +23,7 @@ impl SimRobot {
         &self.0
     }
 
-    /// Commands sent so far (accepted or not).
+    /// Commands sent so far (accepted or not; it stops at `usize::MAX`).
     pub fn commands(&self) -> usize {
         self.1
     }
@@ -40,7 +40,8 @@ impl Robot for SimRobot {
         self.0.servo_range(i).unwrap_or([0.0, 0.0])
     }
     fn command(&mut self, set_points: &[f64]) -> Result<(), ArmSimError> {
-        self.1 += 1;
+        // The count is a public field: at `usize::MAX` it stays there (it used to overflow).
+        self.1 = self.1.saturating_add(1);
         self.0.command(set_points)
     }
     fn capture(&mut self) -> Result<Vec<GrayImage>, ArmSimError> {
@@ -72,5 +73,20 @@ mod tests {
         assert_eq!(robot.commands(), 2);
         let images = robot.capture().unwrap();
         assert_eq!(images.len(), robot.sim().num_cameras());
+    }
+
+    /// The count is a public field: one at `usize::MAX` stays there instead of overflowing
+    /// (a panic in a debug build, a count of 0 in a release one).
+    #[test]
+    fn the_command_count_saturates() {
+        let mut robot = SimRobot(ArmSim::new(SimConfig::default()).unwrap(), usize::MAX);
+        let mid: Vec<f64> = (0..robot.num_servos())
+            .map(|i| {
+                let [a, b] = robot.servo_range(i);
+                0.5 * (a + b)
+            })
+            .collect();
+        robot.command(&mid).unwrap();
+        assert_eq!(robot.commands(), usize::MAX);
     }
 }

@@ -118,7 +118,7 @@ pub fn run(a: &EvalArgs, ui: Ui) -> CliResult {
                     &ij,
                     hom,
                     None,
-                );
+                )?;
                 rows.push(Row {
                     sequence: name.clone(),
                     pair: format!("img1-img{k}"),

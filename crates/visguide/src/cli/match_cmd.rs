@@ -312,10 +312,13 @@ pub fn run(a: &MatchArgs, ui: Ui) -> CliResult {
     let bar = ui.bar(1, "matching");
     let pair = match_images(&img1, &img2, &s)?;
     bar.finish_and_clear();
-    let score = known.as_ref().map(|h| {
-        let ij: Vec<(usize, usize)> = pair.accepted.iter().map(|g| (g.m.i, g.m.j)).collect();
-        score_matches(&pair.features1.frames, &pair.features2.frames, &ij, h, None)
-    });
+    let score = known
+        .as_ref()
+        .map(|h| {
+            let ij: Vec<(usize, usize)> = pair.accepted.iter().map(|g| (g.m.i, g.m.j)).collect();
+            score_matches(&pair.features1.frames, &pair.features2.frames, &ij, h, None)
+        })
+        .transpose()?;
     let out = MatchOut {
         image1: a.image1.display().to_string(),
         image2: a.image2.display().to_string(),

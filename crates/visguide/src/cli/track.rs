@@ -313,6 +313,7 @@ fn run_one(t: &mut dyn Tracker, s: &Sequence, start: Point) -> CliResult<(Estima
     t.reset(start)?;
     let mut out = vec![(start, None)];
     let mut left_out = 0;
+    // `s` has a first frame: `track` found its start there before any tracker runs.
     for f in &s.frames[1..] {
         let (e, n) = step_on_grid(t, &f.detections)?;
         left_out += n;
@@ -403,6 +404,8 @@ fn track(
             let first = seqs[*k].first_frame;
             for (i, (p, c)) in est.iter().enumerate() {
                 let c = c.map_or(String::new(), |c| c.to_string());
+                // At most the sequence's last frame number: the readers (`csv`, `mot`) and
+                // `sim::observe` keep `first_frame + frames.len() − 1` within `u64`.
                 let frame = first + i as u64;
                 writeln!(w, "{label}{frame},{name},{},{},{c}", p[0], p[1]).map_err(io)?;
             }

@@ -146,6 +146,8 @@ impl Homography {
 
     /// The matrix inverse (maps imgN back to img1).
     pub fn inverse(&self) -> Homography {
+        // `from_row_major` refused `|det| ≤ 1e-12 · Π‖row‖` (so det ≠ 0), and `try_inverse`
+        // fails only on a zero determinant computed by the same 3×3 formula.
         Homography {
             m: self
                 .m

@@ -64,11 +64,7 @@ pub fn outline(img: &mut RgbImage, e: &Ellipse, k: f64, dx: f64, c: Rgb<u8>) {
 /// `a` and `b` side by side, lightened, scaled to at most `max_width`; returns the picture,
 /// the scale and the x offset of `b`.
 pub fn side_by_side(a: &GrayImage, b: &GrayImage, max_width: u32) -> (RgbImage, f64, f64) {
-    let full_w = a.width() + b.width();
-    let scale = (max_width as f64 / full_w as f64).min(1.0);
-    let w = ((full_w as f64 * scale).round() as u32).max(1);
-    let h = ((a.height().max(b.height()) as f64 * scale).round() as u32).max(1);
-    let offset = a.width() as f64 * scale;
+    let (w, h, scale, offset) = side_by_side_layout(a.dimensions(), b.dimensions(), max_width);
     let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
     for y in 0..h {
         for x in 0..w {
@@ -86,6 +82,17 @@ pub fn side_by_side(a: &GrayImage, b: &GrayImage, max_width: u32) -> (RgbImage, 
         }
     }
     (img, scale, offset)
+}
+
+/// The picture's size, scale and `b`'s x offset for [`side_by_side`] of images `a` and `b`
+/// (width, height). In `f64`: the sum of two widths may exceed `u32` (it used to overflow).
+/// `w ≤ max_width` whenever `scale < 1`.
+fn side_by_side_layout(a: (u32, u32), b: (u32, u32), max_width: u32) -> (u32, u32, f64, f64) {
+    let full_w = f64::from(a.0) + f64::from(b.0);
+    let scale = (max_width as f64 / full_w).min(1.0);
+    let w = ((full_w * scale).round() as u32).max(1);
+    let h = ((a.1.max(b.1) as f64 * scale).round() as u32).max(1);
+    (w, h, scale, f64::from(a.0) * scale)
 }
 
 /// One image (lightened) with ellipses outlined.
@@ -120,4 +127,20 @@ pub fn matches(
         );
     }
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two images whose widths sum beyond `u32` make a picture `max_width` wide, `b` at half of
+    /// it; the sum used to overflow (a panic in a debug build, a wrong scale in a release one).
+    #[test]
+    fn widths_summing_beyond_u32() {
+        let (w, h, scale, offset) = side_by_side_layout((1 << 31, 1), (1 << 31, 1), 1600);
+        assert_eq!((w, h), (1600, 1));
+        assert_eq!((scale, offset), (1600.0 / 2f64.powi(32), 800.0));
+        let (w, _, scale, _) = side_by_side_layout((u32::MAX, 7), (u32::MAX, 9), 1600);
+        assert_eq!((w, scale), (1600, 1600.0 / (2.0 * f64::from(u32::MAX))));
+    }
 }

@@ -426,6 +426,7 @@ impl ShapeModel {
             // The background regions kept: all, or evenly subsampled to `max_background`.
             let n = bg.len();
             let kept: Vec<usize> = if n > config.max_background {
+                // `k · n < n²`: no overflow below 2^32 background regions (regions in memory).
                 (0..config.max_background)
                     .map(|k| k * n / config.max_background)
                     .collect()

@@ -66,6 +66,9 @@ pub(crate) fn check_votes(votes: &[Vote]) -> Result<()> {
 /// Errors ([`PipelineError::InvalidParameter`]): `sigma` not finite and positive (`sigma`), a
 /// vote with a non-finite position or a weight not finite and non-negative (`votes`). (They
 /// used to give `None` for a bad `sigma`, and a NaN position or the first vote's for bad votes.)
+/// Also `votes` whose sums overflow: positions near `f64::MAX`, whose weighted mean is not
+/// finite, or weights near it, whose evidence is not (the mode used to be at infinity, or its
+/// certainty NaN).
 pub fn mode(votes: &[Vote], sigma: f64) -> Result<Option<Mode>> {
     if !(sigma.is_finite() && sigma > 0.0) {
         return Err(PipelineError::InvalidParameter {
@@ -109,11 +112,22 @@ pub fn mode(votes: &[Vote], sigma: f64) -> Result<Option<Mode>> {
     }
     let evidence: f64 = regions.values().map(|r| r.0).sum();
     let agrees: f64 = regions.values().map(|r| r.1).sum();
-    Ok(Some(Mode {
+    let m = Mode {
         position: [x / w, y / w],
         certainty: (agrees / evidence).clamp(0.0, 1.0),
         support: n,
-    }))
+    };
+    if !(m.position.iter().all(|c| c.is_finite()) && m.certainty.is_finite()) {
+        return Err(PipelineError::InvalidParameter {
+            name: "votes",
+            reason: format!(
+                "the weighted mean of the votes near {centre:?} is {:?} with certainty {}: \
+                 positions or weights so large that their sums overflow",
+                m.position, m.certainty
+            ),
+        });
+    }
+    Ok(Some(m))
 }
 
 #[cfg(test)]
@@ -219,5 +233,25 @@ mod tests {
                 Err(PipelineError::InvalidParameter { name: "votes", .. })
             ));
         }
+    }
+
+    /// Finite votes whose weighted mean overflows (positions near `f64::MAX`) or whose
+    /// evidence does (weights near it, in two regions) are refused naming `votes`; the mode
+    /// used to be at infinity, or its certainty NaN.
+    #[test]
+    fn votes_whose_sums_overflow_are_refused() {
+        let far = [vote(1e308, 0.0, 1.0), vote(1e308, 0.0, 1.0)];
+        let heavy = own_regions(vec![vote(0.0, 0.0, 1e308), vote(0.0, 0.0, 1e308)]);
+        for votes in [far.to_vec(), heavy] {
+            match mode(&votes, 1.0) {
+                Err(PipelineError::InvalidParameter { name: "votes", .. }) => {}
+                other => panic!("{votes:?}: {other:?}"),
+            }
+        }
+        // Large but summable: still a mode.
+        let m = mode(&[vote(1e306, 0.0, 1.0), vote(1e306, 0.0, 1.0)], 1.0)
+            .unwrap()
+            .unwrap();
+        assert_eq!(m.position, [1e306, 0.0]);
     }
 }

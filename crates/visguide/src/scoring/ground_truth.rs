@@ -40,6 +40,7 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
     let mut mapped: Vec<(u32, Ellipse)> = e2
         .iter()
         .enumerate()
+        // A region index beyond `u32` would need more than 2^32 ellipses in memory (160 GiB).
         .filter_map(|(j, e)| map_linearised(e, &h_inv).map(|m| (j as u32, m)))
         .collect();
     mapped.sort_by(|p, q| p.1.u.total_cmp(&q.1.u).then(p.0.cmp(&q.0)));
@@ -51,6 +52,12 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
             let reach = 4.0 * radius(a);
             let lo = xs.partition_point(|&x| x <= a.u - reach);
             let hi = xs.partition_point(|&x| x < a.u + reach);
+            // `lo > hi` only when `a.u ± reach` both round to `a.u` (a region so small against
+            // its position that `reach` is below half an ulp of `u`, e.g. `a = c = 1e40`): the
+            // open window is then empty in floating point, but the regions at exactly that `x`
+            // lie within reach: the `lo − hi` regions between the two indices (the slice used
+            // to be inverted, a panic).
+            let (lo, hi) = (lo.min(hi), lo.max(hi));
             let mut out = Vec::new();
             for (j, b) in &mapped[lo..hi] {
                 if !may_overlap(a, b, DESCRIPTOR_THRESHOLD) {
@@ -58,6 +65,7 @@ pub fn pair_truth(e1: &[Ellipse], e2: &[Ellipse], h: &Homography) -> PairTruth {
                 }
                 let eps = overlap_error(a, b, Normalisation::Descriptor, Offset::Faithful);
                 if eps < DESCRIPTOR_THRESHOLD {
+                    // `i < e1.len()`, as `j` above: within `u32` for any frames in memory.
                     out.push((eps, i as u32, *j));
                 }
             }
@@ -153,5 +161,28 @@ mod tests {
         brute.sort_unstable();
         assert_eq!(t.correct, brute);
         assert!(t.existing() >= 35 && t.existing() <= 40, "{}", t.existing());
+    }
+
+    /// A region of img1 so small that `u ± 4 r` rounds to `u` (a valid, finite, positive
+    /// definite ellipse) next to a region of imgN at that very `x`: the distance gate's window
+    /// used to be inverted there (a slice index panic). The result is the brute-force one.
+    #[test]
+    fn a_point_sized_region_beside_one_at_its_x() {
+        let tiny = ellipse(100.0, 100.0, 1e40, 0.0, 1e40).unwrap();
+        let e1 = [tiny, circ(100.0, 100.0, 5.0)];
+        let e2 = [circ(100.0, 100.0, 5.0), tiny, circ(100.0, 101.0, 5.0)];
+        let t = pair_truth(&e1, &e2, &identity());
+        let mut brute = Vec::new();
+        for (i, a) in e1.iter().enumerate() {
+            for (j, b) in e2.iter().enumerate() {
+                if may_overlap(a, b, DESCRIPTOR_THRESHOLD)
+                    && overlap_error(a, b, Normalisation::Descriptor, Offset::Faithful) < 0.5
+                {
+                    brute.push((i as u32, j as u32));
+                }
+            }
+        }
+        assert_eq!(t.correct, brute);
+        assert!(t.correct.contains(&(1, 0)));
     }
 }

@@ -108,6 +108,11 @@ pub fn may_overlap(a: &Ellipse, b_in_a: &Ellipse, threshold: f64) -> bool {
 /// Overlap error `ε(A, B) = 1 − |A ∩ B| / |A ∪ B|` of region A (img1) and region B already mapped
 /// into img1, with the distance gate, normalisation and grid of docs/methods.md § Overlap error,
 /// steps 2–4. In `[0, 1]`.
+///
+/// A window the grid cannot measure gives 1: no step (a NaN or zero extent), no sample inside
+/// either ellipse, or a window so long against its short side that the 32-bit step no longer
+/// moves a sample (`x + step == x` in `f32`, e.g. a needle-shaped B from a strongly anisotropic
+/// homography; the loop used to run forever there).
 pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offset) -> f64 {
     let r_a = radius(a);
     let (mut dx, mut dy) = (b.u - a.u, b.v - a.v);
@@ -154,9 +159,17 @@ pub fn overlap_error(a: &Ellipse, b: &Ellipse, norm: Normalisation, offset: Offs
             let in_b = b_const + b_lin * yb + bc * yb * yb < 1.0;
             inter += (in_a && in_b) as u64;
             union += (in_a || in_b) as u64;
-            y += step;
+            let next = y + step;
+            if next == y {
+                return 1.0;
+            }
+            y = next;
         }
-        x += step;
+        let next = x + step;
+        if next == x {
+            return 1.0;
+        }
+        x = next;
     }
     if union == 0 {
         return 1.0;
@@ -312,5 +325,24 @@ pub(crate) mod tests {
         let e = from_covariance(1.0, 2.0, [4.0, 0.0, 9.0]).unwrap();
         assert!((e.a - 0.25).abs() < 1e-15 && (e.c - 1.0 / 9.0).abs() < 1e-15);
         assert_eq!(half_extent(&e), (2.0, 3.0));
+    }
+
+    /// A window so long against its short side that the 32-bit grid's step no longer moves a
+    /// sample (`y + step == y` in `f32` beyond `|y| ≈ 2²¹` here): ε = 1, as for the other windows
+    /// the grid cannot measure. The loop used to run forever (a needle-shaped region mapped
+    /// through a strongly anisotropic homography, e.g. `visguide match --homography`).
+    #[test]
+    fn a_window_the_grid_cannot_step_through_ends() {
+        let a = circ(0.0, 0.0, 1.0);
+        // Half-width 1e-6, half-height 1e6 (area that of `a`).
+        let b = ellipse(0.0, 0.0, 1e12, 0.0, 1e-12).unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send(overlap_error(&a, &b, Descriptor, Faithful));
+        });
+        let eps = rx
+            .recv_timeout(std::time::Duration::from_secs(20))
+            .expect("overlap_error returns");
+        assert_eq!(eps, 1.0);
     }
 }

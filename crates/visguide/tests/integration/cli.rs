@@ -1598,3 +1598,47 @@ fn an_output_that_names_an_input_is_refused() {
     assert!(dir.join("p.csv").is_file());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `visguide match --homography` with a valid but strongly anisotropic homography (area kept,
+/// x scaled by 10⁸ and y by 10⁻⁸) that maps a region of the second image back onto the same
+/// region of the first: mapped back, it is a needle whose overlap window with that region the
+/// 32-bit grid of the overlap error cannot step through. The run used to hang there; it ends,
+/// the pair scored as not overlapping (ε = 1).
+#[test]
+fn match_with_a_needle_making_homography_ends() {
+    let dir = temp("needle");
+    let img = scene(&identity(), 160, 120, 3);
+    let pa = dir.join("a.png");
+    img.save(&pa).unwrap();
+    let f = visguide::detect(&img, &MatchSettings::paper().mser.0).unwrap();
+    let (u, v) = (f.frames[0].u, f.frames[0].v);
+    let k = 1e8;
+    // H⁻¹ (image 2 → image 1) fixes (u, v), scales x by 1/k and y by k.
+    let h_inv =
+        Homography::from_row_major(&[1.0 / k, 0.0, u - u / k, 0.0, k, v - k * v, 0.0, 0.0, 1.0])
+            .unwrap();
+    let ph = dir.join("H1to2p");
+    std::fs::write(&ph, h_inv.inverse().to_text()).unwrap();
+    let json = dir.join("m.json");
+    let mut child = bin()
+        .args(["match", "-q", s(&pa), s(&pa), "--homography", s(&ph)])
+        .args(["--out", s(&json)])
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            let _ = child.wait();
+            panic!("visguide match still runs after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(status.success(), "{status}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(doc["score"]["existing"].is_u64(), "{}", doc["score"]);
+}
