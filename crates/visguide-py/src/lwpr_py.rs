@@ -340,7 +340,10 @@ impl PyLwpr {
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
         let py = slf.py();
         let from_bytes = slf.get_type().getattr("from_bytes")?;
-        let bytes = slf.borrow().to_bytes(py);
+        // `try_borrow`: while `update_batch` trains without the GIL it holds the model, and a
+        // pickle from another thread then is a `RuntimeError`, as any other call (`borrow`
+        // panicked: `PanicException`).
+        let bytes = slf.try_borrow()?.to_bytes(py);
         Ok((from_bytes, PyTuple::new(py, [bytes])?))
     }
 

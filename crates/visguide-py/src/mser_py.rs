@@ -181,6 +181,8 @@ pub fn preset_dict<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDi
 /// `(x, y)` points as an `(N, 2)` `int32` array, shifted by `off` in both coordinates.
 fn points<'py>(py: Python<'py>, pts: &[(u32, u32)], off: u32) -> PyResult<Py<PyArray2<i32>>> {
     let mut flat = Vec::with_capacity(pts.len() * 2);
+    // Within `i32`: a point lies in the image, and `mser::GrayView` refuses images of more
+    // than 2^28 (padded) pixels, so `x, y + off < 2^28 + 1`.
     for &(x, y) in pts {
         flat.push((x + off) as i32);
         flat.push((y + off) as i32);

@@ -188,7 +188,10 @@ macro_rules! tracker_methods {
                 slf: &Bound<'py, Self>,
             ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
                 let from_json = slf.get_type().getattr("from_json")?;
-                let text = slf.borrow().to_json()?;
+                // `try_borrow`: while `run` steps without the GIL it holds the tracker, and a
+                // pickle from another thread then is a `RuntimeError`, as any other call
+                // (`borrow` panicked: `PanicException`).
+                let text = slf.try_borrow()?.to_json()?;
                 Ok((from_json, PyTuple::new(slf.py(), [text])?))
             }
 

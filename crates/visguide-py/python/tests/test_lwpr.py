@@ -3,6 +3,7 @@
 
 import copy
 import pickle
+import threading
 
 import numpy as np
 import pytest
@@ -310,6 +311,30 @@ def test_pickle_and_copy_round_trip():
         m2.update([0.5, 0.5], [0.1])
         assert clone == m2
     assert "LWPR(n_in=2" in repr(model)
+
+
+def test_pickling_while_another_thread_trains_is_a_runtime_error():
+    """``update_batch`` holds the model while it trains without the GIL: pickling it from
+    another thread meanwhile raises ``RuntimeError`` (already borrowed), as any other call on
+    it does. It used to panic (``pyo3_runtime.PanicException``, not an ``Exception``)."""
+    model = LWPR(2, 1)
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1.0, 1.0, size=(300_000, 2))
+    y = np.sin(3.0 * x[:, :1])
+    worker = threading.Thread(target=model.update_batch, args=(x, y))
+    worker.start()
+    refused = 0
+    try:
+        while worker.is_alive():
+            try:
+                pickle.dumps(model)
+            except RuntimeError:
+                refused += 1
+    finally:
+        worker.join()
+    assert refused > 0
+    assert model.n_data == len(x)
+    assert pickle.loads(pickle.dumps(model)) == model
 
 
 # --- XML model files of the reference library --------------------------------------------------

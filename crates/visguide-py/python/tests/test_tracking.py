@@ -6,6 +6,7 @@ import copy
 import json
 import pathlib
 import pickle
+import threading
 
 import numpy as np
 import pytest
@@ -81,6 +82,27 @@ def test_a_refused_run_keeps_the_state(data, make):
     # A run that succeeds still leaves the tracker where the run ended.
     out = t.run(tuple(test[0][0][0]), good)
     assert t.estimate()[:2] == tuple(out[-1, :2])
+
+
+def test_pickling_while_another_thread_runs_is_a_runtime_error():
+    """``run`` holds the tracker while it steps without the GIL: pickling it from another
+    thread meanwhile raises ``RuntimeError`` (already borrowed), as any other call on it does.
+    It used to panic (``pyo3_runtime.PanicException``, not an ``Exception``)."""
+    t = ParticleFilter(2.0, 3.0, 0.9, 1e-4, 10.0, n=100_000, seed=3)
+    frames = [np.array([[100.0 + k, 50.0]]) for k in range(300)]
+    worker = threading.Thread(target=t.run, args=((100.0, 50.0), frames))
+    worker.start()
+    refused = 0
+    try:
+        while worker.is_alive():
+            try:
+                pickle.dumps(t)
+            except RuntimeError:
+                refused += 1
+    finally:
+        worker.join()
+    assert refused > 0
+    assert pickle.loads(pickle.dumps(t)) == t
 
 
 def test_two_column_detections_have_weight_one(data):
