@@ -25,7 +25,8 @@ use crate::region::Polarity;
 const DIRS: [(i64, i64); 4] = [(1, 0), (0, -1), (-1, 0), (0, 1)];
 
 /// Checks that `seed` can start a region's walk: inside the image, passing the threshold, and
-/// the first pixel of its component in raster order (its upper and left neighbours fail);
+/// with upper and left neighbours that fail it (as the first pixel of its component in raster
+/// order has; necessary, not sufficient: [`trace_outer_contour`] checks the rest on its chain);
 /// otherwise a [`MserError::RegionImageMismatch`].
 pub(crate) fn check_seed(
     img: &GrayView,
@@ -92,10 +93,20 @@ pub fn trace_outer_contour(
         if (x, y, d) == start {
             break;
         }
+        // A region pixel (every step lands on one), so inside the image and the u32 range.
         let p = (x as u32, y as u32);
-        if *out.last().expect("non-empty") != p {
+        if *out.last().expect("starts with the seed") != p {
             out.push(p);
         }
+    }
+    // A seed below a hole, or atop a later arm of the region, passes `check_seed` but is not
+    // the first pixel: its chain (the hole's boundary, or the outer one started elsewhere) then
+    // holds a pixel before it in raster order. The first pixel's chain never does, and the
+    // outer boundary always holds the first pixel (the row above it has no region pixel).
+    if out.iter().any(|&(px, py)| (py, px) < (seed.1, seed.0)) {
+        return Err(MserError::RegionImageMismatch {
+            reason: "seed is not the region's first pixel in raster order",
+        });
     }
     if out.len() > 1 && out.last() == out.first() {
         out.pop();

@@ -96,6 +96,8 @@ impl<'a> GrayView<'a> {
                 ),
             });
         }
+        // In the buffer: `inside` gives x0 < width and y0 < height, so the start is below
+        // `stride * (height - 1) + width`, which `new` checked the buffer holds.
         Self::new(
             &self.data[y0 * self.stride + x0..],
             width,
@@ -119,8 +121,11 @@ impl<'a> GrayView<'a> {
         self.stride
     }
 
-    /// Row `y` (its `width` pixels). Panics if `y >= height`.
+    /// Row `y` (its `width` pixels). Panics if `y >= height`, like [`get`](Self::get) (the
+    /// buffer may hold bytes past the last row, which are no part of the image).
     pub fn row(&self, y: usize) -> &'a [u8] {
+        // Also keeps `y * stride` from overflowing: below `height`, it is within the buffer.
+        assert!(y < self.height, "row {y} outside the image");
         &self.data[y * self.stride..y * self.stride + self.width]
     }
 

@@ -6,8 +6,9 @@ use crate::region::{BoundingBox, Polarity};
 
 /// The pixels of the 4-connected component of `{p : polarity.contains(I(p), level)}` through
 /// `seed`, in raster order. `bbox` must contain the component (it only bounds the work; a box
-/// reaching outside the image is clipped to it). A seed outside the image, or one that does not
-/// pass the threshold, is a [`MserError::RegionImageMismatch`].
+/// reaching outside the image is clipped to it). A seed outside the image, one that does not
+/// pass the threshold, or a box that cuts the component (a component pixel outside it) is a
+/// [`MserError::RegionImageMismatch`].
 ///
 /// ```
 /// use mser::{BoundingBox, GrayView, Polarity, flood_pixels};
@@ -44,6 +45,7 @@ pub fn flood_pixels(
     let mut todo = vec![(seed.0 as usize, seed.1 as usize)];
     seen[(seed.1 as usize - y0) * bw + seed.0 as usize - x0] = true;
     let mut out = Vec::new();
+    let (last_x, last_y) = (img.width() - 1, img.height() - 1);
     while let Some((x, y)) = todo.pop() {
         out.push((x as u32, y as u32));
         let mut visit = |nx: usize, ny: usize| {
@@ -64,6 +66,17 @@ pub fn flood_pixels(
         }
         if y < y1 {
             visit(x, y + 1);
+        }
+        // A component pixel just outside the box (inside the image): the box cuts the
+        // component, and the pixels found would be only part of it.
+        let cut = x == x0 && x > 0 && polarity.contains(img.at(x - 1, y), level)
+            || x == x1 && x < last_x && polarity.contains(img.at(x + 1, y), level)
+            || y == y0 && y > 0 && polarity.contains(img.at(x, y - 1), level)
+            || y == y1 && y < last_y && polarity.contains(img.at(x, y + 1), level);
+        if cut {
+            return Err(MserError::RegionImageMismatch {
+                reason: "the bounding box does not contain the component through the seed",
+            });
         }
     }
     out.sort_unstable_by_key(|&(x, y)| (y, x));

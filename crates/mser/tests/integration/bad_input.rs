@@ -483,3 +483,153 @@ fn get_outside_the_width_panics_even_inside_the_stride() {
     assert_eq!(img.get(2, 0), 3);
     img.get(3, 0);
 }
+
+/// Audit: `GrayView::row` documents a panic for `y >= height` but used to return whatever bytes
+/// the buffer held there (the next rows of a longer buffer, of a strided view's padding rows, of
+/// the image a window was cut from) as if they were a row of the image.
+#[test]
+fn row_past_the_height_panics_instead_of_reading_beyond_the_image() {
+    let px: Vec<u8> = (0..16).collect();
+    // 3 × 2 pixels, stride 4: the buffer holds two more rows than the image.
+    let strided = GrayView::new(&px, 3, 2, 4).unwrap();
+    let full = GrayView::packed(&px, 4, 4).unwrap();
+    // One row of the 4 × 4 image; its buffer continues into rows 1..4 of `full`.
+    let window = full.window(1, 0, 2, 1).unwrap();
+    assert_eq!(strided.row(1), &[4, 5, 6]);
+    assert_eq!(window.row(0), &[1, 2]);
+    for (img, y) in [
+        (strided, 2),
+        (strided, 3),
+        (window, 1),
+        (window, 3),
+        (strided, usize::MAX),
+    ] {
+        let got = std::panic::catch_unwind(|| img.row(y).to_vec());
+        let msg = match &got {
+            Ok(bytes) => panic!("row {y} of a {}-row image gave {bytes:?}", img.height()),
+            Err(e) => e
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default(),
+        };
+        assert!(msg.contains("outside the image"), "row {y}: {msg}");
+    }
+}
+
+/// A dark region (grey 0) with a hole of two diagonal pixels (grey 9), 5 × 5 pixels. Pixel
+/// (2, 3) lies below one hole pixel and right of the other, so both its upper and its left
+/// neighbour fail the threshold, though it is not the region's first pixel in raster order.
+fn ring_with_diagonal_hole() -> Vec<u8> {
+    let mut px = vec![0u8; 5 * 5];
+    px[2 * 5 + 2] = 9;
+    px[3 * 5 + 1] = 9;
+    px
+}
+
+/// Audit: `trace_outer_contour` (and `Region::contour`) from a seed whose upper and left
+/// neighbours fail the threshold but which is not the component's first pixel in raster order
+/// used to return a chain without an error: the boundary of a hole (which the contour never
+/// includes), or the outer boundary started elsewhere than at the first pixel.
+#[test]
+fn contours_refuse_seeds_that_are_not_the_first_pixel() {
+    use mser::{BoundingBox, Moments, Polarity, Region, trace_outer_contour};
+    let px = ring_with_diagonal_hole();
+    let img = GrayView::packed(&px, 5, 5).unwrap();
+    // The true first pixel gives the outer boundary: the 16 border pixels.
+    let outer = trace_outer_contour(&img, (0, 0), 0, Polarity::Dark).unwrap();
+    assert_eq!((outer.len(), outer[0]), (16, (0, 0)));
+    // Below the hole: its chain would run around the hole.
+    let err = trace_outer_contour(&img, (2, 3), 0, Polarity::Dark);
+    assert!(
+        matches!(err, Err(MserError::RegionImageMismatch { .. })),
+        "{err:?}"
+    );
+    let pixels: Vec<(u32, u32)> = (0..25)
+        .filter(|&i| px[i] == 0)
+        .map(|i| ((i % 5) as u32, (i / 5) as u32))
+        .collect();
+    let region = Region {
+        polarity: Polarity::Dark,
+        level: 0,
+        seed: (2, 3),
+        area: pixels.len() as u32,
+        variation: 0.0,
+        bbox: BoundingBox {
+            x_min: 0,
+            y_min: 0,
+            x_max: 4,
+            y_max: 4,
+        },
+        moments: Moments::of_pixels(&pixels).unwrap(),
+    };
+    assert!(matches!(
+        region.contour(&img),
+        Err(MserError::RegionImageMismatch { .. })
+    ));
+    assert!(region.contour_f64(&img).is_err());
+    // A U: its right arm's top pixel (2, 0) has no region pixel above or left of it, but
+    // (0, 0) comes first; the chain from (2, 0) is the outer boundary started elsewhere.
+    let u = [0u8, 9, 0, 0, 0, 0];
+    let img = GrayView::packed(&u, 3, 2).unwrap();
+    assert!(trace_outer_contour(&img, (0, 0), 0, Polarity::Dark).is_ok());
+    assert!(matches!(
+        trace_outer_contour(&img, (2, 0), 0, Polarity::Dark),
+        Err(MserError::RegionImageMismatch { .. })
+    ));
+}
+
+/// Audit: `flood_pixels` with a box that cuts the component (it must contain it) used to
+/// return the part inside the box as if it were the whole component.
+#[test]
+fn flood_pixels_refuses_a_box_that_cuts_the_component() {
+    use mser::{BoundingBox, Polarity, flood_pixels};
+    // A dark 4 × 2 bar at x 1..5, y 1..3 of a bright 6 × 4 image.
+    let mut px = vec![200u8; 6 * 4];
+    for y in 1..3 {
+        for x in 1..5 {
+            px[y * 6 + x] = 10;
+        }
+    }
+    let img = GrayView::packed(&px, 6, 4).unwrap();
+    let exact = BoundingBox {
+        x_min: 1,
+        y_min: 1,
+        x_max: 4,
+        y_max: 2,
+    };
+    assert_eq!(
+        flood_pixels(&img, (1, 1), 10, Polarity::Dark, exact)
+            .unwrap()
+            .len(),
+        8
+    );
+    for cut in [
+        BoundingBox { x_max: 3, ..exact },
+        BoundingBox { x_min: 2, ..exact },
+        BoundingBox { y_max: 1, ..exact },
+        BoundingBox { y_min: 2, ..exact },
+        BoundingBox {
+            x_min: 1,
+            y_min: 1,
+            x_max: 1,
+            y_max: 1,
+        },
+    ] {
+        // The box's top-left pixel is in the component (a seed outside the box widens it).
+        let seed = (cut.x_min, cut.y_min);
+        let got = flood_pixels(&img, seed, 10, Polarity::Dark, cut);
+        assert!(
+            matches!(got, Err(MserError::RegionImageMismatch { .. })),
+            "{cut:?} from {seed:?}: {got:?}"
+        );
+    }
+    // A box widened to a seed outside it still contains the component: no error.
+    let left = BoundingBox { x_max: 3, ..exact };
+    assert_eq!(
+        flood_pixels(&img, (4, 2), 10, Polarity::Dark, left)
+            .unwrap()
+            .len(),
+        8
+    );
+}
