@@ -46,6 +46,9 @@ pub struct CbtTracker {
     /// The last two frames of [`learn_online`](Self::learn_online) (saved as their states).
     history: History,
     /// Time index of the posterior (a [`crate::PeriodicInput`]'s `k`; stays 0 without one).
+    /// Always below `u64::MAX`, so that the next prediction's `time + 1` exists
+    /// ([`set_time`](Self::set_time), [`filter`](Self::filter) and the deserialiser refuse
+    /// it).
     time: u64,
 }
 
@@ -141,6 +144,11 @@ impl TryFrom<CbtTrackerRaw> for CbtTracker {
     fn try_from(raw: CbtTrackerRaw) -> Result<Self, TrackError> {
         let space = raw.model.space();
         let cfg = raw.model.config();
+        if raw.time == u64::MAX {
+            return Err(crate::integrity::corrupt(
+                "time index u64::MAX: the next step has no time index to predict into",
+            ));
+        }
         let history = History::restore(
             raw.history,
             space,
@@ -278,14 +286,22 @@ impl CbtTracker {
     /// Sets the time index of the posterior (a track that starts at frame `k` of a
     /// sequence whose input phase is `ω·k`); the next step predicts into `k + 1`. No effect
     /// on a model without a [`crate::PeriodicInput`].
-    pub fn set_time(&mut self, k: u64) {
+    ///
+    /// Errors ([`TrackError::InvalidParameter`] `time`, the tracker unchanged): `k = u64::MAX`,
+    /// which has no next index to predict into.
+    pub fn set_time(&mut self, k: u64) -> Result<(), TrackError> {
+        if k == u64::MAX {
+            return Err(last_time_index(k));
+        }
         if self.model.config().input.is_some() {
             self.time = k;
         }
+        Ok(())
     }
 
     /// Starts from a given joint density (normalised here; must be non-negative, finite, of
-    /// length `G`, with positive mass); both previous posteriors are set to it.
+    /// length `G`, with a positive mass that is finite too); both previous posteriors are set
+    /// to it.
     pub fn reset_to(&mut self, density: &[f64]) -> Result<(), TrackError> {
         let space = self.model.space();
         let g = space.cells();
@@ -308,11 +324,12 @@ impl CbtTracker {
             }
             s += v;
         }
-        if s <= 0.0 {
+        // A sum of finite values can still overflow: dividing by ∞ left a posterior of zeros.
+        if !(s > 0.0 && s.is_finite()) {
             return Err(TrackError::InvalidParameter {
                 name: "density",
                 value: s,
-                reason: "must have positive mass",
+                reason: "must have a positive, finite mass",
             });
         }
         self.history = History::default();
@@ -365,15 +382,23 @@ impl CbtTracker {
     }
 
     /// Prediction and update with `detections`; on error (non-finite or off-grid
-    /// detection) the tracker is unchanged.
+    /// detection, or with a [`crate::PeriodicInput`] a step into the time index `u64::MAX`,
+    /// [`TrackError::InvalidParameter`] `time`) the tracker is unchanged.
     pub fn filter(&mut self, detections: &[Detection]) -> Result<(), TrackError> {
         let model = &self.model;
         match &mut self.state {
             LayoutState::Dense(d) => {
+                let time = if model.config().input.is_some() {
+                    // The index after this step must have a successor of its own.
+                    match self.time.checked_add(1) {
+                        Some(next) if next < u64::MAX => next,
+                        _ => return Err(last_time_index(self.time)),
+                    }
+                } else {
+                    self.time
+                };
                 d.step(model, self.time, detections)?;
-                if model.config().input.is_some() {
-                    self.time += 1;
-                }
+                self.time = time;
                 Ok(())
             }
             LayoutState::Stationary(w) => {
@@ -408,6 +433,15 @@ impl CbtTracker {
             LayoutState::Dense(d) => d.decode(space, cfg.runner_ups),
             LayoutState::Stationary(w) => w.decode(space, cfg.decode_radius, cfg.runner_ups),
         }
+    }
+}
+
+/// The refusal of a time index without a successor.
+fn last_time_index(k: u64) -> TrackError {
+    TrackError::InvalidParameter {
+        name: "time",
+        value: k as f64,
+        reason: "the time index must stay below u64::MAX (the next step predicts into k + 1)",
     }
 }
 

@@ -261,7 +261,8 @@ pub struct CbtConfig {
     /// Weight of one frame in [`learn_online`](crate::CbtTracker::learn_online) relative to a
     /// batch training frame. Default 1.
     pub online_weight: f64,
-    /// Number of runner-up modes reported by the estimate. Default 3.
+    /// Number of runner-up modes reported by the estimate. Default 3; at most
+    /// [`MAX_RUNNER_UPS`].
     pub runner_ups: usize,
     /// [`Layout::Stationary`]: largest radius (channels, per axis) of the learned observation
     /// kernel; a ring of 4 more channels measures the clutter floor, and the kernel is then
@@ -275,7 +276,8 @@ pub struct CbtConfig {
     #[serde(default = "default_support")]
     pub support: f64,
     /// [`Layout::Stationary`]: half-width (channels) of the window around the best cell whose
-    /// first moment is the estimate. Default 4.
+    /// first moment is the estimate. Default 4; at most [`chan_repr::MAX_CHANNELS`] (2^24,
+    /// longer than any axis).
     #[serde(default = "default_decode_radius")]
     pub decode_radius: usize,
     /// A known periodic input the first-order system model is conditioned on (e.g. UNGM's
@@ -312,6 +314,10 @@ pub struct CbtConfig {
     #[serde(default, skip_serializing_if = "Velocity::is_factored")]
     pub velocity: Velocity,
 }
+
+/// Most runner-up modes an estimate may report ([`CbtConfig::runner_ups`]): every step reserves
+/// room for them.
+pub const MAX_RUNNER_UPS: usize = 1024;
 
 fn default_obs_radius() -> usize {
     10
@@ -477,6 +483,23 @@ impl CbtConfig {
                 name: "velocity",
                 value: 1.0,
                 reason: "a velocity per position needs the stationary layout",
+            });
+        }
+        // Every decode reserves `runner_ups + 1` hypotheses (which overflowed at usize::MAX).
+        if self.runner_ups > MAX_RUNNER_UPS {
+            return Err(TrackError::InvalidParameter {
+                name: "runner_ups",
+                value: self.runner_ups as f64,
+                reason: "must be at most MAX_RUNNER_UPS (1024)",
+            });
+        }
+        // The stationary decoder computes with the radius as an i64 (beyond 2^63 it turned
+        // negative); a radius longer than every axis covers the whole axis anyway.
+        if self.decode_radius > chan_repr::MAX_CHANNELS {
+            return Err(TrackError::InvalidParameter {
+                name: "decode_radius",
+                value: self.decode_radius as f64,
+                reason: "must be at most 2^24 channels (chan_repr::MAX_CHANNELS)",
             });
         }
         if self.obs_radius == 0 || self.obs_radius > 64 {

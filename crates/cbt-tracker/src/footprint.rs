@@ -4,16 +4,17 @@
 //! observation matrix of `N_z,d · N_d` cells (counts, model and fallback), a first-order
 //! system matrix of `N_d²` (twice, counts and model; once more per phase channel of a
 //! [`crate::PeriodicInput`]) and, for the second order, a tensor of `N_d³` (twice); the sparse
-//! joint layout builds a dense `N_z,d · N_d` fallback table per axis while it starts, and then
-//! a few numbers per joint cell; both hold the posterior over the `G = Π N_d` joint cells. A
-//! grid of 640 channels on an axis (640 px at a spacing of 1 px) asks the separable second
-//! order for 2 · 640³ ≈ 5 · 10⁸ numbers (4 GB), and 10⁵ channels ask the observation matrix
-//! alone for 10¹⁰: an allocation that aborts the process rather than returning. So learning
-//! refuses a layout whose estimate exceeds [`MAX_MODEL_VALUES`] with
-//! [`TrackError::ModelTooLarge`]. The stationary layout holds displacement kernels and the
-//! posterior's window, whose sizes follow the motion and the noise, not the grid: learning caps
-//! the kernels' radius, and an untrained model, whose radius follows `fallback_sigma` alone, is
-//! checked by [`check_kernels`].
+//! joint layout builds a dense `N_z,d · N_d` fallback table per axis while it starts, keeps
+//! per axis `N_d` system fallback Gaussians of up to `2⌈3σ⌉ + 1` values (`σ` the
+//! `fallback_sigma`), and a few numbers per joint cell; both hold the posterior over the
+//! `G = Π N_d` joint cells. A grid of 640 channels on an axis (640 px at a spacing of 1 px)
+//! asks the separable second order for 2 · 640³ ≈ 5 · 10⁸ numbers (4 GB), and 10⁵ channels
+//! ask the observation matrix alone for 10¹⁰: an allocation that aborts the process rather
+//! than returning. So learning, and reading a model back, refuse a layout whose estimate
+//! exceeds [`MAX_MODEL_VALUES`] with [`TrackError::ModelTooLarge`]. The stationary layout
+//! holds displacement kernels and the posterior's window, whose sizes follow the motion and
+//! the noise, not the grid: learning caps the kernels' radius, and an untrained model, whose
+//! radius follows `fallback_sigma` alone, is checked by [`check_kernels`].
 
 use crate::config::{CbtConfig, Layout, Order};
 use crate::{Space, TrackError};
@@ -55,12 +56,19 @@ pub(crate) fn model_values(space: &Space, config: &CbtConfig) -> f64 {
         Layout::SparseJoint => {
             let tables: f64 = (0..dims).map(|d| meas(d) * axis(d)).sum();
             let gz: f64 = (0..dims).map(meas).product();
-            tables + 5.0 * gz + (JOINT_PER_CELL + 2.0) * cells
+            // The system fallback's Gaussians: per axis one per channel, of `2⌈3σ⌉ + 1`
+            // values at most (cut to the axis). Left out, a long state axis with a short
+            // measurement axis and a wide σ passed the check and then allocated N·min(N, 6σ).
+            let width = 2.0 * (3.0 * config.fallback_sigma).ceil() + 1.0;
+            let gauss: f64 = (0..dims).map(|d| axis(d) * axis(d).min(width)).sum();
+            tables + gauss + 5.0 * gz + (JOINT_PER_CELL + 2.0) * cells
         }
     }
 }
 
-/// [`TrackError::ModelTooLarge`] when [`model_values`] exceeds [`MAX_MODEL_VALUES`].
+/// [`TrackError::ModelTooLarge`] when [`model_values`] exceeds [`MAX_MODEL_VALUES`]; for models
+/// built here and read back with serde alike (a model read back rebuilds the sparse joint
+/// layout's Gaussians).
 pub(crate) fn check(space: &Space, config: &CbtConfig) -> Result<(), TrackError> {
     let values = model_values(space, config);
     if values > MAX_MODEL_VALUES {

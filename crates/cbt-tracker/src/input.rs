@@ -29,9 +29,19 @@ pub struct PeriodicInput {
 }
 
 impl PeriodicInput {
-    /// Checks `ω` is finite and positive and the channel count valid.
+    /// Checks `ω` is finite and positive, with `ω·k` finite for every `u64` time index `k`
+    /// (`ω` up to about 9.7 · 10²⁸⁸), and the channel count valid.
     pub fn validate(&self) -> Result<(), TrackError> {
         crate::error::positive("input omega", self.omega)?;
+        // Beyond, the phase of a later frame was ∞, its weights empty, and every prediction
+        // into it the uniform one, silently.
+        if !(self.omega * u64::MAX as f64).is_finite() {
+            return Err(TrackError::InvalidParameter {
+                name: "input omega",
+                value: self.omega,
+                reason: "the phase ω·k must be finite for every time index k (ω · 2^64 overflows)",
+            });
+        }
         self.basis().map(|_| ())
     }
 

@@ -45,6 +45,21 @@ pub(crate) fn finite(what: &str, v: &[f64]) -> Result<(), TrackError> {
     }
 }
 
+/// How far from 1 the sum of a saved distribution may be (rounding: a sum over up to 2^28
+/// cells errs by under 10⁻⁷).
+pub(crate) const MASS_SLACK: f64 = 1e-6;
+
+/// A saved distribution (non-negative, checked before) sums to 1 within [`MASS_SLACK`], as
+/// every step, start and reset leaves it: a scaled one gave scaled certainties, silently.
+pub(crate) fn unit_mass(what: &str, v: &[f64]) -> Result<(), TrackError> {
+    let sum: f64 = v.iter().sum();
+    if (sum - 1.0).abs() <= MASS_SLACK {
+        Ok(())
+    } else {
+        Err(corrupt(format!("{what} sums to {sum}, not 1")))
+    }
+}
+
 /// Checks sparse `(index, value)` entries: indices below `bound`, values finite and
 /// non-negative.
 pub(crate) fn sparse(what: &str, v: &[(u32, f64)], bound: usize) -> Result<(), TrackError> {

@@ -266,8 +266,8 @@ pub use baselines::{
 };
 pub use cbt::CbtTracker;
 pub use config::{
-    CbtConfig, Clutter, Displacements, Layout, ObservationFallback, Order, PeriodicInput,
-    StartMotion, SystemFallback, Velocity,
+    CbtConfig, Clutter, Displacements, Layout, MAX_RUNNER_UPS, ObservationFallback, Order,
+    PeriodicInput, StartMotion, SystemFallback, Velocity,
 };
 pub use data::{Detection, Frame, Point, Sequence, TrainingFrame, csv, mot, sim};
 pub use displacement_choice::DisplacementChoice;

@@ -104,6 +104,9 @@ impl TryFrom<CbtModelRaw> for CbtModel {
             stats,
         } = raw;
         config.validate()?;
+        // What learning would refuse: the sparse joint layout rebuilds its fallback
+        // Gaussians below (`prepare`), whose size follows the space and `fallback_sigma`.
+        crate::footprint::check(&space, &config)?;
         let layout = |l: Layout| {
             corrupt(format!(
                 "a {:?} model in a file configured for the {:?} layout",

@@ -88,12 +88,12 @@ impl Space {
         self.state.len()
     }
 
-    /// State basis of axis `d`.
+    /// State basis of axis `d`. Panics if `d >= dims()`, like slice indexing.
     pub fn state_basis(&self, d: usize) -> &ChannelBasis {
         &self.state[d]
     }
 
-    /// Measurement basis of axis `d`.
+    /// Measurement basis of axis `d`. Panics if `d >= dims()`, like slice indexing.
     pub fn meas_basis(&self, d: usize) -> &ChannelBasis {
         &self.meas[d]
     }
@@ -103,12 +103,13 @@ impl Space {
         &self.grid
     }
 
-    /// Number of state channels on axis `d`.
+    /// Number of state channels on axis `d`. Panics if `d >= dims()`, like slice indexing.
     pub fn axis_len(&self, d: usize) -> usize {
         self.state[d].len()
     }
 
-    /// Number of measurement channels on axis `d`.
+    /// Number of measurement channels on axis `d`. Panics if `d >= dims()`, like slice
+    /// indexing.
     pub fn meas_len(&self, d: usize) -> usize {
         self.meas[d].len()
     }
@@ -130,8 +131,14 @@ impl Space {
         index(&self.meas, &det.pos, "detection")
     }
 
-    /// Centre of joint cell `g` (value space).
+    /// Centre of joint cell `g` (value space). Panics if `g >= cells()`, like slice indexing
+    /// (a cell past the grid used to wrap around it: cell `G` gave the centre of cell 0).
     pub fn cell_centre(&self, g: usize) -> Point {
+        assert!(
+            g < self.cells(),
+            "cell {g} outside the grid of {} cells",
+            self.cells()
+        );
         let mut p = [0.0; 2];
         let mut rest = g;
         for d in (0..self.dims()).rev() {

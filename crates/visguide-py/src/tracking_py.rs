@@ -224,11 +224,12 @@ tracker_methods!(PyCbt, {
     /// ``"uniform"``), ``system_fallback`` (``"first_order"``, ``"constant_velocity"``),
     /// ``prior_weight`` (> 0), ``fallback_sigma`` (> 0, channels), ``observation_floor``,
     /// ``mixing``, ``prune`` and ``support`` (in [0, 1]), ``online_weight`` (> 0),
-    /// ``runner_ups``, ``obs_radius`` (1–64 channels) and ``decode_radius`` (channels); and
-    /// for the stationary layout ``smoothing`` (``"fixed"``, ``"held_out"``), ``start``
-    /// (``"marginal"``, ``"learned"``, ``"pooled"``), ``displacements`` (``"channels"``,
-    /// ``"interpolated"``, ``"aligned"``, ``"selected"``, ``"fitted"``), ``observation_smoothing``
-    /// (``"counted"``, ``"held_out"``) and ``velocity`` (``"factored"``, ``"per_position"``).
+    /// ``runner_ups`` (0–1024), ``obs_radius`` (1–64 channels) and ``decode_radius``
+    /// (0–2^24 channels); and for the stationary layout ``smoothing`` (``"fixed"``,
+    /// ``"held_out"``), ``start`` (``"marginal"``, ``"learned"``, ``"pooled"``),
+    /// ``displacements`` (``"channels"``, ``"interpolated"``, ``"aligned"``, ``"selected"``,
+    /// ``"fitted"``), ``observation_smoothing`` (``"counted"``, ``"held_out"``) and ``velocity``
+    /// (``"factored"``, ``"per_position"``).
     /// For image tracking and real motion use :meth:`stationary_config`'s settings
     /// (``CBT.learn(seqs, w, h, spacing, **CBT.stationary_config())``, with ``spacing`` about
     /// 0.75 of the detection noise).

@@ -155,6 +155,7 @@ impl Tracker for LearnedParticleFilter {
     fn step(&mut self, detections: &[Detection]) -> Result<Estimate, TrackError> {
         // Validates every detection before anything changes.
         let informative = self.cbt.grid_likelihood(detections)?.is_some();
+        // Counts steps since the last reset (not deserialisable): 2^64 steps never happen.
         self.time += 1;
         let k = self.time;
         let dims = self.dims();
@@ -162,6 +163,8 @@ impl Tracker for LearnedParticleFilter {
         for i in 0..self.particles.len() {
             let mut p = self.particles[i];
             for (d, v) in p.iter_mut().enumerate().take(dims) {
+                // Not empty: every particle lies in the representable range (`draw` clamps
+                // to it), where at least one channel is positive.
                 let a = self.channels(d, *v);
                 // A channel n ∝ b̂_n(x), then the learned column's density.
                 let n = {

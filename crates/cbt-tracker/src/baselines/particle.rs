@@ -100,8 +100,8 @@ impl PfModel {
 /// continues the same random sequence).
 ///
 /// A filter read back with serde is validated (model parameters, at least one particle, as
-/// many weights as particles, finite values, weights summing to 1): [`TrackError::Corrupt`]
-/// otherwise.
+/// many weights as particles, finite values, weights summing to 1, a generator state that is
+/// not all zeros): [`TrackError::Corrupt`] otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "ParticleFilterRaw")]
 pub struct ParticleFilter {
@@ -122,7 +122,7 @@ struct ParticleFilterRaw {
     particles: Vec<[f64; 4]>,
     weights: Vec<f64>,
     logw: Vec<f64>,
-    rng: Xoshiro256PlusPlus,
+    rng: RngState,
     k: u64,
     estimate: Point,
 }
@@ -135,6 +135,7 @@ impl TryFrom<ParticleFilterRaw> for ParticleFilter {
 
     fn try_from(r: ParticleFilterRaw) -> Result<Self, TrackError> {
         r.model.validate()?;
+        let rng = r.rng.generator()?;
         if r.particles.is_empty() {
             return Err(corrupt("a particle filter without particles"));
         }
@@ -156,10 +157,36 @@ impl TryFrom<ParticleFilterRaw> for ParticleFilter {
             particles: r.particles,
             weights: r.weights,
             logw: r.logw,
-            rng: r.rng,
+            rng,
             k: r.k,
             estimate: r.estimate,
         })
+    }
+}
+
+/// The saved state of the filter's `Xoshiro256++` generator: the form its own `Deserialize`
+/// reads (`{"s": [4 words]}`), checked before the generator is rebuilt.
+#[derive(Deserialize)]
+struct RngState {
+    s: [u64; 4],
+}
+
+impl RngState {
+    /// The generator with this state. All zeros is [`TrackError::Corrupt`]: xoshiro never
+    /// reaches it (it would draw 0 forever, and the normal sampler then never returns).
+    fn generator(&self) -> Result<Xoshiro256PlusPlus, TrackError> {
+        if self.s == [0; 4] {
+            return Err(corrupt(
+                "random generator state of all zeros (it would draw 0 forever)",
+            ));
+        }
+        // `from_seed` reads the words little-endian and keeps any state but all zeros: the
+        // generator `Deserialize` would have built.
+        let mut seed = [0u8; 32];
+        for (chunk, w) in seed.chunks_exact_mut(8).zip(self.s) {
+            chunk.copy_from_slice(&w.to_le_bytes());
+        }
+        Ok(Xoshiro256PlusPlus::from_seed(seed))
     }
 }
 
@@ -385,6 +412,14 @@ impl Tracker for ParticleFilter {
     fn step(&mut self, detections: &[Detection]) -> Result<Estimate, TrackError> {
         for d in detections {
             d.validate(self.model.dims())?;
+        }
+        // Only a filter read back with the largest count gets here (a reset restarts it).
+        if self.k == u64::MAX {
+            return Err(TrackError::InvalidParameter {
+                name: "k",
+                value: self.k as f64,
+                reason: "the time index is at u64::MAX: no step follows it (reset restarts it)",
+            });
         }
         self.propagate();
         if self.log_likelihoods(detections) {

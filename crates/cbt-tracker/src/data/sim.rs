@@ -17,6 +17,25 @@ use crate::{Detection, Frame, Sequence, TrackError};
 /// that many detections a frame).
 pub const MAX_CLUTTER_RATE: f64 = 1e4;
 
+/// Most frames one call of a generator ([`generate`], [`generate_one`], [`Ungm::generate`])
+/// makes: `count × frames`, a sequence without frames counting as one. Ten million frames
+/// (a few GB with clutter); more is refused before anything is drawn (a count of
+/// `usize::MAX` used to panic with "capacity overflow", and a huge frame count ran until
+/// memory ran out).
+pub const MAX_FRAMES: usize = 10_000_000;
+
+/// Checks that `count` sequences of `frames` frames are at most [`MAX_FRAMES`].
+fn check_frames(count: usize, frames: usize) -> Result<(), TrackError> {
+    match count.checked_mul(frames.max(1)) {
+        Some(n) if n <= MAX_FRAMES => Ok(()),
+        _ => Err(TrackError::InvalidParameter {
+            name: "frames",
+            value: count as f64 * frames.max(1) as f64,
+            reason: "count × frames exceeds MAX_FRAMES (10,000,000) frames in one call",
+        }),
+    }
+}
+
 /// The camera and car dynamics of the RC-car-following scenario: a car seen from a following
 /// vehicle's uncalibrated camera, in image coordinates (pixels, origin top-left).
 ///
@@ -183,7 +202,8 @@ fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
 
 /// `count` sequences of `frames` frames each.
 ///
-/// Errors: an invalid scenario or level ([`Scenario::validate`], [`Level::validate`]), checked
+/// Errors: an invalid scenario or level ([`Scenario::validate`], [`Level::validate`]), or more
+/// than [`MAX_FRAMES`] frames in all ([`TrackError::InvalidParameter`] `frames`), checked
 /// before anything is generated.
 pub fn generate(
     scenario: &Scenario,
@@ -194,6 +214,7 @@ pub fn generate(
 ) -> Result<Vec<Sequence>, TrackError> {
     scenario.validate()?;
     level.validate()?;
+    check_frames(count, frames)?;
     Ok((0..count)
         .map(|i| simulate(scenario, level, frames, seed, i as u64))
         .collect())
@@ -209,6 +230,7 @@ pub fn generate_one(
 ) -> Result<Sequence, TrackError> {
     sc.validate()?;
     level.validate()?;
+    check_frames(1, frames)?;
     Ok(simulate(sc, level, frames, seed, index))
 }
 
@@ -298,8 +320,8 @@ fn simulate(sc: &Scenario, level: &Level, frames: usize, seed: u64, index: u64) 
 /// own detections are replaced. Stream `(seed, index)` as [`generate`] uses.
 ///
 /// Errors ([`TrackError::InvalidParameter`]): an invalid level ([`Level::validate`]), or an
-/// `area` that is not finite with `x_lo < x_hi` and `y_lo < y_hi`; checked before anything is
-/// drawn.
+/// `area` that is not finite with `x_lo < x_hi` and `y_lo < y_hi` and finite widths; checked
+/// before anything is drawn.
 ///
 /// ```
 /// use cbt_tracker::sim::{observe, Level};
@@ -323,11 +345,13 @@ pub fn observe(
     level.validate()?;
     let [x_lo, x_hi, y_lo, y_hi] = area;
     for (lo, hi) in [(x_lo, x_hi), (y_lo, y_hi)] {
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        // The width too: clutter is drawn at `lo + u·(hi − lo)`, which an overflowing width
+        // (`[-1e308, 1e308]`) put at ±∞.
+        if !(lo.is_finite() && hi.is_finite() && lo < hi && (hi - lo).is_finite()) {
             return Err(TrackError::InvalidParameter {
                 name: "area",
                 value: if lo.is_finite() { hi } else { lo },
-                reason: "must be finite with x_lo < x_hi and y_lo < y_hi",
+                reason: "must be finite with x_lo < x_hi and y_lo < y_hi, and finite widths",
             });
         }
     }
@@ -402,9 +426,10 @@ impl Ungm {
 
     /// `count` sequences of `frames` frames (frame 0 holds `x_0` and its measurement).
     ///
-    /// Errors: a variance that is not finite and non-negative
-    /// ([`TrackError::InvalidParameter`]) or a non-finite `x0` ([`TrackError::NonFinite`]),
-    /// checked before anything is drawn (they used to give NaN sequences).
+    /// Errors: a variance that is not finite and non-negative or more than [`MAX_FRAMES`]
+    /// frames in all ([`TrackError::InvalidParameter`]), or a non-finite `x0`
+    /// ([`TrackError::NonFinite`]), checked before anything is drawn (they used to give NaN
+    /// sequences).
     pub fn generate(
         &self,
         count: usize,
@@ -413,6 +438,7 @@ impl Ungm {
     ) -> Result<Vec<Sequence>, TrackError> {
         non_negative("process_var", self.process_var)?;
         non_negative("meas_var", self.meas_var)?;
+        check_frames(count, frames)?;
         if !self.x0.is_finite() {
             return Err(TrackError::NonFinite {
                 what: "UNGM initial state x0",

@@ -4,7 +4,7 @@
 
 use crate::config::{Clutter, Layout, Order};
 use crate::encode::{Encoded, encode_detections};
-use crate::integrity::{len, nonneg};
+use crate::integrity::{corrupt, len, nonneg, unit_mass};
 use crate::model::{ObservationModel, SystemModel};
 use crate::tracker::{Estimate, Hypothesis};
 use crate::{CbtModel, Detection, Point, Space, TrackError};
@@ -74,8 +74,28 @@ impl DensePosterior {
         for (what, v) in [("posterior", &post), ("previous posterior", &prev)] {
             len(what, v.len(), space.cells())?;
             nonneg(what, v)?;
+            unit_mass(what, v)?;
         }
         check_marginals(space, &marg, &marg_prev)?;
+        // The separable prediction reads the marginals, the estimate the posterior: they must
+        // agree (as `update_marginals` leaves them; the uniform start's `1/N` differs from the
+        // summed marginal by rounding only).
+        for (what, m, q) in [
+            ("marginals", &marg, &post),
+            ("previous marginals", &marg_prev, &prev),
+        ] {
+            let want = marginals_of(space, q);
+            let off = m
+                .iter()
+                .flatten()
+                .zip(want.iter().flatten())
+                .any(|(a, b)| (a - b).abs() > 1e-9);
+            if off {
+                return Err(corrupt(format!(
+                    "the saved {what} are not the marginals of the saved posterior"
+                )));
+            }
+        }
         Ok(DensePosterior {
             post,
             prev,
@@ -121,6 +141,8 @@ impl DensePosterior {
                 phased,
             } => {
                 axis.resize(space.dims(), Vec::new());
+                // `time < u64::MAX`: `CbtTracker` keeps it there (`set_time`, `filter`, and
+                // its deserialiser refuse the last index).
                 let phase = cfg.input.map(|i| i.weights(time + 1));
                 for (d, p) in axis.iter_mut().enumerate() {
                     p.resize(space.axis_len(d), 0.0);
@@ -392,6 +414,23 @@ impl DensePosterior {
             }
         }
     }
+}
+
+/// The per-axis marginals of a joint density `q` over the grid of `space` (of the right
+/// length), for checking saved ones.
+fn marginals_of(space: &Space, q: &[f64]) -> Vec<Vec<f64>> {
+    if space.dims() == 1 {
+        return vec![q.to_vec()];
+    }
+    let (nx, ny) = (space.axis_len(0), space.axis_len(1));
+    let (mut mx, mut my) = (vec![0.0; nx], vec![0.0; ny]);
+    for (i, row) in q.chunks_exact(ny).enumerate() {
+        for (j, &v) in row.iter().enumerate() {
+            mx[i] += v;
+            my[j] += v;
+        }
+    }
+    vec![mx, my]
 }
 
 /// The saved marginals' sizes against `space`, their values non-negative (checked for

@@ -82,23 +82,43 @@ impl PositionVelocity {
         self.axes.iter().all(|a| a.cells == 0)
     }
 
-    /// Consistency with the posterior window `post` (deserialised files).
-    pub fn check(&self, post: &Patch) -> Result<(), TrackError> {
+    /// Consistency with the posterior window `post` and the system models `sys` (one per
+    /// axis) of deserialised files: one distribution per row or column of the window, each
+    /// over its axis's `2r + 1` velocities (any other width used to be taken silently as
+    /// unknown, and a huge one overflowed `cells · width`).
+    pub fn check(&self, post: &Patch, sys: &[StatSystem]) -> Result<(), TrackError> {
         if self.is_empty() {
             return Ok(());
         }
-        for (d, a) in self.axes.iter().enumerate() {
+        for (d, (a, s)) in self.axes.iter().zip(sys).enumerate() {
             let (o, n) = if d == 0 {
                 (post.i0, post.h)
             } else {
                 (post.j0, post.w)
             };
-            if a.first != o || a.cells != n || a.width == 0 || a.v.len() != n * a.width {
+            // `n` is at most the axis length and the width `2r + 1` at most 2^15 + 1
+            // (`StatSystem::check`): the product fits.
+            if a.first != o
+                || a.cells != n
+                || a.width != 2 * s.radius() + 1
+                || a.v.len() != n * a.width
+            {
                 return Err(corrupt(format!(
                     "per-position velocities of axis {d} do not match the posterior window"
                 )));
             }
             nonneg("per-position velocity", &a.v)?;
+            // Every step leaves each cell's distribution with mass 1 (or the learned `S`); an
+            // empty one gave a kernel of zeros, which dropped that row's or column's mass.
+            if let Some(c) =
+                a.v.chunks_exact(a.width)
+                    .position(|c| c.iter().sum::<f64>() <= 0.0)
+            {
+                return Err(corrupt(format!(
+                    "the per-position velocity of cell {} on axis {d} has no mass",
+                    a.first + c
+                )));
+            }
         }
         Ok(())
     }

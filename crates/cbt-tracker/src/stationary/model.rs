@@ -164,13 +164,14 @@ impl StatObservation {
     /// Consistency of a deserialised model with `space`; fills the fields older files lack
     /// (`exposure`: zeros, as [`Self::normalise`] reads a missing one; `len`: the space's).
     pub fn check(&mut self, space: &Space) -> Result<(), TrackError> {
-        let ro = self.radius + RING;
-        if self.radius == 0 || ro > 1000 {
+        // Checked before `radius + RING`, which overflowed for a radius near usize::MAX.
+        if self.radius == 0 || self.radius > 1000 - RING {
             return Err(corrupt(format!(
                 "observation kernel radius {} outside 1..=996",
                 self.radius
             )));
         }
+        let ro = self.radius + RING;
         let n = (2 * ro + 1) * (2 * ro + 1);
         if self.exposure.is_empty() {
             self.exposure = vec![0.0; n];

@@ -444,17 +444,24 @@ impl WindowState {
     pub fn check(&mut self, space: &Space, sys: &[StatSystem]) -> Result<(), TrackError> {
         let p = &self.post;
         let (nx, ny) = (space.axis_len(0), space.axis_len(1));
-        if p.h == 0 || p.w == 0 || p.i0 + p.h > nx || p.j0 + p.w > ny {
+        // `origin + cells ≤ axis length`, without overflowing on a huge saved origin or size
+        // (which panicked, or wrapped into range in a release build).
+        let fits = |o: usize, n: usize, axis: usize| o.checked_add(n).is_some_and(|e| e <= axis);
+        if p.h == 0 || p.w == 0 || !fits(p.i0, p.h, nx) || !fits(p.j0, p.w, ny) {
             return Err(corrupt(format!(
                 "posterior window {}×{} at ({}, {}) does not fit the {nx}×{ny} grid",
                 p.h, p.w, p.i0, p.j0
             )));
         }
+        // Within the grid now, whose cell count fits a usize (`ChannelGrid::new`).
         len("posterior window", p.v.len(), p.h * p.w)?;
         nonneg("posterior window", &p.v)?;
         if p.v.iter().sum::<f64>() <= 0.0 {
             return Err(corrupt("the posterior window has no mass"));
         }
+        // Every start and step leaves the window normalised: a scaled one reported scaled
+        // certainties.
+        crate::integrity::unit_mass("the posterior window", &p.v)?;
         if self.cur[0].1.is_empty() && self.cur[1].1.is_empty() {
             self.cur = marginals(&self.post);
         }
@@ -470,7 +477,7 @@ impl WindowState {
         }
         for (what, m) in [("previous", &self.prev), ("current", &self.cur)] {
             for (d, (o, v)) in m.iter().enumerate() {
-                if o + v.len() > space.axis_len(d) {
+                if !fits(*o, v.len(), space.axis_len(d)) {
                     return Err(corrupt(format!(
                         "{what} marginal of axis {d} ({} cells from {o}) beyond the grid",
                         v.len()
@@ -492,7 +499,7 @@ impl WindowState {
                 )));
             }
         }
-        self.coupled.check(&self.post)
+        self.coupled.check(&self.post, sys)
     }
 
     /// Starts from a joint density given on a patch (normalised, cropped here).

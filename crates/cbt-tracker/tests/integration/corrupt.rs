@@ -360,3 +360,174 @@ fn no_single_mutation_of_a_saved_tracker_panics_later() {
         assert!(loaded > 0);
     }
 }
+
+/// A stationary tracker after a few steps with the velocity per position (it carries a
+/// velocity per row and column of its window).
+fn per_position_tracker() -> CbtTracker {
+    let (train, _) = data();
+    let space = Space::image(W, H, stationary_spacing(&train)).unwrap();
+    let cfg = CbtConfig {
+        velocity: cbt_tracker::Velocity::PerPosition,
+        ..CbtConfig::stationary()
+    };
+    tracker(CbtModel::learn_sequences(space, cfg, &train).unwrap())
+}
+
+/// Audit: the window's consistency check added and multiplied the saved sizes and origins as
+/// they were, so `u64::MAX` in one of them panicked with "attempt to add with overflow" (a
+/// release build wrapped and could accept the window); so did the observation kernel's radius
+/// (`radius + RING`) and a per-position velocity's width (`cells · width`). A per-position
+/// velocity whose width is not its axis's `2r + 1` used to load and be taken silently as
+/// unknown. All are now `Corrupt` errors.
+#[test]
+fn huge_sizes_and_origins_in_a_saved_window_are_errors() {
+    let t = to_value(&tracker(stationary()));
+    for p in [
+        "/win/post/i0",
+        "/win/post/j0",
+        "/win/post/h",
+        "/win/post/w",
+        "/win/prev/0/0",
+        "/win/prev/1/0",
+        "/win/cur/0/0",
+        "/model/obs/Stationary/radius",
+        "/model/obs/Stationary/ra",
+    ] {
+        for big in [u64::MAX, 1 << 63, 1 << 32] {
+            let mut v = t.clone();
+            *pointer(&mut v, p) = Value::from(big);
+            let e = corrupt::<CbtTracker>(&v);
+            assert!(e.contains("corrupt"), "{p} = {big}: {e}");
+        }
+    }
+    let t = to_value(&per_position_tracker());
+    for d in 0..2 {
+        let at = format!("/win/coupled/axes/{d}");
+        let cells = pointer(&mut t.clone(), &format!("{at}/cells"))
+            .as_u64()
+            .unwrap();
+        let width = pointer(&mut t.clone(), &format!("{at}/width"))
+            .as_u64()
+            .unwrap();
+        assert!(cells > 0 && width > 3, "axis {d} carries velocities");
+        for big in [u64::MAX, 1 << 63] {
+            let mut v = t.clone();
+            *pointer(&mut v, &format!("{at}/width")) = Value::from(big);
+            let e = corrupt::<CbtTracker>(&v);
+            assert!(e.contains("velocities"), "axis {d}, width {big}: {e}");
+        }
+        // Three velocities per cell, consistent with the window but not with `T`.
+        let mut v = t.clone();
+        *pointer(&mut v, &format!("{at}/width")) = Value::from(3);
+        *pointer(&mut v, &format!("{at}/v")) = Value::from(vec![1.0 / 3.0; 3 * cells as usize]);
+        let e = corrupt::<CbtTracker>(&v);
+        assert!(e.contains("velocities"), "axis {d}: {e}");
+        // One cell's distribution all zeros (every step leaves each with mass 1): its kernel
+        // was zeros, and the prediction silently dropped that row's or column's mass.
+        let mut v = t.clone();
+        for x in pointer(&mut v, &format!("{at}/v"))
+            .as_array_mut()
+            .unwrap()
+            .iter_mut()
+            .take(width as usize)
+        {
+            *x = Value::from(0.0);
+        }
+        let e = corrupt::<CbtTracker>(&v);
+        assert!(e.contains("no mass"), "axis {d}: {e}");
+    }
+}
+
+/// Audit: a particle filter read back with a step count of `u64::MAX` panicked in its next
+/// step ("attempt to add with overflow"); that step is now refused and changes nothing. A
+/// generator state of all zeros (which xoshiro never reaches: it draws 0 forever) loaded and
+/// hung the next `reset` or `step` in the normal sampler; it is now `Corrupt`.
+#[test]
+fn a_particle_filter_at_its_last_step_or_with_a_dead_generator_is_refused() {
+    let pf = ParticleFilter::new(
+        PfModel::Ungm {
+            process_var: 10.0,
+            meas_var: 1.0,
+            init_sigma: 2.0,
+        },
+        20,
+        1,
+    )
+    .unwrap();
+    let mut v = to_value(&pf);
+    v["k"] = Value::from(u64::MAX);
+    let mut last: ParticleFilter = serde_json::from_value(v).unwrap();
+    let before = last.clone();
+    let r = last.step(&[Detection::new(3.0, 0.0)]);
+    assert!(
+        matches!(
+            r,
+            Err(cbt_tracker::TrackError::InvalidParameter { name: "k", .. })
+        ),
+        "{r:?}"
+    );
+    assert!(last == before);
+    // A reset restarts the count.
+    last.reset([0.0, 0.0]).unwrap();
+    last.step(&[Detection::new(3.0, 0.0)]).unwrap();
+    let mut v = to_value(&pf);
+    v["rng"]["s"] = Value::from(vec![0u64; 4]);
+    let e = corrupt::<ParticleFilter>(&v);
+    assert!(e.contains("generator"), "{e}");
+    // Any other state loads and continues as the original.
+    let mut back: ParticleFilter = serde_json::from_value(to_value(&pf)).unwrap();
+    let mut orig = pf.clone();
+    assert_eq!(
+        back.step(&[Detection::new(3.0, 0.0)]).unwrap(),
+        orig.step(&[Detection::new(3.0, 0.0)]).unwrap()
+    );
+    assert!(back == orig);
+}
+
+/// Audit: a saved posterior was checked for its size and signs only, so one scaled by 10
+/// loaded and reported ten times its certainty (window mass), one of zeros the centre of cell 0
+/// with certainty 0; and the separable layout predicts from the saved marginals, which were
+/// never compared with the posterior they belong to. Every step, start and reset leaves
+/// posteriors summing to 1 and the marginals theirs: anything else is `Corrupt`.
+#[test]
+fn saved_posteriors_must_be_distributions_with_their_own_marginals() {
+    let scaled = |v: &Value, p: &str, k: f64| {
+        let mut v = v.clone();
+        for x in pointer(&mut v, p).as_array_mut().unwrap() {
+            *x = Value::from(x.as_f64().unwrap() * k);
+        }
+        v
+    };
+    let sep = to_value(&tracker(model(Layout::Separable, Order::Second, 8.0)));
+    let stat = to_value(&tracker(stationary()));
+    for (t, p) in [(&sep, "/post"), (&sep, "/prev"), (&stat, "/win/post/v")] {
+        for k in [10.0, 0.5, 0.0] {
+            let e = corrupt::<CbtTracker>(&scaled(t, p, k));
+            assert!(
+                e.contains("sums to") || e.contains("no mass"),
+                "{p} × {k}: {e}"
+            );
+        }
+        // Rounding is not an error.
+        serde_json::from_value::<CbtTracker>(scaled(t, p, 1.0 + 1e-12)).unwrap();
+    }
+    for p in ["/marg/0", "/marg/1", "/marg_prev/0", "/marg_prev/1"] {
+        let mut v = sep.clone();
+        let m = pointer(&mut v, p).as_array_mut().unwrap();
+        let at = |m: &Vec<Value>, f: fn(f64, f64) -> bool| {
+            (0..m.len())
+                .reduce(|a, b| {
+                    if f(m[b].as_f64().unwrap(), m[a].as_f64().unwrap()) {
+                        b
+                    } else {
+                        a
+                    }
+                })
+                .unwrap()
+        };
+        let (hi, lo) = (at(m, |a, b| a > b), at(m, |a, b| a < b));
+        m.swap(hi, lo);
+        let e = corrupt::<CbtTracker>(&v);
+        assert!(e.contains("not the marginals"), "{p}: {e}");
+    }
+}

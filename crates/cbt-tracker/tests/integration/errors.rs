@@ -859,3 +859,294 @@ fn axes_refuse_bad_ranges_and_more_than_a_million_channels() {
     assert_eq!(b.len(), 1_000_000 + 2);
     assert!(b.spacing() <= 1.0);
 }
+
+/// Audit: `runner_ups` and `decode_radius` were unbounded. `runner_ups = usize::MAX` panicked
+/// with "attempt to add with overflow" in both layouts' decoding (`runner_ups + 1`), and a
+/// large one reserved that many hypotheses per step; `decode_radius = usize::MAX` became the
+/// radius −1 (`as i64`), so the stationary estimate was a bare cell centre with certainty 0,
+/// and `1 << 63` overflowed. Both are now `InvalidParameter`s naming the field.
+#[test]
+fn runner_ups_and_decode_radius_are_bounded() {
+    let space = Space::image(100.0, 100.0, 10.0).unwrap();
+    for (base, layout) in [
+        (CbtConfig::default(), "separable"),
+        (CbtConfig::stationary(), "stationary"),
+    ] {
+        for n in [usize::MAX, 1 << 40, cbt_tracker::MAX_RUNNER_UPS + 1] {
+            let c = CbtConfig {
+                runner_ups: n,
+                ..base
+            };
+            for r in [
+                c.validate(),
+                CbtModel::untrained(space.clone(), c).map(|_| ()),
+            ] {
+                assert!(
+                    matches!(
+                        r,
+                        Err(TrackError::InvalidParameter {
+                            name: "runner_ups",
+                            ..
+                        })
+                    ),
+                    "{layout}: runner_ups = {n}: {r:?}"
+                );
+            }
+        }
+        for n in [usize::MAX, 1 << 63, (1 << 24) + 1] {
+            let c = CbtConfig {
+                decode_radius: n,
+                ..base
+            };
+            assert!(
+                matches!(
+                    c.validate(),
+                    Err(TrackError::InvalidParameter {
+                        name: "decode_radius",
+                        ..
+                    })
+                ),
+                "{layout}: decode_radius = {n}"
+            );
+        }
+        let widest = CbtConfig {
+            runner_ups: cbt_tracker::MAX_RUNNER_UPS,
+            decode_radius: 1 << 24,
+            ..base
+        };
+        assert!(widest.validate().is_ok(), "{layout}");
+    }
+}
+
+/// A 1-D model with a periodic input (its tracker counts a time index).
+fn periodic_model() -> CbtModel {
+    use cbt_tracker::{DEFAULT_KERNEL, ObservationFallback, PeriodicInput, axis};
+    let state = axis(-30.0, 30.0, 2.0, DEFAULT_KERNEL).unwrap();
+    let meas = axis(-5.0, 50.0, 2.0, DEFAULT_KERNEL).unwrap();
+    let cfg = CbtConfig {
+        order: Order::First,
+        observation_fallback: ObservationFallback::Uniform,
+        input: Some(PeriodicInput {
+            omega: 1.2,
+            channels: 12,
+        }),
+        ..CbtConfig::default()
+    };
+    let mut train = cbt_tracker::sim::Ungm::default()
+        .generate(4, 40, 3)
+        .unwrap();
+    for f in train.iter_mut().flat_map(|s| &mut s.frames) {
+        if let Some(t) = f.truth.as_mut() {
+            t[0] = t[0].clamp(-29.0, 29.0);
+        }
+        for d in &mut f.detections {
+            d.pos[0] = d.pos[0].clamp(-4.0, 49.0);
+        }
+    }
+    let space = Space::new(vec![state], vec![meas]).unwrap();
+    CbtModel::learn_sequences(space, cfg, &train).unwrap()
+}
+
+/// Audit: a tracker's time index (periodic input) could be set to `u64::MAX`, where the
+/// next prediction's `time + 1` panicked with "attempt to add with overflow" (`predict`,
+/// `step`; a release build wrapped to the phase of time 0). The index now stays below
+/// `u64::MAX`: `set_time(u64::MAX)` is refused, and a step that would reach it is refused
+/// and leaves the tracker unchanged.
+#[test]
+fn the_time_index_stays_below_its_largest_value() {
+    let mut t = CbtTracker::new(periodic_model());
+    t.reset([0.1, 0.0]).unwrap();
+    let dets = [Detection::new(3.0, 0.0)];
+    t.set_time(7).unwrap();
+    assert!(matches!(
+        t.set_time(u64::MAX),
+        Err(TrackError::InvalidParameter { name: "time", .. })
+    ));
+    assert_eq!(t.time(), 7);
+    assert_eq!(t.predict().len(), t.model().space().cells());
+    t.set_time(u64::MAX - 2).unwrap();
+    t.step(&dets).unwrap();
+    assert_eq!(t.time(), u64::MAX - 1);
+    let before = t.clone();
+    let json = serde_json::to_string(&t).unwrap();
+    assert_eq!(t.predict().len(), t.model().space().cells());
+    for r in [t.step(&dets).map(drop), t.filter(&dets)] {
+        assert!(
+            matches!(r, Err(TrackError::InvalidParameter { name: "time", .. })),
+            "{r:?}"
+        );
+        assert!(t == before);
+        assert_eq!(serde_json::to_string(&t).unwrap(), json);
+    }
+    // A saved tracker at the largest index does not load.
+    let text = json.replace(
+        &format!("\"time\":{}", u64::MAX - 1),
+        &format!("\"time\":{}", u64::MAX),
+    );
+    assert_ne!(text, json);
+    let e = serde_json::from_str::<CbtTracker>(&text).unwrap_err();
+    assert!(e.to_string().contains("time"), "{e}");
+}
+
+/// Audit: a density whose values are each finite but whose sum overflows to ∞ passed
+/// `reset_to`'s checks and was divided by ∞: a posterior of zeros, silently. It is now an
+/// `InvalidParameter` and the tracker is unchanged.
+#[test]
+fn reset_to_refuses_a_density_whose_mass_overflows() {
+    let (model, train) = setup();
+    let sc = Scenario::default();
+    let stat_space = Space::image(sc.width, sc.height, 4.0).unwrap();
+    let stat = CbtModel::learn_sequences(stat_space, CbtConfig::stationary(), &train).unwrap();
+    for m in [model, stat] {
+        let mut t = CbtTracker::new(m);
+        t.reset([100.0, 100.0]).unwrap();
+        let before = t.clone();
+        let huge = vec![f64::MAX / 2.0; t.model().space().cells()];
+        let r = t.reset_to(&huge);
+        assert!(
+            matches!(
+                r,
+                Err(TrackError::InvalidParameter {
+                    name: "density",
+                    ..
+                })
+            ),
+            "{r:?}"
+        );
+        assert!(t == before);
+        // A large mass that fits is a density like any other.
+        let mut big = vec![0.0; t.model().space().cells()];
+        big[40] = f64::MAX / 2.0;
+        t.reset_to(&big).unwrap();
+        assert!((t.posterior().iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+}
+
+/// Audit: the generators collected `count` sequences into a vector reserved up front, so a
+/// huge count panicked with "capacity overflow" (or aborted on the allocation), and a huge
+/// frame count ran until memory ran out. Both are now bounded by `MAX_FRAMES` in total.
+#[test]
+fn generators_refuse_more_frames_than_they_can_hold() {
+    use cbt_tracker::sim::{MAX_FRAMES, Ungm, generate_one};
+    let sc = Scenario::default();
+    let level = Level::preset(0);
+    let refused = |r: Result<usize, TrackError>| {
+        assert!(
+            matches!(r, Err(TrackError::InvalidParameter { name: "frames", .. })),
+            "{r:?}"
+        );
+    };
+    refused(generate(&sc, &level, usize::MAX, 0, 1).map(|s| s.len()));
+    refused(generate(&sc, &level, usize::MAX, 2, 1).map(|s| s.len()));
+    refused(Ungm::default().generate(usize::MAX, 0, 1).map(|s| s.len()));
+    refused(generate(&sc, &level, 2, MAX_FRAMES / 2 + 1, 1).map(|s| s.len()));
+    refused(
+        Ungm::default()
+            .generate(1, MAX_FRAMES + 1, 1)
+            .map(|s| s.len()),
+    );
+    refused(generate_one(&sc, &level, MAX_FRAMES + 1, 1, 0).map(|s| s.frames.len()));
+    assert_eq!(generate(&sc, &level, 3, 0, 1).unwrap().len(), 3);
+}
+
+/// Audit: `observe` checked that its area is finite but not its width, so
+/// `[-1e308, 1e308]` drew clutter at ±∞ (its width overflows) without an error.
+#[test]
+fn observe_refuses_an_area_whose_width_overflows() {
+    use cbt_tracker::sim::observe;
+    let sc = Scenario::default();
+    let track = generate(&sc, &Level::preset(0), 1, 20, 1)
+        .unwrap()
+        .remove(0);
+    for area in [
+        [-1e308, 1e308, 0.0, 240.0],
+        [0.0, 320.0, -f64::MAX, f64::MAX],
+    ] {
+        let r = observe(&track, &Level::preset(4), area, 1, 0);
+        assert!(
+            matches!(r, Err(TrackError::InvalidParameter { name: "area", .. })),
+            "{area:?}: {:?}",
+            r.map(|s| s
+                .frames
+                .iter()
+                .flat_map(|f| f.detections.clone())
+                .find(|d| !d.pos[0].is_finite() || !d.pos[1].is_finite()))
+        );
+    }
+}
+
+/// Audit: `Space::cell_centre` of a cell past the grid wrapped around it (cell `G` gave the
+/// centre of cell 0); it now panics like slice indexing, as documented.
+#[test]
+#[should_panic(expected = "outside the grid")]
+fn cell_centre_past_the_grid_panics() {
+    let s = Space::image(96.0, 72.0, 8.0).unwrap();
+    assert_eq!(s.cell_centre(0), [-4.0, -4.0]);
+    let _ = s.cell_centre(s.cells());
+}
+
+/// Audit: a periodic input's frequency was only required to be finite and positive; with
+/// `ω = 1e308` the phase `ω·k` is ∞ from `k = 2` on, the phase weights come out empty and every
+/// prediction was the uniform one, silently. `ω·k` must now be finite for every `u64` `k`.
+#[test]
+fn a_periodic_input_whose_phase_overflows_is_refused() {
+    use cbt_tracker::PeriodicInput;
+    for omega in [1e308, 1e290] {
+        let input = PeriodicInput {
+            omega,
+            channels: 12,
+        };
+        assert!(
+            matches!(
+                input.validate(),
+                Err(TrackError::InvalidParameter {
+                    name: "input omega",
+                    ..
+                })
+            ),
+            "ω = {omega}: weights(2) = {:?}",
+            input.weights(2)
+        );
+    }
+    let fine = PeriodicInput {
+        omega: 1e280,
+        channels: 12,
+    };
+    fine.validate().unwrap();
+    assert!(!fine.weights(u64::MAX).is_empty());
+}
+
+/// Audit: the sparse joint layout's fallback Gaussians (one per channel of each axis, up to
+/// `2⌈3σ⌉ + 1` values each) were left out of the size check, so a long state axis with a
+/// short measurement axis and a wide `fallback_sigma` passed it and then allocated
+/// `N · min(N, 6σ)` numbers (here about 2.9 · 10⁸, over `MAX_MODEL_VALUES`; more channels
+/// or a wider σ aborted the process). Learning, an untrained model and a model read back with
+/// serde now refuse it as `ModelTooLarge`.
+#[test]
+fn sparse_joint_fallback_gaussians_count_towards_the_size_limit() {
+    use cbt_tracker::{DEFAULT_KERNEL, axis};
+    let state = axis(0.0, 16_998.0, 1.0, DEFAULT_KERNEL).unwrap();
+    let meas = axis(0.0, 1.0, 1.0, DEFAULT_KERNEL).unwrap();
+    let space = Space::new(vec![state], vec![meas]).unwrap();
+    let narrow = CbtConfig {
+        layout: Layout::SparseJoint,
+        order: Order::First,
+        ..CbtConfig::default()
+    };
+    let wide = CbtConfig {
+        fallback_sigma: 1e4,
+        ..narrow
+    };
+    match CbtModel::untrained(space.clone(), wide) {
+        Err(TrackError::ModelTooLarge { values, .. }) => assert!(values > MAX_MODEL_VALUES),
+        other => panic!("{:?}", other.map(|m| m.space().axis_len(0))),
+    }
+    // The same space with a narrow σ fits, and its file edited to the wide σ is refused.
+    let m = CbtModel::untrained(space, narrow).unwrap();
+    let mut v = serde_json::to_value(&m).unwrap();
+    v["config"]["fallback_sigma"] = serde_json::Value::from(1e4);
+    let e = serde_json::from_value::<CbtModel>(v)
+        .map(|_| ())
+        .unwrap_err();
+    assert!(e.to_string().contains("SparseJoint"), "{e}");
+}

@@ -185,13 +185,13 @@ fn saved_with_its_time() {
     // A reset restarts the clock; set_time places it.
     u.reset([0.0, 0.0]).unwrap();
     assert_eq!(u.time(), 0);
-    u.set_time(40);
+    u.set_time(40).unwrap();
     assert_eq!(u.time(), 40);
     // Without an input: no `input`, `phased` or `time` in the file, and the clock stays 0.
     let mut plain = CbtTracker::new(model(None, 1e-3, 0.01));
     plain.reset([0.1, 0.0]).unwrap();
     plain.step(&run.frames[1].detections).unwrap();
-    plain.set_time(5);
+    plain.set_time(5).unwrap();
     assert_eq!(plain.time(), 0);
     let text = serde_json::to_string(&plain).unwrap();
     for key in ["\"input\"", "\"phased\"", "\"time\""] {
