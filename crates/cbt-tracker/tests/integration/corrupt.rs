@@ -226,16 +226,7 @@ fn negative_and_non_finite_numbers_are_errors() {
     v["config"]["mixing"] = Value::from(-1.0);
     assert!(corrupt::<CbtModel>(&v).contains("mixing"));
     // The baselines.
-    let pf = ParticleFilter::new(
-        PfModel::Ungm {
-            process_var: 10.0,
-            meas_var: 1.0,
-            init_sigma: 2.0,
-        },
-        20,
-        1,
-    )
-    .unwrap();
+    let pf = ungm_filter();
     let mut v = to_value(&pf);
     v["weights"][3] = Value::from(-1.0);
     assert!(corrupt::<ParticleFilter>(&v).contains("weights"));
@@ -444,16 +435,7 @@ fn huge_sizes_and_origins_in_a_saved_window_are_errors() {
 /// hung the next `reset` or `step` in the normal sampler; it is now `Corrupt`.
 #[test]
 fn a_particle_filter_at_its_last_step_or_with_a_dead_generator_is_refused() {
-    let pf = ParticleFilter::new(
-        PfModel::Ungm {
-            process_var: 10.0,
-            meas_var: 1.0,
-            init_sigma: 2.0,
-        },
-        20,
-        1,
-    )
-    .unwrap();
+    let pf = ungm_filter();
     let mut v = to_value(&pf);
     v["k"] = Value::from(u64::MAX);
     let mut last: ParticleFilter = serde_json::from_value(v).unwrap();
@@ -530,4 +512,18 @@ fn saved_posteriors_must_be_distributions_with_their_own_marginals() {
         let e = corrupt::<CbtTracker>(&v);
         assert!(e.contains("not the marginals"), "{p}: {e}");
     }
+}
+
+/// A 20-particle filter of the UNGM model, seed 1.
+fn ungm_filter() -> ParticleFilter {
+    ParticleFilter::new(
+        PfModel::Ungm {
+            process_var: 10.0,
+            meas_var: 1.0,
+            init_sigma: 2.0,
+        },
+        20,
+        1,
+    )
+    .unwrap()
 }

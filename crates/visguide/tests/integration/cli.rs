@@ -440,6 +440,23 @@ fn fit_args<'a>(data: &'a Path, model: &'a Path, passes: &'a str) -> [&'a str; 1
     ]
 }
 
+/// `dir/d.csv` (a table of 50 rows) and `dir/m.json`, the model `lwpr fit` learns from it in
+/// one pass.
+fn fitted_table(dir: &Path) -> (PathBuf, PathBuf) {
+    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
+    write_table(&data, 50);
+    ok(&fit_args(&data, &model, "1"));
+    (data, model)
+}
+
+/// `dir/a.png` and `dir/b.png`: a 120 × 90 scene and its warp (`warp()` maps a to b).
+fn image_pair(dir: &Path) -> (PathBuf, PathBuf) {
+    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
+    scene(&identity(), 120, 90, 3).save(&a).unwrap();
+    scene(&warp(), 120, 90, 3).save(&b).unwrap();
+    (a, b)
+}
+
 /// `lwpr fit` then `lwpr predict`: the model file loads in the library, the predictions,
 /// confidence bounds and Jacobians are in the CSV and equal the library's.
 #[test]
@@ -1279,9 +1296,7 @@ fn run_closed(args: &[&str], closed: Closed) -> Output {
 #[test]
 fn a_closed_standard_output_is_a_clear_error_not_a_panic() {
     let dir = temp("stdout");
-    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
-    write_table(&data, 50);
-    ok(&fit_args(&data, &model, "1"));
+    let (data, model) = fitted_table(&dir);
     let seq = dir.join("mine");
     std::fs::create_dir_all(&seq).unwrap();
     let (img1, img2) = (seq.join("img1.png"), seq.join("img2.png"));
@@ -1403,12 +1418,8 @@ fn a_write_that_fails_midway_keeps_the_old_file() {
     let dir = temp("efbig");
     let out = dir.join("out");
     std::fs::create_dir_all(&out).unwrap();
-    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
-    write_table(&data, 50);
-    ok(&fit_args(&data, &model, "1"));
-    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
-    scene(&identity(), 120, 90, 3).save(&a).unwrap();
-    scene(&warp(), 120, 90, 3).save(&b).unwrap();
+    let (data, model) = fitted_table(&dir);
+    let (a, b) = image_pair(&dir);
     // The predictions fit in the write buffer (8 KiB) but not in the limit: the failure
     // comes at the flush.
     let whole = dir.join("whole.csv");
@@ -1485,12 +1496,8 @@ fn a_write_that_fails_midway_keeps_the_old_file() {
 #[test]
 fn an_output_that_names_an_input_is_refused() {
     let dir = temp("in-out");
-    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
-    write_table(&data, 50);
-    ok(&fit_args(&data, &model, "1"));
-    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
-    scene(&identity(), 120, 90, 3).save(&a).unwrap();
-    scene(&warp(), 120, 90, 3).save(&b).unwrap();
+    let (data, model) = fitted_table(&dir);
+    let (a, b) = image_pair(&dir);
     let h = dir.join("H1to2p");
     std::fs::write(&h, warp().to_text()).unwrap();
     let a_regions = dir.join("a-regions.png");
