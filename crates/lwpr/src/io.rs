@@ -381,6 +381,12 @@ pub(crate) fn check_metric(
     Ok(())
 }
 
+/// The bytes of the file `path`; an error is an [`LwprError::Io`] naming it (as
+/// [`write_atomically`]'s do).
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| LwprError::Io(format!("{}: {e}", path.display())))
+}
+
 /// Writes `bytes` to `path` through a temporary file in the same folder, flushed to disk and
 /// renamed into place, so a failed write leaves neither a partial file nor a damaged old one.
 /// The temporary name is unique per process and call, so concurrent saves to one path do not
@@ -534,9 +540,10 @@ impl Lwpr {
     }
 
     /// Reads a model written by [`save`](Self::save) or an XML model file (see
-    /// [`from_xml`](Self::from_xml)); the format is detected from the content.
+    /// [`from_xml`](Self::from_xml)); the format is detected from the content. A file that
+    /// cannot be read is an [`LwprError::Io`] naming `path`.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let data = std::fs::read(path)?;
+        let data = read_file(path.as_ref())?;
         if data.starts_with(MAGIC) {
             Self::from_binary(&data)
         } else {

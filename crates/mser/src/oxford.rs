@@ -212,8 +212,19 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
     Ok(out)
 }
 
-/// Reads a region file from disk; see [`read_regions`].
+/// Reads a region file from disk; see [`read_regions`]. A file that cannot be opened or read
+/// is an [`MserError::Io`] whose message names `path` (as [`save_regions`]'s do).
 pub fn load_regions(path: impl AsRef<Path>) -> Result<Vec<OxfordRegion>> {
-    let f = std::fs::File::open(path)?;
-    read_regions(std::io::BufReader::new(f))
+    let path = path.as_ref();
+    let named = |e: std::io::Error| {
+        MserError::Io(std::io::Error::new(
+            e.kind(),
+            format!("{}: {e}", path.display()),
+        ))
+    };
+    let f = std::fs::File::open(path).map_err(named)?;
+    read_regions(std::io::BufReader::new(f)).map_err(|e| match e {
+        MserError::Io(e) => named(e),
+        other => other,
+    })
 }

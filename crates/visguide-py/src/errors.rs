@@ -25,14 +25,14 @@ pub fn from_lwpr(e: lwpr::LwprError) -> PyErr {
     }
 }
 
-/// An LWPR error reading the file `path`, as [`from_lwpr`] with the file named first (the
-/// crate's read errors do not name it: "i/o error: No such file or directory" left a caller of
-/// several files guessing which one; its write errors do, so a save uses [`from_lwpr`]).
+/// An LWPR error reading the file `path`, as [`from_lwpr`] with the file named: the crate's
+/// I/O errors name it already, its errors about the contents (a corrupt model) do not, and a
+/// caller of several files would be left guessing which one. (A save uses [`from_lwpr`]: its
+/// errors are the crate's I/O errors, or about the model, not a file.)
 pub fn from_lwpr_file(path: &std::path::Path, e: lwpr::LwprError) -> PyErr {
-    let msg = format!("{}: {e}", path.display());
     match e {
-        lwpr::LwprError::Io(_) => PyOSError::new_err(msg),
-        _ => PyValueError::new_err(msg),
+        lwpr::LwprError::Io(_) => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(format!("{}: {e}", path.display())),
     }
 }
 

@@ -52,9 +52,10 @@ impl Lwpr {
         crate::io::write_atomically(path.as_ref(), self.to_xml().as_bytes())
     }
 
-    /// Reads an XML model file (see [`from_xml`](Self::from_xml)).
+    /// Reads an XML model file (see [`from_xml`](Self::from_xml)). A file that cannot be read
+    /// is an [`LwprError::Io`] naming `path`.
     pub fn load_xml(path: impl AsRef<Path>) -> Result<Self> {
-        let data = std::fs::read(path)?;
+        let data = crate::io::read_file(path.as_ref())?;
         let s = std::str::from_utf8(&data)
             .map_err(|_| LwprError::Format("XML model file is not UTF-8".into()))?;
         Self::from_xml(s)

@@ -64,10 +64,14 @@ fn files_round_trip_in_both_forms() {
         m.save(dir.join(name)).unwrap();
         assert_eq!(Lwpr::load(dir.join(name)).unwrap(), m);
     }
-    assert!(matches!(
-        Lwpr::load(dir.join("missing.bin")),
-        Err(LwprError::Io(_))
-    ));
+    // A file that cannot be read is an I/O error naming it, for both readers.
+    let missing = dir.join("missing.bin");
+    for e in [Lwpr::load(&missing), Lwpr::load_xml(&missing)] {
+        match e {
+            Err(LwprError::Io(m)) => assert!(m.contains(&*missing.to_string_lossy()), "{m}"),
+            other => panic!("{other:?}"),
+        }
+    }
     std::fs::write(dir.join("junk"), [0xff, 0xfe, 0x00]).unwrap();
     assert!(matches!(
         Lwpr::load(dir.join("junk")),

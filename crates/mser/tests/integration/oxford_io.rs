@@ -69,6 +69,11 @@ fn malformed_files_give_line_numbers() {
 fn unreadable_file_is_an_io_error() {
     let err = mser::load_regions("/nonexistent/dir/file.mser").unwrap_err();
     assert!(matches!(err, MserError::Io(_)));
+    // It names the file.
+    assert!(
+        err.to_string().contains("/nonexistent/dir/file.mser"),
+        "{err}"
+    );
 }
 
 /// Issue 24 #2: a header announcing a huge descriptor length or region count is a parse error
