@@ -256,8 +256,7 @@ fn match_equals_library_and_study_and_recovers_the_homography() {
         "--picture",
         s(&pic),
     ]);
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let doc = json_file(&json);
     let lib = match_images(&a, &b, &MatchSettings::paper()).unwrap();
     let got: Vec<(u64, u64, f64)> = doc["matches"]
         .as_array()
@@ -440,13 +439,23 @@ fn fit_args<'a>(data: &'a Path, model: &'a Path, passes: &'a str) -> [&'a str; 1
     ]
 }
 
-/// `dir/d.csv` (a table of 50 rows) and `dir/m.json`, the model `lwpr fit` learns from it in
-/// one pass.
-fn fitted_table(dir: &Path) -> (PathBuf, PathBuf) {
+/// `dir/d.csv`, a table of 50 rows, and the name `dir/m.json` for its model.
+fn table(dir: &Path) -> (PathBuf, PathBuf) {
     let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
     write_table(&data, 50);
+    (data, model)
+}
+
+/// [`table`], with the model `lwpr fit` learns from it in one pass.
+fn fitted_table(dir: &Path) -> (PathBuf, PathBuf) {
+    let (data, model) = table(dir);
     ok(&fit_args(&data, &model, "1"));
     (data, model)
+}
+
+/// The JSON document in the file `path`.
+fn json_file(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// `dir/a.png` and `dir/b.png`: a 120 × 90 scene and its warp (`warp()` maps a to b).
@@ -1189,8 +1198,7 @@ fn eval_scores_a_sequence_folder() {
     let o = ok(&["eval", "-q", s(&seq), "--out", s(&json)]);
     let text = String::from_utf8(o.stdout).unwrap();
     assert_eq!(text.lines().count(), 1 + 8);
-    let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = json_file(&json);
     assert_eq!(rows.as_array().unwrap().len(), 8);
     assert!(
         rows[1]["combination"] == "FD Corr/Affine" && rows[1]["existing"].as_u64().unwrap() > 5
@@ -1203,8 +1211,7 @@ fn eval_scores_a_sequence_folder() {
 #[test]
 fn quiet_prints_nothing_but_errors() {
     let dir = temp("quiet");
-    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
-    write_table(&data, 50);
+    let (data, model) = table(&dir);
     let args = fit_args(&data, &model, "1");
     let loud: Vec<&str> = args.iter().copied().filter(|a| *a != "-q").collect();
     let o = ok(&loud);
@@ -1334,8 +1341,7 @@ fn a_closed_standard_output_is_a_clear_error_not_a_panic() {
         let err = failed(&o, &format!("{args:?}"), "<stdout>: Broken pipe");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
-    let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = json_file(&json);
     assert_eq!(rows.as_array().unwrap().len(), 8);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -1345,8 +1351,7 @@ fn a_closed_standard_output_is_a_clear_error_not_a_panic() {
 #[test]
 fn a_closed_standard_error_is_no_panic() {
     let dir = temp("stderr");
-    let (data, model) = (dir.join("d.csv"), dir.join("m.json"));
-    write_table(&data, 50);
+    let (data, model) = table(&dir);
     let loud = [
         "lwpr",
         "fit",
@@ -1645,7 +1650,6 @@ fn match_with_a_needle_making_homography_ends() {
         std::thread::sleep(std::time::Duration::from_millis(50));
     };
     assert!(status.success(), "{status}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let doc = json_file(&json);
     assert!(doc["score"]["existing"].is_u64(), "{}", doc["score"]);
 }
