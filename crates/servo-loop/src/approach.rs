@@ -236,20 +236,46 @@ impl ApproachState {
         y: &[f64],
         reseat: bool,
     ) -> Result<Option<Vec<f64>>> {
-        // Checks `y` (`check_command`) before planning.
-        let pre = self.pre_position(&*plant, approach, y, reseat)?;
+        let pre = self.plan(&*plant, approach, y, reseat)?;
+        self.send(plant, approach, y, pre.as_deref())?;
+        Ok(pre)
+    }
+
+    /// The checks of [`execute`](Self::execute), nothing sent and no state changed: `y`
+    /// ([`check_command`], in [`pre_position`](Self::pre_position)) and its pre-position, which
+    /// is returned.
+    pub(crate) fn plan<P: Plant + ?Sized>(
+        &self,
+        plant: &P,
+        approach: &Approach,
+        y: &[f64],
+        reseat: bool,
+    ) -> Result<Option<Vec<f64>>> {
+        let pre = self.pre_position(plant, approach, y, reseat)?;
         if let Some(p) = &pre {
-            check_command(&*plant, p)?;
+            check_command(plant, p)?;
         }
-        // Checked: from here on a move may be made.
+        Ok(pre)
+    }
+
+    /// The moves of [`execute`](Self::execute) once [`plan`](Self::plan) passed: the
+    /// pre-position `pre`, if any, then `y`; on an error of the plant (a move may have been
+    /// made) every joint counts as unseated.
+    pub(crate) fn send<P: Plant + ?Sized>(
+        &mut self,
+        plant: &mut P,
+        approach: &Approach,
+        y: &[f64],
+        pre: Option<&[f64]>,
+    ) -> Result<()> {
         self.seated.clear();
         self.last = None;
-        if let Some(p) = &pre {
+        if let Some(p) = pre {
             plant.act(p)?;
         }
         plant.act(y)?;
         self.seated = vec![Some(approach.direction); y.len()];
         self.last = Some(y.to_vec());
-        Ok(pre)
+        Ok(())
     }
 }

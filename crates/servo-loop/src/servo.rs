@@ -335,23 +335,21 @@ impl<'a, P: Plant + ?Sized> Runner<'a, P> {
         // An unchanged command while still above the tolerance: re-seat every joint (a fresh
         // draw of the servos' end noise) instead of stalling.
         let reseat = self.approach.last() == Some(&y[..]);
-        let planned = match &self.config.approach {
-            Some(a) => self.approach.pre_position(&*self.plant, a, &y, reseat)?,
+        // The checks of `ApproachState::execute`, nothing sent yet.
+        let pre_position = match &self.config.approach {
+            Some(a) => self.approach.plan(&*self.plant, a, &y, reseat)?,
             None => None,
         };
-        if let Some(p) = &planned {
-            // Refused here, the pre-position sends nothing (as in `ApproachState::execute`).
-            check_command(&*self.plant, p)?;
-        }
         // From here on the command is sent: an error ends the run with it recorded.
         let sent = match &self.config.approach {
-            Some(a) => self.approach.execute(&mut *self.plant, a, &y, reseat),
-            None => self.plant.act(&y).map(|()| None),
+            Some(a) => self
+                .approach
+                .send(&mut *self.plant, a, &y, pre_position.as_deref()),
+            None => self.plant.act(&y),
         };
-        let pre_position = match sent {
-            Ok(pre) => pre,
-            Err(e) => return Err(self.failed(y, planned, e)),
-        };
+        if let Err(e) = sent {
+            return Err(self.failed(y, pre_position, e));
+        }
         let obs = match self.plant.observe() {
             Ok(obs) => obs,
             Err(e) if e.is_refused_percept() => {
