@@ -96,12 +96,7 @@ pub fn save_regions(path: impl AsRef<Path>, ellipses: &[Ellipse]) -> Result<()> 
     // such, not as whatever I/O error the folder would have given).
     check_ellipses(ellipses)?;
     let path = path.as_ref();
-    let named = |e: std::io::Error| {
-        MserError::Io(std::io::Error::new(
-            e.kind(),
-            format!("{}: {e}", path.display()),
-        ))
-    };
+    let named = |e| io_naming(path, e);
     let name = path.file_name().ok_or_else(|| {
         named(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
@@ -212,16 +207,20 @@ pub fn read_regions<R: BufRead>(r: R) -> Result<Vec<OxfordRegion>> {
     Ok(out)
 }
 
+/// An I/O error of the file `path` as an [`MserError::Io`] whose message names it (keeping the
+/// error's kind).
+fn io_naming(path: &Path, e: std::io::Error) -> MserError {
+    MserError::Io(std::io::Error::new(
+        e.kind(),
+        format!("{}: {e}", path.display()),
+    ))
+}
+
 /// Reads a region file from disk; see [`read_regions`]. A file that cannot be opened or read
 /// is an [`MserError::Io`] whose message names `path` (as [`save_regions`]'s do).
 pub fn load_regions(path: impl AsRef<Path>) -> Result<Vec<OxfordRegion>> {
     let path = path.as_ref();
-    let named = |e: std::io::Error| {
-        MserError::Io(std::io::Error::new(
-            e.kind(),
-            format!("{}: {e}", path.display()),
-        ))
-    };
+    let named = |e| io_naming(path, e);
     let f = std::fs::File::open(path).map_err(named)?;
     read_regions(std::io::BufReader::new(f)).map_err(|e| match e {
         MserError::Io(e) => named(e),
